@@ -1,0 +1,366 @@
+//! The flattened, immutable `Scene`: the single source of truth that both the CPU reference
+//! and every GPU technique consume. Everything the loader knows (instancing, billboards,
+//! baked lighting, transforms) is already applied here, so the two sides evaluate the same
+//! numbers and cannot disagree about what the scene is.
+
+use glam::{Mat4, Vec3, Vec4};
+
+/// Output size in pixels.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Resolution {
+    pub width: u32,
+    pub height: u32,
+}
+
+impl Resolution {
+    /// Largest accepted width or height. 8192² RGBA f32 is 1 GiB, about what a 24 GiB CI box can
+    /// hold next to the reference's tiles and a readback copy.
+    pub const MAX_DIMENSION: u32 = 8192;
+
+    pub fn pixel_count(self) -> usize {
+        self.width as usize * self.height as usize
+    }
+
+    pub fn aspect(self) -> f32 {
+        self.width as f32 / self.height as f32
+    }
+}
+
+impl std::fmt::Display for Resolution {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}x{}", self.width, self.height)
+    }
+}
+
+/// Perspective (vertical field of view) or orthographic (vertical extent of the view volume).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Projection {
+    Perspective { fov_y_degrees: f32 },
+    Orthographic { height: f32 },
+}
+
+/// Camera parameters plus the f32 matrices derived from them. The matrices are computed once
+/// here; the GPU uploads them verbatim and the reference multiplies with the same values.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Camera {
+    pub eye: Vec3,
+    pub target: Vec3,
+    pub up: Vec3,
+    pub projection: Projection,
+    pub near: f32,
+    pub far: f32,
+    /// Reverse-Z maps near to window depth 1 and far to 0 (better float precision far away).
+    pub reverse_z: bool,
+    pub view: Mat4,
+    pub proj: Mat4,
+    pub view_proj: Mat4,
+}
+
+impl Camera {
+    /// Builds the matrices for `aspect` (width / height). Right-handed view space, wgpu/Vulkan
+    /// clip space (z in [0, 1]).
+    pub fn new(
+        eye: Vec3,
+        target: Vec3,
+        up: Vec3,
+        projection: Projection,
+        near: f32,
+        far: f32,
+        reverse_z: bool,
+        aspect: f32,
+    ) -> Self {
+        let view = Mat4::look_at_rh(eye, target, up);
+        // Reverse-Z is the same projection with near and far swapped: near → 1, far → 0.
+        let (zn, zf) = if reverse_z { (far, near) } else { (near, far) };
+        let proj = match projection {
+            Projection::Perspective { fov_y_degrees } => {
+                Mat4::perspective_rh(fov_y_degrees.to_radians(), aspect, zn, zf)
+            }
+            Projection::Orthographic { height } => {
+                let h = height * 0.5;
+                let w = h * aspect;
+                Mat4::orthographic_rh(-w, w, -h, h, zn, zf)
+            }
+        };
+        let view_proj = proj * view;
+        Self { eye, target, up, projection, near, far, reverse_z, view, proj, view_proj }
+    }
+
+    /// Clip-space position of a world-space point, with exactly the f32 operations the vertex
+    /// shader performs (`view_proj * vec4(p, 1)`).
+    pub fn clip(&self, world: Vec3) -> Vec4 {
+        self.view_proj * world.extend(1.0)
+    }
+
+    /// True when window depth `a` is strictly nearer to the camera than `b`.
+    pub fn nearer(&self, a: f32, b: f32) -> bool {
+        if self.reverse_z { a > b } else { a < b }
+    }
+
+    /// The window depth the depth buffer is cleared to (the far plane).
+    pub fn far_depth(&self) -> f32 {
+        if self.reverse_z { 0.0 } else { 1.0 }
+    }
+}
+
+/// How a material treats coverage.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum AlphaMode {
+    /// Coverage ignored; writes depth.
+    Opaque,
+    /// Discard below `cutoff`, otherwise opaque.
+    Mask,
+    /// Transparent.
+    Blend,
+    /// Discard below `cutoff`, blend the rest.
+    MaskBlend,
+}
+
+impl AlphaMode {
+    /// Opaque and mask materials write depth and occlude; the other two are transparent.
+    pub fn is_transparent(self) -> bool {
+        matches!(self, AlphaMode::Blend | AlphaMode::MaskBlend)
+    }
+
+    pub fn uses_cutoff(self) -> bool {
+        matches!(self, AlphaMode::Mask | AlphaMode::MaskBlend)
+    }
+}
+
+/// Material of one draw. See [`Material::shade`] for the one definition of fragment colour.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Material {
+    /// Linear RGB.
+    pub base_color: [f32; 3],
+    pub alpha: f32,
+    pub mode: AlphaMode,
+    pub cutoff: f32,
+    pub double_sided: bool,
+    /// The colour already carries coverage (C = rgb), instead of straight colour (C = α·rgb).
+    pub premultiplied: bool,
+    /// HDR multiplier on colour.
+    pub intensity: f32,
+}
+
+/// What a fragment contributes after the material is applied.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Shaded {
+    /// Discarded by the mask cutoff.
+    Discarded,
+    /// Opaque colour (occluder).
+    Opaque([f32; 3]),
+    /// Premultiplied colour `C = α·c` and coverage `α`.
+    Transparent { premultiplied: [f32; 3], alpha: f32 },
+}
+
+impl Material {
+    /// Fragment colour from the interpolated vertex colour, in f32, as the shader computes it:
+    /// `c = vertex.rgb · base · intensity`, `α = vertex.a · alpha`, `C = α·c` (or `c` when the
+    /// material is premultiplied). Mask modes discard when `α < cutoff`.
+    pub fn shade(&self, vertex_rgba: [f32; 4]) -> Shaded {
+        let c = [
+            vertex_rgba[0] * self.base_color[0] * self.intensity,
+            vertex_rgba[1] * self.base_color[1] * self.intensity,
+            vertex_rgba[2] * self.base_color[2] * self.intensity,
+        ];
+        let alpha = vertex_rgba[3] * self.alpha;
+        if self.mode.uses_cutoff() && alpha < self.cutoff {
+            return Shaded::Discarded;
+        }
+        match self.mode {
+            AlphaMode::Opaque | AlphaMode::Mask => Shaded::Opaque(c),
+            AlphaMode::Blend | AlphaMode::MaskBlend => {
+                let premultiplied =
+                    if self.premultiplied { c } else { [alpha * c[0], alpha * c[1], alpha * c[2]] };
+                Shaded::Transparent { premultiplied, alpha }
+            }
+        }
+    }
+}
+
+/// One vertex of a non-indexed triangle list, already in world space.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[repr(C)]
+pub struct Vertex {
+    pub position: [f32; 3],
+    /// Linear RGBA; lighting is baked in here at load time.
+    pub color: [f32; 4],
+    pub uv: [f32; 2],
+}
+
+/// One draw call: a contiguous run of triangles with one material.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Draw {
+    /// Stable identity (index in the scene file's expanded object list). Draw *order* is the
+    /// position in `Scene::draws`; the id does not change when that order is permuted, which
+    /// is what makes the reference's tie-break order independent.
+    pub id: u32,
+    /// Human-readable name, e.g. `objects[3]` or `objects[2].instances[5]`.
+    pub name: String,
+    pub material: u32,
+    /// Range in `Scene::vertices`; a multiple of 3.
+    pub first_vertex: u32,
+    pub vertex_count: u32,
+    /// Babylon's rendering group: lower groups are drawn first.
+    pub render_group: u32,
+    /// Babylon's alphaIndex: within a group, lower first.
+    pub alpha_index: i32,
+    /// Bounding sphere (world space) for per-object sorting.
+    pub bounds_center: Vec3,
+    pub bounds_radius: f32,
+}
+
+impl Draw {
+    pub fn triangle_count(&self) -> u32 {
+        self.vertex_count / 3
+    }
+
+    pub fn vertex_range(&self) -> std::ops::Range<usize> {
+        self.first_vertex as usize..(self.first_vertex + self.vertex_count) as usize
+    }
+}
+
+/// The loaded scene. Immutable: derive variants with the `with_*` methods.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scene {
+    pub name: String,
+    /// What the scene breaks, from the file.
+    pub description: String,
+    pub resolution: Resolution,
+    pub camera: Camera,
+    /// Linear RGB background (opaque).
+    pub background: [f32; 3],
+    pub materials: Vec<Material>,
+    /// In draw order.
+    pub draws: Vec<Draw>,
+    pub vertices: Vec<Vertex>,
+}
+
+impl Scene {
+    pub fn material_of(&self, draw: &Draw) -> &Material {
+        &self.materials[draw.material as usize]
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.draws.iter().map(|d| d.triangle_count() as usize).sum()
+    }
+
+    pub fn transparent_triangle_count(&self) -> usize {
+        self.draws
+            .iter()
+            .filter(|d| self.material_of(d).mode.is_transparent())
+            .map(|d| d.triangle_count() as usize)
+            .sum()
+    }
+
+    /// Same scene rendered at another size; the projection follows the new aspect ratio.
+    pub fn with_resolution(&self, resolution: Resolution) -> Scene {
+        let c = &self.camera;
+        let camera = Camera::new(
+            c.eye,
+            c.target,
+            c.up,
+            c.projection,
+            c.near,
+            c.far,
+            c.reverse_z,
+            resolution.aspect(),
+        );
+        Scene { resolution, camera, ..self.clone() }
+    }
+
+    /// Same scene with the draw list permuted (ids kept). `order[i]` is the index into the
+    /// current draw list of the draw that goes i-th.
+    pub fn with_draw_order(&self, order: &[usize]) -> Scene {
+        assert_eq!(order.len(), self.draws.len(), "draw order must be a permutation");
+        let draws = order.iter().map(|&i| self.draws[i].clone()).collect();
+        Scene { draws, ..self.clone() }
+    }
+
+    /// Same scene with the draw order reversed: the cheap probe of order dependence.
+    pub fn with_reversed_draw_order(&self) -> Scene {
+        let order: Vec<usize> = (0..self.draws.len()).rev().collect();
+        self.with_draw_order(&order)
+    }
+
+    /// A 64-bit FNV-1a hash of everything that affects the rendered image, for caching
+    /// references on disk. Draw order is included (it can change tie-breaks on the GPU side).
+    pub fn content_hash(&self) -> u64 {
+        let mut h = Fnv64::new();
+        h.u32(self.resolution.width);
+        h.u32(self.resolution.height);
+        for m in self.camera.view_proj.to_cols_array() {
+            h.f32(m);
+        }
+        h.u32(self.camera.reverse_z as u32);
+        for c in self.background {
+            h.f32(c);
+        }
+        for m in &self.materials {
+            for c in m.base_color {
+                h.f32(c);
+            }
+            h.f32(m.alpha);
+            h.u32(m.mode as u32);
+            h.f32(m.cutoff);
+            h.u32(m.double_sided as u32);
+            h.u32(m.premultiplied as u32);
+            h.f32(m.intensity);
+        }
+        for d in &self.draws {
+            h.u32(d.id);
+            h.u32(d.material);
+            h.u32(d.first_vertex);
+            h.u32(d.vertex_count);
+        }
+        for v in &self.vertices {
+            for x in v.position.iter().chain(&v.color).chain(&v.uv) {
+                h.f32(*x);
+            }
+        }
+        h.finish()
+    }
+}
+
+/// Minimal FNV-1a, enough for a cache key (not for security).
+struct Fnv64(u64);
+
+impl Fnv64 {
+    fn new() -> Self {
+        Self(0xcbf2_9ce4_8422_2325)
+    }
+    fn bytes(&mut self, bytes: &[u8]) {
+        for b in bytes {
+            self.0 ^= u64::from(*b);
+            self.0 = self.0.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    }
+    fn u32(&mut self, v: u32) {
+        self.bytes(&v.to_le_bytes());
+    }
+    fn f32(&mut self, v: f32) {
+        self.bytes(&v.to_bits().to_le_bytes());
+    }
+    fn finish(&self) -> u64 {
+        self.0
+    }
+}
+
+/// A linear RGBA f32 image, row-major from the top-left (the framebuffer's orientation).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LinearImage {
+    pub width: u32,
+    pub height: u32,
+    pub pixels: Vec<[f32; 4]>,
+}
+
+impl LinearImage {
+    pub fn new(width: u32, height: u32, fill: [f32; 4]) -> Self {
+        Self { width, height, pixels: vec![fill; width as usize * height as usize] }
+    }
+
+    pub fn get(&self, x: u32, y: u32) -> [f32; 4] {
+        self.pixels[y as usize * self.width as usize + x as usize]
+    }
+}
