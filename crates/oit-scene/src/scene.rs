@@ -69,17 +69,18 @@ impl Camera {
         reverse_z: bool,
         aspect: f32,
     ) -> Self {
-        let view = Mat4::look_at_rh(eye, target, up);
+        let view = glam::camera::rh::view::look_at_mat4(eye, target, up);
         // Reverse-Z is the same projection with near and far swapped: near → 1, far → 0.
         let (zn, zf) = if reverse_z { (far, near) } else { (near, far) };
         let proj = match projection {
             Projection::Perspective { fov_y_degrees } => {
-                Mat4::perspective_rh(fov_y_degrees.to_radians(), aspect, zn, zf)
+                // wgpu's clip space is DirectX's: y up, z in [0, 1].
+                glam::camera::rh::proj::directx::perspective(fov_y_degrees.to_radians(), aspect, zn, zf)
             }
             Projection::Orthographic { height } => {
                 let h = height * 0.5;
                 let w = h * aspect;
-                Mat4::orthographic_rh(-w, w, -h, h, zn, zf)
+                glam::camera::rh::proj::directx::orthographic(-w, w, -h, h, zn, zf)
             }
         };
         let view_proj = proj * view;
