@@ -1,1 +1,356 @@
-//! oit-reference
+//! oit-reference: the exact many-layer CPU reference (an A-buffer) every GPU technique is
+//! measured against.
+//!
+//! It rasterizes with the GPU's coverage rules (DESIGN.md, "Rasterization conventions"):
+//! positions from [`Camera::clip`](oit_scene::Camera::clip) in f32; clipping in homogeneous clip
+//! space against near (`z >= 0`), far (`z <= w`) and a guard band (`|x|, |y| <= G·w`, see
+//! below), never dividing by `w <= 0`; perspective divide and viewport transform in f32 with a
+//! top-left origin; x, y snapped to 1/256 pixel; exact i64 edge functions sampled at pixel
+//! centres with the top-left fill rule; back faces culled by the sign of the snapped area
+//! (counter-clockwise with y up is front, wgpu's `FrontFace::Ccw`); zero-area triangles produce
+//! nothing. Window depth is interpolated linearly in screen space (f64 barycentrics from the
+//! integer edge functions, stored as f32 like a `Depth32Float` buffer, clamped to [0, 1]);
+//! colour is interpolated perspective-correctly and converted to f32 before
+//! [`Material::shade`](oit_scene::Material::shade), as the fragment shader sees it.
+//!
+//! Per pixel the nearest opaque fragment wins (equal depth: lower `(draw.id, triangle index)`),
+//! else the background. Transparent fragments strictly nearer than that are sorted front to
+//! back (equal depth: the higher `(draw.id, triangle index)` is in front, which is what
+//! blending in natural draw order gives) and composited in f64 with
+//! [`composite_front_to_back`]. Because the tie-break uses the stable draw ids, the result is
+//! bit-identical for any permutation of the draw list.
+//!
+//! **Guard band and overflow bound.** Clipping against `|x| <= G·w` with
+//! `G = 2^21 / width` (and likewise for y) keeps every window coordinate within 2^20 pixels of
+//! the viewport centre, i.e. below 2^29 in 1/256-pixel units; edge functions are then below
+//! 2^61 and i64 never overflows. Only triangles reaching more than 2^20 pixels off-centre get
+//! new vertices from it (as on guard-band hardware).
+//!
+//! **Memory.** Triangles are set up once and their indices binned to square screen tiles; tiles
+//! are rendered in parallel (rayon), each with per-thread scratch arrays sized by the tile's
+//! fragments, so the peak fragment storage depends on the tile, not on the frame
+//! ([`ReferenceStats::peak_tile_bytes`]).
+
+mod composite;
+mod raster;
+mod setup;
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::Instant;
+
+use oit_scene::{LinearImage, Scene};
+use rayon::prelude::*;
+
+pub use composite::composite_front_to_back;
+
+use raster::{Scratch, TileOutput, TileRect, TileStats};
+use setup::SetupTriangle;
+
+/// Progress callback: `(tiles done, tiles total)`. Called from worker threads after each tile.
+pub type Progress = Arc<dyn Fn(usize, usize) + Send + Sync>;
+
+/// How to run the reference. `Default` gives 32-pixel tiles and no progress reporting.
+#[derive(Clone)]
+pub struct ReferenceOptions {
+    /// Edge of the square screen tiles in pixels (1..=1024). Smaller tiles keep a tile's
+    /// fragments in cache; 32 is fastest on the scenes measured (see the crate README numbers).
+    pub tile_size: u32,
+    /// Called after every tile with (done, total); the CLI drives a progress bar with it.
+    pub progress: Option<Progress>,
+}
+
+impl Default for ReferenceOptions {
+    fn default() -> Self {
+        Self { tile_size: Self::DEFAULT_TILE_SIZE, progress: None }
+    }
+}
+
+impl ReferenceOptions {
+    pub const DEFAULT_TILE_SIZE: u32 = 32;
+    pub const MAX_TILE_SIZE: u32 = 1024;
+}
+
+impl std::fmt::Debug for ReferenceOptions {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ReferenceOptions")
+            .field("tile_size", &self.tile_size)
+            .field("progress", &self.progress.as_ref().map(|_| "callback"))
+            .finish()
+    }
+}
+
+/// The reference image and what it took to make it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Reference {
+    /// Linear RGBA f32, A = 1, row-major from the top-left.
+    pub image: LinearImage,
+    /// Per pixel: transparent fragments composited (strictly in front of the nearest opaque).
+    pub layers: Vec<u32>,
+    /// Per pixel: all fragments rasterization produced after face culling and mask / mask-blend
+    /// cutoff discard, opaque and transparent, before any depth test (what a GPU counting
+    /// fragment-shader invocations with the same coverage rules would count).
+    pub fragments: Vec<u32>,
+    pub stats: ReferenceStats,
+}
+
+/// Statistics of one reference render. Phase times marked "thread time" are summed over the
+/// worker threads (so with 2 threads they can add up to about twice the wall time).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ReferenceStats {
+    /// Input triangles.
+    pub triangles: u64,
+    /// Triangles (fan pieces after clipping) that survived culling and reach the screen.
+    pub raster_triangles: u64,
+    /// All fragments produced (sum of [`Reference::fragments`]).
+    pub fragments: u64,
+    /// Transparent fragments produced (after cutoff discard, before the opaque depth test).
+    pub transparent_fragments: u64,
+    /// Transparent fragments composited (sum of [`Reference::layers`]).
+    pub composited_fragments: u64,
+    /// Largest per-pixel layer count (transparent fragments composited).
+    pub max_depth_complexity: u32,
+    /// Mean layer count over pixels with at least one layer (0 when there are none): the depth
+    /// complexity of the transparent content where it exists.
+    pub mean_depth_complexity: f64,
+    /// Mean layer count over all pixels.
+    pub mean_depth_complexity_all: f64,
+    /// Pixels with at least one layer.
+    pub covered_pixels: u64,
+    /// Wall time of the whole render.
+    pub seconds: f64,
+    /// `fragments / seconds`.
+    pub fragments_per_second: f64,
+    /// Wall time of triangle setup (clip, snap, cull, edge setup).
+    pub setup_seconds: f64,
+    /// Wall time of binning triangles to tiles.
+    pub binning_seconds: f64,
+    /// Thread time rasterizing and shading (opaque and transparent passes).
+    pub raster_seconds: f64,
+    /// Thread time grouping fragments by pixel and sorting each pixel's list.
+    pub sort_seconds: f64,
+    /// Thread time compositing and writing pixels.
+    pub composite_seconds: f64,
+    /// Largest storage any one tile held: per-pixel state plus its stored fragments (bytes).
+    pub peak_tile_bytes: u64,
+    pub tile_size: u32,
+    pub tiles: u64,
+    pub threads: usize,
+}
+
+/// Why a scene cannot be rendered. The loader never produces these; hand-built scenes can.
+#[derive(Debug, thiserror::Error, PartialEq, Eq)]
+pub enum ReferenceError {
+    #[error("resolution {width}x{height}: width and height must be in 1..={max}")]
+    Resolution { width: u32, height: u32, max: u32 },
+    #[error("tile_size {0}: must be in 1..={max}", max = ReferenceOptions::MAX_TILE_SIZE)]
+    TileSize(u32),
+    #[error("draw `{draw}`: material {material} does not exist (the scene has {count})")]
+    Material { draw: String, material: u32, count: usize },
+    #[error(
+        "draw `{draw}`: vertices {first}..{first}+{count} must be a multiple of 3 within the {total} scene vertices"
+    )]
+    VertexRange { draw: String, first: u32, count: u32, total: usize },
+    #[error("{0} triangles: at most {max} are supported", max = u32::MAX)]
+    TooManyTriangles(u64),
+}
+
+/// Renders the exact reference.
+///
+/// # Panics
+/// When the scene breaks the invariants [`oit_scene`]'s loader guarantees (see
+/// [`ReferenceError`]) or the options are out of range; use [`try_render`] for hand-built input.
+pub fn render(scene: &Scene, options: &ReferenceOptions) -> Reference {
+    match try_render(scene, options) {
+        Ok(r) => r,
+        Err(e) => panic!("oit-reference: invalid input: {e}"),
+    }
+}
+
+/// [`render`] that reports invalid input as an error instead of panicking.
+pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference, ReferenceError> {
+    let start = Instant::now();
+    validate(scene, options)?;
+    let (width, height) = (scene.resolution.width, scene.resolution.height);
+    let tile = options.tile_size;
+
+    // Setup, in (draw.id, triangle index) order: the index into `triangles` order is the
+    // tie-break order, independent of the draw list's order.
+    let mut by_id: Vec<usize> = (0..scene.draws.len()).collect();
+    by_id.sort_by_key(|&i| scene.draws[i].id);
+    let mut first_rank = Vec::with_capacity(by_id.len() + 1);
+    let mut total: u64 = 0;
+    for &i in &by_id {
+        first_rank.push(total);
+        total += u64::from(scene.draws[i].triangle_count());
+    }
+    first_rank.push(total);
+    if total >= u64::from(u32::MAX) {
+        return Err(ReferenceError::TooManyTriangles(total));
+    }
+    const CHUNK: u64 = 2048;
+    let chunks = total.div_ceil(CHUNK);
+    let triangles: Vec<SetupTriangle> = (0..chunks)
+        .into_par_iter()
+        .flat_map_iter(|c| {
+            let mut out = Vec::new();
+            let (lo, hi) = (c * CHUNK, ((c + 1) * CHUNK).min(total));
+            let mut d = first_rank.partition_point(|&f| f <= lo) - 1;
+            for rank in lo..hi {
+                while first_rank[d + 1] <= rank {
+                    d += 1;
+                }
+                let draw = &scene.draws[by_id[d]];
+                let material = scene.material_of(draw);
+                let t = (rank - first_rank[d]) as usize;
+                let v0 = draw.first_vertex as usize + 3 * t;
+                let clip = std::array::from_fn(|k| {
+                    let v = &scene.vertices[v0 + k];
+                    (scene.camera.clip(glam::Vec3::from(v.position)), v.color)
+                });
+                setup::setup_triangle(scene, material, clip, rank as u32, &mut out);
+            }
+            out
+        })
+        .collect();
+    let setup_done = Instant::now();
+
+    // Binning: counting pass, prefix sum, fill. Each bin lists triangle indices ascending.
+    let tiles_x = width.div_ceil(tile) as usize;
+    let tiles_y = height.div_ceil(tile) as usize;
+    let tile_count = tiles_x * tiles_y;
+    let tile_range = |t: &SetupTriangle| {
+        let [x0, y0, x1, y1] = t.bbox;
+        ((x0 / tile) as usize..=(x1 / tile) as usize, (y0 / tile) as usize..=(y1 / tile) as usize)
+    };
+    let mut bin_start = vec![0u32; tile_count + 1];
+    for t in &triangles {
+        let (xs, ys) = tile_range(t);
+        for ty in ys {
+            for tx in xs.clone() {
+                bin_start[ty * tiles_x + tx + 1] += 1;
+            }
+        }
+    }
+    for i in 0..tile_count {
+        bin_start[i + 1] += bin_start[i];
+    }
+    let mut cursor = bin_start.clone();
+    let mut bins = vec![0u32; bin_start[tile_count] as usize];
+    for (i, t) in triangles.iter().enumerate() {
+        let (xs, ys) = tile_range(t);
+        for ty in ys {
+            for tx in xs.clone() {
+                let c = &mut cursor[ty * tiles_x + tx];
+                bins[*c as usize] = i as u32;
+                *c += 1;
+            }
+        }
+    }
+    let binning_done = Instant::now();
+
+    let w = width as usize;
+    let mut image = LinearImage::new(width, height, [0.0, 0.0, 0.0, 1.0]);
+    let mut layers = vec![0u32; scene.resolution.pixel_count()];
+    let mut fragments = vec![0u32; scene.resolution.pixel_count()];
+    let background = scene.background.map(f64::from);
+    let reverse_z = scene.camera.reverse_z;
+    let done = AtomicUsize::new(0);
+    let band = tile as usize * w;
+    let stats = image
+        .pixels
+        .par_chunks_mut(band)
+        .zip(layers.par_chunks_mut(band))
+        .zip(fragments.par_chunks_mut(band))
+        .enumerate()
+        .map_init(Scratch::default, |scratch, (ty, ((img, lay), frag))| {
+            let mut stats = TileStats::default();
+            let band_height = (img.len() / w) as u32;
+            for tx in 0..tiles_x {
+                let rect = TileRect {
+                    x0: tx as u32 * tile,
+                    y0: ty as u32 * tile,
+                    width: tile.min(width - tx as u32 * tile),
+                    height: band_height,
+                };
+                let t = ty * tiles_x + tx;
+                let bin = &bins[bin_start[t] as usize..bin_start[t + 1] as usize];
+                let out = TileOutput {
+                    image: &mut *img,
+                    layers: &mut *lay,
+                    fragments: &mut *frag,
+                    stride: w,
+                    x_offset: rect.x0 as usize,
+                };
+                let s =
+                    raster::render_tile(&triangles, bin, rect, reverse_z, background, scratch, out);
+                stats = stats.merge(s);
+                let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+                if let Some(progress) = &options.progress {
+                    progress(d, tile_count);
+                }
+            }
+            stats
+        })
+        .reduce(TileStats::default, TileStats::merge);
+
+    let seconds = start.elapsed().as_secs_f64();
+    let pixels = scene.resolution.pixel_count() as f64;
+    let stats = ReferenceStats {
+        triangles: total,
+        raster_triangles: triangles.len() as u64,
+        fragments: stats.fragments,
+        transparent_fragments: stats.transparent_fragments,
+        composited_fragments: stats.composited_fragments,
+        max_depth_complexity: stats.max_layers,
+        mean_depth_complexity: if stats.covered_pixels > 0 {
+            stats.composited_fragments as f64 / stats.covered_pixels as f64
+        } else {
+            0.0
+        },
+        mean_depth_complexity_all: stats.composited_fragments as f64 / pixels,
+        covered_pixels: stats.covered_pixels,
+        seconds,
+        fragments_per_second: if seconds > 0.0 { stats.fragments as f64 / seconds } else { 0.0 },
+        setup_seconds: (setup_done - start).as_secs_f64(),
+        binning_seconds: (binning_done - setup_done).as_secs_f64(),
+        raster_seconds: stats.raster.as_secs_f64(),
+        sort_seconds: stats.sort.as_secs_f64(),
+        composite_seconds: stats.composite.as_secs_f64(),
+        peak_tile_bytes: stats.peak_tile_bytes,
+        tile_size: tile,
+        tiles: tile_count as u64,
+        threads: rayon::current_num_threads(),
+    };
+    Ok(Reference { image, layers, fragments, stats })
+}
+
+fn validate(scene: &Scene, options: &ReferenceOptions) -> Result<(), ReferenceError> {
+    let r = scene.resolution;
+    let max = oit_scene::Resolution::MAX_DIMENSION;
+    if r.width == 0 || r.height == 0 || r.width > max || r.height > max {
+        return Err(ReferenceError::Resolution { width: r.width, height: r.height, max });
+    }
+    if options.tile_size == 0 || options.tile_size > ReferenceOptions::MAX_TILE_SIZE {
+        return Err(ReferenceError::TileSize(options.tile_size));
+    }
+    for d in &scene.draws {
+        if d.material as usize >= scene.materials.len() {
+            return Err(ReferenceError::Material {
+                draw: d.name.clone(),
+                material: d.material,
+                count: scene.materials.len(),
+            });
+        }
+        let end = u64::from(d.first_vertex) + u64::from(d.vertex_count);
+        if d.vertex_count % 3 != 0 || end > scene.vertices.len() as u64 {
+            return Err(ReferenceError::VertexRange {
+                draw: d.name.clone(),
+                first: d.first_vertex,
+                count: d.vertex_count,
+                total: scene.vertices.len(),
+            });
+        }
+    }
+    Ok(())
+}

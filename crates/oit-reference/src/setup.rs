@@ -1,0 +1,281 @@
+//! Triangle setup: clip-space clipping, viewport transform, sub-pixel snapping, face culling and
+//! edge-function setup. Everything after this module works on integer window coordinates.
+//!
+//! The steps follow the Vulkan pipeline that wgpu drives, in the same number formats where that
+//! matters for coverage: positions come from [`oit_scene::Camera::clip`] in f32, the perspective
+//! divide and the viewport transform are done in f32, and window x/y are snapped to 1/256 pixel.
+
+use glam::Vec4;
+use oit_scene::{Material, Scene, Shaded};
+
+/// Sub-pixel precision: window coordinates are snapped to 1/256 pixel (8 bits), as the Vulkan
+/// implementations in use do (`subPixelPrecisionBits = 8`).
+pub(crate) const SUBPIXEL_BITS: u32 = 8;
+/// One pixel in sub-pixel units.
+pub(crate) const ONE: i64 = 1 << SUBPIXEL_BITS;
+/// Half a pixel: pixel centres are at `ONE * x + HALF`.
+pub(crate) const HALF: i64 = ONE / 2;
+
+/// Half-extent of the guard band in pixels, measured from the viewport centre. Triangles are
+/// clipped against `|x| <= G·w`, `|y| <= G·w` with `G = 2·GUARD_BAND_PIXELS / size`, so every
+/// window coordinate satisfies `|x_win| <= GUARD_BAND_PIXELS + size/2 < 2^21` pixels, i.e.
+/// `< 2^29` sub-pixel units. Edge functions are products of two differences of such values, so
+/// they stay below `2 · 2^30 · 2^30 = 2^61` and i64 arithmetic can never overflow. The band is
+/// 128 viewport widths at 8192 pixels (far more at smaller sizes), so only triangles that reach
+/// far outside the screen get new vertices from it, exactly as on hardware with a guard band.
+pub(crate) const GUARD_BAND_PIXELS: f32 = (1u32 << 20) as f32;
+
+/// Largest coordinate (sub-pixel units) a snapped vertex may have; see [`GUARD_BAND_PIXELS`].
+const COORD_LIMIT: i64 = 1 << 30;
+
+/// A set-up triangle ready for rasterization: integer window vertices with positive signed area
+/// (vertices swapped if necessary), its pixel bounding box and the per-vertex values that are
+/// interpolated.
+#[derive(Debug, Clone)]
+pub(crate) struct SetupTriangle {
+    /// Snapped window x, y in 1/256 pixel, y down.
+    pub x: [i64; 3],
+    pub y: [i64; 3],
+    /// Twice the signed area in sub-pixel units², always > 0 after normalisation.
+    pub area2: i64,
+    /// Inclusive pixel bounding box (min x, min y, max x, max y), clamped to the viewport.
+    pub bbox: [u32; 4],
+    /// Window depth per vertex (z_clip / w_clip, f32 as the GPU computes it).
+    pub z: [f32; 3],
+    /// 1 / w_clip per vertex, for perspective-correct attributes.
+    pub inv_w: [f64; 3],
+    /// Linear RGBA per vertex.
+    pub color: [[f32; 4]; 3],
+    /// When all three vertex colours are equal the fragment colour is constant: shade it once.
+    pub constant: Option<Shaded>,
+    pub material: Material,
+    /// Rank of (draw.id, triangle index) over the whole scene: the deterministic tie-break key.
+    pub key: u32,
+    pub transparent: bool,
+}
+
+/// A vertex in homogeneous clip space with its colour, as it travels through clipping.
+#[derive(Debug, Clone, Copy)]
+struct ClipVertex {
+    p: Vec4,
+    color: [f32; 4],
+}
+
+/// Up to 3 + 6 vertices after clipping a triangle against six planes.
+const MAX_POLY: usize = 12;
+
+#[derive(Debug, Clone, Copy)]
+struct Polygon {
+    v: [ClipVertex; MAX_POLY],
+    n: usize,
+}
+
+/// The clip planes as signed distances (inside when >= 0). Near and far are `z >= 0` and
+/// `z <= w` both for standard and for reverse-Z: reverse-Z only swaps which one is "near".
+fn plane_distance(plane: usize, p: Vec4, guard: [f32; 2]) -> f64 {
+    let (x, y, z, w) = (f64::from(p.x), f64::from(p.y), f64::from(p.z), f64::from(p.w));
+    let gx = f64::from(guard[0]);
+    let gy = f64::from(guard[1]);
+    match plane {
+        0 => z,
+        1 => w - z,
+        2 => gx * w - x,
+        3 => gx * w + x,
+        4 => gy * w - y,
+        _ => gy * w + y,
+    }
+}
+
+/// Point where edge inside→outside crosses the plane. Always interpolated from the inside
+/// vertex, so two triangles sharing an edge produce bit-identical new vertices (no cracks).
+fn intersect(inside: ClipVertex, outside: ClipVertex, d_in: f64, d_out: f64) -> ClipVertex {
+    let t = d_in / (d_in - d_out);
+    let lerp = |a: f32, b: f32| (f64::from(a) + t * (f64::from(b) - f64::from(a))) as f32;
+    ClipVertex {
+        p: Vec4::new(
+            lerp(inside.p.x, outside.p.x),
+            lerp(inside.p.y, outside.p.y),
+            lerp(inside.p.z, outside.p.z),
+            lerp(inside.p.w, outside.p.w),
+        ),
+        color: std::array::from_fn(|k| lerp(inside.color[k], outside.color[k])),
+    }
+}
+
+/// Sutherland–Hodgman against the six planes; only called when some vertex is outside one.
+fn clip_polygon(tri: [ClipVertex; 3], guard: [f32; 2]) -> Polygon {
+    let mut poly = Polygon { v: [tri[0]; MAX_POLY], n: 3 };
+    poly.v[1] = tri[1];
+    poly.v[2] = tri[2];
+    for plane in 0..6 {
+        let mut d = [0.0f64; MAX_POLY];
+        let mut any_out = false;
+        for i in 0..poly.n {
+            d[i] = plane_distance(plane, poly.v[i].p, guard);
+            any_out |= d[i] < 0.0;
+        }
+        if !any_out {
+            continue;
+        }
+        let mut out = Polygon { v: poly.v, n: 0 };
+        for i in 0..poly.n {
+            let j = (i + 1) % poly.n;
+            let (a, b) = (poly.v[i], poly.v[j]);
+            let (da, db) = (d[i], d[j]);
+            if da >= 0.0 {
+                out.v[out.n] = a;
+                out.n += 1;
+            }
+            if (da >= 0.0) != (db >= 0.0) {
+                out.v[out.n] = if da >= 0.0 { intersect(a, b, da, db) } else { intersect(b, a, db, da) };
+                out.n += 1;
+            }
+        }
+        poly = out;
+        if poly.n < 3 {
+            poly.n = 0;
+            return poly;
+        }
+    }
+    poly
+}
+
+/// Window-space vertex: snapped integer x, y and f32 depth.
+#[derive(Debug, Clone, Copy)]
+struct WindowVertex {
+    x: i64,
+    y: i64,
+    z: f32,
+    inv_w: f64,
+    color: [f32; 4],
+}
+
+/// Perspective divide and viewport transform in f32, as Vulkan specifies them
+/// (`x_f = (p_x/2)·x_d + o_x`; wgpu's y flip is a negative viewport height), then snapping to
+/// 1/256 pixel, rounding to nearest (ties to even). Returns None when w <= 0 (never divided).
+fn to_window(v: ClipVertex, width: u32, height: u32) -> Option<WindowVertex> {
+    let p = v.p;
+    if !(p.w > 0.0) {
+        return None;
+    }
+    let (xd, yd, zd) = (p.x / p.w, p.y / p.w, p.z / p.w);
+    let half_w = width as f32 * 0.5;
+    let half_h = height as f32 * 0.5;
+    let xf = half_w * xd + half_w;
+    let yf = -half_h * yd + half_h;
+    let snap = |f: f32| ((f * ONE as f32).round_ties_even() as i64).clamp(-COORD_LIMIT, COORD_LIMIT);
+    Some(WindowVertex {
+        x: snap(xf),
+        y: snap(yf),
+        z: zd,
+        inv_w: 1.0 / f64::from(p.w),
+        color: v.color,
+    })
+}
+
+/// Twice the signed area of (a, b, c) in window coordinates (y down): negative for triangles
+/// that are counter-clockwise with y up, i.e. front faces under wgpu's `FrontFace::Ccw`.
+fn signed_area2(a: &WindowVertex, b: &WindowVertex, c: &WindowVertex) -> i64 {
+    (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x)
+}
+
+/// Inclusive range of pixels whose centres `ONE·p + HALF` lie in [lo, hi] (sub-pixel units),
+/// clamped to [0, size).
+fn pixel_span(lo: i64, hi: i64, size: u32) -> Option<(u32, u32)> {
+    let first = (lo - HALF + ONE - 1).div_euclid(ONE).max(0);
+    let last = (hi - HALF).div_euclid(ONE).min(i64::from(size) - 1);
+    (first <= last).then_some((first as u32, last as u32))
+}
+
+/// Sets up one scene triangle (three clip-space vertices); pushes 0..=7 raster triangles (a
+/// clipped polygon becomes a fan).
+pub(crate) fn setup_triangle(
+    scene: &Scene,
+    material: &Material,
+    clip: [ClipInput; 3],
+    key: u32,
+    out: &mut Vec<SetupTriangle>,
+) {
+    let (width, height) = (scene.resolution.width, scene.resolution.height);
+    let tri: [ClipVertex; 3] = std::array::from_fn(|i| ClipVertex { p: clip[i].0, color: clip[i].1 });
+    // A non-finite position cannot be rasterized meaningfully; the loader rejects them, a
+    // hand-built scene simply loses the triangle.
+    if tri.iter().any(|v| !v.p.is_finite() || v.color.iter().any(|c| !c.is_finite())) {
+        return;
+    }
+    let guard = [
+        2.0 * GUARD_BAND_PIXELS / width as f32,
+        2.0 * GUARD_BAND_PIXELS / height as f32,
+    ];
+    let all_inside =
+        tri.iter().all(|v| (0..6).all(|plane| plane_distance(plane, v.p, guard) >= 0.0));
+    let poly = if all_inside {
+        let mut p = Polygon { v: [tri[0]; MAX_POLY], n: 3 };
+        p.v[1] = tri[1];
+        p.v[2] = tri[2];
+        p
+    } else {
+        clip_polygon(tri, guard)
+    };
+    if poly.n < 3 {
+        return;
+    }
+    let mut win = [WindowVertex { x: 0, y: 0, z: 0.0, inv_w: 0.0, color: [0.0; 4] }; MAX_POLY];
+    for i in 0..poly.n {
+        match to_window(poly.v[i], width, height) {
+            Some(w) => win[i] = w,
+            None => return,
+        }
+    }
+    // Facing is a property of the whole (clipped) polygon; fan pieces whose snapped area has
+    // the other sign are snapping slivers and are dropped.
+    let total: i128 =
+        (1..poly.n - 1).map(|i| i128::from(signed_area2(&win[0], &win[i], &win[i + 1]))).sum();
+    if total == 0 {
+        return;
+    }
+    let front = total < 0;
+    if !front && !material.double_sided {
+        return;
+    }
+    let transparent = material.mode.is_transparent();
+    for i in 1..poly.n - 1 {
+        let (a, mut b, mut c) = (win[0], win[i], win[i + 1]);
+        let mut area = signed_area2(&a, &b, &c);
+        if area == 0 || (area < 0) != front {
+            continue;
+        }
+        if area < 0 {
+            std::mem::swap(&mut b, &mut c);
+            area = -area;
+        }
+        let v = [a, b, c];
+        let min_x = v.iter().map(|v| v.x).min().unwrap_or(0);
+        let max_x = v.iter().map(|v| v.x).max().unwrap_or(0);
+        let min_y = v.iter().map(|v| v.y).min().unwrap_or(0);
+        let max_y = v.iter().map(|v| v.y).max().unwrap_or(0);
+        let (Some((x0, x1)), Some((y0, y1))) =
+            (pixel_span(min_x, max_x, width), pixel_span(min_y, max_y, height))
+        else {
+            continue;
+        };
+        let color = [a.color, b.color, c.color];
+        let constant = (color[0] == color[1] && color[0] == color[2]).then(|| material.shade(color[0]));
+        out.push(SetupTriangle {
+            x: [a.x, b.x, c.x],
+            y: [a.y, b.y, c.y],
+            area2: area,
+            bbox: [x0, y0, x1, y1],
+            z: [a.z, b.z, c.z],
+            inv_w: [a.inv_w, b.inv_w, c.inv_w],
+            color,
+            constant,
+            material: *material,
+            key,
+            transparent,
+        });
+    }
+}
+
+/// Clip-space position and colour of one input vertex.
+pub(crate) type ClipInput = (Vec4, [f32; 4]);
