@@ -1,5 +1,18 @@
 //! oit-scene: the scene format and the one immutable [`Scene`] every oit-lab crate consumes.
+//!
+//! [`load`] / [`parse`] / [`load_dir`] read the JSON format described in docs/scene-format.md,
+//! validate every value (errors name file, JSON path and what is allowed) and flatten the file
+//! into a [`Scene`]: procedural meshes generated, instancing expanded, transforms applied,
+//! billboards turned to the camera and lighting baked into vertex colours.
 
+mod error;
+mod format;
+mod load;
+mod mesh;
+mod rng;
 mod scene;
 
+pub use error::{Problem, SceneError};
+pub use format::{DEFAULT_RESOLUTION, MAX_TRIANGLES};
+pub use load::{load, load_dir, parse};
 pub use scene::*;

@@ -1,0 +1,671 @@
+//! Loading: JSON → serde types (with JSON paths on every error) → validation → flattening into
+//! the immutable [`Scene`]: instancing expanded, transforms applied, billboards turned to the
+//! camera and lighting baked into vertex colours.
+
+use std::path::{Path, PathBuf};
+
+use glam::{Affine3A, Mat3, Vec3};
+use serde::de::DeserializeOwned;
+
+use crate::error::{Problem, SceneError};
+use crate::format::{
+    DEFAULT_FOV_Y, MAX_TRIANGLES, MESH_KINDS, RawCamera, RawLighting, RawMaterial, RawMesh,
+    RawObject, RawScene, RawTransform, ScatterMesh,
+};
+use crate::mesh::{self, Facing, Geometry};
+use crate::scene::{Camera, Draw, Material, Projection, Resolution, Scene, Vertex};
+
+type Result<T> = std::result::Result<T, SceneError>;
+
+/// Reads and loads one scene file. Errors name the file as given in `path`.
+pub fn load(path: &Path) -> Result<Scene> {
+    let file = path.display().to_string();
+    let json = std::fs::read_to_string(path).map_err(|source| SceneError::Io { file: file.clone(), source })?;
+    parse(&json, &file)
+}
+
+/// Parses a scene from JSON text. `origin` is the file name used in error messages.
+pub fn parse(json: &str, origin: &str) -> Result<Scene> {
+    let cx = Ctx { file: origin, json };
+    let mut de = serde_json::Deserializer::from_str(json);
+    let raw: RawScene = serde_path_to_error::deserialize(&mut de)
+        .map_err(|e| cx.serde_error(&json_path("", e.path()), e.inner()))?;
+    de.end().map_err(|e| cx.serde_error("(root)", &e))?;
+    cx.build(raw)
+}
+
+/// Loads every `*.json` file in `dir` (not recursive), sorted by file name. Stops at the first
+/// invalid scene: a broken bundled scene is a bug to fix, not one to skip.
+pub fn load_dir(dir: &Path) -> Result<Vec<(PathBuf, Scene)>> {
+    let io = |source| SceneError::Io { file: dir.display().to_string(), source };
+    let mut files = Vec::new();
+    for entry in std::fs::read_dir(dir).map_err(io)? {
+        let path = entry.map_err(io)?.path();
+        if path.is_file() && path.extension().is_some_and(|e| e == "json") {
+            files.push(path);
+        }
+    }
+    files.sort_by(|a, b| a.file_name().cmp(&b.file_name()));
+    files
+        .into_iter()
+        .map(|p| {
+            let scene = load(&p)?;
+            Ok((p, scene))
+        })
+        .collect()
+}
+
+/// Renders a serde_path_to_error path as `objects[3].material.alpha`, prefixed by `prefix`.
+fn json_path(prefix: &str, path: &serde_path_to_error::Path) -> String {
+    use serde_path_to_error::Segment;
+    let mut out = prefix.to_string();
+    for seg in path {
+        match seg {
+            Segment::Seq { index } => out.push_str(&format!("[{index}]")),
+            Segment::Map { key } | Segment::Enum { variant: key } => {
+                if !out.is_empty() {
+                    out.push('.');
+                }
+                out.push_str(key);
+            }
+            // Where serde cannot tell (e.g. inside a syntax error), the line and column say it.
+            Segment::Unknown => {}
+        }
+    }
+    if out.is_empty() { "(root)".to_string() } else { out }
+}
+
+/// Appends `.field` unless the path already ends with it.
+fn with_field(path: &str, field: &str) -> String {
+    if path.ends_with(&format!(".{field}")) || path == field {
+        path.to_string()
+    } else if path == "(root)" {
+        field.to_string()
+    } else {
+        format!("{path}.{field}")
+    }
+}
+
+/// The text between the first pair of backticks in `s`, and what follows it.
+fn backticked(s: &str) -> Option<(&str, &str)> {
+    let start = s.find('`')? + 1;
+    let len = s[start..].find('`')?;
+    Some((&s[start..start + len], &s[start + len + 1..]))
+}
+
+struct Ctx<'a> {
+    file: &'a str,
+    json: &'a str,
+}
+
+impl Ctx<'_> {
+    fn err(&self, path: impl Into<String>, problem: Problem) -> SceneError {
+        SceneError::Invalid { file: self.file.to_string(), path: path.into(), problem }
+    }
+
+    /// The number-like token of the source around a serde_json error position.
+    fn token_at(&self, line: usize, column: usize) -> Option<String> {
+        let text = self.json.lines().nth(line.checked_sub(1)?)?;
+        let chars: Vec<char> = text.chars().collect();
+        let is_tok = |c: char| c.is_ascii_alphanumeric() || matches!(c, '.' | '+' | '-');
+        let mut i = column.saturating_sub(1).min(chars.len().checked_sub(1)?);
+        if !is_tok(chars[i]) && i > 0 && is_tok(chars[i - 1]) {
+            i -= 1;
+        }
+        if !is_tok(chars[i]) {
+            return None;
+        }
+        let (mut a, mut b) = (i, i);
+        while a > 0 && is_tok(chars[a - 1]) {
+            a -= 1;
+        }
+        while b + 1 < chars.len() && is_tok(chars[b + 1]) {
+            b += 1;
+        }
+        Some(chars[a..=b].iter().collect())
+    }
+
+    /// Maps a serde_json error to one of our problem classes, keeping the JSON path.
+    fn serde_error(&self, path: &str, e: &serde_json::Error) -> SceneError {
+        let full = e.to_string();
+        let msg = if e.line() > 0 {
+            full.strip_suffix(&format!(" at line {} column {}", e.line(), e.column()))
+                .unwrap_or(&full)
+        } else {
+            &full
+        };
+        if msg.starts_with("number out of range") {
+            let value = self.token_at(e.line(), e.column()).unwrap_or_else(|| "number".into());
+            return self.err(path, Problem::NonFinite { value });
+        }
+        if msg == "trailing characters" && path != "(root)" {
+            // serde_json's wording when a fixed-size array gets more elements than it holds.
+            let found = "array has too many elements".to_string();
+            let expected = "exactly the number of elements documented in docs/scene-format.md".to_string();
+            return self.err(path, Problem::WrongType { found, expected });
+        }
+        if e.is_syntax() || e.is_eof() {
+            // NaN and Infinity are not JSON; say so instead of "expected value".
+            if let Some(tok) = self.token_at(e.line(), e.column()) {
+                let t = tok.trim_start_matches(['-', '+']).to_ascii_lowercase();
+                if t.starts_with("nan") || t.starts_with("inf") {
+                    return self.err(path, Problem::NonFinite { value: tok });
+                }
+            }
+            let problem =
+                Problem::Syntax { line: e.line(), column: e.column(), message: msg.to_string() };
+            return self.err(path, problem);
+        }
+        if let Some(rest) = msg.strip_prefix("unknown field ")
+            && let Some((field, tail)) = backticked(rest)
+        {
+            let expected = tail
+                .trim_start_matches(", ")
+                .trim_start_matches("expected one of ")
+                .trim_start_matches("expected ")
+                .to_string();
+            let expected = if expected.is_empty() { "no fields here".to_string() } else { expected };
+            return self.err(
+                with_field(path, field),
+                Problem::UnknownField { field: field.to_string(), expected },
+            );
+        }
+        if let Some(rest) = msg.strip_prefix("unknown variant ")
+            && let Some((value, tail)) = backticked(rest)
+        {
+            let expected = tail
+                .trim_start_matches(", ")
+                .trim_start_matches("expected one of ")
+                .trim_start_matches("expected ")
+                .to_string();
+            return self.err(path, Problem::UnknownVariant { value: value.to_string(), expected });
+        }
+        if let Some(rest) = msg.strip_prefix("missing field ")
+            && let Some((field, _)) = backticked(rest)
+        {
+            return self.err(with_field(path, field), Problem::MissingField { field: field.into() });
+        }
+        let (found, expected) = match msg.split_once(", expected ") {
+            Some((f, x)) => (f.to_string(), plain_type(x).to_string()),
+            None => (msg.to_string(), "see docs/scene-format.md".to_string()),
+        };
+        self.err(path, Problem::WrongType { found, expected })
+    }
+
+    // ---- value checks: each returns the value or the specific error at `path` ----
+
+    fn finite(&self, v: f32, path: &str) -> Result<f32> {
+        if v.is_finite() {
+            return Ok(v);
+        }
+        // Only overflow can get here (JSON has no NaN): say so, the source text is gone.
+        let value = format!("{v} (the number overflows f32)");
+        Err(self.err(path, Problem::NonFinite { value }))
+    }
+
+    fn vec3(&self, v: [f32; 3], path: &str) -> Result<Vec3> {
+        for (k, x) in v.iter().enumerate() {
+            self.finite(*x, &format!("{path}[{k}]"))?;
+        }
+        Ok(Vec3::from(v))
+    }
+
+    fn color(&self, v: [f32; 3], path: &str) -> Result<Vec3> {
+        let c = self.vec3(v, path)?;
+        for (k, x) in v.iter().enumerate() {
+            if *x < 0.0 {
+                return Err(self.err(format!("{path}[{k}]"), Problem::NegativeColor { value: *x }));
+            }
+        }
+        Ok(c)
+    }
+
+    fn alpha(&self, v: f32, path: &str) -> Result<f32> {
+        self.finite(v, path)?;
+        if (0.0..=1.0).contains(&v) { Ok(v) } else { Err(self.err(path, Problem::AlphaOutOfRange { value: v })) }
+    }
+
+    fn positive(&self, v: f32, path: &str) -> Result<f32> {
+        self.finite(v, path)?;
+        if v > 0.0 { Ok(v) } else { Err(self.err(path, Problem::NotPositive { value: v })) }
+    }
+
+    fn segments(&self, v: u32, min: u32, path: &str) -> Result<()> {
+        if v >= min { Ok(()) } else { Err(self.err(path, Problem::TooFewSegments { value: v, min })) }
+    }
+
+    fn nonempty(&self, count: u32, what: &'static str, path: &str) -> Result<()> {
+        if count > 0 { Ok(()) } else { Err(self.err(path, Problem::EmptyMesh { what })) }
+    }
+
+    fn range(&self, min: f32, max: f32, path: &str) -> Result<()> {
+        if min <= max { Ok(()) } else { Err(self.err(path, Problem::EmptyRange { min, max })) }
+    }
+
+    // ---- building ----
+
+    fn build(&self, raw: RawScene) -> Result<Scene> {
+        let mut res = [0u32; 2];
+        for (k, v) in raw.resolution.iter().enumerate() {
+            if *v == 0 || *v > u64::from(Resolution::MAX_DIMENSION) {
+                let problem = Problem::ResolutionOutOfRange { value: *v };
+                return Err(self.err(format!("resolution[{k}]"), problem));
+            }
+            res[k] = *v as u32;
+        }
+        let resolution = Resolution { width: res[0], height: res[1] };
+        let background = self.color(raw.background, "background")?.to_array();
+        let camera = self.camera(&raw.camera, raw.reverse_z, resolution)?;
+        let light = self.lighting(&raw.lighting)?;
+
+        let mut scene = Scene {
+            name: raw.name,
+            description: raw.description,
+            resolution,
+            camera,
+            background,
+            materials: Vec::with_capacity(raw.objects.len()),
+            draws: Vec::new(),
+            vertices: Vec::new(),
+        };
+        let mut total_triangles: u64 = 0;
+        for (i, obj) in raw.objects.iter().enumerate() {
+            self.object(i, obj, light.as_ref(), &mut total_triangles, &mut scene)?;
+        }
+        Ok(scene)
+    }
+
+    fn camera(&self, c: &RawCamera, reverse_z: bool, res: Resolution) -> Result<Camera> {
+        let eye = self.vec3(c.eye, "camera.eye")?;
+        let target = self.vec3(c.target, "camera.target")?;
+        let up = self.vec3(c.up, "camera.up")?;
+        let near = self.finite(c.near, "camera.near")?;
+        let far = self.finite(c.far, "camera.far")?;
+        if eye == target {
+            return Err(self.err("camera.target", Problem::EyeAtTarget));
+        }
+        let dir = target - eye;
+        if !dir.is_finite() || !dir.length().is_finite() {
+            let what = "view direction (target - eye)".to_string();
+            return Err(self.err("camera.target", Problem::DerivedNonFinite { what }));
+        }
+        if up == Vec3::ZERO || !up.length().is_finite() || up.length() == 0.0 {
+            return Err(self.err("camera.up", Problem::ZeroUp));
+        }
+        // Parallel within ~0.0006°: the view matrix would be numerically meaningless.
+        if dir.normalize().cross(up.normalize()).length() < 1e-5 {
+            return Err(self.err("camera.up", Problem::UpParallel));
+        }
+        let projection = match (&c.fov_y, &c.orthographic) {
+            (Some(_), Some(_)) => return Err(self.err("camera.orthographic", Problem::ProjectionConflict)),
+            (_, Some(o)) => Projection::Orthographic { height: self.positive(o.height, "camera.orthographic.height")? },
+            (fov, None) => {
+                let fov = self.finite(fov.unwrap_or(DEFAULT_FOV_Y), "camera.fov_y")?;
+                if !(fov > 0.0 && fov < 180.0) {
+                    return Err(self.err("camera.fov_y", Problem::FovOutOfRange { value: fov }));
+                }
+                if near <= 0.0 {
+                    return Err(self.err("camera.near", Problem::NearNotPositive { near }));
+                }
+                Projection::Perspective { fov_y_degrees: fov }
+            }
+        };
+        if near >= far {
+            return Err(self.err("camera.far", Problem::NearNotBeforeFar { near, far }));
+        }
+        let cam = Camera::new(eye, target, up, projection, near, far, reverse_z, res.aspect());
+        if !cam.view_proj.is_finite() || !cam.view.is_finite() || !cam.proj.is_finite() {
+            let what = "view-projection matrix".to_string();
+            return Err(self.err("camera", Problem::DerivedNonFinite { what }));
+        }
+        Ok(cam)
+    }
+
+    fn lighting(&self, l: &RawLighting) -> Result<Option<Light>> {
+        match l {
+            RawLighting::Unlit => Ok(None),
+            RawLighting::Directional(d) => {
+                let p = "lighting.directional";
+                let direction = self.vec3(d.direction, &format!("{p}.direction"))?;
+                let to_light = -direction.normalize_or_zero();
+                if to_light == Vec3::ZERO || !to_light.is_finite() {
+                    return Err(self.err(format!("{p}.direction"), Problem::ZeroVector));
+                }
+                let color = self.color(d.color, &format!("{p}.color"))?;
+                let ambient = self.color(d.ambient, &format!("{p}.ambient"))?;
+                Ok(Some(Light { to_light, color, ambient }))
+            }
+        }
+    }
+
+    fn material(&self, m: &RawMaterial, p: &str) -> Result<Material> {
+        let base = self.color(m.base_color, &format!("{p}.base_color"))?;
+        let alpha = self.alpha(m.alpha, &format!("{p}.alpha"))?;
+        let cutoff = self.finite(m.cutoff, &format!("{p}.cutoff"))?;
+        if !(0.0..=1.0).contains(&cutoff) {
+            return Err(self.err(format!("{p}.cutoff"), Problem::CutoffOutOfRange { value: cutoff }));
+        }
+        let intensity = self.finite(m.intensity, &format!("{p}.intensity"))?;
+        if intensity < 0.0 {
+            return Err(self.err(format!("{p}.intensity"), Problem::NegativeIntensity { value: intensity }));
+        }
+        if !(base * intensity).is_finite() {
+            let what = "base_color × intensity".to_string();
+            return Err(self.err(format!("{p}.intensity"), Problem::DerivedNonFinite { what }));
+        }
+        Ok(Material {
+            base_color: base.to_array(),
+            alpha,
+            mode: m.mode,
+            cutoff,
+            double_sided: m.double_sided,
+            premultiplied: m.premultiplied,
+            intensity,
+        })
+    }
+
+    fn transform(&self, t: &RawTransform, p: &str) -> Result<Affine3A> {
+        let translate = self.vec3(t.translate, &format!("{p}.translate"))?;
+        let rotate = self.vec3(t.rotate, &format!("{p}.rotate"))?;
+        let scale = self.vec3(t.scale, &format!("{p}.scale"))?;
+        for k in 0..3 {
+            self.positive(scale[k], &format!("{p}.scale[{k}]"))?;
+        }
+        // XYZ Euler: rotate about X first, then Y, then Z (column vectors: Rz · Ry · Rx).
+        let r = Mat3::from_rotation_z(rotate.z.to_radians())
+            * Mat3::from_rotation_y(rotate.y.to_radians())
+            * Mat3::from_rotation_x(rotate.x.to_radians());
+        let m = Affine3A::from_mat3_translation(r * Mat3::from_diagonal(scale), translate);
+        if !m.is_finite() {
+            return Err(self.err(p, Problem::DerivedNonFinite { what: "transform matrix".into() }));
+        }
+        Ok(m)
+    }
+
+    /// Reads `kind` and parses the rest of the mesh object into that kind's struct, so every
+    /// error inside the mesh keeps its full JSON path.
+    fn mesh(&self, value: &serde_json::Value, p: &str) -> Result<RawMesh> {
+        let Some(map) = value.as_object() else {
+            let found = format!("invalid type: {}", json_kind(value));
+            let expected = format!("a mesh object with a `kind` ({MESH_KINDS})");
+            return Err(self.err(p, Problem::WrongType { found, expected }));
+        };
+        let kind = match map.get("kind") {
+            None => return Err(self.err(format!("{p}.kind"), Problem::MissingField { field: "kind".into() })),
+            Some(serde_json::Value::String(s)) => s.as_str(),
+            Some(other) => {
+                let found = format!("invalid type: {}", json_kind(other));
+                let expected = format!("a string, one of {MESH_KINDS}");
+                return Err(self.err(format!("{p}.kind"), Problem::WrongType { found, expected }));
+            }
+        };
+        let mut rest = map.clone();
+        rest.remove("kind");
+        let rest = serde_json::Value::Object(rest);
+        Ok(match kind {
+            "quad" => RawMesh::Quad(self.sub(rest, p)?),
+            "box" => RawMesh::Box(self.sub(rest, p)?),
+            "uv-sphere" => RawMesh::UvSphere(self.sub(rest, p)?),
+            "torus" => RawMesh::Torus(self.sub(rest, p)?),
+            "cylinder" => RawMesh::Cylinder(self.sub(rest, p)?),
+            "layers" => RawMesh::Layers(self.sub(rest, p)?),
+            "soup" => RawMesh::Soup(self.sub(rest, p)?),
+            "billboards" => RawMesh::Billboards(self.sub(rest, p)?),
+            other => {
+                let problem = Problem::UnknownVariant { value: other.into(), expected: MESH_KINDS.into() };
+                return Err(self.err(format!("{p}.kind"), problem));
+            }
+        })
+    }
+
+    fn sub<T: DeserializeOwned>(&self, v: serde_json::Value, p: &str) -> Result<T> {
+        serde_path_to_error::deserialize(v).map_err(|e| self.serde_error(&json_path(p, e.path()), e.inner()))
+    }
+
+    /// Range checks of a mesh's own parameters.
+    fn check_mesh(&self, m: &RawMesh, p: &str) -> Result<()> {
+        match m {
+            RawMesh::Quad(q) => {
+                for k in 0..2 {
+                    self.positive(q.size[k], &format!("{p}.size[{k}]"))?;
+                }
+                for k in 0..4 {
+                    self.alpha(q.corner_alpha[k], &format!("{p}.corner_alpha[{k}]"))?;
+                }
+            }
+            RawMesh::Box(b) => {
+                for k in 0..3 {
+                    self.positive(b.size[k], &format!("{p}.size[{k}]"))?;
+                }
+            }
+            RawMesh::UvSphere(s) => {
+                self.positive(s.radius, &format!("{p}.radius"))?;
+                self.segments(s.segments, 3, &format!("{p}.segments"))?;
+                self.segments(s.rings, 2, &format!("{p}.rings"))?;
+            }
+            RawMesh::Torus(t) => {
+                let major = self.positive(t.major_radius, &format!("{p}.major_radius"))?;
+                let minor = self.positive(t.minor_radius, &format!("{p}.minor_radius"))?;
+                if minor >= major {
+                    return Err(self.err(format!("{p}.minor_radius"), Problem::TorusRadii { minor, major }));
+                }
+                self.segments(t.segments, 3, &format!("{p}.segments"))?;
+                self.segments(t.tube_segments, 3, &format!("{p}.tube_segments"))?;
+            }
+            RawMesh::Cylinder(c) => {
+                self.positive(c.radius, &format!("{p}.radius"))?;
+                self.positive(c.height, &format!("{p}.height"))?;
+                self.segments(c.segments, 3, &format!("{p}.segments"))?;
+            }
+            RawMesh::Layers(l) => {
+                self.nonempty(l.count, "layer count", &format!("{p}.count"))?;
+                let spacing = self.finite(l.spacing, &format!("{p}.spacing"))?;
+                if spacing < 0.0 {
+                    return Err(self.err(format!("{p}.spacing"), Problem::NegativeSpacing { value: spacing }));
+                }
+                for k in 0..2 {
+                    self.positive(l.size[k], &format!("{p}.size[{k}]"))?;
+                }
+                self.color(l.color_from, &format!("{p}.color_from"))?;
+                self.color(l.color_to, &format!("{p}.color_to"))?;
+                self.alpha(l.alpha_from, &format!("{p}.alpha_from"))?;
+                self.alpha(l.alpha_to, &format!("{p}.alpha_to"))?;
+                // The farthest layer must stay finite.
+                if !(spacing * (l.count - 1) as f32).is_finite() {
+                    let what = "spacing × (count - 1)".to_string();
+                    return Err(self.err(format!("{p}.spacing"), Problem::DerivedNonFinite { what }));
+                }
+            }
+            RawMesh::Soup(s) => self.check_scatter(s, "triangle count", p)?,
+            RawMesh::Billboards(s) => self.check_scatter(s, "billboard count", p)?,
+        }
+        Ok(())
+    }
+
+    fn check_scatter(&self, s: &ScatterMesh, what: &'static str, p: &str) -> Result<()> {
+        self.nonempty(s.count, what, &format!("{p}.count"))?;
+        let min = self.vec3(s.bounds.min, &format!("{p}.bounds.min"))?;
+        let max = self.vec3(s.bounds.max, &format!("{p}.bounds.max"))?;
+        for k in 0..3 {
+            self.range(min[k], max[k], &format!("{p}.bounds.max[{k}]"))?;
+        }
+        if !(max - min).is_finite() {
+            let what = "bounds extent (max - min)".to_string();
+            return Err(self.err(format!("{p}.bounds"), Problem::DerivedNonFinite { what }));
+        }
+        self.positive(s.size, &format!("{p}.size"))?;
+        let cmin = self.color(s.color_min, &format!("{p}.color_min"))?;
+        let cmax = self.color(s.color_max, &format!("{p}.color_max"))?;
+        for k in 0..3 {
+            self.range(cmin[k], cmax[k], &format!("{p}.color_max[{k}]"))?;
+        }
+        let amin = self.alpha(s.alpha_min, &format!("{p}.alpha_min"))?;
+        let amax = self.alpha(s.alpha_max, &format!("{p}.alpha_max"))?;
+        self.range(amin, amax, &format!("{p}.alpha_max"))
+    }
+
+    fn object(
+        &self,
+        i: usize,
+        obj: &RawObject,
+        light: Option<&Light>,
+        total_triangles: &mut u64,
+        scene: &mut Scene,
+    ) -> Result<()> {
+        let p = format!("objects[{i}]");
+        let mesh = self.mesh(&obj.mesh, &format!("{p}.mesh"))?;
+        self.check_mesh(&mesh, &format!("{p}.mesh"))?;
+        let world = self.transform(&obj.transform, &format!("{p}.transform"))?;
+        let material = self.material(&obj.material, &format!("{p}.material"))?;
+
+        let (counts, spacing) = match &obj.instances {
+            None => ([1u32; 3], Vec3::ZERO),
+            Some(inst) => {
+                for k in 0..3 {
+                    self.nonempty(inst.counts[k], "instance count", &format!("{p}.instances.counts[{k}]"))?;
+                }
+                (inst.counts, self.vec3(inst.spacing, &format!("{p}.instances.spacing"))?)
+            }
+        };
+        let instances = counts.iter().fold(1u64, |a, &c| a.saturating_mul(u64::from(c)));
+        *total_triangles = total_triangles.saturating_add(mesh::triangle_count(&mesh).saturating_mul(instances));
+        if *total_triangles > MAX_TRIANGLES {
+            return Err(self.err(p, Problem::TooManyTriangles { count: *total_triangles }));
+        }
+
+        let material_index = scene.materials.len() as u32;
+        scene.materials.push(material);
+        let facing = match scene.camera.projection {
+            Projection::Perspective { .. } => Facing::Eye(scene.camera.eye),
+            Projection::Orthographic { .. } => Facing::Direction((scene.camera.eye - scene.camera.target).normalize()),
+        };
+        let local = match &mesh {
+            RawMesh::Billboards(_) => None,
+            other => Some(mesh::local(other)),
+        };
+        let derived_path = if obj.instances.is_some() { format!("{p}.instances") } else { format!("{p}.transform") };
+        let mut instance = 0usize;
+        for iz in 0..counts[2] {
+            for iy in 0..counts[1] {
+                for ix in 0..counts[0] {
+                    let offset = spacing * Vec3::new(ix as f32, iy as f32, iz as f32);
+                    let w = Affine3A::from_translation(offset) * world;
+                    let (geometry, in_world) = match (&mesh, &local) {
+                        (RawMesh::Billboards(b), _) => {
+                            (mesh::billboards(b, &w, facing, scene.camera.up), true)
+                        }
+                        (_, Some(g)) => (g.clone(), false),
+                        (_, None) => (Geometry::default(), false),
+                    };
+                    let base = if obj.instances.is_some() { format!("{p}.instances[{instance}]") } else { p.clone() };
+                    let named_parts = matches!(mesh, RawMesh::Layers(_));
+                    self.emit(&geometry, in_world, &w, light, &derived_path, &base, named_parts, obj, material_index, scene)?;
+                    instance += 1;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Transforms, lights and appends one instance's geometry as draws (one per part).
+    #[allow(clippy::too_many_arguments, reason = "a private helper of `object`, called once")]
+    fn emit(
+        &self,
+        g: &Geometry,
+        in_world: bool,
+        w: &Affine3A,
+        light: Option<&Light>,
+        derived_path: &str,
+        base_name: &str,
+        named_parts: bool,
+        obj: &RawObject,
+        material: u32,
+        scene: &mut Scene,
+    ) -> Result<()> {
+        // Normals transform by the inverse transpose (non-uniform scale keeps them orthogonal).
+        let normal_matrix = Mat3::from(w.matrix3).inverse().transpose();
+        for (pi, part) in g.parts.iter().enumerate() {
+            let first = scene.vertices.len();
+            let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+            for v in part.clone() {
+                let (pos, normal) = if in_world {
+                    (g.positions[v], g.normals[v])
+                } else {
+                    (w.transform_point3(g.positions[v]), (normal_matrix * g.normals[v]).normalize_or_zero())
+                };
+                if !pos.is_finite() {
+                    return Err(self.err(derived_path, Problem::DerivedNonFinite { what: "vertex position".into() }));
+                }
+                let mut color = g.colors[v];
+                if let Some(l) = light {
+                    if !normal.is_finite() || normal == Vec3::ZERO {
+                        return Err(self.err(derived_path, Problem::DerivedNonFinite { what: "vertex normal".into() }));
+                    }
+                    let k = l.ambient + l.color * normal.dot(l.to_light).max(0.0);
+                    color = (color.truncate() * k).extend(color.w);
+                    if !color.is_finite() {
+                        return Err(self.err(derived_path, Problem::DerivedNonFinite { what: "lit vertex colour".into() }));
+                    }
+                }
+                lo = lo.min(pos);
+                hi = hi.max(pos);
+                scene.vertices.push(Vertex {
+                    position: pos.to_array(),
+                    color: color.to_array(),
+                    uv: g.uvs[v].to_array(),
+                });
+            }
+            let centre = (lo + hi) * 0.5;
+            let radius = scene.vertices[first..]
+                .iter()
+                .map(|v| Vec3::from(v.position).distance(centre))
+                .fold(0.0f32, f32::max);
+            if !centre.is_finite() || !radius.is_finite() {
+                return Err(self.err(derived_path, Problem::DerivedNonFinite { what: "bounding sphere".into() }));
+            }
+            let name = if named_parts { format!("{base_name}.layers[{pi}]") } else { base_name.to_string() };
+            scene.draws.push(Draw {
+                id: scene.draws.len() as u32,
+                name,
+                material,
+                first_vertex: first as u32,
+                vertex_count: (scene.vertices.len() - first) as u32,
+                render_group: obj.render_group,
+                alpha_index: obj.alpha_index,
+                bounds_center: centre,
+                bounds_radius: radius,
+            });
+        }
+        Ok(())
+    }
+}
+
+/// A directional light, ready to bake: `rgb *= ambient + color · max(0, n · to_light)`.
+#[derive(Debug, Clone, Copy)]
+struct Light {
+    to_light: Vec3,
+    color: Vec3,
+    ambient: Vec3,
+}
+
+/// serde's Rust type names in words a scene author knows.
+fn plain_type(expected: &str) -> &str {
+    match expected {
+        "u8" | "u16" | "u32" | "u64" => "a non-negative integer",
+        "i8" | "i16" | "i32" | "i64" => "an integer",
+        "f32" | "f64" => "a number",
+        "a boolean" => "true or false",
+        other => other,
+    }
+}
+
+fn json_kind(v: &serde_json::Value) -> &'static str {
+    match v {
+        serde_json::Value::Null => "null",
+        serde_json::Value::Bool(_) => "boolean",
+        serde_json::Value::Number(_) => "number",
+        serde_json::Value::String(_) => "string",
+        serde_json::Value::Array(_) => "array",
+        serde_json::Value::Object(_) => "object",
+    }
+}
