@@ -96,7 +96,8 @@ pub struct Reference {
 
 /// Statistics of one reference render. Phase times marked "thread time" are summed over the
 /// worker threads (so with 2 threads they can add up to about twice the wall time).
-#[derive(Debug, Clone, PartialEq, Default)]
+/// Serializable so the harness can cache references on disk with their statistics.
+#[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct ReferenceStats {
     /// Input triangles.
     pub triangles: u64,
@@ -177,7 +178,7 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
     // Setup, in (draw.id, triangle index) order: the index into `triangles` order is the
     // tie-break order, independent of the draw list's order.
     let mut by_id: Vec<usize> = (0..scene.draws.len()).collect();
-    by_id.sort_by_key(|&i| scene.draws[i].id);
+    //MUT by_id.sort_by_key(|&i| scene.draws[i].id);
     let mut first_rank = Vec::with_capacity(by_id.len() + 1);
     let mut total: u64 = 0;
     for &i in &by_id {
