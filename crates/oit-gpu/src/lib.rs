@@ -1,1 +1,43 @@
-//! oit-gpu
+//! oit-gpu: the GPU spine every transparency technique plugs into.
+//!
+//! - [`Context`]: adapter choice, device with the optional features techniques can use, and
+//!   the [`Caps`] a technique reads to say "unsupported here because …".
+//! - [`GpuScene`]: the [`oit_scene::Scene`] uploaded once; shared pipeline builder.
+//! - [`Targets`] and [`read_color`]: the final colour (`Rgba16Float` or `Rgba32Float`) and
+//!   `Depth32Float` depth, and readback to [`oit_scene::LinearImage`].
+//! - [`render_frame`]: the shared opaque pass followed by one [`Technique`].
+//! - [`GpuTimer`]: per-pass GPU time from timestamp queries, or wall-clock when the adapter has
+//!   none (and the result says which).
+//! - [`memory`]: exact byte counts of what a technique allocates.
+//! - [`TechniqueSpec`]: `name[:key=value,…]` parsing against a registry, canonical strings.
+//! - [`count_fragments`]: the rasterization conformance pass.
+
+mod context;
+mod count;
+mod error;
+mod frame;
+pub mod memory;
+mod scene;
+pub mod shaders;
+mod spec;
+mod targets;
+mod technique;
+pub mod testing;
+mod timer;
+
+pub use context::{AdapterSummary, Backend, Caps, Context, ContextOptions, FormatCaps};
+pub use count::count_fragments;
+pub use error::{GpuError, Unsupported};
+pub use frame::{FrameResult, opaque_pass, render_frame};
+pub use memory::MemoryLedger;
+pub use scene::{
+    CullRule, GpuScene, MATERIAL_STRIDE, PREMULTIPLIED_OVER, ScenePipelineDesc, ScenePipelines,
+    VERTEX_STRIDE, scene_pipeline, vertex_layout,
+};
+pub use spec::{Allowed, ParamInfo, SpecError, TechniqueInfo, TechniqueSpec};
+pub use targets::{ColorFormat, Targets, f16_to_f32, read_color};
+pub use technique::{RenderStats, Technique};
+pub use timer::{FrameTimings, GpuTimer, PassTimestamps, PassTiming, TimingSource};
+
+/// Re-exported so technique crates use exactly the wgpu version this crate was built with.
+pub use wgpu;

@@ -1,0 +1,384 @@
+//! Adapter choice, device creation and capabilities.
+
+use crate::error::GpuError;
+use wgpu::{Features, TextureFormat, TextureFormatFeatureFlags, TextureUsages};
+
+/// Which graphics API to use (`--backend auto|vulkan|gl`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Backend {
+    /// Every backend this build has; hardware adapters preferred over CPU ones, Vulkan over GL.
+    #[default]
+    Auto,
+    Vulkan,
+    Gl,
+}
+
+impl Backend {
+    pub const ALL: [Backend; 3] = [Backend::Auto, Backend::Vulkan, Backend::Gl];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Backend::Auto => "auto",
+            Backend::Vulkan => "vulkan",
+            Backend::Gl => "gl",
+        }
+    }
+
+    fn backends(self) -> wgpu::Backends {
+        match self {
+            Backend::Auto => wgpu::Backends::all(),
+            Backend::Vulkan => wgpu::Backends::VULKAN,
+            Backend::Gl => wgpu::Backends::GL,
+        }
+    }
+}
+
+impl std::fmt::Display for Backend {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for Backend {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Backend::ALL
+            .into_iter()
+            .find(|b| b.name() == s)
+            .ok_or_else(|| format!("unknown backend {s:?}; allowed: auto, vulkan, gl"))
+    }
+}
+
+/// How to pick the adapter.
+#[derive(Debug, Clone, Default)]
+pub struct ContextOptions {
+    pub backend: Backend,
+    /// Case-insensitive substring of the adapter name (`--adapter`).
+    pub adapter: Option<String>,
+}
+
+/// The adapter as results.json's `"adapter"` object records it.
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
+pub struct AdapterSummary {
+    pub name: String,
+    /// `vulkan`, `gl`, `metal`, `dx12`, …
+    pub backend: String,
+    /// `cpu`, `discrete-gpu`, `integrated-gpu`, `virtual-gpu`, `other`.
+    pub device_type: String,
+    pub driver: String,
+    pub driver_info: String,
+}
+
+impl AdapterSummary {
+    fn new(info: &wgpu::AdapterInfo) -> Self {
+        let device_type = match info.device_type {
+            wgpu::DeviceType::Cpu => "cpu",
+            wgpu::DeviceType::DiscreteGpu => "discrete-gpu",
+            wgpu::DeviceType::IntegratedGpu => "integrated-gpu",
+            wgpu::DeviceType::VirtualGpu => "virtual-gpu",
+            wgpu::DeviceType::Other => "other",
+        };
+        Self {
+            name: info.name.clone(),
+            backend: info.backend.to_str().to_owned(),
+            device_type: device_type.to_owned(),
+            driver: info.driver.clone(),
+            driver_info: info.driver_info.clone(),
+        }
+    }
+}
+
+/// What one texture format can do on this device (with the features the context enabled).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+pub struct FormatCaps {
+    /// Usable as a render attachment.
+    pub renderable: bool,
+    /// Usable as a render attachment with blending enabled.
+    pub blendable: bool,
+    /// Sampled with linear filtering.
+    pub filterable: bool,
+    /// Usable as a read-write storage texture.
+    pub storage_read_write: bool,
+    /// 4× multisampling.
+    pub multisample_x4: bool,
+}
+
+/// Formats whose capabilities are probed at start (the ones OIT techniques choose between).
+pub const PROBED_FORMATS: [TextureFormat; 9] = [
+    TextureFormat::R32Float,
+    TextureFormat::Rg32Float,
+    TextureFormat::Rgba32Float,
+    TextureFormat::R16Float,
+    TextureFormat::Rg16Float,
+    TextureFormat::Rgba16Float,
+    TextureFormat::R8Unorm,
+    TextureFormat::Rgba8Unorm,
+    TextureFormat::Depth32Float,
+];
+
+/// Capabilities of the device, as a technique's `check` reads them.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Caps {
+    /// `FLOAT32_BLENDABLE`: blending into R32Float/Rg32Float/Rgba32Float targets.
+    pub float32_blendable: bool,
+    /// `TIMESTAMP_QUERY` at pass boundaries.
+    pub timestamps: bool,
+    pub timestamps_inside_encoders: bool,
+    pub timestamps_inside_passes: bool,
+    /// Per-format features beyond the WebGPU baseline are usable.
+    pub adapter_specific_format_features: bool,
+    pub dual_source_blending: bool,
+    pub max_texture_dimension_2d: u32,
+    pub max_color_attachments: u32,
+    pub max_color_attachment_bytes_per_sample: u32,
+    pub max_storage_buffers_per_shader_stage: u32,
+    pub max_buffer_size: u64,
+    pub max_storage_buffer_binding_size: u64,
+    /// `(format name, capabilities)` for every format in [`PROBED_FORMATS`].
+    pub formats: Vec<(String, FormatCaps)>,
+}
+
+impl Caps {
+    fn probe(adapter: &wgpu::Adapter, features: Features, limits: &wgpu::Limits) -> Self {
+        let formats = PROBED_FORMATS
+            .iter()
+            .map(|&f| (format!("{f:?}"), format_caps(adapter, features, f)))
+            .collect();
+        Caps {
+            float32_blendable: features.contains(Features::FLOAT32_BLENDABLE),
+            timestamps: features.contains(Features::TIMESTAMP_QUERY),
+            timestamps_inside_encoders: features
+                .contains(Features::TIMESTAMP_QUERY_INSIDE_ENCODERS),
+            timestamps_inside_passes: features.contains(Features::TIMESTAMP_QUERY_INSIDE_PASSES),
+            adapter_specific_format_features: features
+                .contains(Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES),
+            dual_source_blending: features.contains(Features::DUAL_SOURCE_BLENDING),
+            max_texture_dimension_2d: limits.max_texture_dimension_2d,
+            max_color_attachments: limits.max_color_attachments,
+            max_color_attachment_bytes_per_sample: limits.max_color_attachment_bytes_per_sample,
+            max_storage_buffers_per_shader_stage: limits.max_storage_buffers_per_shader_stage,
+            max_buffer_size: limits.max_buffer_size,
+            max_storage_buffer_binding_size: limits.max_storage_buffer_binding_size,
+            formats,
+        }
+    }
+
+    /// Capabilities of `format`, or all-false for a format that was not probed.
+    pub fn format(&self, format: TextureFormat) -> FormatCaps {
+        let name = format!("{format:?}");
+        self.formats
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|(_, c)| *c)
+            .unwrap_or_default()
+    }
+
+    /// `Ok` when `format` can be rendered to (and blended into, if `blend`), otherwise the
+    /// reason, ready for a technique's `check`.
+    pub fn require_target(
+        &self,
+        format: TextureFormat,
+        blend: bool,
+    ) -> Result<(), crate::Unsupported> {
+        let c = self.format(format);
+        if !c.renderable {
+            return Err(crate::Unsupported::new(format!(
+                "the adapter cannot render to {format:?} textures"
+            )));
+        }
+        if blend && !c.blendable {
+            return Err(crate::Unsupported::new(format!(
+                "the adapter cannot blend into {format:?} textures{}",
+                if is_float32_color(format) && !self.float32_blendable {
+                    " (no FLOAT32_BLENDABLE feature)"
+                } else {
+                    ""
+                }
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// R32Float, Rg32Float and Rgba32Float: blending into them needs `FLOAT32_BLENDABLE`.
+fn is_float32_color(format: TextureFormat) -> bool {
+    matches!(
+        format,
+        TextureFormat::R32Float | TextureFormat::Rg32Float | TextureFormat::Rgba32Float
+    )
+}
+
+fn format_caps(adapter: &wgpu::Adapter, features: Features, format: TextureFormat) -> FormatCaps {
+    // Without TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES the device only allows the WebGPU
+    // guaranteed set, so that is what techniques may rely on.
+    let f = if features.contains(Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES) {
+        adapter.get_texture_format_features(format)
+    } else {
+        format.guaranteed_format_features(features)
+    };
+    let renderable = f.allowed_usages.contains(TextureUsages::RENDER_ATTACHMENT);
+    let mut blendable = renderable && f.flags.contains(TextureFormatFeatureFlags::BLENDABLE);
+    if is_float32_color(format) && !features.contains(Features::FLOAT32_BLENDABLE) {
+        blendable = false;
+    }
+    FormatCaps {
+        renderable,
+        blendable,
+        filterable: f.flags.contains(TextureFormatFeatureFlags::FILTERABLE),
+        storage_read_write: f.allowed_usages.contains(TextureUsages::STORAGE_BINDING)
+            && f.flags
+                .contains(TextureFormatFeatureFlags::STORAGE_READ_WRITE),
+        multisample_x4: f.flags.contains(TextureFormatFeatureFlags::MULTISAMPLE_X4),
+    }
+}
+
+/// Optional features requested whenever the adapter has them.
+const WANTED_FEATURES: Features = Features::FLOAT32_BLENDABLE
+    .union(Features::TIMESTAMP_QUERY)
+    .union(Features::TIMESTAMP_QUERY_INSIDE_ENCODERS)
+    .union(Features::TIMESTAMP_QUERY_INSIDE_PASSES)
+    .union(Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES)
+    .union(Features::DUAL_SOURCE_BLENDING)
+    .union(Features::DEPTH32FLOAT_STENCIL8);
+
+/// The GPU: adapter, device, queue and what they can do.
+#[derive(Debug)]
+pub struct Context {
+    pub instance: wgpu::Instance,
+    pub adapter: wgpu::Adapter,
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub caps: Caps,
+    info: wgpu::AdapterInfo,
+    scene_layout: wgpu::BindGroupLayout,
+}
+
+fn device_rank(t: wgpu::DeviceType) -> u32 {
+    match t {
+        wgpu::DeviceType::DiscreteGpu => 0,
+        wgpu::DeviceType::IntegratedGpu => 1,
+        wgpu::DeviceType::VirtualGpu => 2,
+        wgpu::DeviceType::Other => 3,
+        wgpu::DeviceType::Cpu => 4,
+    }
+}
+
+fn backend_rank(b: wgpu::Backend) -> u32 {
+    match b {
+        wgpu::Backend::Vulkan | wgpu::Backend::Metal | wgpu::Backend::Dx12 => 0,
+        _ => 1,
+    }
+}
+
+impl Context {
+    /// Picks an adapter (hardware before CPU, Vulkan/Metal/DX12 before GL, then enumeration
+    /// order) and creates a device with every feature in the wanted set the adapter has and
+    /// the adapter's own limits.
+    pub fn new(options: &ContextOptions) -> Result<Context, GpuError> {
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+        desc.backends = options.backend.backends();
+        let instance = wgpu::Instance::new(desc);
+        let mut adapters = pollster::block_on(instance.enumerate_adapters(desc_backends(options)));
+        if adapters.is_empty() {
+            return Err(GpuError::NoAdapter {
+                backend: options.backend.name().to_owned(),
+            });
+        }
+        if let Some(filter) = &options.adapter {
+            let needle = filter.to_lowercase();
+            let available: Vec<String> = adapters
+                .iter()
+                .map(|a| {
+                    let i = a.get_info();
+                    format!("{:?} ({})", i.name, i.backend.to_str())
+                })
+                .collect();
+            adapters.retain(|a| a.get_info().name.to_lowercase().contains(&needle));
+            if adapters.is_empty() {
+                return Err(GpuError::AdapterNotMatched {
+                    backend: options.backend.name().to_owned(),
+                    filter: filter.clone(),
+                    available: available.join(", "),
+                });
+            }
+        }
+        // Stable sort keeps the enumeration order among equals.
+        adapters.sort_by_key(|a| {
+            let i = a.get_info();
+            (device_rank(i.device_type), backend_rank(i.backend))
+        });
+        let adapter = adapters.swap_remove(0);
+        let info = adapter.get_info();
+        let features = adapter.features() & WANTED_FEATURES;
+        let limits = adapter.limits();
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("oit-lab"),
+            required_features: features,
+            required_limits: limits.clone(),
+            experimental_features: wgpu::ExperimentalFeatures::disabled(),
+            memory_hints: wgpu::MemoryHints::Performance,
+            trace: wgpu::Trace::Off,
+        }))
+        .map_err(|e| GpuError::RequestDevice {
+            adapter: info.name.clone(),
+            message: e.to_string(),
+        })?;
+        let caps = Caps::probe(&adapter, device.features(), &device.limits());
+        let scene_layout = crate::scene::create_scene_layout(&device);
+        Ok(Context {
+            instance,
+            adapter,
+            device,
+            queue,
+            caps,
+            info,
+            scene_layout,
+        })
+    }
+
+    /// The adapter for results.json.
+    pub fn adapter_info(&self) -> AdapterSummary {
+        AdapterSummary::new(&self.info)
+    }
+
+    /// The raw wgpu adapter info.
+    pub fn wgpu_adapter_info(&self) -> &wgpu::AdapterInfo {
+        &self.info
+    }
+
+    /// Bind group layout 0 of every scene pipeline (camera uniform + material table), shared
+    /// so that pipelines do not depend on which scene is uploaded.
+    pub fn scene_layout(&self) -> &wgpu::BindGroupLayout {
+        &self.scene_layout
+    }
+
+    /// Blocks until all submitted work is done.
+    pub fn wait(&self) -> Result<(), GpuError> {
+        self.device
+            .poll(wgpu::PollType::Wait {
+                submission_index: None,
+                timeout: None,
+            })
+            .map(|_| ())
+            .map_err(|e| GpuError::Poll(e.to_string()))
+    }
+
+    /// Creates a shader module from a pass file, resolving `#include` lines against the
+    /// shared modules (see [`crate::shaders`]).
+    pub fn shader(&self, name: &str, source: &str) -> Result<wgpu::ShaderModule, GpuError> {
+        let code = crate::shaders::compose_shared(source).map_err(|e| GpuError::Shader {
+            shader: name.to_owned(),
+            message: e.to_string(),
+        })?;
+        Ok(self
+            .device
+            .create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(name),
+                source: wgpu::ShaderSource::Wgsl(code.into()),
+            }))
+    }
+}
+
+fn desc_backends(options: &ContextOptions) -> wgpu::Backends {
+    options.backend.backends()
+}

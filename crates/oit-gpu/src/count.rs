@@ -1,0 +1,139 @@
+//! Rasterization conformance: fragments per pixel, counted on the GPU.
+
+use crate::context::Context;
+use crate::error::GpuError;
+use crate::scene::{GpuScene, ScenePipelineDesc};
+
+/// Counts per pixel (row-major, top-left origin) every fragment of every draw, opaque and
+/// transparent, that survives face culling and the mask cutoff, with no depth test: the GPU
+/// twin of `Reference::fragments`. Counts are exact (atomic u32 in a storage buffer).
+pub fn count_fragments(ctx: &Context, scene: &GpuScene) -> Result<Vec<u32>, GpuError> {
+    let res = scene.scene.resolution;
+    let pixels = res.pixel_count() as u64;
+    let device = &ctx.device;
+    let module = ctx.shader("count_fragments.wgsl", crate::shaders::COUNT_FRAGMENTS)?;
+    let target_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("count target"),
+        entries: &[
+            wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            },
+            wgpu::BindGroupLayoutEntry {
+                binding: 1,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Storage { read_only: false },
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            },
+        ],
+    });
+    let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("count fragments"),
+        bind_group_layouts: &[Some(ctx.scene_layout()), Some(&target_layout)],
+        immediate_size: 0,
+    });
+    let desc = ScenePipelineDesc {
+        label: "count fragments",
+        module: &module,
+        fragment_entry: "fs_count",
+        color: None,
+        depth_write: false,
+        depth_compare: wgpu::CompareFunction::Always,
+        cull: crate::CullRule::ByMaterial,
+    };
+    let culled = crate::scene::scene_pipeline(ctx, &desc, &layout, Some(wgpu::Face::Back));
+    let unculled = crate::scene::scene_pipeline(ctx, &desc, &layout, None);
+
+    use wgpu::util::DeviceExt;
+    let size = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("count target size"),
+        contents: bytemuck::cast_slice(&[res.width, res.height, 0, 0]),
+        usage: wgpu::BufferUsages::UNIFORM,
+    });
+    let counts = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("fragment counts"),
+        size: pixels * 4,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: true,
+    });
+    // Mapped at creation is zero-initialised by wgpu.
+    counts.unmap();
+    let readback = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("fragment counts readback"),
+        size: pixels * 4,
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    let target_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("count target"),
+        layout: &target_layout,
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: size.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: counts.as_entire_binding(),
+            },
+        ],
+    });
+    // A render pass needs an attachment; a depth buffer that is never tested nor written.
+    let depth = device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("count depth"),
+        size: wgpu::Extent3d {
+            width: res.width,
+            height: res.height,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: wgpu::TextureFormat::Depth32Float,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+        view_formats: &[],
+    });
+    let depth_view = depth.create_view(&Default::default());
+    let mut encoder = device.create_command_encoder(&Default::default());
+    {
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("count fragments"),
+            color_attachments: &[],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &depth_view,
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(0.0),
+                    store: wgpu::StoreOp::Discard,
+                }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        scene.bind(&mut pass);
+        pass.set_bind_group(1, &target_group, &[]);
+        for d in &scene.scene.draws {
+            if d.vertex_count == 0 {
+                continue;
+            }
+            let double = scene.scene.material_of(d).double_sided;
+            pass.set_pipeline(if double { &unculled } else { &culled });
+            pass.draw(d.first_vertex..d.first_vertex + d.vertex_count, 0..1);
+        }
+    }
+    encoder.copy_buffer_to_buffer(&counts, 0, &readback, 0, pixels * 4);
+    ctx.queue.submit([encoder.finish()]);
+    let bytes = crate::targets::map_read(ctx, &readback, "fragment counts")?;
+    Ok(bytemuck::cast_slice::<u8, u32>(&bytes).to_vec())
+}

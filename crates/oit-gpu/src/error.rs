@@ -1,0 +1,55 @@
+//! The one error type of this crate.
+
+/// Why a technique (or target format) cannot run on this adapter. Not a failure of the run:
+/// the harness records it as "skipped" with this reason.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("unsupported here because {reason}")]
+pub struct Unsupported {
+    pub reason: String,
+}
+
+impl Unsupported {
+    pub fn new(reason: impl Into<String>) -> Self {
+        Self {
+            reason: reason.into(),
+        }
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum GpuError {
+    /// No adapter at all for the requested backend.
+    #[error(
+        "no GPU adapter found for backend {backend}: install a GPU driver, or `apt-get install mesa-vulkan-drivers` for the CPU rasterizer lavapipe"
+    )]
+    NoAdapter { backend: String },
+    /// Adapters exist, but none has `filter` in its name.
+    #[error(
+        "no GPU adapter for backend {backend} has {filter:?} in its name; available: {available}"
+    )]
+    AdapterNotMatched {
+        backend: String,
+        filter: String,
+        available: String,
+    },
+    #[error("cannot create a device on adapter {adapter:?}: {message}")]
+    RequestDevice { adapter: String, message: String },
+    #[error(transparent)]
+    Unsupported(#[from] Unsupported),
+    /// A size the device cannot hold (buffer or texture over the adapter's limits).
+    #[error("{what} needs {needed}, but this adapter allows at most {limit}")]
+    TooLarge {
+        what: String,
+        needed: u64,
+        limit: u64,
+    },
+    #[error("shader {shader}: {message}")]
+    Shader { shader: String, message: String },
+    #[error("reading back {what} from the GPU failed: {message}")]
+    Readback { what: String, message: String },
+    #[error("waiting for the GPU failed: {0}")]
+    Poll(String),
+    /// Caller passed inconsistent arguments (e.g. targets of another size than the scene).
+    #[error("{0}")]
+    Mismatch(String),
+}

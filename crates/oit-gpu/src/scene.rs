@@ -1,0 +1,374 @@
+//! The scene on the GPU and the one pipeline builder every scene pass uses.
+
+use crate::context::Context;
+use crate::error::GpuError;
+use oit_scene::{AlphaMode, Material, Scene};
+use std::collections::HashMap;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicU64, Ordering};
+use wgpu::util::DeviceExt;
+
+/// Bytes per GPU vertex: position f32×3, material index u32, colour f32×4 (uv is unused by
+/// every shading rule so far and is not uploaded).
+pub const VERTEX_STRIDE: u64 = 32;
+/// Bytes per entry of the material table (matches `struct Material` in shaders/common.wgsl).
+pub const MATERIAL_STRIDE: usize = 48;
+
+const VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 3] = wgpu::vertex_attr_array![
+    0 => Float32x3,
+    1 => Uint32,
+    2 => Float32x4,
+];
+
+/// The vertex buffer layout of [`GpuScene::vertices`].
+pub fn vertex_layout() -> wgpu::VertexBufferLayout<'static> {
+    wgpu::VertexBufferLayout {
+        array_stride: VERTEX_STRIDE,
+        step_mode: wgpu::VertexStepMode::Vertex,
+        attributes: &VERTEX_ATTRIBUTES,
+    }
+}
+
+pub(crate) fn create_scene_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("scene"),
+        entries: &[
+            wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: false,
+                    min_binding_size: wgpu::BufferSize::new(64),
+                },
+                count: None,
+            },
+            wgpu::BindGroupLayoutEntry {
+                binding: 1,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Storage { read_only: true },
+                    has_dynamic_offset: false,
+                    min_binding_size: wgpu::BufferSize::new(MATERIAL_STRIDE as u64),
+                },
+                count: None,
+            },
+        ],
+    })
+}
+
+fn mode_code(mode: AlphaMode) -> u32 {
+    match mode {
+        AlphaMode::Opaque => 0,
+        AlphaMode::Mask => 1,
+        AlphaMode::Blend => 2,
+        AlphaMode::MaskBlend => 3,
+    }
+}
+
+/// One material as the shader reads it (48 bytes, little-endian f32/u32 words).
+fn material_words(m: &Material) -> [u32; 12] {
+    [
+        m.base_color[0].to_bits(),
+        m.base_color[1].to_bits(),
+        m.base_color[2].to_bits(),
+        m.alpha.to_bits(),
+        mode_code(m.mode),
+        m.cutoff.to_bits(),
+        u32::from(m.premultiplied),
+        m.intensity.to_bits(),
+        u32::from(m.double_sided),
+        0,
+        0,
+        0,
+    ]
+}
+
+static NEXT_SCENE_ID: AtomicU64 = AtomicU64::new(1);
+
+/// A [`Scene`] uploaded once: all vertices in draw-list storage order, the material table and
+/// the camera. Techniques draw ranges of it; nothing here changes after upload.
+#[derive(Debug)]
+pub struct GpuScene {
+    /// The scene as uploaded (draw order, ids, materials, camera).
+    pub scene: Scene,
+    /// Unique per upload, so techniques can cache per-scene data (sort keys, index buffers).
+    pub id: u64,
+    pub vertices: wgpu::Buffer,
+    pub camera: wgpu::Buffer,
+    pub materials: wgpu::Buffer,
+    /// Group 0 of every scene pipeline.
+    pub bind_group: wgpu::BindGroup,
+    opaque: Mutex<HashMap<(wgpu::TextureFormat, bool), ScenePipelines>>,
+}
+
+impl GpuScene {
+    pub fn upload(ctx: &Context, scene: &Scene) -> Result<GpuScene, GpuError> {
+        let mut words: Vec<u32> = Vec::with_capacity(scene.vertices.len() * 8 + 8);
+        // Vertices are stored in `Scene::vertices` order; a draw's range is its own.
+        let mut material_of_vertex = vec![0u32; scene.vertices.len()];
+        for d in &scene.draws {
+            for m in &mut material_of_vertex[d.vertex_range()] {
+                *m = d.material;
+            }
+        }
+        for (v, m) in scene.vertices.iter().zip(&material_of_vertex) {
+            words.extend(v.position.map(f32::to_bits));
+            words.push(*m);
+            words.extend(v.color.map(f32::to_bits));
+        }
+        // wgpu rejects zero-sized vertex bindings; an empty scene still gets one dummy vertex.
+        if words.is_empty() {
+            words.resize(8, 0);
+        }
+        let vertex_bytes = words.len() as u64 * 4;
+        let limit = ctx.caps.max_buffer_size;
+        if vertex_bytes > limit {
+            return Err(GpuError::TooLarge {
+                what: format!("the vertex buffer of scene {:?}", scene.name),
+                needed: vertex_bytes,
+                limit,
+            });
+        }
+        let device = &ctx.device;
+        let vertices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("scene vertices"),
+            contents: bytemuck::cast_slice(&words),
+            usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::STORAGE,
+        });
+        let camera = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("camera"),
+            contents: bytemuck::cast_slice(&scene.camera.view_proj.to_cols_array()),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let mut mat_words: Vec<u32> = scene.materials.iter().flat_map(material_words).collect();
+        if mat_words.is_empty() {
+            mat_words.resize(MATERIAL_STRIDE / 4, 0);
+        }
+        let materials = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("materials"),
+            contents: bytemuck::cast_slice(&mat_words),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("scene"),
+            layout: ctx.scene_layout(),
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: camera.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: materials.as_entire_binding(),
+                },
+            ],
+        });
+        Ok(GpuScene {
+            scene: scene.clone(),
+            id: NEXT_SCENE_ID.fetch_add(1, Ordering::Relaxed),
+            vertices,
+            camera,
+            materials,
+            bind_group,
+            opaque: Mutex::new(HashMap::new()),
+        })
+    }
+
+    /// Depth test for "strictly nearer": LESS, or GREATER with reverse-Z.
+    pub fn depth_nearer(&self) -> wgpu::CompareFunction {
+        if self.scene.camera.reverse_z {
+            wgpu::CompareFunction::Greater
+        } else {
+            wgpu::CompareFunction::Less
+        }
+    }
+
+    /// Sets group 0 and vertex buffer 0 on `pass`.
+    pub fn bind(&self, pass: &mut wgpu::RenderPass<'_>) {
+        pass.set_bind_group(0, &self.bind_group, &[]);
+        pass.set_vertex_buffer(0, self.vertices.slice(..));
+    }
+
+    /// Draws `self.scene.draws[index]` with the pipeline its material needs.
+    pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, pipelines: &ScenePipelines, index: usize) {
+        let d = &self.scene.draws[index];
+        if d.vertex_count == 0 {
+            return;
+        }
+        pass.set_pipeline(pipelines.for_material(self.scene.material_of(d)));
+        pass.draw(d.first_vertex..d.first_vertex + d.vertex_count, 0..1);
+    }
+
+    /// Indices into `scene.draws` of transparent draws, in draw order.
+    pub fn transparent_draws(&self) -> Vec<usize> {
+        self.draws_where(|m| m.mode.is_transparent())
+    }
+
+    /// Indices into `scene.draws` of opaque and mask draws, in draw order.
+    pub fn opaque_draws(&self) -> Vec<usize> {
+        self.draws_where(|m| !m.mode.is_transparent())
+    }
+
+    fn draws_where(&self, keep: impl Fn(&Material) -> bool) -> Vec<usize> {
+        let s = &self.scene;
+        (0..s.draws.len())
+            .filter(|&i| keep(s.material_of(&s.draws[i])))
+            .collect()
+    }
+
+    /// The shared opaque pass's pipelines for a colour format (built once, cached).
+    pub(crate) fn opaque_pipelines(
+        &self,
+        ctx: &Context,
+        format: wgpu::TextureFormat,
+    ) -> Result<ScenePipelines, GpuError> {
+        let key = (format, self.scene.camera.reverse_z);
+        let mut cache = self.opaque.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(p) = cache.get(&key) {
+            return Ok(p.clone());
+        }
+        let module = ctx.shader("opaque.wgsl", crate::shaders::OPAQUE)?;
+        let p = ScenePipelines::new(
+            ctx,
+            &ScenePipelineDesc {
+                label: "opaque",
+                module: &module,
+                fragment_entry: "fs_opaque",
+                color: Some(wgpu::ColorTargetState {
+                    format,
+                    blend: None,
+                    write_mask: wgpu::ColorWrites::ALL,
+                }),
+                depth_write: true,
+                depth_compare: self.depth_nearer(),
+                cull: CullRule::ByMaterial,
+            },
+        );
+        cache.insert(key, p.clone());
+        Ok(p)
+    }
+}
+
+/// Which faces fixed function culls. The shader additionally discards back faces of
+/// single-sided materials, so `Fixed(None)` still obeys the material's culling rule.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CullRule {
+    /// Back faces culled unless the material is double-sided.
+    ByMaterial,
+    /// The same for every draw, e.g. `Fixed(Some(Face::Front))` draws only back faces.
+    Fixed(Option<wgpu::Face>),
+}
+
+/// Everything that differs between scene pipelines.
+#[derive(Debug)]
+pub struct ScenePipelineDesc<'a> {
+    pub label: &'a str,
+    /// A module built from a pass file that includes common.wgsl (its `vs_main` is used).
+    pub module: &'a wgpu::ShaderModule,
+    pub fragment_entry: &'a str,
+    /// `None` for depth-only passes.
+    pub color: Option<wgpu::ColorTargetState>,
+    pub depth_write: bool,
+    pub depth_compare: wgpu::CompareFunction,
+    pub cull: CullRule,
+}
+
+/// A pipeline pair: one for single-sided and one for double-sided materials.
+#[derive(Debug, Clone)]
+pub struct ScenePipelines {
+    pub single_sided: wgpu::RenderPipeline,
+    pub double_sided: wgpu::RenderPipeline,
+}
+
+impl ScenePipelines {
+    pub fn new(ctx: &Context, desc: &ScenePipelineDesc<'_>) -> Self {
+        let layout = ctx
+            .device
+            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some(desc.label),
+                bind_group_layouts: &[Some(ctx.scene_layout())],
+                immediate_size: 0,
+            });
+        let make = |cull: Option<wgpu::Face>| scene_pipeline(ctx, desc, &layout, cull);
+        match desc.cull {
+            CullRule::ByMaterial => ScenePipelines {
+                single_sided: make(Some(wgpu::Face::Back)),
+                double_sided: make(None),
+            },
+            CullRule::Fixed(c) => {
+                let p = make(c);
+                ScenePipelines {
+                    single_sided: p.clone(),
+                    double_sided: p,
+                }
+            }
+        }
+    }
+
+    pub fn for_material(&self, m: &Material) -> &wgpu::RenderPipeline {
+        if m.double_sided {
+            &self.double_sided
+        } else {
+            &self.single_sided
+        }
+    }
+}
+
+/// Builds one scene pipeline with an explicit layout (techniques with extra bind groups pass
+/// their own layout whose group 0 is [`Context::scene_layout`]).
+pub fn scene_pipeline(
+    ctx: &Context,
+    desc: &ScenePipelineDesc<'_>,
+    layout: &wgpu::PipelineLayout,
+    cull: Option<wgpu::Face>,
+) -> wgpu::RenderPipeline {
+    let targets = [desc.color.clone()];
+    ctx.device
+        .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some(desc.label),
+            layout: Some(layout),
+            vertex: wgpu::VertexState {
+                module: desc.module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[Some(vertex_layout())],
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: wgpu::PrimitiveTopology::TriangleList,
+                front_face: wgpu::FrontFace::Ccw,
+                cull_mode: cull,
+                ..Default::default()
+            },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: wgpu::TextureFormat::Depth32Float,
+                depth_write_enabled: Some(desc.depth_write),
+                depth_compare: Some(desc.depth_compare),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: desc.module,
+                entry_point: Some(desc.fragment_entry),
+                compilation_options: Default::default(),
+                targets: if desc.color.is_some() { &targets } else { &[] },
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
+}
+
+/// Premultiplied OVER: `dst = src + (1 − src.a) · dst` on colour and alpha.
+pub const PREMULTIPLIED_OVER: wgpu::BlendState = wgpu::BlendState {
+    color: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::One,
+        dst_factor: wgpu::BlendFactor::OneMinusSrcAlpha,
+        operation: wgpu::BlendOperation::Add,
+    },
+    alpha: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::One,
+        dst_factor: wgpu::BlendFactor::OneMinusSrcAlpha,
+        operation: wgpu::BlendOperation::Add,
+    },
+};

@@ -1,0 +1,152 @@
+//! WGSL sources and the tiny include mechanism.
+//!
+//! Every WGSL file lives in the top-level `shaders/` directory: one file per pass plus shared
+//! modules. A pass pulls a shared module in with a line of exactly this form:
+//!
+//! ```text
+//! #include "common.wgsl"
+//! ```
+//!
+//! [`compose`] replaces each such line with the module's text (recursively; a module included
+//! twice is inserted once, so diamonds are harmless, and a cycle is an error). WGSL has no `#`,
+//! so an unprocessed file fails to parse instead of silently missing code. The crates resolve
+//! names with [`shared_module`] (sources embedded with `include_str!`); the naga validation test
+//! resolves them from the files on disk and checks both agree.
+
+use std::collections::HashSet;
+
+/// The shared modules, by file name, embedded at build time.
+pub const SHARED_MODULES: &[(&str, &str)] =
+    &[("common.wgsl", include_str!("../../../shaders/common.wgsl"))];
+
+/// Pass files that live in this crate.
+pub const OPAQUE: &str = include_str!("../../../shaders/opaque.wgsl");
+/// Premultiplied OVER blending (`fs_blend`) and a discard-honouring depth-only entry
+/// (`fs_depth_only`), shared by the blended baselines.
+pub const BLEND: &str = include_str!("../../../shaders/blend.wgsl");
+pub const COUNT_FRAGMENTS: &str = include_str!("../../../shaders/count_fragments.wgsl");
+
+/// A shared module's source by file name.
+pub fn shared_module(name: &str) -> Option<&'static str> {
+    SHARED_MODULES
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|(_, s)| *s)
+}
+
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum IncludeError {
+    #[error("line {line}: malformed include {text:?}; allowed: #include \"name.wgsl\"")]
+    Malformed { line: usize, text: String },
+    #[error("line {line}: unknown module {name:?}; allowed: {available}")]
+    Unknown {
+        line: usize,
+        name: String,
+        available: String,
+    },
+    #[error("include cycle through {0:?}")]
+    Cycle(String),
+}
+
+/// Expands `#include "name"` lines using `resolve` (name → source).
+pub fn compose(
+    source: &str,
+    resolve: &dyn Fn(&str) -> Option<String>,
+) -> Result<String, IncludeError> {
+    let mut out = String::with_capacity(source.len());
+    let mut done = HashSet::new();
+    let mut stack = Vec::new();
+    expand(source, resolve, &mut done, &mut stack, &mut out)?;
+    Ok(out)
+}
+
+fn expand(
+    source: &str,
+    resolve: &dyn Fn(&str) -> Option<String>,
+    done: &mut HashSet<String>,
+    stack: &mut Vec<String>,
+    out: &mut String,
+) -> Result<(), IncludeError> {
+    for (i, line) in source.lines().enumerate() {
+        let trimmed = line.trim();
+        let Some(rest) = trimmed.strip_prefix("#include") else {
+            out.push_str(line);
+            out.push('\n');
+            continue;
+        };
+        let name = rest
+            .trim()
+            .strip_prefix('"')
+            .and_then(|r| r.strip_suffix('"'))
+            .filter(|n| !n.is_empty() && !n.contains('"'))
+            .ok_or_else(|| IncludeError::Malformed {
+                line: i + 1,
+                text: trimmed.to_owned(),
+            })?;
+        if stack.iter().any(|s| s == name) {
+            return Err(IncludeError::Cycle(name.to_owned()));
+        }
+        if done.contains(name) {
+            continue;
+        }
+        let text = resolve(name).ok_or_else(|| IncludeError::Unknown {
+            line: i + 1,
+            name: name.to_owned(),
+            available: SHARED_MODULES
+                .iter()
+                .map(|(n, _)| *n)
+                .collect::<Vec<_>>()
+                .join(", "),
+        })?;
+        stack.push(name.to_owned());
+        expand(&text, resolve, done, stack, out)?;
+        stack.pop();
+        done.insert(name.to_owned());
+    }
+    Ok(())
+}
+
+/// [`compose`] against the embedded [`SHARED_MODULES`].
+pub fn compose_shared(source: &str) -> Result<String, IncludeError> {
+    compose(source, &|n| shared_module(n).map(str::to_owned))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn table(name: &str) -> Option<String> {
+        match name {
+            "a.wgsl" => Some("const A: u32 = 1u;".into()),
+            "b.wgsl" => Some("#include \"a.wgsl\"\nconst B: u32 = A;".into()),
+            "loop.wgsl" => Some("#include \"loop.wgsl\"".into()),
+            _ => None,
+        }
+    }
+
+    #[test]
+    fn includes_once_and_in_order() {
+        let s = compose(
+            "#include \"b.wgsl\"\n#include \"a.wgsl\"\nfn f() {}",
+            &table,
+        )
+        .unwrap();
+        assert_eq!(s, "const A: u32 = 1u;\nconst B: u32 = A;\nfn f() {}\n");
+    }
+
+    #[test]
+    fn errors() {
+        assert!(matches!(
+            compose("#include a.wgsl", &table),
+            Err(IncludeError::Malformed { line: 1, .. })
+        ));
+        assert!(matches!(
+            compose("\n#include \"zzz.wgsl\"", &table),
+            Err(IncludeError::Unknown { line: 2, .. })
+        ));
+        assert_eq!(
+            compose("#include \"loop.wgsl\"", &table),
+            Err(IncludeError::Cycle("loop.wgsl".into()))
+        );
+    }
+}

@@ -1,0 +1,247 @@
+//! The final colour and depth targets, and readback of the colour.
+
+use crate::context::Context;
+use crate::error::{GpuError, Unsupported};
+use oit_scene::{LinearImage, Resolution};
+
+/// Format of the final colour target.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ColorFormat {
+    /// Half float: ~1e-3 relative precision, the default (what engines use).
+    #[default]
+    Rgba16Float,
+    /// Full float, to separate a technique's error from the target's rounding. Blending into
+    /// it needs `FLOAT32_BLENDABLE`.
+    Rgba32Float,
+}
+
+impl ColorFormat {
+    pub fn texture_format(self) -> wgpu::TextureFormat {
+        match self {
+            ColorFormat::Rgba16Float => wgpu::TextureFormat::Rgba16Float,
+            ColorFormat::Rgba32Float => wgpu::TextureFormat::Rgba32Float,
+        }
+    }
+}
+
+/// Final colour and depth of one frame. The opaque pass clears and fills both; a technique
+/// composites its transparent layers into `color`.
+#[derive(Debug)]
+pub struct Targets {
+    pub resolution: Resolution,
+    pub color_format: wgpu::TextureFormat,
+    pub color: wgpu::Texture,
+    pub color_view: wgpu::TextureView,
+    /// `Depth32Float`; also bindable as a texture (peeling reads the opaque depth).
+    pub depth: wgpu::Texture,
+    pub depth_view: wgpu::TextureView,
+    bytes: u64,
+}
+
+impl Targets {
+    pub fn new(
+        ctx: &Context,
+        resolution: Resolution,
+        format: ColorFormat,
+    ) -> Result<Targets, GpuError> {
+        let color_format = format.texture_format();
+        ctx.caps.require_target(color_format, true)?;
+        let max = ctx.caps.max_texture_dimension_2d;
+        if resolution.width > max || resolution.height > max || resolution.pixel_count() == 0 {
+            return Err(Unsupported::new(format!(
+                "resolution {resolution} is outside 1..={max} pixels per side"
+            ))
+            .into());
+        }
+        let size = wgpu::Extent3d {
+            width: resolution.width,
+            height: resolution.height,
+            depth_or_array_layers: 1,
+        };
+        let mut ledger = crate::MemoryLedger::new();
+        let color = ledger.create_texture(
+            &ctx.device,
+            &wgpu::TextureDescriptor {
+                label: Some("final colour"),
+                size,
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: color_format,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                    | wgpu::TextureUsages::COPY_SRC
+                    | wgpu::TextureUsages::COPY_DST
+                    | wgpu::TextureUsages::TEXTURE_BINDING,
+                view_formats: &[],
+            },
+        );
+        let depth = ledger.create_texture(
+            &ctx.device,
+            &wgpu::TextureDescriptor {
+                label: Some("depth"),
+                size,
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: wgpu::TextureFormat::Depth32Float,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                    | wgpu::TextureUsages::COPY_SRC
+                    | wgpu::TextureUsages::TEXTURE_BINDING,
+                view_formats: &[],
+            },
+        );
+        Ok(Targets {
+            resolution,
+            color_format,
+            color_view: color.create_view(&Default::default()),
+            color,
+            depth_view: depth.create_view(&Default::default()),
+            depth,
+            bytes: ledger.total(),
+        })
+    }
+
+    /// Bytes of the shared colour and depth targets (not counted in any technique's memory).
+    pub fn memory_bytes(&self) -> u64 {
+        self.bytes
+    }
+}
+
+/// Reads a texture's bytes back tightly packed (row padding to 256 bytes removed).
+pub(crate) fn read_texture(
+    ctx: &Context,
+    texture: &wgpu::Texture,
+    bytes_per_pixel: u32,
+    what: &str,
+) -> Result<Vec<u8>, GpuError> {
+    let (w, h) = (texture.width(), texture.height());
+    let row = w * bytes_per_pixel;
+    let padded =
+        row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    let buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("readback"),
+        size: u64::from(padded) * u64::from(h),
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    encoder.copy_texture_to_buffer(
+        texture.as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer: &buffer,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(padded),
+                rows_per_image: Some(h),
+            },
+        },
+        texture.size(),
+    );
+    ctx.queue.submit([encoder.finish()]);
+    let data = map_read(ctx, &buffer, what)?;
+    let mut out = Vec::with_capacity((row * h) as usize);
+    for y in 0..h as usize {
+        let start = y * padded as usize;
+        out.extend_from_slice(&data[start..start + row as usize]);
+    }
+    Ok(out)
+}
+
+/// Maps a MAP_READ buffer, waits, and copies its contents out.
+pub(crate) fn map_read(
+    ctx: &Context,
+    buffer: &wgpu::Buffer,
+    what: &str,
+) -> Result<Vec<u8>, GpuError> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    buffer.map_async(wgpu::MapMode::Read, .., move |r| {
+        let _ = tx.send(r);
+    });
+    ctx.wait()?;
+    let fail = |message: String| GpuError::Readback {
+        what: what.to_owned(),
+        message,
+    };
+    rx.recv()
+        .map_err(|e| fail(e.to_string()))?
+        .map_err(|e| fail(e.to_string()))?;
+    let data = buffer
+        .get_mapped_range(..)
+        .map_err(|e| fail(e.to_string()))?
+        .to_vec();
+    buffer.unmap();
+    Ok(data)
+}
+
+/// Reads the final colour as linear RGBA f32, top-left origin.
+pub fn read_color(ctx: &Context, targets: &Targets) -> Result<LinearImage, GpuError> {
+    let bpp = match targets.color_format {
+        wgpu::TextureFormat::Rgba16Float => 8,
+        wgpu::TextureFormat::Rgba32Float => 16,
+        other => {
+            return Err(GpuError::Mismatch(format!(
+                "cannot read back {other:?} as linear RGBA"
+            )));
+        }
+    };
+    let bytes = read_texture(ctx, &targets.color, bpp, "final colour")?;
+    let pixels = if bpp == 8 {
+        bytes
+            .chunks_exact(8)
+            .map(|p| {
+                std::array::from_fn(|c| f16_to_f32(u16::from_le_bytes([p[2 * c], p[2 * c + 1]])))
+            })
+            .collect()
+    } else {
+        bytes
+            .chunks_exact(16)
+            .map(|p| {
+                std::array::from_fn(|c| {
+                    f32::from_le_bytes(p[4 * c..4 * c + 4].try_into().unwrap_or([0; 4]))
+                })
+            })
+            .collect()
+    };
+    Ok(LinearImage {
+        width: targets.resolution.width,
+        height: targets.resolution.height,
+        pixels,
+    })
+}
+
+/// IEEE 754 binary16 to f32, exact (every half is representable), including subnormals,
+/// infinities and NaN.
+pub fn f16_to_f32(h: u16) -> f32 {
+    let sign = u32::from(h >> 15) << 31;
+    let exp = u32::from((h >> 10) & 0x1f);
+    let mant = u32::from(h & 0x3ff);
+    let bits = match (exp, mant) {
+        (0, 0) => sign,
+        (0, m) => {
+            // Subnormal: value = m · 2^-24, exactly representable as f32.
+            let v = m as f32 * (1.0 / 16_777_216.0);
+            return if sign != 0 { -v } else { v };
+        }
+        (0x1f, m) => sign | 0x7f80_0000 | (m << 13),
+        (e, m) => sign | ((e + 127 - 15) << 23) | (m << 13),
+    };
+    f32::from_bits(bits)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::f16_to_f32;
+
+    #[test]
+    fn half_conversion() {
+        assert_eq!(f16_to_f32(0x3c00), 1.0);
+        assert_eq!(f16_to_f32(0xc000), -2.0);
+        assert_eq!(f16_to_f32(0x3555), 0.333_251_95);
+        assert_eq!(f16_to_f32(0x7bff), 65504.0);
+        assert_eq!(f16_to_f32(0x0001), 2f32.powi(-24));
+        assert_eq!(f16_to_f32(0x03ff), 1023.0 * 2f32.powi(-24));
+        assert_eq!(f16_to_f32(0x8000).to_bits(), 0x8000_0000);
+        assert_eq!(f16_to_f32(0x7c00), f32::INFINITY);
+        assert!(f16_to_f32(0x7e00).is_nan());
+    }
+}

@@ -1,0 +1,276 @@
+//! GPU time per pass: timestamp queries where the adapter has them, wall-clock otherwise.
+//!
+//! Usage inside a technique, for every pass:
+//!
+//! ```ignore
+//! let ts = timer.pass("blend");
+//! let mut enc = ctx.device.create_command_encoder(&Default::default());
+//! { let pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor { timestamp_writes: ts.writes(), .. }); … }
+//! timer.submit(ctx, enc);
+//! ```
+//!
+//! With timestamps, `submit` only submits and the frame's queries are resolved in
+//! [`GpuTimer::end_frame`]. Without, `submit` waits for the GPU and the elapsed wall-clock time
+//! (submit to completion) is attributed to the passes begun since the previous submit, so a
+//! technique that submits once per pass gets per-pass wall-clock times.
+
+use crate::context::Context;
+use crate::error::GpuError;
+use std::time::Instant;
+
+/// Where the numbers come from; serialized as results.json's `gpu_ms.source`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub enum TimingSource {
+    #[serde(rename = "timestamp")]
+    Timestamp,
+    #[serde(rename = "wall-clock")]
+    WallClock,
+}
+
+impl TimingSource {
+    pub fn name(self) -> &'static str {
+        match self {
+            TimingSource::Timestamp => "timestamp",
+            TimingSource::WallClock => "wall-clock",
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct PassTiming {
+    pub name: String,
+    pub ms: f64,
+}
+
+/// Timings of one frame.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct FrameTimings {
+    pub source: TimingSource,
+    /// Sum of the passes (GPU busy time; idle gaps such as CPU sorting are excluded).
+    pub total_ms: f64,
+    pub passes: Vec<PassTiming>,
+    /// Wall-clock from `begin_frame` to the end of `end_frame` (includes CPU work and waits).
+    pub wall_ms: f64,
+}
+
+/// Timestamp writes for one pass; `writes()` is `None` in wall-clock mode.
+#[derive(Debug, Clone)]
+pub struct PassTimestamps {
+    query_set: Option<wgpu::QuerySet>,
+    begin: u32,
+}
+
+impl PassTimestamps {
+    pub fn writes(&self) -> Option<wgpu::RenderPassTimestampWrites<'_>> {
+        self.query_set
+            .as_ref()
+            .map(|q| wgpu::RenderPassTimestampWrites {
+                query_set: q,
+                beginning_of_pass_write_index: Some(self.begin),
+                end_of_pass_write_index: Some(self.begin + 1),
+            })
+    }
+
+    pub fn compute_writes(&self) -> Option<wgpu::ComputePassTimestampWrites<'_>> {
+        self.query_set
+            .as_ref()
+            .map(|q| wgpu::ComputePassTimestampWrites {
+                query_set: q,
+                beginning_of_pass_write_index: Some(self.begin),
+                end_of_pass_write_index: Some(self.begin + 1),
+            })
+    }
+}
+
+/// Most passes one frame may time with timestamps (two queries each).
+pub const MAX_TIMED_PASSES: u32 = 512;
+
+#[derive(Debug)]
+struct Queries {
+    set: wgpu::QuerySet,
+    resolve: wgpu::Buffer,
+    readback: wgpu::Buffer,
+    period_ns: f64,
+}
+
+#[derive(Debug)]
+pub struct GpuTimer {
+    queries: Option<Queries>,
+    names: Vec<String>,
+    /// Wall-clock mode: passes begun since the last submit.
+    pending: Vec<String>,
+    wall: Vec<PassTiming>,
+    frame_start: Option<Instant>,
+}
+
+impl GpuTimer {
+    /// Timestamps when the device has `TIMESTAMP_QUERY`, wall-clock otherwise.
+    pub fn new(ctx: &Context) -> Self {
+        if ctx.caps.timestamps {
+            Self::with_timestamps(ctx)
+        } else {
+            Self::wall_clock()
+        }
+    }
+
+    /// Forces wall-clock timing (submit + wait per submission).
+    pub fn wall_clock() -> Self {
+        GpuTimer {
+            queries: None,
+            names: Vec::new(),
+            pending: Vec::new(),
+            wall: Vec::new(),
+            frame_start: None,
+        }
+    }
+
+    fn with_timestamps(ctx: &Context) -> Self {
+        let count = MAX_TIMED_PASSES * 2;
+        let bytes = u64::from(count) * 8;
+        let set = ctx.device.create_query_set(&wgpu::QuerySetDescriptor {
+            label: Some("pass timestamps"),
+            ty: wgpu::QueryType::Timestamp,
+            count,
+        });
+        let resolve = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("timestamp resolve"),
+            size: bytes,
+            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let readback = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("timestamp readback"),
+            size: bytes,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        });
+        let period_ns = f64::from(ctx.queue.get_timestamp_period());
+        GpuTimer {
+            queries: Some(Queries {
+                set,
+                resolve,
+                readback,
+                period_ns,
+            }),
+            ..Self::wall_clock()
+        }
+    }
+
+    pub fn source(&self) -> TimingSource {
+        if self.queries.is_some() {
+            TimingSource::Timestamp
+        } else {
+            TimingSource::WallClock
+        }
+    }
+
+    /// Starts a frame (forgets the previous frame's passes).
+    pub fn begin_frame(&mut self) {
+        self.names.clear();
+        self.pending.clear();
+        self.wall.clear();
+        self.frame_start = Some(Instant::now());
+    }
+
+    /// Registers a pass; put `writes()` into its descriptor.
+    pub fn pass(&mut self, name: &str) -> PassTimestamps {
+        match &self.queries {
+            Some(q) if (self.names.len() as u32) < MAX_TIMED_PASSES => {
+                let begin = self.names.len() as u32 * 2;
+                self.names.push(name.to_owned());
+                PassTimestamps {
+                    query_set: Some(q.set.clone()),
+                    begin,
+                }
+            }
+            Some(_) => {
+                // Over capacity: recorded as untimed so the frame still renders; end_frame
+                // reports the overflow as an error rather than a wrong total.
+                self.names.push(name.to_owned());
+                PassTimestamps {
+                    query_set: None,
+                    begin: 0,
+                }
+            }
+            None => {
+                self.pending.push(name.to_owned());
+                PassTimestamps {
+                    query_set: None,
+                    begin: 0,
+                }
+            }
+        }
+    }
+
+    /// Submits a technique's work. In wall-clock mode this waits for completion.
+    pub fn submit(&mut self, ctx: &Context, encoder: wgpu::CommandEncoder) -> Result<(), GpuError> {
+        if self.queries.is_some() {
+            ctx.queue.submit([encoder.finish()]);
+            return Ok(());
+        }
+        let commands = encoder.finish();
+        let t0 = Instant::now();
+        ctx.queue.submit([commands]);
+        ctx.wait()?;
+        let ms = t0.elapsed().as_secs_f64() * 1e3;
+        let name = if self.pending.is_empty() {
+            "(untimed work)".to_owned()
+        } else {
+            self.pending.join(" + ")
+        };
+        self.pending.clear();
+        self.wall.push(PassTiming { name, ms });
+        Ok(())
+    }
+
+    /// Resolves the frame's timings (waits for the GPU).
+    pub fn end_frame(&mut self, ctx: &Context) -> Result<FrameTimings, GpuError> {
+        let start = self.frame_start.take().unwrap_or_else(Instant::now);
+        let passes = match &self.queries {
+            None => {
+                ctx.wait()?;
+                std::mem::take(&mut self.wall)
+            }
+            Some(q) => {
+                let n = self.names.len() as u32;
+                if n > MAX_TIMED_PASSES {
+                    return Err(GpuError::TooLarge {
+                        what: "timed passes in one frame".into(),
+                        needed: u64::from(n),
+                        limit: u64::from(MAX_TIMED_PASSES),
+                    });
+                }
+                if n == 0 {
+                    ctx.wait()?;
+                    Vec::new()
+                } else {
+                    let mut enc = ctx.device.create_command_encoder(&Default::default());
+                    enc.resolve_query_set(&q.set, 0..n * 2, &q.resolve, 0);
+                    enc.copy_buffer_to_buffer(&q.resolve, 0, &q.readback, 0, u64::from(n) * 16);
+                    ctx.queue.submit([enc.finish()]);
+                    let bytes = crate::targets::map_read(ctx, &q.readback, "timestamps")?;
+                    let ticks: Vec<u64> = bytes
+                        .chunks_exact(8)
+                        .take(n as usize * 2)
+                        .map(|b| u64::from_le_bytes(b.try_into().unwrap_or([0; 8])))
+                        .collect();
+                    self.names
+                        .iter()
+                        .zip(ticks.chunks_exact(2))
+                        .map(|(name, t)| PassTiming {
+                            name: name.clone(),
+                            ms: t[1].saturating_sub(t[0]) as f64 * q.period_ns / 1e6,
+                        })
+                        .collect()
+                }
+            }
+        };
+        let total_ms = passes.iter().map(|p| p.ms).sum();
+        Ok(FrameTimings {
+            source: self.source(),
+            total_ms,
+            passes,
+            wall_ms: start.elapsed().as_secs_f64() * 1e3,
+        })
+    }
+}

@@ -1,0 +1,317 @@
+//! GPU tests (lavapipe in CI): context and capabilities, opaque pass against the reference,
+//! timing, and rasterization conformance against `Reference::fragments` on every bundled scene.
+
+use oit_gpu::testing::context_or_skip;
+use oit_gpu::{
+    Backend, Caps, ColorFormat, Context, ContextOptions, GpuError, GpuScene, GpuTimer, RenderStats,
+    Targets, Technique, TechniqueSpec, TimingSource, Unsupported,
+};
+use oit_scene::{Resolution, Scene};
+use std::path::{Path, PathBuf};
+
+const RES: Resolution = Resolution {
+    width: 128,
+    height: 128,
+};
+
+fn bundled_scenes() -> Vec<(PathBuf, Scene)> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+    let scenes = oit_scene::load_dir(&dir).expect("bundled scenes load");
+    assert!(!scenes.is_empty(), "no scenes in {}", dir.display());
+    scenes
+}
+
+fn scene_named(name: &str) -> Scene {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../../scenes/{name}.json"));
+    oit_scene::load(&path)
+        .expect("bundled scene")
+        .with_resolution(RES)
+}
+
+/// Draws nothing: the frame is the shared opaque pass alone.
+#[derive(Debug)]
+struct OpaqueOnly;
+
+impl Technique for OpaqueOnly {
+    fn spec(&self) -> TechniqueSpec {
+        TechniqueSpec {
+            name: "opaque-only".into(),
+            params: Default::default(),
+        }
+    }
+    fn check(&self, _: &Caps) -> Result<(), Unsupported> {
+        Ok(())
+    }
+    fn render(
+        &mut self,
+        _: &Context,
+        _: &GpuScene,
+        _: &Targets,
+        _: &mut GpuTimer,
+    ) -> Result<RenderStats, GpuError> {
+        Ok(RenderStats::default())
+    }
+    fn memory_bytes(&self) -> u64 {
+        0
+    }
+}
+
+#[test]
+fn context_reports_adapter_and_caps() {
+    let Some(ctx) = context_or_skip("context_reports_adapter_and_caps") else {
+        return;
+    };
+    let info = ctx.adapter_info();
+    println!(
+        "adapter: {}",
+        serde_json::to_string(&info).unwrap_or_default()
+    );
+    println!(
+        "caps: {}",
+        serde_json::to_string(&ctx.caps).unwrap_or_default()
+    );
+    assert!(!info.name.is_empty());
+    assert!(
+        ["vulkan", "gl", "metal", "dx12"].contains(&info.backend.as_str()),
+        "{}",
+        info.backend
+    );
+    // Every adapter renders and blends into the default target (WebGPU guarantees it).
+    let rgba16 = ctx.caps.format(wgpu::TextureFormat::Rgba16Float);
+    assert!(rgba16.renderable && rgba16.blendable, "{rgba16:?}");
+    assert_eq!(
+        ctx.caps.float32_blendable,
+        ctx.device
+            .features()
+            .contains(wgpu::Features::FLOAT32_BLENDABLE)
+    );
+    let rgba32 = ctx.caps.format(wgpu::TextureFormat::Rgba32Float);
+    assert_eq!(
+        rgba32.blendable,
+        ctx.caps.float32_blendable && rgba32.renderable
+    );
+    assert!(ctx.caps.max_texture_dimension_2d >= 2048);
+}
+
+#[test]
+fn gl_adapter_caps() {
+    let ctx = match Context::new(&ContextOptions {
+        backend: Backend::Gl,
+        adapter: None,
+    }) {
+        Ok(c) => c,
+        Err(e) => {
+            println!("skipped gl_adapter_caps: no GL adapter here: {e}");
+            return;
+        }
+    };
+    let info = ctx.adapter_info();
+    println!(
+        "GL adapter: {}",
+        serde_json::to_string(&info).unwrap_or_default()
+    );
+    println!(
+        "GL caps: {}",
+        serde_json::to_string(&ctx.caps).unwrap_or_default()
+    );
+    assert_eq!(info.backend, "gl");
+    if info.name.to_lowercase().contains("llvmpipe") {
+        // Mesa's llvmpipe GL driver does not render RG32F; Caps must say so.
+        let rg32 = ctx.caps.format(wgpu::TextureFormat::Rg32Float);
+        assert!(
+            !rg32.renderable,
+            "llvmpipe GL reported Rg32Float renderable: {rg32:?}"
+        );
+        let e = ctx
+            .caps
+            .require_target(wgpu::TextureFormat::Rg32Float, false)
+            .unwrap_err();
+        assert!(e.to_string().contains("Rg32Float"), "{e}");
+    }
+}
+
+#[test]
+fn adapter_filter_errors_list_available_adapters() {
+    if context_or_skip("adapter_filter_errors_list_available_adapters").is_none() {
+        return;
+    }
+    let e = Context::new(&ContextOptions {
+        backend: Backend::Auto,
+        adapter: Some("no-such-gpu-xyz".into()),
+    })
+    .unwrap_err();
+    let msg = e.to_string();
+    assert!(
+        matches!(e, GpuError::AdapterNotMatched { .. }) && msg.contains("available"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn opaque_pass_matches_reference() {
+    let Some(ctx) = context_or_skip("opaque_pass_matches_reference") else {
+        return;
+    };
+    for name in ["opaque-interleaved", "foliage-cards", "sorted-quads"] {
+        let full = scene_named(name);
+        let keep: Vec<usize> = (0..full.draws.len())
+            .filter(|&i| !full.material_of(&full.draws[i]).mode.is_transparent())
+            .collect();
+        let scene = Scene {
+            draws: keep.iter().map(|&i| full.draws[i].clone()).collect(),
+            ..full.clone()
+        };
+        let reference = oit_reference::render(&scene, &Default::default());
+        let gpu = GpuScene::upload(&ctx, &scene).expect("upload");
+        for format in [ColorFormat::Rgba16Float, ColorFormat::Rgba32Float] {
+            let targets = match Targets::new(&ctx, RES, format) {
+                Ok(t) => t,
+                Err(e) => {
+                    println!("{name}: {format:?} skipped: {e}");
+                    continue;
+                }
+            };
+            let mut timer = GpuTimer::new(&ctx);
+            oit_gpu::render_frame(&ctx, &gpu, &mut OpaqueOnly, &targets, &mut timer)
+                .expect("frame");
+            let image = oit_gpu::read_color(&ctx, &targets).expect("readback");
+            let max = max_abs_rgb(&image.pixels, &reference.image.pixels);
+            println!("{name} opaque only, {format:?}: max abs error {max:e}");
+            // Rgba16Float rounds to 11 significant bits; colour interpolation differs in the last
+            // f32 bits at most.
+            let tol = if format == ColorFormat::Rgba16Float {
+                2e-3
+            } else {
+                1e-4
+            };
+            assert!(max <= tol, "{name} {format:?}: max abs error {max} > {tol}");
+        }
+    }
+}
+
+fn max_abs_rgb(a: &[[f32; 4]], b: &[[f32; 4]]) -> f32 {
+    assert_eq!(a.len(), b.len());
+    a.iter()
+        .zip(b)
+        .flat_map(|(p, q)| (0..3).map(move |c| (p[c] - q[c]).abs()))
+        .fold(0.0, f32::max)
+}
+
+#[test]
+fn timer_reports_the_opaque_pass() {
+    let Some(ctx) = context_or_skip("timer_reports_the_opaque_pass") else {
+        return;
+    };
+    let scene = scene_named("sorted-quads");
+    let gpu = GpuScene::upload(&ctx, &scene).expect("upload");
+    let targets = Targets::new(&ctx, RES, ColorFormat::Rgba16Float).expect("targets");
+    println!("timestamps supported: {}", ctx.caps.timestamps);
+    for mut timer in [GpuTimer::new(&ctx), GpuTimer::wall_clock()] {
+        let r = oit_gpu::render_frame(&ctx, &gpu, &mut OpaqueOnly, &targets, &mut timer)
+            .expect("frame");
+        println!("{:?}", r.timings);
+        assert_eq!(r.timings.passes.len(), 1);
+        assert_eq!(r.timings.passes[0].name, "opaque");
+        assert!(r.timings.total_ms.is_finite() && r.timings.total_ms >= 0.0);
+        assert!(
+            r.timings.wall_ms >= r.timings.total_ms || r.timings.source == TimingSource::Timestamp
+        );
+        let json = serde_json::to_value(r.timings.source).unwrap_or_default();
+        assert!(json == "timestamp" || json == "wall-clock", "{json}");
+    }
+    assert_eq!(GpuTimer::wall_clock().source(), TimingSource::WallClock);
+}
+
+#[test]
+fn mismatched_targets_are_an_error() {
+    let Some(ctx) = context_or_skip("mismatched_targets_are_an_error") else {
+        return;
+    };
+    let gpu = GpuScene::upload(&ctx, &scene_named("sorted-quads")).expect("upload");
+    let targets = Targets::new(
+        &ctx,
+        Resolution {
+            width: 64,
+            height: 32,
+        },
+        ColorFormat::Rgba16Float,
+    )
+    .expect("t");
+    let e = oit_gpu::render_frame(
+        &ctx,
+        &gpu,
+        &mut OpaqueOnly,
+        &targets,
+        &mut GpuTimer::new(&ctx),
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("64x32"), "{e}");
+}
+
+/// True when some triangle straddles the near or far plane (0 ≤ z ≤ w in clip space) and so is
+/// clipped into new vertices.
+fn needs_depth_clipping(scene: &Scene) -> bool {
+    scene.draws.iter().any(|d| {
+        scene.vertices[d.vertex_range()].chunks_exact(3).any(|t| {
+            let inside: Vec<bool> = t
+                .iter()
+                .map(|v| {
+                    let c = scene.camera.clip(glam::Vec3::from(v.position));
+                    c.z >= 0.0 && c.z <= c.w
+                })
+                .collect();
+            inside.iter().any(|&i| i) && inside.iter().any(|&i| !i)
+        })
+    })
+}
+
+#[test]
+fn fragment_counts_match_the_reference_on_every_bundled_scene() {
+    let Some(ctx) = context_or_skip("fragment_counts_match_the_reference_on_every_bundled_scene")
+    else {
+        return;
+    };
+    let mut failures = Vec::new();
+    for (path, scene) in bundled_scenes() {
+        let scene = scene.with_resolution(RES);
+        let reference = oit_reference::render(&scene, &Default::default());
+        let gpu = GpuScene::upload(&ctx, &scene).expect("upload");
+        let counts = oit_gpu::count_fragments(&ctx, &gpu).expect("count");
+        let mismatched = counts
+            .iter()
+            .zip(&reference.fragments)
+            .filter(|(a, b)| a != b)
+            .count();
+        let total: u64 = counts.iter().map(|&c| u64::from(c)).sum();
+        let clipped = needs_depth_clipping(&scene);
+        let name = path
+            .file_stem()
+            .unwrap_or_default()
+            .to_string_lossy()
+            .into_owned();
+        println!(
+            "conformance {name}: {mismatched} of {} pixels differ ({total} GPU fragments, {} reference; depth clipping: {clipped})",
+            counts.len(),
+            reference.stats.fragments
+        );
+        if let Some((i, (g, r))) = counts
+            .iter()
+            .zip(&reference.fragments)
+            .enumerate()
+            .find(|(_, (a, b))| a != b)
+        {
+            println!(
+                "  first at x={} y={}: GPU {g}, reference {r}",
+                i % RES.width as usize,
+                i / RES.width as usize
+            );
+        }
+        let allowed = if clipped { counts.len() / 10_000 } else { 0 };
+        if mismatched > allowed {
+            failures.push(format!(
+                "{name}: {mismatched} pixels differ (allowed {allowed})"
+            ));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}

@@ -1,0 +1,97 @@
+// Shared scene module: bindings, the vertex stage and the fragment colour rule.
+//
+// Included by every scene pass with the line `#include "common.wgsl"` (see
+// `oit_gpu::shaders::compose`). `shade` must stay line-comparable to `Material::shade` in
+// crates/oit-scene/src/scene.rs: the GPU and the CPU reference evaluate the same f32 products
+// in the same order.
+
+struct Camera {
+    // Column-major, exactly `scene.camera.view_proj`.
+    view_proj: mat4x4<f32>,
+}
+
+// One entry per `Scene::materials` element (48 bytes, see `oit_gpu::scene::GpuMaterial`).
+struct Material {
+    // rgb = base colour (linear), a = alpha.
+    base_alpha: vec4<f32>,
+    // 0 opaque, 1 mask, 2 blend, 3 mask-blend.
+    mode: u32,
+    cutoff: f32,
+    premultiplied: u32,
+    intensity: f32,
+    double_sided: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
+}
+
+const MODE_OPAQUE: u32 = 0u;
+const MODE_MASK: u32 = 1u;
+const MODE_BLEND: u32 = 2u;
+const MODE_MASK_BLEND: u32 = 3u;
+
+@group(0) @binding(0) var<uniform> camera: Camera;
+@group(0) @binding(1) var<storage, read> materials: array<Material>;
+
+struct VertexIn {
+    @location(0) position: vec3<f32>,
+    @location(1) material: u32,
+    @location(2) color: vec4<f32>,
+}
+
+struct VertexOut {
+    // Invariant so that a depth-only pass and an EQUAL-depth pass produce identical depths.
+    @invariant @builtin(position) clip: vec4<f32>,
+    @location(0) color: vec4<f32>,
+    @location(1) @interpolate(flat) material: u32,
+}
+
+@vertex
+fn vs_main(v: VertexIn) -> VertexOut {
+    var out: VertexOut;
+    out.clip = camera.view_proj * vec4<f32>(v.position, 1.0);
+    out.color = v.color;
+    out.material = v.material;
+    return out;
+}
+
+// What a fragment contributes (the WGSL twin of `oit_scene::Shaded`).
+struct Shaded {
+    // False when the fragment is discarded (mask cutoff, or a culled back face).
+    keep: bool,
+    // Opaque modes: straight colour. Transparent modes: premultiplied colour C = α·c.
+    color: vec3<f32>,
+    // Coverage α (1 for opaque modes).
+    alpha: f32,
+}
+
+fn is_transparent(mode: u32) -> bool {
+    return mode == MODE_BLEND || mode == MODE_MASK_BLEND;
+}
+
+fn uses_cutoff(mode: u32) -> bool {
+    return mode == MODE_MASK || mode == MODE_MASK_BLEND;
+}
+
+// `Material::shade`, plus back-face culling for single-sided materials. Pipelines also cull in
+// fixed function; the test here makes passes with culling disabled (one pipeline for a globally
+// sorted triangle stream) obey the same rule.
+fn shade(v: VertexOut, front_facing: bool) -> Shaded {
+    let m = materials[v.material];
+    let c = v.color.rgb * m.base_alpha.rgb * m.intensity;
+    let alpha = v.color.a * m.base_alpha.a;
+    var s: Shaded;
+    s.keep = (front_facing || m.double_sided != 0u) && !(uses_cutoff(m.mode) && alpha < m.cutoff);
+    if is_transparent(m.mode) {
+        if m.premultiplied != 0u {
+            s.color = c;
+        } else {
+            s.color = alpha * c;
+        }
+        s.alpha = alpha;
+    } else {
+        s.color = c;
+        s.alpha = 1.0;
+    }
+    return s;
+}
