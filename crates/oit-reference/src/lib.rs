@@ -178,7 +178,7 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
     // Setup, in (draw.id, triangle index) order: the index into `triangles` order is the
     // tie-break order, independent of the draw list's order.
     let mut by_id: Vec<usize> = (0..scene.draws.len()).collect();
-    //MUT by_id.sort_by_key(|&i| scene.draws[i].id);
+    by_id.sort_by_key(|&i| scene.draws[i].id);
     let mut first_rank = Vec::with_capacity(by_id.len() + 1);
     let mut total: u64 = 0;
     for &i in &by_id {
