@@ -49,15 +49,20 @@ fn srgb_oetf_spot_values() {
 
 #[test]
 fn srgb_oetf_is_continuous_at_the_boundary() {
-    let below = srgb_oetf(0.003_130_8);
-    let power_branch = 1.055 * 0.003_130_8f64.powf(1.0 / 2.4) - 0.055;
-    assert!((f64::from(below) - 0.040_449_936).abs() < 1e-8, "{below}");
+    // At 0.0031308 the linear branch gives 0.040449936 and the power branch 0.040449907:
+    // f32(0.0031308) lies just above the threshold, so either is acceptable within 5e-8.
+    let at = f64::from(srgb_oetf(0.003_130_8));
+    assert!((at - 0.040_449_92).abs() < 5e-8, "{at}");
+    // Just below is the linear branch, exactly 12.92·x (up to f32 rounding).
+    let below = f64::from(srgb_oetf(0.003_13));
     assert!(
-        (f64::from(below) - power_branch).abs() < 1e-6,
-        "{below} vs {power_branch}"
+        (below - 12.92 * f64::from(0.003_13f32)).abs() < 1e-8,
+        "{below}"
     );
-    let above = srgb_oetf(0.003_131);
-    assert!(above > below && above < 0.040_46, "{above}");
+    // Just above is the power branch: 1.055·0.003132^(1/2.4) − 0.055 = 0.0404651.
+    let above = f64::from(srgb_oetf(0.003_132));
+    assert!((above - 0.040_465_15).abs() < 1e-7, "{above}");
+    assert!(below < at && at < above);
     assert_eq!(encode_srgb8(0.003_130_8), 10);
 }
 
