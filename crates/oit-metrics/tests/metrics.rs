@@ -346,3 +346,41 @@ fn errors_serialize_with_the_results_schema_names() {
     let back: Errors = serde_json::from_value(value).unwrap();
     assert_eq!(back, e);
 }
+
+#[test]
+fn degenerate_shapes_do_not_trip_flip() {
+    for (w, h) in [(1, 1), (1, 9), (9, 1), (2, 3)] {
+        let reference = LinearImage::new(w, h, [0.25, 0.5, 1.0, 1.0]);
+        let render = offset(&reference, 0.5);
+        let e = compare(&render, &reference).unwrap();
+        assert!((e.max_abs - 0.5).abs() < 1e-7, "{w}x{h}: {e:?}");
+        assert!(e.flip_mean > 0.0 && e.flip_mean <= 1.0, "{w}x{h}: {e:?}");
+        assert_eq!(compare(&reference, &reference).unwrap().flip_mean, 0.0);
+    }
+}
+
+#[test]
+fn compare_gives_the_same_answer_on_many_threads() {
+    // The harness may compare runs in parallel; FLIP is C++ underneath, so check it has no
+    // shared state that leaks between calls.
+    let reference = pattern(96, 64);
+    let renders: Vec<LinearImage> = (1..=4)
+        .map(|k| offset(&reference, k as f32 * 0.03125))
+        .collect();
+    let sequential: Vec<Errors> = renders
+        .iter()
+        .map(|r| compare(r, &reference).unwrap())
+        .collect();
+    let parallel: Vec<Errors> = std::thread::scope(|s| {
+        let handles: Vec<_> = renders
+            .iter()
+            .map(|r| s.spawn(|| compare(r, &reference).unwrap()))
+            .collect();
+        handles.into_iter().map(|h| h.join().unwrap()).collect()
+    });
+    assert_eq!(sequential, parallel);
+    // Larger offsets score strictly higher FLIP.
+    for pair in sequential.windows(2) {
+        assert!(pair[1].flip_mean > pair[0].flip_mean, "{pair:?}");
+    }
+}
