@@ -61,8 +61,10 @@
 //! [0, 1], so the five decades 1e-4, 1e-3, 1e-2, 1e-1, 1 sit at t = 0, ¼, ½, ¾, 1. Colours run
 //! near-black violet (≤ 1e-4, including exact 0) → purple (1e-3) → red-pink (1e-2) → orange
 //! (1e-1) → pale yellow (≥ 1); lightness rises strictly with `t`. Non-finite pixels are cyan
-//! ([`NONFINITE_SRGB8`]), which the map never produces. The map is defined by a formula in
-//! Oklab (see [`error_color`]), not a lookup table.
+//! ([`NONFINITE_SRGB8`]), which the map never produces. The map is a formula in OkLCh
+//! (Ottosson's Oklab in polar form), not a copied table: `L = 0.15 + 0.80·t`,
+//! `C = 0.02 + 0.15·sin(π·t)`, `h = 290° + 170°·t`, with chroma scaled down until the colour fits
+//! in sRGB (which keeps `L`), then the sRGB OETF; it is sampled once into 4096 entries.
 //!
 //! # Files
 //!
