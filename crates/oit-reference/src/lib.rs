@@ -62,7 +62,10 @@ pub struct ReferenceOptions {
 
 impl Default for ReferenceOptions {
     fn default() -> Self {
-        Self { tile_size: Self::DEFAULT_TILE_SIZE, progress: None }
+        Self {
+            tile_size: Self::DEFAULT_TILE_SIZE,
+            progress: None,
+        }
     }
 }
 
@@ -147,11 +150,20 @@ pub enum ReferenceError {
     #[error("tile_size {0}: must be in 1..={max}", max = ReferenceOptions::MAX_TILE_SIZE)]
     TileSize(u32),
     #[error("draw `{draw}`: material {material} does not exist (the scene has {count})")]
-    Material { draw: String, material: u32, count: usize },
+    Material {
+        draw: String,
+        material: u32,
+        count: usize,
+    },
     #[error(
         "draw `{draw}`: vertices {first}..{first}+{count} must be a multiple of 3 within the {total} scene vertices"
     )]
-    VertexRange { draw: String, first: u32, count: u32, total: usize },
+    VertexRange {
+        draw: String,
+        first: u32,
+        count: u32,
+        total: usize,
+    },
     #[error("{0} triangles: at most {max} are supported", max = u32::MAX)]
     TooManyTriangles(u64),
 }
@@ -222,7 +234,10 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
     let tile_count = tiles_x * tiles_y;
     let tile_range = |t: &SetupTriangle| {
         let [x0, y0, x1, y1] = t.bbox;
-        ((x0 / tile) as usize..=(x1 / tile) as usize, (y0 / tile) as usize..=(y1 / tile) as usize)
+        (
+            (x0 / tile) as usize..=(x1 / tile) as usize,
+            (y0 / tile) as usize..=(y1 / tile) as usize,
+        )
     };
     let mut bin_start = vec![0u32; tile_count + 1];
     for t in &triangles {
@@ -312,7 +327,11 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
         mean_depth_complexity_all: stats.composited_fragments as f64 / pixels,
         covered_pixels: stats.covered_pixels,
         seconds,
-        fragments_per_second: if seconds > 0.0 { stats.fragments as f64 / seconds } else { 0.0 },
+        fragments_per_second: if seconds > 0.0 {
+            stats.fragments as f64 / seconds
+        } else {
+            0.0
+        },
         setup_seconds: (setup_done - start).as_secs_f64(),
         binning_seconds: (binning_done - setup_done).as_secs_f64(),
         raster_seconds: stats.raster.as_secs_f64(),
@@ -323,14 +342,23 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
         tiles: tile_count as u64,
         threads: rayon::current_num_threads(),
     };
-    Ok(Reference { image, layers, fragments, stats })
+    Ok(Reference {
+        image,
+        layers,
+        fragments,
+        stats,
+    })
 }
 
 fn validate(scene: &Scene, options: &ReferenceOptions) -> Result<(), ReferenceError> {
     let r = scene.resolution;
     let max = oit_scene::Resolution::MAX_DIMENSION;
     if r.width == 0 || r.height == 0 || r.width > max || r.height > max {
-        return Err(ReferenceError::Resolution { width: r.width, height: r.height, max });
+        return Err(ReferenceError::Resolution {
+            width: r.width,
+            height: r.height,
+            max,
+        });
     }
     if options.tile_size == 0 || options.tile_size > ReferenceOptions::MAX_TILE_SIZE {
         return Err(ReferenceError::TileSize(options.tile_size));

@@ -40,13 +40,12 @@ pub(crate) struct Scratch {
 }
 
 /// Bytes of per-pixel state a tile keeps besides its fragment lists.
-pub(crate) const PER_PIXEL_BYTES: u64 = (size_of::<u64>()
-    + size_of::<[f32; 3]>()
-    + size_of::<u32>()
-    + size_of::<u32>()) as u64;
+pub(crate) const PER_PIXEL_BYTES: u64 =
+    (size_of::<u64>() + size_of::<[f32; 3]>() + size_of::<u32>() + size_of::<u32>()) as u64;
 
 /// Bytes of storage per stored (transparent, unoccluded) fragment: raw plus sorted copy.
-pub(crate) const PER_FRAGMENT_BYTES: u64 = (size_of::<RawFragment>() + size_of::<Fragment>()) as u64;
+pub(crate) const PER_FRAGMENT_BYTES: u64 =
+    (size_of::<RawFragment>() + size_of::<Fragment>()) as u64;
 
 /// Statistics of one tile or band, summed.
 #[derive(Debug, Default, Clone, Copy)]
@@ -82,7 +81,11 @@ impl TileStats {
 pub(crate) fn depth_key(depth: f32, reverse_z: bool) -> u32 {
     let bits = depth.to_bits();
     // Order-preserving map from f32 to u32 (negative values flipped entirely).
-    let ordered = if bits & 0x8000_0000 != 0 { !bits } else { bits | 0x8000_0000 };
+    let ordered = if bits & 0x8000_0000 != 0 {
+        !bits
+    } else {
+        bits | 0x8000_0000
+    };
     // Reverse-Z: larger depth is nearer, so invert to put it first.
     if reverse_z { !ordered } else { ordered }
 }
@@ -181,18 +184,28 @@ fn raster_triangle(tri: &SetupTriangle, tile: TileRect, mut f: impl FnMut(usize,
 #[inline(always)]
 fn interpolate(tri: &SetupTriangle, edges: Edges) -> (f32, Shaded) {
     let area = tri.area2 as f64;
-    let l = [edges.e[0] as f64 / area, edges.e[1] as f64 / area, edges.e[2] as f64 / area];
+    let l = [
+        edges.e[0] as f64 / area,
+        edges.e[1] as f64 / area,
+        edges.e[2] as f64 / area,
+    ];
     let z = l[0] * f64::from(tri.z[0]) + l[1] * f64::from(tri.z[1]) + l[2] * f64::from(tri.z[2]);
     // The viewport depth range is [0, 1]; the GPU clamps fragment depth to it.
     let depth = (z as f32).clamp(0.0, 1.0);
     let shaded = match tri.constant {
         Some(s) => s,
         None => {
-            let pw = [l[0] * tri.inv_w[0], l[1] * tri.inv_w[1], l[2] * tri.inv_w[2]];
+            let pw = [
+                l[0] * tri.inv_w[0],
+                l[1] * tri.inv_w[1],
+                l[2] * tri.inv_w[2],
+            ];
             let sum = pw[0] + pw[1] + pw[2];
             let c = &tri.color;
             let rgba: [f32; 4] = std::array::from_fn(|k| {
-                ((pw[0] * f64::from(c[0][k]) + pw[1] * f64::from(c[1][k]) + pw[2] * f64::from(c[2][k]))
+                ((pw[0] * f64::from(c[0][k])
+                    + pw[1] * f64::from(c[1][k])
+                    + pw[2] * f64::from(c[2][k]))
                     / sum) as f32
             });
             tri.material.shade(rgba)
@@ -245,7 +258,9 @@ pub(crate) fn render_tile(
         }
         raster_triangle(tri, tile, |p, edges| {
             let (depth, shaded) = interpolate(tri, edges);
-            let Shaded::Opaque(color) = shaded else { return };
+            let Shaded::Opaque(color) = shaded else {
+                return;
+            };
             s.all_count[p] += 1;
             let key = opaque_key(depth_key(depth, reverse_z), tri.key);
             if key < s.opaque_key[p] {
@@ -261,7 +276,13 @@ pub(crate) fn render_tile(
         }
         raster_triangle(tri, tile, |p, edges| {
             let (depth, shaded) = interpolate(tri, edges);
-            let Shaded::Transparent { premultiplied, alpha } = shaded else { return };
+            let Shaded::Transparent {
+                premultiplied,
+                alpha,
+            } = shaded
+            else {
+                return;
+            };
             s.all_count[p] += 1;
             stats.transparent_fragments += 1;
             let dkey = depth_key(depth, reverse_z);
@@ -293,8 +314,11 @@ pub(crate) fn render_tile(
     s.cursor.extend_from_slice(&s.offsets[..n]);
     for f in &s.raw {
         let slot = &mut s.cursor[f.pixel as usize];
-        s.sorted[*slot as usize] =
-            Fragment { key: f.key, premultiplied: f.premultiplied, alpha: f.alpha };
+        s.sorted[*slot as usize] = Fragment {
+            key: f.key,
+            premultiplied: f.premultiplied,
+            alpha: f.alpha,
+        };
         *slot += 1;
     }
     for p in 0..n {
@@ -311,7 +335,8 @@ pub(crate) fn render_tile(
             s.opaque_color[p].map(f64::from)
         };
         let rgb = composite_iter(
-            list.iter().map(|f| (f.premultiplied.map(f64::from), f64::from(f.alpha))),
+            list.iter()
+                .map(|f| (f.premultiplied.map(f64::from), f64::from(f.alpha))),
             base,
         );
         let (tx, ty) = (p % tile.width as usize, p / tile.width as usize);

@@ -73,7 +73,12 @@ struct Polygon {
 /// The clip planes as signed distances (inside when >= 0). Near and far are `z >= 0` and
 /// `z <= w` both for standard and for reverse-Z: reverse-Z only swaps which one is "near".
 fn plane_distance(plane: usize, p: Vec4, guard: [f32; 2]) -> f64 {
-    let (x, y, z, w) = (f64::from(p.x), f64::from(p.y), f64::from(p.z), f64::from(p.w));
+    let (x, y, z, w) = (
+        f64::from(p.x),
+        f64::from(p.y),
+        f64::from(p.z),
+        f64::from(p.w),
+    );
     let gx = f64::from(guard[0]);
     let gy = f64::from(guard[1]);
     match plane {
@@ -104,15 +109,18 @@ fn intersect(inside: ClipVertex, outside: ClipVertex, d_in: f64, d_out: f64) -> 
 
 /// Sutherland–Hodgman against the six planes; only called when some vertex is outside one.
 fn clip_polygon(tri: [ClipVertex; 3], guard: [f32; 2]) -> Polygon {
-    let mut poly = Polygon { v: [tri[0]; MAX_POLY], n: 3 };
+    let mut poly = Polygon {
+        v: [tri[0]; MAX_POLY],
+        n: 3,
+    };
     poly.v[1] = tri[1];
     poly.v[2] = tri[2];
     for plane in 0..6 {
         let mut d = [0.0f64; MAX_POLY];
         let mut any_out = false;
-        for i in 0..poly.n {
-            d[i] = plane_distance(plane, poly.v[i].p, guard);
-            any_out |= d[i] < 0.0;
+        for (di, v) in d.iter_mut().zip(&poly.v[..poly.n]) {
+            *di = plane_distance(plane, v.p, guard);
+            any_out |= *di < 0.0;
         }
         if !any_out {
             continue;
@@ -127,7 +135,11 @@ fn clip_polygon(tri: [ClipVertex; 3], guard: [f32; 2]) -> Polygon {
                 out.n += 1;
             }
             if (da >= 0.0) != (db >= 0.0) {
-                out.v[out.n] = if da >= 0.0 { intersect(a, b, da, db) } else { intersect(b, a, db, da) };
+                out.v[out.n] = if da >= 0.0 {
+                    intersect(a, b, da, db)
+                } else {
+                    intersect(b, a, db, da)
+                };
                 out.n += 1;
             }
         }
@@ -155,7 +167,8 @@ struct WindowVertex {
 /// 1/256 pixel, rounding to nearest (ties to even). Returns None when w <= 0 (never divided).
 fn to_window(v: ClipVertex, width: u32, height: u32) -> Option<WindowVertex> {
     let p = v.p;
-    if !(p.w > 0.0) {
+    // Written so that NaN is rejected too (it never gets here: setup drops non-finite input).
+    if p.w.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
         return None;
     }
     let (xd, yd, zd) = (p.x / p.w, p.y / p.w, p.z / p.w);
@@ -163,7 +176,8 @@ fn to_window(v: ClipVertex, width: u32, height: u32) -> Option<WindowVertex> {
     let half_h = height as f32 * 0.5;
     let xf = half_w * xd + half_w;
     let yf = -half_h * yd + half_h;
-    let snap = |f: f32| ((f * ONE as f32).round_ties_even() as i64).clamp(-COORD_LIMIT, COORD_LIMIT);
+    let snap =
+        |f: f32| ((f * ONE as f32).round_ties_even() as i64).clamp(-COORD_LIMIT, COORD_LIMIT);
     Some(WindowVertex {
         x: snap(xf),
         y: snap(yf),
@@ -197,20 +211,30 @@ pub(crate) fn setup_triangle(
     out: &mut Vec<SetupTriangle>,
 ) {
     let (width, height) = (scene.resolution.width, scene.resolution.height);
-    let tri: [ClipVertex; 3] = std::array::from_fn(|i| ClipVertex { p: clip[i].0, color: clip[i].1 });
+    let tri: [ClipVertex; 3] = std::array::from_fn(|i| ClipVertex {
+        p: clip[i].0,
+        color: clip[i].1,
+    });
     // A non-finite position cannot be rasterized meaningfully; the loader rejects them, a
     // hand-built scene simply loses the triangle.
-    if tri.iter().any(|v| !v.p.is_finite() || v.color.iter().any(|c| !c.is_finite())) {
+    if tri
+        .iter()
+        .any(|v| !v.p.is_finite() || v.color.iter().any(|c| !c.is_finite()))
+    {
         return;
     }
     let guard = [
         2.0 * GUARD_BAND_PIXELS / width as f32,
         2.0 * GUARD_BAND_PIXELS / height as f32,
     ];
-    let all_inside =
-        tri.iter().all(|v| (0..6).all(|plane| plane_distance(plane, v.p, guard) >= 0.0));
+    let all_inside = tri
+        .iter()
+        .all(|v| (0..6).all(|plane| plane_distance(plane, v.p, guard) >= 0.0));
     let poly = if all_inside {
-        let mut p = Polygon { v: [tri[0]; MAX_POLY], n: 3 };
+        let mut p = Polygon {
+            v: [tri[0]; MAX_POLY],
+            n: 3,
+        };
         p.v[1] = tri[1];
         p.v[2] = tri[2];
         p
@@ -220,17 +244,24 @@ pub(crate) fn setup_triangle(
     if poly.n < 3 {
         return;
     }
-    let mut win = [WindowVertex { x: 0, y: 0, z: 0.0, inv_w: 0.0, color: [0.0; 4] }; MAX_POLY];
-    for i in 0..poly.n {
-        match to_window(poly.v[i], width, height) {
-            Some(w) => win[i] = w,
+    let mut win = [WindowVertex {
+        x: 0,
+        y: 0,
+        z: 0.0,
+        inv_w: 0.0,
+        color: [0.0; 4],
+    }; MAX_POLY];
+    for (w, v) in win.iter_mut().zip(&poly.v[..poly.n]) {
+        match to_window(*v, width, height) {
+            Some(wv) => *w = wv,
             None => return,
         }
     }
     // Facing is a property of the whole (clipped) polygon; fan pieces whose snapped area has
     // the other sign are snapping slivers and are dropped.
-    let total: i128 =
-        (1..poly.n - 1).map(|i| i128::from(signed_area2(&win[0], &win[i], &win[i + 1]))).sum();
+    let total: i128 = (1..poly.n - 1)
+        .map(|i| i128::from(signed_area2(&win[0], &win[i], &win[i + 1])))
+        .sum();
     if total == 0 {
         return;
     }
@@ -254,13 +285,15 @@ pub(crate) fn setup_triangle(
         let max_x = v.iter().map(|v| v.x).max().unwrap_or(0);
         let min_y = v.iter().map(|v| v.y).min().unwrap_or(0);
         let max_y = v.iter().map(|v| v.y).max().unwrap_or(0);
-        let (Some((x0, x1)), Some((y0, y1))) =
-            (pixel_span(min_x, max_x, width), pixel_span(min_y, max_y, height))
-        else {
+        let (Some((x0, x1)), Some((y0, y1))) = (
+            pixel_span(min_x, max_x, width),
+            pixel_span(min_y, max_y, height),
+        ) else {
             continue;
         };
         let color = [a.color, b.color, c.color];
-        let constant = (color[0] == color[1] && color[0] == color[2]).then(|| material.shade(color[0]));
+        let constant =
+            (color[0] == color[1] && color[0] == color[2]).then(|| material.shade(color[0]));
         out.push(SetupTriangle {
             x: [a.x, b.x, c.x],
             y: [a.y, b.y, c.y],

@@ -19,7 +19,9 @@ fn camera(reverse_z: bool) -> Camera {
         Vec3::ZERO,
         Vec3::new(0.0, 0.0, -1.0),
         Vec3::Y,
-        Projection::Perspective { fov_y_degrees: 90.0 },
+        Projection::Perspective {
+            fov_y_degrees: 90.0,
+        },
         NEAR,
         FAR,
         reverse_z,
@@ -31,7 +33,9 @@ fn camera(reverse_z: bool) -> Camera {
 /// the far plane), as a grid of quads so that clipped shared edges are exercised.
 fn floor_scene(reverse_z: bool) -> Scene {
     let xs = [-1.0f32, -0.37, 0.0, 0.52, 1.0];
-    let zs = [5.0f32, 1.0, -0.5, -1.7, -2.3, -4.0, -9.0, -30.0, -49.0, -60.0, -200.0];
+    let zs = [
+        5.0f32, 1.0, -0.5, -1.7, -2.3, -4.0, -9.0, -30.0, -49.0, -60.0, -200.0,
+    ];
     let mut b = SceneBuilder::new(SIZE, SIZE).camera(camera(reverse_z));
     for z in zs.windows(2) {
         for x in xs.windows(2) {
@@ -70,7 +74,11 @@ fn floor_crossing_near_and_far_renders_exactly_its_visible_part() {
                     .min((xn.abs() + yn).abs() / 2f64.sqrt());
                 let hits = r.fragments[(y * SIZE + x) as usize];
                 if dist > margin {
-                    assert_eq!(hits, u32::from(inside), "reverse_z={reverse_z} pixel ({x},{y})");
+                    assert_eq!(
+                        hits,
+                        u32::from(inside),
+                        "reverse_z={reverse_z} pixel ({x},{y})"
+                    );
                     covered += u32::from(inside);
                 } else {
                     assert!(hits <= 1, "pixel ({x},{y}) on the outline hit {hits} times");
@@ -88,15 +96,33 @@ fn nothing_behind_the_camera_renders() {
     let mut b = SceneBuilder::new(SIZE, SIZE).camera(camera(true));
     // Entirely behind (z > 0), huge, both windings: a naive divide by negative w would flip it
     // onto the screen.
-    let t = [Vec3::new(-50.0, -50.0, 3.0), Vec3::new(50.0, -50.0, 3.0), Vec3::new(0.0, 50.0, 1.0)];
+    let t = [
+        Vec3::new(-50.0, -50.0, 3.0),
+        Vec3::new(50.0, -50.0, 3.0),
+        Vec3::new(0.0, 50.0, 1.0),
+    ];
     b.triangles(double_sided(blend([1.0; 3], 0.5)), &[t], white());
     // Touching the eye plane (w = 0 at one vertex), otherwise behind.
-    let e = [Vec3::ZERO, Vec3::new(1.0, 0.0, 1.0), Vec3::new(0.0, 1.0, 1.0)];
+    let e = [
+        Vec3::ZERO,
+        Vec3::new(1.0, 0.0, 1.0),
+        Vec3::new(0.0, 1.0, 1.0),
+    ];
     b.triangles(double_sided(opaque([1.0; 3])), &[e], white());
     // Between the eye and the near plane: clipped away by near.
-    let n = [Vec3::new(-9.0, -9.0, -1.0), Vec3::new(9.0, -9.0, -1.0), Vec3::new(0.0, 9.0, -1.5)];
+    let n = [
+        Vec3::new(-9.0, -9.0, -1.0),
+        Vec3::new(9.0, -9.0, -1.0),
+        Vec3::new(0.0, 9.0, -1.5),
+    ];
     b.triangles(double_sided(opaque([1.0; 3])), &[n], white());
-    let r = render(&b.build().with_resolution(oit_scene::Resolution { width: SIZE, height: SIZE }), &ReferenceOptions::default());
+    let r = render(
+        &b.build().with_resolution(oit_scene::Resolution {
+            width: SIZE,
+            height: SIZE,
+        }),
+        &ReferenceOptions::default(),
+    );
     assert_eq!(r.stats.fragments, 0);
     assert_eq!(r.stats.raster_triangles, 0);
     assert!(r.image.pixels.iter().all(|p| *p == [0.0, 0.0, 0.0, 1.0]));
@@ -107,20 +133,32 @@ fn a_triangle_through_the_eye_plane_is_clipped_not_mirrored() {
     // One vertex far in front, two behind the camera: only the part with d >= NEAR shows,
     // which lies entirely in the lower half of the screen (y = −1 plane seen from above).
     let mut b = SceneBuilder::new(SIZE, SIZE).camera(camera(true));
-    let t = [Vec3::new(-3.0, -1.0, 4.0), Vec3::new(3.0, -1.0, 4.0), Vec3::new(0.0, -1.0, -40.0)];
+    let t = [
+        Vec3::new(-3.0, -1.0, 4.0),
+        Vec3::new(3.0, -1.0, 4.0),
+        Vec3::new(0.0, -1.0, -40.0),
+    ];
     b.triangles(double_sided(blend([1.0, 0.0, 0.0], 0.5)), &[t], white());
     let r = render(&b.build(), &ReferenceOptions::default());
     assert_all_finite(&r.image);
     assert!(r.stats.fragments > 100);
     for y in 0..SIZE / 2 {
         for x in 0..SIZE {
-            assert_eq!(r.fragments[(y * SIZE + x) as usize], 0, "upper half pixel ({x},{y})");
+            assert_eq!(
+                r.fragments[(y * SIZE + x) as usize],
+                0,
+                "upper half pixel ({x},{y})"
+            );
         }
     }
     // Below NDC y = −1/NEAR (rows past 3/4 of the height) the floor is nearer than NEAR.
     for y in (SIZE * 3 / 4 + 1)..SIZE {
         for x in 0..SIZE {
-            assert_eq!(r.fragments[(y * SIZE + x) as usize], 0, "clipped-away pixel ({x},{y})");
+            assert_eq!(
+                r.fragments[(y * SIZE + x) as usize],
+                0,
+                "clipped-away pixel ({x},{y})"
+            );
         }
     }
 }
@@ -130,7 +168,9 @@ fn depth_stays_in_range_and_layers_sort_near_the_near_plane() {
     // Two parallel walls just beyond the near plane and one crossing it: the crossing wall is
     // clipped; where all three overlap the nearest (red) must be in front.
     for reverse_z in [true, false] {
-        let mut b = SceneBuilder::new(SIZE, SIZE).camera(camera(reverse_z)).background([0.0; 3]);
+        let mut b = SceneBuilder::new(SIZE, SIZE)
+            .camera(camera(reverse_z))
+            .background([0.0; 3]);
         let wall = |z: f32| rect(-10.0, -10.0, 10.0, 10.0, z);
         b.quad(blend([1.0, 0.0, 0.0], 0.5), wall(-2.001), white());
         b.quad(blend([0.0, 1.0, 0.0], 0.5), wall(-2.002), white());
@@ -146,7 +186,10 @@ fn depth_stays_in_range_and_layers_sort_near_the_near_plane() {
         let centre = r.image.get(SIZE / 2, SIZE / 2);
         // Red over green over nothing (the slanted wall is behind both at the centre):
         // (.5, .25, 0).
-        assert!((centre[0] - 0.5).abs() < 1e-6 && (centre[1] - 0.25).abs() < 1e-6, "{centre:?}");
+        assert!(
+            (centre[0] - 0.5).abs() < 1e-6 && (centre[1] - 0.25).abs() < 1e-6,
+            "{centre:?}"
+        );
         assert!(r.layers.iter().all(|&l| (2..=3).contains(&l)));
     }
 }

@@ -35,7 +35,10 @@ fn n_identical_layers_match_the_geometric_series() {
             for (i, px) in r.image.pixels.iter().enumerate() {
                 assert_rgb_close(*px, want, 1e-6, &format!("n={n} a={a} pixel {i}"));
             }
-            assert!(r.layers.iter().all(|&l| l as usize == n), "n={n}: every pixel has n layers");
+            assert!(
+                r.layers.iter().all(|&l| l as usize == n),
+                "n={n}: every pixel has n layers"
+            );
             assert!(r.fragments.iter().all(|&f| f as usize == n));
             assert_eq!(r.stats.max_depth_complexity as usize, n);
             assert_eq!(r.stats.mean_depth_complexity, n as f64);
@@ -61,10 +64,18 @@ fn enderton_red_over_green_over_blue() {
         }
         let r = render(&b.build(), &ReferenceOptions::default());
         for px in &r.image.pixels {
-            assert_rgb_close(*px, [0.45, 0.2475, 0.3025], 1e-6, &format!("order {order:?}"));
+            assert_rgb_close(
+                *px,
+                [0.45, 0.2475, 0.3025],
+                1e-6,
+                &format!("order {order:?}"),
+            );
         }
         assert!(r.layers.iter().all(|&l| l == 2));
-        assert!(r.fragments.iter().all(|&f| f == 3), "two transparent + one opaque fragment");
+        assert!(
+            r.fragments.iter().all(|&f| f == 3),
+            "two transparent + one opaque fragment"
+        );
     }
 }
 
@@ -90,7 +101,10 @@ fn composite_function_closed_forms() {
     for (got, want) in enderton.iter().zip([0.45, 0.2475, 0.3025]) {
         assert!((got - want).abs() < 1e-12, "{got} vs {want}");
     }
-    assert_eq!(composite_front_to_back(&[], [0.1, 0.2, 0.3]), [0.1, 0.2, 0.3]);
+    assert_eq!(
+        composite_front_to_back(&[], [0.1, 0.2, 0.3]),
+        [0.1, 0.2, 0.3]
+    );
     // An opaque-alpha fragment in front hides everything behind it.
     let hidden = composite_front_to_back(&[([0.5, 0.25, 0.0], 1.0), ([9.0; 3], 0.5)], [7.0; 3]);
     assert_eq!(hidden, [0.5, 0.25, 0.0]);
@@ -110,23 +124,41 @@ fn opaque_occludes_and_layers_only_count_what_is_in_front() {
     for z in [-1.0, -2.0, -4.0, -5.0] {
         b.quad(blend([1.0, 0.5, 0.25], 0.5), fullscreen(z), white());
     }
-    b.quad(opaque([0.0, 1.0, 0.0]), rect(-1.5, -1.5, 0.0, 1.5, -3.0), white());
+    b.quad(
+        opaque([0.0, 1.0, 0.0]),
+        rect(-1.5, -1.5, 0.0, 1.5, -3.0),
+        white(),
+    );
     for reverse_z in [true, false] {
         let scene = b.build();
-        let scene = oit_scene::Scene { camera: ortho_camera(size, size, reverse_z), ..scene };
+        let scene = oit_scene::Scene {
+            camera: ortho_camera(size, size, reverse_z),
+            ..scene
+        };
         let r = render(&scene, &ReferenceOptions::default());
         for y in 0..size {
             for x in 0..size {
                 let i = (y * size + x) as usize;
                 let left = x < size / 2;
                 assert_eq!(r.layers[i], if left { 2 } else { 4 }, "layers at ({x},{y})");
-                assert_eq!(r.fragments[i], if left { 5 } else { 4 }, "fragments at ({x},{y})");
-                let (n, base) = if left { (2, [0.0, 1.0, 0.0]) } else { (4, [0.0; 3]) };
+                assert_eq!(
+                    r.fragments[i],
+                    if left { 5 } else { 4 },
+                    "fragments at ({x},{y})"
+                );
+                let (n, base) = if left {
+                    (2, [0.0, 1.0, 0.0])
+                } else {
+                    (4, [0.0; 3])
+                };
                 let t = 0.5f64.powi(n);
-                let want = std::array::from_fn(|k| {
-                    [1.0, 0.5, 0.25][k] * (1.0 - t) + base[k] * t
-                });
-                assert_rgb_close(r.image.get(x, y), want, 1e-6, &format!("reverse_z={reverse_z}"));
+                let want = std::array::from_fn(|k| [1.0, 0.5, 0.25][k] * (1.0 - t) + base[k] * t);
+                assert_rgb_close(
+                    r.image.get(x, y),
+                    want,
+                    1e-6,
+                    &format!("reverse_z={reverse_z}"),
+                );
             }
         }
         assert_eq!(r.stats.transparent_fragments, 4 * u64::from(size * size));
@@ -167,7 +199,11 @@ fn mask_cutoff_discards_below_and_keeps_above() {
             for x in 0..size {
                 let i = (y * size + x) as usize;
                 let kept = x >= 32;
-                assert_eq!(r.fragments[i], u32::from(kept), "{mode:?} fragments at ({x},{y})");
+                assert_eq!(
+                    r.fragments[i],
+                    u32::from(kept),
+                    "{mode:?} fragments at ({x},{y})"
+                );
                 let px = r.image.get(x, y);
                 match (mode, kept) {
                     (_, false) => assert_eq!(px, [0.0, 0.0, 1.0, 1.0]),
@@ -205,26 +241,51 @@ fn invalid_hand_built_scenes_are_errors_not_panics() {
     let mut bad = good.clone();
     bad.draws[0].material = 7;
     let e = oit_reference::try_render(&bad, &ReferenceOptions::default()).unwrap_err();
-    assert!(matches!(e, oit_reference::ReferenceError::Material { material: 7, count: 1, .. }));
+    assert!(matches!(
+        e,
+        oit_reference::ReferenceError::Material {
+            material: 7,
+            count: 1,
+            ..
+        }
+    ));
     assert!(e.to_string().contains("objects[0]"), "{e}");
     let mut bad = good.clone();
     bad.draws[0].vertex_count = 9;
     let e = oit_reference::try_render(&bad, &ReferenceOptions::default()).unwrap_err();
-    assert!(matches!(e, oit_reference::ReferenceError::VertexRange { count: 9, total: 6, .. }));
-    let opts = ReferenceOptions { tile_size: 0, ..ReferenceOptions::default() };
+    assert!(matches!(
+        e,
+        oit_reference::ReferenceError::VertexRange {
+            count: 9,
+            total: 6,
+            ..
+        }
+    ));
+    let opts = ReferenceOptions {
+        tile_size: 0,
+        ..ReferenceOptions::default()
+    };
     let e = oit_reference::try_render(&good, &opts).unwrap_err();
     assert_eq!(e, oit_reference::ReferenceError::TileSize(0));
 }
 
 #[test]
 fn progress_reports_every_tile_and_tile_size_does_not_change_the_image() {
-    use std::sync::atomic::{AtomicUsize, Ordering};
     use std::sync::Arc;
+    use std::sync::atomic::{AtomicUsize, Ordering};
     let mut b = SceneBuilder::new(100, 70).background([0.2, 0.3, 0.4]);
-    b.quad(blend([1.0, 0.0, 0.0], 0.3), rect(-0.7, -0.9, 0.8, 0.6, -1.0), white());
+    b.quad(
+        blend([1.0, 0.0, 0.0], 0.3),
+        rect(-0.7, -0.9, 0.8, 0.6, -1.0),
+        white(),
+    );
     b.triangles(
         double_sided(blend([0.0, 1.0, 0.5], 0.6)),
-        &[[glam::Vec3::new(-1.2, 0.9, -2.0), glam::Vec3::new(0.3, -1.0, -0.5), glam::Vec3::new(1.1, 0.8, -1.5)]],
+        &[[
+            glam::Vec3::new(-1.2, 0.9, -2.0),
+            glam::Vec3::new(0.3, -1.0, -0.5),
+            glam::Vec3::new(1.1, 0.8, -1.5),
+        ]],
         white(),
     );
     let scene = b.build();
@@ -244,10 +305,16 @@ fn progress_reports_every_tile_and_tile_size_does_not_change_the_image() {
     assert_eq!(max_done.load(Ordering::SeqCst), 35);
     assert_eq!(a.stats.tiles, 35);
     for tile_size in [1, 7, 32, 128] {
-        let b = render(&scene, &ReferenceOptions { tile_size, progress: None });
+        let b = render(
+            &scene,
+            &ReferenceOptions {
+                tile_size,
+                progress: None,
+            },
+        );
         assert_eq!(a.image, b.image, "tile size {tile_size}");
         assert_eq!(a.layers, b.layers);
         assert_eq!(a.fragments, b.fragments);
     }
-    assert!(a.layers.iter().any(|&l| l == 2), "the two shapes overlap somewhere");
+    assert!(a.layers.contains(&2), "the two shapes overlap somewhere");
 }

@@ -11,7 +11,9 @@ const SIZE: u32 = 128;
 
 /// Grid lines in window pixels: integers, pixel centres (x.5), arbitrary fractions, and lines
 /// beyond the screen so the grid covers it fully.
-const LINES: [f64; 12] = [-9.0, 0.0, 16.5, 32.0, 40.5, 53.25, 64.0, 64.3, 90.75, 100.5, 128.0, 140.0];
+const LINES: [f64; 12] = [
+    -9.0, 0.0, 16.5, 32.0, 40.5, 53.25, 64.0, 64.3, 90.75, 100.5, 128.0, 140.0,
+];
 
 /// A grid of quads between `LINES` (in x and y), each split along an alternating diagonal,
 /// one draw per quad.
@@ -38,7 +40,13 @@ fn assert_exactly_one(scene: &Scene, what: &str) {
     let r = render(scene, &ReferenceOptions::default());
     let w = scene.resolution.width as usize;
     for (i, (&f, &l)) in r.fragments.iter().zip(&r.layers).enumerate() {
-        assert_eq!(f, 1, "{what}: pixel ({}, {}) has {f} fragments", i % w, i / w);
+        assert_eq!(
+            f,
+            1,
+            "{what}: pixel ({}, {}) has {f} fragments",
+            i % w,
+            i / w
+        );
         assert_eq!(l, 1, "{what}: pixel ({}, {}) has {l} layers", i % w, i / w);
     }
 }
@@ -47,7 +55,10 @@ fn assert_exactly_one(scene: &Scene, what: &str) {
 fn screen_aligned_grid_covers_every_pixel_once() {
     let scene = screen_grid();
     assert_exactly_one(&scene, "axis-aligned grid");
-    assert_exactly_one(&scene.with_reversed_draw_order(), "axis-aligned grid, reversed");
+    assert_exactly_one(
+        &scene.with_reversed_draw_order(),
+        "axis-aligned grid, reversed",
+    );
 }
 
 #[test]
@@ -69,7 +80,11 @@ fn top_left_rule_on_pixel_centre_edges() {
         for y in 0..32u32 {
             for x in 0..32u32 {
                 let want = u32::from((10..20).contains(&x) && (10..20).contains(&y));
-                assert_eq!(out.fragments[(y * 32 + x) as usize], want, "ccw={ccw} ({x},{y})");
+                assert_eq!(
+                    out.fragments[(y * 32 + x) as usize],
+                    want,
+                    "ccw={ccw} ({x},{y})"
+                );
             }
         }
     }
@@ -104,29 +119,37 @@ fn top_left_rule_on_a_shared_diagonal_through_pixel_centres() {
     // Row k (centre k + .5) spans x in [k + .5, 12.5): 8 + 7 + … + 1 = 36 pixels.
     assert_eq!(upper_right_only.stats.fragments, 36);
     for k in 4..12u32 {
-        assert_eq!(upper_right_only.fragments[(k * 16 + k) as usize], 1, "diagonal ({k},{k})");
+        assert_eq!(
+            upper_right_only.fragments[(k * 16 + k) as usize],
+            1,
+            "diagonal ({k},{k})"
+        );
     }
 }
 
 /// A camera looking obliquely down at the z = 0 plane with a tilted up vector: the grid's
 /// image is rotated and projectively sheared.
-fn oblique_camera(size: u32) -> Camera {
+fn oblique_camera(width: u32, height: u32) -> Camera {
     Camera::new(
         Vec3::new(1.0, -1.5, 6.0),
         Vec3::new(0.3, 0.2, 0.0),
         Vec3::new(0.4, 1.0, 0.0),
-        Projection::Perspective { fov_y_degrees: 50.0 },
+        Projection::Perspective {
+            fov_y_degrees: 50.0,
+        },
         0.1,
         100.0,
         true,
-        size as f32 / size as f32,
+        width as f32 / height as f32,
     )
 }
 
 #[test]
 fn oblique_perspective_grid_covers_every_pixel_once() {
-    let lines = [-12.0f32, -7.3, -3.1, -1.7, -0.9, -0.25, 0.0, 0.33, 0.8, 1.41, 2.0, 2.9, 4.4, 7.7, 12.0];
-    let mut b = SceneBuilder::new(SIZE, SIZE).camera(oblique_camera(SIZE));
+    let lines = [
+        -12.0f32, -7.3, -3.1, -1.7, -0.9, -0.25, 0.0, 0.33, 0.8, 1.41, 2.0, 2.9, 4.4, 7.7, 12.0,
+    ];
+    let mut b = SceneBuilder::new(160, 112).camera(oblique_camera(160, 112));
     let mut tris = Vec::new();
     for (j, w) in lines.windows(2).enumerate() {
         for (i, v) in lines.windows(2).enumerate() {
@@ -153,11 +176,13 @@ fn oblique_perspective_grid_covers_every_pixel_once() {
             Vec3::new(1.0, -1.5, -6.0),
             Vec3::new(0.3, 0.2, 0.0),
             Vec3::new(0.4, 1.0, 0.0),
-            Projection::Perspective { fov_y_degrees: 50.0 },
+            Projection::Perspective {
+                fov_y_degrees: 50.0,
+            },
             0.1,
             100.0,
             true,
-            1.0,
+            160.0 / 112.0,
         ),
         ..scene
     };
@@ -172,17 +197,19 @@ fn triangle_fans_around_an_interior_vertex_hit_each_hull_pixel_once() {
     let size = 64u32;
     let centre = (31.5f64, 30.5f64);
     let rim: [(f64, f64); 9] = [
-        (55.5, 30.5),   // horizontal spoke through centres
-        (50.5, 11.5),   // 45° spoke
-        (31.5, 4.5),    // vertical spoke
+        (55.5, 30.5), // horizontal spoke through centres
+        (50.5, 11.5), // 45° spoke
+        (31.5, 4.5),  // vertical spoke
         (12.25, 8.75),
-        (6.5, 30.5),    // horizontal again
+        (6.5, 30.5), // horizontal again
         (9.1, 51.3),
-        (31.5, 59.5),   // vertical
-        (47.5, 46.5),   // 45°
+        (31.5, 59.5), // vertical
+        (47.5, 46.5), // 45°
         (58.7, 40.2),
     ];
-    let to_world = |(x, y): (f64, f64)| Vec3::new(world_of_window_x(x, size), world_of_window_y(y, size), -1.0);
+    let to_world = |(x, y): (f64, f64)| {
+        Vec3::new(world_of_window_x(x, size), world_of_window_y(y, size), -1.0)
+    };
     let mut tris = Vec::new();
     for i in 0..rim.len() {
         let (a, b) = (rim[i], rim[(i + 1) % rim.len()]);
@@ -215,7 +242,9 @@ fn triangle_fans_around_an_interior_vertex_hit_each_hull_pixel_once() {
                 let (a, b) = (rim[i], rim[(i + 1) % rim.len()]);
                 // Each fan triangle runs counter-clockwise on the y-down screen: interior
                 // where all three cross products are <= 0.
-                inside |= cross(centre, a, p) <= 0.0 && cross(a, b, p) <= 0.0 && cross(b, centre, p) <= 0.0;
+                inside |= cross(centre, a, p) <= 0.0
+                    && cross(a, b, p) <= 0.0
+                    && cross(b, centre, p) <= 0.0;
                 min_dist = min_dist.min(segment_distance(a, b, p));
             }
             let hits = r.fragments[(y * size + x) as usize];
@@ -227,25 +256,38 @@ fn triangle_fans_around_an_interior_vertex_hit_each_hull_pixel_once() {
             }
         }
     }
-    assert!(interior > 1500, "the fan covers a large area ({interior} pixels)");
+    assert!(
+        interior > 1500,
+        "the fan covers a large area ({interior} pixels)"
+    );
 }
 
 #[test]
 fn culling_follows_ccw_front_faces() {
     // Counter-clockwise in NDC with y up: front. Its mirror: back.
-    let ccw = [Vec3::new(-0.5, -0.5, -1.0), Vec3::new(0.5, -0.5, -1.0), Vec3::new(0.0, 0.5, -1.0)];
+    let ccw = [
+        Vec3::new(-0.5, -0.5, -1.0),
+        Vec3::new(0.5, -0.5, -1.0),
+        Vec3::new(0.0, 0.5, -1.0),
+    ];
     let cw = [ccw[0], ccw[2], ccw[1]];
     let count = |tri: [Vec3; 3], double: bool| {
         let mut m = blend([1.0; 3], 0.5);
         m.double_sided = double;
         let mut b = SceneBuilder::new(32, 32);
         b.triangles(m, &[tri], white());
-        render(&b.build(), &ReferenceOptions::default()).stats.fragments
+        render(&b.build(), &ReferenceOptions::default())
+            .stats
+            .fragments
     };
     let front = count(ccw, false);
     assert!(front > 100, "a front face renders ({front} fragments)");
     assert_eq!(count(cw, false), 0, "a back face is culled");
-    assert_eq!(count(cw, true), front, "a double-sided back face renders the same pixels");
+    assert_eq!(
+        count(cw, true),
+        front,
+        "a double-sided back face renders the same pixels"
+    );
     assert_eq!(count(ccw, true), front);
     // A single-sided quad seen from behind (camera on the other side) renders nothing.
     let mut b = SceneBuilder::new(32, 32);
@@ -261,15 +303,30 @@ fn culling_follows_ccw_front_faces() {
         1.0,
     );
     let scene = b.build();
-    assert_eq!(render(&scene, &ReferenceOptions::default()).stats.fragments, 32 * 32);
-    let from_behind = Scene { camera: behind, ..scene };
-    assert_eq!(render(&from_behind, &ReferenceOptions::default()).stats.fragments, 0);
+    assert_eq!(
+        render(&scene, &ReferenceOptions::default()).stats.fragments,
+        32 * 32
+    );
+    let from_behind = Scene {
+        camera: behind,
+        ..scene
+    };
+    assert_eq!(
+        render(&from_behind, &ReferenceOptions::default())
+            .stats
+            .fragments,
+        0
+    );
 }
 
 #[test]
 fn zero_area_triangles_produce_nothing() {
     let mut b = SceneBuilder::new(32, 32);
-    let line = [Vec3::new(-1.0, -1.0, -1.0), Vec3::new(1.0, 1.0, -1.0), Vec3::new(0.0, 0.0, -1.0)];
+    let line = [
+        Vec3::new(-1.0, -1.0, -1.0),
+        Vec3::new(1.0, 1.0, -1.0),
+        Vec3::new(0.0, 0.0, -1.0),
+    ];
     let point = [Vec3::new(0.01, 0.01, -1.0); 3];
     b.triangles(double_sided(blend([1.0; 3], 0.5)), &[line, point], white());
     let r = render(&b.build(), &ReferenceOptions::default());

@@ -1,6 +1,9 @@
 //! Test support: builds `Scene` values by hand (no loader), so the reference is tested on
 //! geometry whose coverage and colours can be worked out on paper.
-#![allow(dead_code, reason = "each test binary uses a different subset of the helpers")]
+#![allow(
+    dead_code,
+    reason = "each test binary uses a different subset of the helpers"
+)]
 
 use glam::Vec3;
 use oit_scene::{
@@ -85,7 +88,12 @@ impl SceneBuilder {
     }
 
     /// Adds a draw of `triangles` (each `[position; 3]`) with per-vertex colour `color`.
-    pub fn triangles(&mut self, material: Material, triangles: &[[Vec3; 3]], color: [f32; 4]) -> &mut Self {
+    pub fn triangles(
+        &mut self,
+        material: Material,
+        triangles: &[[Vec3; 3]],
+        color: [f32; 4],
+    ) -> &mut Self {
         let tris: Vec<[(Vec3, [f32; 4]); 3]> =
             triangles.iter().map(|t| t.map(|p| (p, color))).collect();
         self.colored_triangles(material, &tris)
@@ -106,7 +114,11 @@ impl SceneBuilder {
             for (p, c) in t {
                 lo = lo.min(*p);
                 hi = hi.max(*p);
-                self.scene.vertices.push(Vertex { position: p.to_array(), color: *c, uv: [0.0; 2] });
+                self.scene.vertices.push(Vertex {
+                    position: p.to_array(),
+                    color: *c,
+                    uv: [0.0; 2],
+                });
             }
         }
         let id = self.scene.draws.len() as u32;
@@ -138,7 +150,12 @@ impl SceneBuilder {
 
 /// Axis-aligned quad in the plane z = `z`, counter-clockwise seen from +z.
 pub fn rect(x0: f32, y0: f32, x1: f32, y1: f32, z: f32) -> [Vec3; 4] {
-    [Vec3::new(x0, y0, z), Vec3::new(x1, y0, z), Vec3::new(x1, y1, z), Vec3::new(x0, y1, z)]
+    [
+        Vec3::new(x0, y0, z),
+        Vec3::new(x1, y0, z),
+        Vec3::new(x1, y1, z),
+        Vec3::new(x0, y1, z),
+    ]
 }
 
 /// Full-screen quad of [`ortho_camera`] at depth `z`.
@@ -159,6 +176,9 @@ pub fn world_of_window_y(p: f64, size: u32) -> f32 {
 
 pub fn assert_all_finite(image: &LinearImage) {
     for (i, px) in image.pixels.iter().enumerate() {
-        assert!(px.iter().all(|c| c.is_finite()), "pixel {i} is not finite: {px:?}");
+        assert!(
+            px.iter().all(|c| c.is_finite()),
+            "pixel {i} is not finite: {px:?}"
+        );
     }
 }
