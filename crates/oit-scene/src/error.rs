@@ -58,12 +58,18 @@ pub enum Problem {
     #[error(
         "invalid JSON at line {line}, column {column}: {message}; allowed: standard JSON (no comments, no trailing commas, no NaN or Infinity)"
     )]
-    Syntax { line: usize, column: usize, message: String },
+    Syntax {
+        line: usize,
+        column: usize,
+        message: String,
+    },
     #[error("unknown field `{field}`; allowed: {expected}")]
     UnknownField { field: String, expected: String },
     #[error("unknown value `{value}`; allowed: {expected}")]
     UnknownVariant { value: String, expected: String },
-    #[error("missing required field `{field}`; allowed: see docs/scene-format.md for required fields")]
+    #[error(
+        "missing required field `{field}`; allowed: see docs/scene-format.md for required fields"
+    )]
     MissingField { field: String },
     #[error("{found}; allowed: {expected}")]
     WrongType { found: String, expected: String },
@@ -71,7 +77,9 @@ pub enum Problem {
         "{value} is not a finite number; allowed: finite numbers that fit in f32 (|x| < 3.4e38, no NaN, no infinity)"
     )]
     NonFinite { value: String },
-    #[error("{what} is not finite after applying it; allowed: transforms and values whose results fit in f32")]
+    #[error(
+        "{what} is not finite after applying it; allowed: transforms and values whose results fit in f32"
+    )]
     DerivedNonFinite { what: String },
     #[error("{value} is outside [0, 1]; allowed: alpha in [0, 1]")]
     AlphaOutOfRange { value: f32 },
@@ -99,15 +107,21 @@ pub enum Problem {
     NearNotPositive { near: f32 },
     #[error("near {near} is not before far {far}; allowed: near < far")]
     NearNotBeforeFar { near: f32, far: f32 },
-    #[error("{value} is outside (0, 180); allowed: vertical field of view in degrees, 0 < fov_y < 180")]
+    #[error(
+        "{value} is outside (0, 180); allowed: vertical field of view in degrees, 0 < fov_y < 180"
+    )]
     FovOutOfRange { value: f32 },
-    #[error("both `fov_y` and `orthographic` are given; allowed: one of them (perspective or orthographic)")]
+    #[error(
+        "both `fov_y` and `orthographic` are given; allowed: one of them (perspective or orthographic)"
+    )]
     ProjectionConflict,
     #[error("{value} is outside 1..={max}; allowed: width and height from 1 to {max} pixels", max = Resolution::MAX_DIMENSION)]
     ResolutionOutOfRange { value: u64 },
     #[error("up vector has zero length; allowed: a non-zero vector not parallel to target - eye")]
     ZeroUp,
-    #[error("up vector is parallel to the view direction; allowed: a vector not parallel to target - eye")]
+    #[error(
+        "up vector is parallel to the view direction; allowed: a vector not parallel to target - eye"
+    )]
     UpParallel,
     #[error("eye equals target, so there is no view direction; allowed: eye != target")]
     EyeAtTarget,

@@ -144,7 +144,11 @@ pub(crate) struct RawTransform {
 
 impl Default for RawTransform {
     fn default() -> Self {
-        Self { translate: [0.0; 3], rotate: [0.0; 3], scale: [1.0; 3] }
+        Self {
+            translate: [0.0; 3],
+            rotate: [0.0; 3],
+            scale: [1.0; 3],
+        }
     }
 }
 

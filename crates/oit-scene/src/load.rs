@@ -20,7 +20,10 @@ type Result<T> = std::result::Result<T, SceneError>;
 /// Reads and loads one scene file. Errors name the file as given in `path`.
 pub fn load(path: &Path) -> Result<Scene> {
     let file = path.display().to_string();
-    let json = std::fs::read_to_string(path).map_err(|source| SceneError::Io { file: file.clone(), source })?;
+    let json = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
+        file: file.clone(),
+        source,
+    })?;
     parse(&json, &file)
 }
 
@@ -37,7 +40,10 @@ pub fn parse(json: &str, origin: &str) -> Result<Scene> {
 /// Loads every `*.json` file in `dir` (not recursive), sorted by file name. Stops at the first
 /// invalid scene: a broken bundled scene is a bug to fix, not one to skip.
 pub fn load_dir(dir: &Path) -> Result<Vec<(PathBuf, Scene)>> {
-    let io = |source| SceneError::Io { file: dir.display().to_string(), source };
+    let io = |source| SceneError::Io {
+        file: dir.display().to_string(),
+        source,
+    };
     let mut files = Vec::new();
     for entry in std::fs::read_dir(dir).map_err(io)? {
         let path = entry.map_err(io)?.path();
@@ -72,7 +78,11 @@ fn json_path(prefix: &str, path: &serde_path_to_error::Path) -> String {
             Segment::Unknown => {}
         }
     }
-    if out.is_empty() { "(root)".to_string() } else { out }
+    if out.is_empty() {
+        "(root)".to_string()
+    } else {
+        out
+    }
 }
 
 /// Appends `.field` unless the path already ends with it.
@@ -100,7 +110,11 @@ struct Ctx<'a> {
 
 impl Ctx<'_> {
     fn err(&self, path: impl Into<String>, problem: Problem) -> SceneError {
-        SceneError::Invalid { file: self.file.to_string(), path: path.into(), problem }
+        SceneError::Invalid {
+            file: self.file.to_string(),
+            path: path.into(),
+            problem,
+        }
     }
 
     /// The number-like token of the source around a serde_json error position.
@@ -135,13 +149,16 @@ impl Ctx<'_> {
             &full
         };
         if msg.starts_with("number out of range") {
-            let value = self.token_at(e.line(), e.column()).unwrap_or_else(|| "number".into());
+            let value = self
+                .token_at(e.line(), e.column())
+                .unwrap_or_else(|| "number".into());
             return self.err(path, Problem::NonFinite { value });
         }
         if msg == "trailing characters" && path != "(root)" {
             // serde_json's wording when a fixed-size array gets more elements than it holds.
             let found = "array has too many elements".to_string();
-            let expected = "exactly the number of elements documented in docs/scene-format.md".to_string();
+            let expected =
+                "exactly the number of elements documented in docs/scene-format.md".to_string();
             return self.err(path, Problem::WrongType { found, expected });
         }
         if e.is_syntax() || e.is_eof() {
@@ -152,8 +169,11 @@ impl Ctx<'_> {
                     return self.err(path, Problem::NonFinite { value: tok });
                 }
             }
-            let problem =
-                Problem::Syntax { line: e.line(), column: e.column(), message: msg.to_string() };
+            let problem = Problem::Syntax {
+                line: e.line(),
+                column: e.column(),
+                message: msg.to_string(),
+            };
             return self.err(path, problem);
         }
         if let Some(rest) = msg.strip_prefix("unknown field ")
@@ -164,10 +184,17 @@ impl Ctx<'_> {
                 .trim_start_matches("expected one of ")
                 .trim_start_matches("expected ")
                 .to_string();
-            let expected = if expected.is_empty() { "no fields here".to_string() } else { expected };
+            let expected = if expected.is_empty() {
+                "no fields here".to_string()
+            } else {
+                expected
+            };
             return self.err(
                 with_field(path, field),
-                Problem::UnknownField { field: field.to_string(), expected },
+                Problem::UnknownField {
+                    field: field.to_string(),
+                    expected,
+                },
             );
         }
         if let Some(rest) = msg.strip_prefix("unknown variant ")
@@ -178,12 +205,23 @@ impl Ctx<'_> {
                 .trim_start_matches("expected one of ")
                 .trim_start_matches("expected ")
                 .to_string();
-            return self.err(path, Problem::UnknownVariant { value: value.to_string(), expected });
+            return self.err(
+                path,
+                Problem::UnknownVariant {
+                    value: value.to_string(),
+                    expected,
+                },
+            );
         }
         if let Some(rest) = msg.strip_prefix("missing field ")
             && let Some((field, _)) = backticked(rest)
         {
-            return self.err(with_field(path, field), Problem::MissingField { field: field.into() });
+            return self.err(
+                with_field(path, field),
+                Problem::MissingField {
+                    field: field.into(),
+                },
+            );
         }
         let (found, expected) = match msg.split_once(", expected ") {
             Some((f, x)) => (f.to_string(), plain_type(x).to_string()),
@@ -222,24 +260,44 @@ impl Ctx<'_> {
 
     fn alpha(&self, v: f32, path: &str) -> Result<f32> {
         self.finite(v, path)?;
-        if (0.0..=1.0).contains(&v) { Ok(v) } else { Err(self.err(path, Problem::AlphaOutOfRange { value: v })) }
+        if (0.0..=1.0).contains(&v) {
+            Ok(v)
+        } else {
+            Err(self.err(path, Problem::AlphaOutOfRange { value: v }))
+        }
     }
 
     fn positive(&self, v: f32, path: &str) -> Result<f32> {
         self.finite(v, path)?;
-        if v > 0.0 { Ok(v) } else { Err(self.err(path, Problem::NotPositive { value: v })) }
+        if v > 0.0 {
+            Ok(v)
+        } else {
+            Err(self.err(path, Problem::NotPositive { value: v }))
+        }
     }
 
     fn segments(&self, v: u32, min: u32, path: &str) -> Result<()> {
-        if v >= min { Ok(()) } else { Err(self.err(path, Problem::TooFewSegments { value: v, min })) }
+        if v >= min {
+            Ok(())
+        } else {
+            Err(self.err(path, Problem::TooFewSegments { value: v, min }))
+        }
     }
 
     fn nonempty(&self, count: u32, what: &'static str, path: &str) -> Result<()> {
-        if count > 0 { Ok(()) } else { Err(self.err(path, Problem::EmptyMesh { what })) }
+        if count > 0 {
+            Ok(())
+        } else {
+            Err(self.err(path, Problem::EmptyMesh { what }))
+        }
     }
 
     fn range(&self, min: f32, max: f32, path: &str) -> Result<()> {
-        if min <= max { Ok(()) } else { Err(self.err(path, Problem::EmptyRange { min, max })) }
+        if min <= max {
+            Ok(())
+        } else {
+            Err(self.err(path, Problem::EmptyRange { min, max }))
+        }
     }
 
     // ---- building ----
@@ -253,7 +311,10 @@ impl Ctx<'_> {
             }
             res[k] = *v as u32;
         }
-        let resolution = Resolution { width: res[0], height: res[1] };
+        let resolution = Resolution {
+            width: res[0],
+            height: res[1],
+        };
         let background = self.color(raw.background, "background")?.to_array();
         let camera = self.camera(&raw.camera, raw.reverse_z, resolution)?;
         let light = self.lighting(&raw.lighting)?;
@@ -297,8 +358,12 @@ impl Ctx<'_> {
             return Err(self.err("camera.up", Problem::UpParallel));
         }
         let projection = match (&c.fov_y, &c.orthographic) {
-            (Some(_), Some(_)) => return Err(self.err("camera.orthographic", Problem::ProjectionConflict)),
-            (_, Some(o)) => Projection::Orthographic { height: self.positive(o.height, "camera.orthographic.height")? },
+            (Some(_), Some(_)) => {
+                return Err(self.err("camera.orthographic", Problem::ProjectionConflict));
+            }
+            (_, Some(o)) => Projection::Orthographic {
+                height: self.positive(o.height, "camera.orthographic.height")?,
+            },
             (fov, None) => {
                 let fov = self.finite(fov.unwrap_or(DEFAULT_FOV_Y), "camera.fov_y")?;
                 if !(fov > 0.0 && fov < 180.0) {
@@ -313,7 +378,16 @@ impl Ctx<'_> {
         if near >= far {
             return Err(self.err("camera.far", Problem::NearNotBeforeFar { near, far }));
         }
-        let cam = Camera::new(eye, target, up, projection, near, far, reverse_z, res.aspect());
+        let cam = Camera::new(
+            eye,
+            target,
+            up,
+            projection,
+            near,
+            far,
+            reverse_z,
+            res.aspect(),
+        );
         if !cam.view_proj.is_finite() || !cam.view.is_finite() || !cam.proj.is_finite() {
             let what = "view-projection matrix".to_string();
             return Err(self.err("camera", Problem::DerivedNonFinite { what }));
@@ -333,7 +407,11 @@ impl Ctx<'_> {
                 }
                 let color = self.color(d.color, &format!("{p}.color"))?;
                 let ambient = self.color(d.ambient, &format!("{p}.ambient"))?;
-                Ok(Some(Light { to_light, color, ambient }))
+                Ok(Some(Light {
+                    to_light,
+                    color,
+                    ambient,
+                }))
             }
         }
     }
@@ -343,11 +421,17 @@ impl Ctx<'_> {
         let alpha = self.alpha(m.alpha, &format!("{p}.alpha"))?;
         let cutoff = self.finite(m.cutoff, &format!("{p}.cutoff"))?;
         if !(0.0..=1.0).contains(&cutoff) {
-            return Err(self.err(format!("{p}.cutoff"), Problem::CutoffOutOfRange { value: cutoff }));
+            return Err(self.err(
+                format!("{p}.cutoff"),
+                Problem::CutoffOutOfRange { value: cutoff },
+            ));
         }
         let intensity = self.finite(m.intensity, &format!("{p}.intensity"))?;
         if intensity < 0.0 {
-            return Err(self.err(format!("{p}.intensity"), Problem::NegativeIntensity { value: intensity }));
+            return Err(self.err(
+                format!("{p}.intensity"),
+                Problem::NegativeIntensity { value: intensity },
+            ));
         }
         if !(base * intensity).is_finite() {
             let what = "base_color × intensity".to_string();
@@ -377,7 +461,12 @@ impl Ctx<'_> {
             * Mat3::from_rotation_x(rotate.x.to_radians());
         let m = Affine3A::from_mat3_translation(r * Mat3::from_diagonal(scale), translate);
         if !m.is_finite() {
-            return Err(self.err(p, Problem::DerivedNonFinite { what: "transform matrix".into() }));
+            return Err(self.err(
+                p,
+                Problem::DerivedNonFinite {
+                    what: "transform matrix".into(),
+                },
+            ));
         }
         Ok(m)
     }
@@ -391,7 +480,14 @@ impl Ctx<'_> {
             return Err(self.err(p, Problem::WrongType { found, expected }));
         };
         let kind = match map.get("kind") {
-            None => return Err(self.err(format!("{p}.kind"), Problem::MissingField { field: "kind".into() })),
+            None => {
+                return Err(self.err(
+                    format!("{p}.kind"),
+                    Problem::MissingField {
+                        field: "kind".into(),
+                    },
+                ));
+            }
             Some(serde_json::Value::String(s)) => s.as_str(),
             Some(other) => {
                 let found = format!("invalid type: {}", json_kind(other));
@@ -412,14 +508,18 @@ impl Ctx<'_> {
             "soup" => RawMesh::Soup(self.sub(rest, p)?),
             "billboards" => RawMesh::Billboards(self.sub(rest, p)?),
             other => {
-                let problem = Problem::UnknownVariant { value: other.into(), expected: MESH_KINDS.into() };
+                let problem = Problem::UnknownVariant {
+                    value: other.into(),
+                    expected: MESH_KINDS.into(),
+                };
                 return Err(self.err(format!("{p}.kind"), problem));
             }
         })
     }
 
     fn sub<T: DeserializeOwned>(&self, v: serde_json::Value, p: &str) -> Result<T> {
-        serde_path_to_error::deserialize(v).map_err(|e| self.serde_error(&json_path(p, e.path()), e.inner()))
+        serde_path_to_error::deserialize(v)
+            .map_err(|e| self.serde_error(&json_path(p, e.path()), e.inner()))
     }
 
     /// Range checks of a mesh's own parameters.
@@ -447,7 +547,10 @@ impl Ctx<'_> {
                 let major = self.positive(t.major_radius, &format!("{p}.major_radius"))?;
                 let minor = self.positive(t.minor_radius, &format!("{p}.minor_radius"))?;
                 if minor >= major {
-                    return Err(self.err(format!("{p}.minor_radius"), Problem::TorusRadii { minor, major }));
+                    return Err(self.err(
+                        format!("{p}.minor_radius"),
+                        Problem::TorusRadii { minor, major },
+                    ));
                 }
                 self.segments(t.segments, 3, &format!("{p}.segments"))?;
                 self.segments(t.tube_segments, 3, &format!("{p}.tube_segments"))?;
@@ -461,7 +564,10 @@ impl Ctx<'_> {
                 self.nonempty(l.count, "layer count", &format!("{p}.count"))?;
                 let spacing = self.finite(l.spacing, &format!("{p}.spacing"))?;
                 if spacing < 0.0 {
-                    return Err(self.err(format!("{p}.spacing"), Problem::NegativeSpacing { value: spacing }));
+                    return Err(self.err(
+                        format!("{p}.spacing"),
+                        Problem::NegativeSpacing { value: spacing },
+                    ));
                 }
                 for k in 0..2 {
                     self.positive(l.size[k], &format!("{p}.size[{k}]"))?;
@@ -473,7 +579,9 @@ impl Ctx<'_> {
                 // The farthest layer must stay finite.
                 if !(spacing * (l.count - 1) as f32).is_finite() {
                     let what = "spacing × (count - 1)".to_string();
-                    return Err(self.err(format!("{p}.spacing"), Problem::DerivedNonFinite { what }));
+                    return Err(
+                        self.err(format!("{p}.spacing"), Problem::DerivedNonFinite { what })
+                    );
                 }
             }
             RawMesh::Soup(s) => self.check_scatter(s, "triangle count", p)?,
@@ -522,28 +630,49 @@ impl Ctx<'_> {
             None => ([1u32; 3], Vec3::ZERO),
             Some(inst) => {
                 for k in 0..3 {
-                    self.nonempty(inst.counts[k], "instance count", &format!("{p}.instances.counts[{k}]"))?;
+                    self.nonempty(
+                        inst.counts[k],
+                        "instance count",
+                        &format!("{p}.instances.counts[{k}]"),
+                    )?;
                 }
-                (inst.counts, self.vec3(inst.spacing, &format!("{p}.instances.spacing"))?)
+                (
+                    inst.counts,
+                    self.vec3(inst.spacing, &format!("{p}.instances.spacing"))?,
+                )
             }
         };
-        let instances = counts.iter().fold(1u64, |a, &c| a.saturating_mul(u64::from(c)));
-        *total_triangles = total_triangles.saturating_add(mesh::triangle_count(&mesh).saturating_mul(instances));
+        let instances = counts
+            .iter()
+            .fold(1u64, |a, &c| a.saturating_mul(u64::from(c)));
+        *total_triangles =
+            total_triangles.saturating_add(mesh::triangle_count(&mesh).saturating_mul(instances));
         if *total_triangles > MAX_TRIANGLES {
-            return Err(self.err(p, Problem::TooManyTriangles { count: *total_triangles }));
+            return Err(self.err(
+                p,
+                Problem::TooManyTriangles {
+                    count: *total_triangles,
+                },
+            ));
         }
 
         let material_index = scene.materials.len() as u32;
         scene.materials.push(material);
         let facing = match scene.camera.projection {
             Projection::Perspective { .. } => Facing::Eye(scene.camera.eye),
-            Projection::Orthographic { .. } => Facing::Direction((scene.camera.eye - scene.camera.target).normalize()),
+            Projection::Orthographic { .. } => {
+                Facing::Direction((scene.camera.eye - scene.camera.target).normalize())
+            }
         };
         let local = match &mesh {
             RawMesh::Billboards(_) => None,
             other => Some(mesh::local(other)),
         };
-        let derived_path = if obj.instances.is_some() { format!("{p}.instances") } else { format!("{p}.transform") };
+        let derived_path = if obj.instances.is_some() {
+            format!("{p}.instances")
+        } else {
+            format!("{p}.transform")
+        };
         let mut instance = 0usize;
         for iz in 0..counts[2] {
             for iy in 0..counts[1] {
@@ -557,9 +686,24 @@ impl Ctx<'_> {
                         (_, Some(g)) => (g.clone(), false),
                         (_, None) => (Geometry::default(), false),
                     };
-                    let base = if obj.instances.is_some() { format!("{p}.instances[{instance}]") } else { p.clone() };
+                    let base = if obj.instances.is_some() {
+                        format!("{p}.instances[{instance}]")
+                    } else {
+                        p.clone()
+                    };
                     let named_parts = matches!(mesh, RawMesh::Layers(_));
-                    self.emit(&geometry, in_world, &w, light, &derived_path, &base, named_parts, obj, material_index, scene)?;
+                    self.emit(
+                        &geometry,
+                        in_world,
+                        &w,
+                        light,
+                        &derived_path,
+                        &base,
+                        named_parts,
+                        obj,
+                        material_index,
+                        scene,
+                    )?;
                     instance += 1;
                 }
             }
@@ -568,7 +712,10 @@ impl Ctx<'_> {
     }
 
     /// Transforms, lights and appends one instance's geometry as draws (one per part).
-    #[allow(clippy::too_many_arguments, reason = "a private helper of `object`, called once")]
+    #[allow(
+        clippy::too_many_arguments,
+        reason = "a private helper of `object`, called once"
+    )]
     fn emit(
         &self,
         g: &Geometry,
@@ -591,20 +738,38 @@ impl Ctx<'_> {
                 let (pos, normal) = if in_world {
                     (g.positions[v], g.normals[v])
                 } else {
-                    (w.transform_point3(g.positions[v]), (normal_matrix * g.normals[v]).normalize_or_zero())
+                    (
+                        w.transform_point3(g.positions[v]),
+                        (normal_matrix * g.normals[v]).normalize_or_zero(),
+                    )
                 };
                 if !pos.is_finite() {
-                    return Err(self.err(derived_path, Problem::DerivedNonFinite { what: "vertex position".into() }));
+                    return Err(self.err(
+                        derived_path,
+                        Problem::DerivedNonFinite {
+                            what: "vertex position".into(),
+                        },
+                    ));
                 }
                 let mut color = g.colors[v];
                 if let Some(l) = light {
                     if !normal.is_finite() || normal == Vec3::ZERO {
-                        return Err(self.err(derived_path, Problem::DerivedNonFinite { what: "vertex normal".into() }));
+                        return Err(self.err(
+                            derived_path,
+                            Problem::DerivedNonFinite {
+                                what: "vertex normal".into(),
+                            },
+                        ));
                     }
                     let k = l.ambient + l.color * normal.dot(l.to_light).max(0.0);
                     color = (color.truncate() * k).extend(color.w);
                     if !color.is_finite() {
-                        return Err(self.err(derived_path, Problem::DerivedNonFinite { what: "lit vertex colour".into() }));
+                        return Err(self.err(
+                            derived_path,
+                            Problem::DerivedNonFinite {
+                                what: "lit vertex colour".into(),
+                            },
+                        ));
                     }
                 }
                 lo = lo.min(pos);
@@ -621,9 +786,18 @@ impl Ctx<'_> {
                 .map(|v| Vec3::from(v.position).distance(centre))
                 .fold(0.0f32, f32::max);
             if !centre.is_finite() || !radius.is_finite() {
-                return Err(self.err(derived_path, Problem::DerivedNonFinite { what: "bounding sphere".into() }));
+                return Err(self.err(
+                    derived_path,
+                    Problem::DerivedNonFinite {
+                        what: "bounding sphere".into(),
+                    },
+                ));
             }
-            let name = if named_parts { format!("{base_name}.layers[{pi}]") } else { base_name.to_string() };
+            let name = if named_parts {
+                format!("{base_name}.layers[{pi}]")
+            } else {
+                base_name.to_string()
+            };
             scene.draws.push(Draw {
                 id: scene.draws.len() as u32,
                 name,

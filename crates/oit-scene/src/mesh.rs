@@ -53,7 +53,11 @@ impl Geometry {
     /// parametric surfaces then cannot get a face backwards by a sign slip in the formulas.
     fn oriented_triangle(&mut self, v: [(Vec3, Vec3, Vec2); 3], c: Vec4) {
         let face = (v[1].0 - v[0].0).cross(v[2].0 - v[0].0);
-        let order = if face.dot(v[0].1 + v[1].1 + v[2].1) >= 0.0 { [0, 1, 2] } else { [0, 2, 1] };
+        let order = if face.dot(v[0].1 + v[1].1 + v[2].1) >= 0.0 {
+            [0, 1, 2]
+        } else {
+            [0, 2, 1]
+        };
         for i in order {
             self.push(v[i].0, v[i].1, c, v[i].2);
         }
@@ -104,10 +108,30 @@ fn quad(q: &QuadMesh) -> Geometry {
     let a = q.corner_alpha;
     let mut g = Geometry::with_capacity(2);
     g.quad([
-        (Vec3::new(-hx, -hy, 0.0), n, Vec4::new(1.0, 1.0, 1.0, a[0]), Vec2::new(0.0, 1.0)),
-        (Vec3::new(hx, -hy, 0.0), n, Vec4::new(1.0, 1.0, 1.0, a[1]), Vec2::new(1.0, 1.0)),
-        (Vec3::new(hx, hy, 0.0), n, Vec4::new(1.0, 1.0, 1.0, a[2]), Vec2::new(1.0, 0.0)),
-        (Vec3::new(-hx, hy, 0.0), n, Vec4::new(1.0, 1.0, 1.0, a[3]), Vec2::new(0.0, 0.0)),
+        (
+            Vec3::new(-hx, -hy, 0.0),
+            n,
+            Vec4::new(1.0, 1.0, 1.0, a[0]),
+            Vec2::new(0.0, 1.0),
+        ),
+        (
+            Vec3::new(hx, -hy, 0.0),
+            n,
+            Vec4::new(1.0, 1.0, 1.0, a[1]),
+            Vec2::new(1.0, 1.0),
+        ),
+        (
+            Vec3::new(hx, hy, 0.0),
+            n,
+            Vec4::new(1.0, 1.0, 1.0, a[2]),
+            Vec2::new(1.0, 0.0),
+        ),
+        (
+            Vec3::new(-hx, hy, 0.0),
+            n,
+            Vec4::new(1.0, 1.0, 1.0, a[3]),
+            Vec2::new(0.0, 0.0),
+        ),
     ]);
     g.close_part();
     g
@@ -151,7 +175,11 @@ fn sphere(s: &SphereMesh) -> Geometry {
         }
         let theta = std::f32::consts::PI * ring as f32 / rings as f32;
         let phi = std::f32::consts::TAU * (j % seg) as f32 / seg as f32;
-        let n = Vec3::new(theta.sin() * phi.cos(), theta.cos(), -theta.sin() * phi.sin());
+        let n = Vec3::new(
+            theta.sin() * phi.cos(),
+            theta.cos(),
+            -theta.sin() * phi.sin(),
+        );
         (n * s.radius, n, uv)
     };
     let mut g = Geometry::with_capacity(2 * seg as usize * (rings as usize - 1));
@@ -178,7 +206,11 @@ fn torus(t: &TorusMesh) -> Geometry {
     let point = |i: u32, j: u32| -> (Vec3, Vec3, Vec2) {
         let phi = std::f32::consts::TAU * (i % seg) as f32 / seg as f32;
         let theta = std::f32::consts::TAU * (j % tube) as f32 / tube as f32;
-        let n = Vec3::new(theta.cos() * phi.cos(), theta.sin(), theta.cos() * phi.sin());
+        let n = Vec3::new(
+            theta.cos() * phi.cos(),
+            theta.sin(),
+            theta.cos() * phi.sin(),
+        );
         let centre = Vec3::new(phi.cos(), 0.0, phi.sin()) * t.major_radius;
         let uv = Vec2::new(i as f32 / seg as f32, j as f32 / tube as f32);
         (centre + n * t.minor_radius, n, uv)
@@ -186,7 +218,12 @@ fn torus(t: &TorusMesh) -> Geometry {
     let mut g = Geometry::with_capacity(2 * seg as usize * tube as usize);
     for i in 0..seg {
         for j in 0..tube {
-            let (a, b, c, d) = (point(i, j), point(i + 1, j), point(i + 1, j + 1), point(i, j + 1));
+            let (a, b, c, d) = (
+                point(i, j),
+                point(i + 1, j),
+                point(i + 1, j + 1),
+                point(i, j + 1),
+            );
             g.oriented_triangle([a, b, c], WHITE);
             g.oriented_triangle([a, c, d], WHITE);
         }
@@ -241,7 +278,11 @@ fn layers(l: &LayersMesh) -> Geometry {
     let (from, to) = (Vec3::from(l.color_from), Vec3::from(l.color_to));
     let (hx, hy) = (l.size[0] * 0.5, l.size[1] * 0.5);
     for i in 0..l.count {
-        let t = if l.count > 1 { i as f32 / (l.count - 1) as f32 } else { 0.0 };
+        let t = if l.count > 1 {
+            i as f32 / (l.count - 1) as f32
+        } else {
+            0.0
+        };
         let rgb = from + (to - from) * t;
         let alpha = l.alpha_from + (l.alpha_to - l.alpha_from) * t;
         let color = rgb.extend(alpha);

@@ -59,6 +59,10 @@ pub struct Camera {
 impl Camera {
     /// Builds the matrices for `aspect` (width / height). Right-handed view space, wgpu/Vulkan
     /// clip space (z in [0, 1]).
+    #[allow(
+        clippy::too_many_arguments,
+        reason = "one plain constructor mirroring the scene file's camera fields"
+    )]
     pub fn new(
         eye: Vec3,
         target: Vec3,
@@ -75,7 +79,12 @@ impl Camera {
         let proj = match projection {
             Projection::Perspective { fov_y_degrees } => {
                 // wgpu's clip space is DirectX's: y up, z in [0, 1].
-                glam::camera::rh::proj::directx::perspective(fov_y_degrees.to_radians(), aspect, zn, zf)
+                glam::camera::rh::proj::directx::perspective(
+                    fov_y_degrees.to_radians(),
+                    aspect,
+                    zn,
+                    zf,
+                )
             }
             Projection::Orthographic { height } => {
                 let h = height * 0.5;
@@ -84,7 +93,18 @@ impl Camera {
             }
         };
         let view_proj = proj * view;
-        Self { eye, target, up, projection, near, far, reverse_z, view, proj, view_proj }
+        Self {
+            eye,
+            target,
+            up,
+            projection,
+            near,
+            far,
+            reverse_z,
+            view,
+            proj,
+            view_proj,
+        }
     }
 
     /// Clip-space position of a world-space point, with exactly the f32 operations the vertex
@@ -172,9 +192,15 @@ impl Material {
         match self.mode {
             AlphaMode::Opaque | AlphaMode::Mask => Shaded::Opaque(c),
             AlphaMode::Blend | AlphaMode::MaskBlend => {
-                let premultiplied =
-                    if self.premultiplied { c } else { [alpha * c[0], alpha * c[1], alpha * c[2]] };
-                Shaded::Transparent { premultiplied, alpha }
+                let premultiplied = if self.premultiplied {
+                    c
+                } else {
+                    [alpha * c[0], alpha * c[1], alpha * c[2]]
+                };
+                Shaded::Transparent {
+                    premultiplied,
+                    alpha,
+                }
             }
         }
     }
@@ -268,15 +294,26 @@ impl Scene {
             c.reverse_z,
             resolution.aspect(),
         );
-        Scene { resolution, camera, ..self.clone() }
+        Scene {
+            resolution,
+            camera,
+            ..self.clone()
+        }
     }
 
     /// Same scene with the draw list permuted (ids kept). `order[i]` is the index into the
     /// current draw list of the draw that goes i-th.
     pub fn with_draw_order(&self, order: &[usize]) -> Scene {
-        assert_eq!(order.len(), self.draws.len(), "draw order must be a permutation");
+        assert_eq!(
+            order.len(),
+            self.draws.len(),
+            "draw order must be a permutation"
+        );
         let draws = order.iter().map(|&i| self.draws[i].clone()).collect();
-        Scene { draws, ..self.clone() }
+        Scene {
+            draws,
+            ..self.clone()
+        }
     }
 
     /// Same scene with the draw order reversed: the cheap probe of order dependence.
@@ -358,7 +395,11 @@ pub struct LinearImage {
 
 impl LinearImage {
     pub fn new(width: u32, height: u32, fill: [f32; 4]) -> Self {
-        Self { width, height, pixels: vec![fill; width as usize * height as usize] }
+        Self {
+            width,
+            height,
+            pixels: vec![fill; width as usize * height as usize],
+        }
     }
 
     pub fn get(&self, x: u32, y: u32) -> [f32; 4] {

@@ -51,9 +51,18 @@ pub fn fail_text(text: &str) -> (String, Problem) {
         Err(e) => {
             let line = e.to_string();
             assert!(!line.contains('\n'), "error is not one line: {line}");
-            assert!(line.starts_with("test.json: "), "error does not name the file: {line}");
-            assert!(line.contains("; allowed: "), "error does not say what is allowed: {line}");
-            (e.path().expect("path").to_string(), e.problem().expect("problem").clone())
+            assert!(
+                line.starts_with("test.json: "),
+                "error does not name the file: {line}"
+            );
+            assert!(
+                line.contains("; allowed: "),
+                "error does not say what is allowed: {line}"
+            );
+            (
+                e.path().expect("path").to_string(),
+                e.problem().expect("problem").clone(),
+            )
         }
     }
 }
