@@ -1,1 +1,266 @@
-fn main() {}
+//! `oit`: compare order-independent transparency techniques against an exact CPU reference.
+//!
+//! Exit codes: 0 on success; 1 with one line on stderr otherwise; 2 for usage errors (clap).
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Duration;
+
+use anyhow::{Context as _, Result, bail};
+use clap::{Args, Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+use oit_scene::{Resolution, Scene};
+
+#[derive(Debug, Parser)]
+#[command(name = "oit", version, about = "Order-independent transparency testbed: every technique against an exact CPU reference")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// List scenes with triangle counts and depth complexity (from the reference).
+    Scenes {
+        /// A scene file or a directory of scene files.
+        #[arg(default_value = "scenes")]
+        path: PathBuf,
+    },
+    /// List every technique with its parameters and defaults.
+    Techniques,
+    /// Render the exact CPU reference of a scene to a linear EXR (RGBA + `layers`) and a PNG preview.
+    Reference {
+        scene: PathBuf,
+        /// Output EXR; a PNG preview is written beside it.
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// Override the scene's resolution, e.g. 512x512.
+        #[arg(long, value_parser = parse_resolution)]
+        resolution: Option<Resolution>,
+    },
+    /// Render one technique on the GPU to a linear EXR and a PNG preview.
+    Render {
+        scene: PathBuf,
+        /// Technique spec, `name[:key=value,...]` (see `oit techniques`).
+        #[arg(short, long)]
+        technique: String,
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        #[arg(long, value_parser = parse_resolution)]
+        resolution: Option<Resolution>,
+        #[command(flatten)]
+        gpu: GpuArgs,
+    },
+    /// Run techniques on scenes, diff against the reference, write results.json, results.md, EXR and PNG.
+    Compare {
+        /// Scene files or directories of scene files.
+        #[arg(required = true)]
+        scenes: Vec<PathBuf>,
+        /// Technique specs; every technique at its defaults when none is given.
+        #[arg(short, long = "technique")]
+        techniques: Vec<String>,
+        /// Output directory.
+        #[arg(long, default_value = "out")]
+        out: PathBuf,
+        #[arg(long, value_parser = parse_resolution)]
+        resolution: Option<Resolution>,
+        /// Timed frames per run.
+        #[arg(long, default_value_t = 20)]
+        frames: u32,
+        /// Untimed warm-up frames per run.
+        #[arg(long, default_value_t = 3)]
+        warmup: u32,
+        /// Where computed references are cached (keyed by scene content and resolution).
+        #[arg(long)]
+        cache: Option<PathBuf>,
+        #[command(flatten)]
+        gpu: GpuArgs,
+    },
+}
+
+#[derive(Debug, Args)]
+struct GpuArgs {
+    /// Graphics backend.
+    #[arg(long, default_value = "auto", value_parser = ["auto", "vulkan", "gl"])]
+    backend: String,
+    /// Use the first adapter whose name contains this substring.
+    #[arg(long)]
+    adapter: Option<String>,
+}
+
+impl GpuArgs {
+    fn options(&self) -> oit_gpu::ContextOptions {
+        let backend = match self.backend.as_str() {
+            "vulkan" => oit_gpu::Backend::Vulkan,
+            "gl" => oit_gpu::Backend::Gl,
+            _ => oit_gpu::Backend::Auto,
+        };
+        oit_gpu::ContextOptions { backend, adapter: self.adapter.clone() }
+    }
+}
+
+fn parse_resolution(s: &str) -> Result<Resolution, String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("`{s}` is not WIDTHxHEIGHT (e.g. 256x256)"))?;
+    let parse = |v: &str, what: &str| -> Result<u32, String> {
+        let n: u32 = v.trim().parse().map_err(|_| format!("{what} `{v}` is not a whole number"))?;
+        if n == 0 || n > Resolution::MAX_DIMENSION {
+            return Err(format!("{what} {n} is outside 1..={}", Resolution::MAX_DIMENSION));
+        }
+        Ok(n)
+    };
+    Ok(Resolution { width: parse(w, "width")?, height: parse(h, "height")? })
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli.command) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("oit: error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(command: Command) -> Result<()> {
+    match command {
+        Command::Scenes { path } => scenes(&path),
+        Command::Techniques => {
+            print!("{}", oit_harness::techniques_help());
+            Ok(())
+        }
+        Command::Reference { scene, output, resolution } => reference(&scene, output, resolution),
+        Command::Render { scene, technique, output, resolution, gpu } => {
+            render(&scene, &technique, output, resolution, &gpu)
+        }
+        Command::Compare { scenes, techniques, out, resolution, frames, warmup, cache, gpu } => {
+            let options = oit_harness::CompareOptions {
+                resolution,
+                frames,
+                warmup,
+                out_dir: out,
+                cache_dir: cache,
+                context: gpu.options(),
+            };
+            compare(&scenes, &techniques, &options)
+        }
+    }
+}
+
+fn load_scene(path: &Path, resolution: Option<Resolution>) -> Result<Scene> {
+    let scene = oit_scene::load(path)?;
+    Ok(match resolution {
+        Some(r) => scene.with_resolution(r),
+        None => scene,
+    })
+}
+
+fn progress_bar(len: u64, what: &str) -> ProgressBar {
+    let bar = ProgressBar::new(len);
+    bar.set_style(
+        ProgressStyle::with_template("{msg:>24} [{bar:32}] {pos}/{len} {elapsed_precise}")
+            .expect("static template")
+            .progress_chars("=> "),
+    );
+    bar.set_message(what.to_owned());
+    bar.enable_steady_tick(Duration::from_millis(200));
+    bar
+}
+
+fn scenes(path: &Path) -> Result<()> {
+    let entries = oit_harness::load_scenes(&[path.to_path_buf()])?;
+    println!(
+        "{:<22} {:>9} {:>9} {:>9} {:>7} {:>9} {:>10}",
+        "scene", "size", "triangles", "transp.", "draws", "max depth", "mean depth"
+    );
+    for entry in &entries {
+        let s = &entry.scene;
+        let reference = oit_reference::try_render(s, &oit_reference::ReferenceOptions::default())
+            .with_context(|| format!("reference of {}", entry.path.display()))?;
+        println!(
+            "{:<22} {:>9} {:>9} {:>9} {:>7} {:>9} {:>10.2}",
+            s.name,
+            s.resolution.to_string(),
+            s.triangle_count(),
+            s.transparent_triangle_count(),
+            s.draws.len(),
+            reference.stats.max_depth_complexity,
+            reference.stats.mean_depth_complexity,
+        );
+    }
+    Ok(())
+}
+
+fn reference(scene_path: &Path, output: Option<PathBuf>, resolution: Option<Resolution>) -> Result<()> {
+    let scene = load_scene(scene_path, resolution)?;
+    let output = output.unwrap_or_else(|| PathBuf::from(format!("{}-reference.exr", scene.name)));
+    let bar = progress_bar(0, &format!("reference {}", scene.name));
+    let tick = bar.clone();
+    let progress: oit_reference::Progress = std::sync::Arc::new(move |done: usize, total: usize| {
+        tick.set_length(total as u64);
+        tick.set_position(done as u64);
+    });
+    let options = oit_reference::ReferenceOptions { progress: Some(progress), ..Default::default() };
+    let reference = oit_reference::try_render(&scene, &options)
+        .with_context(|| format!("reference of {}", scene_path.display()))?;
+    bar.finish_and_clear();
+    oit_harness::write_reference_exr(&output, &reference)
+        .with_context(|| format!("writing {}", output.display()))?;
+    let png = output.with_extension("png");
+    oit_metrics::write_png_preview(&png, &reference.image)?;
+    let st = &reference.stats;
+    println!(
+        "{}: {} at {}: {} fragments, depth complexity max {} mean {:.2}, {:.3} s ({:.1} M fragments/s)",
+        scene.name,
+        output.display(),
+        scene.resolution,
+        st.fragments,
+        st.max_depth_complexity,
+        st.mean_depth_complexity,
+        st.seconds,
+        st.fragments_per_second / 1e6
+    );
+    println!("preview: {}", png.display());
+    Ok(())
+}
+
+fn render(
+    scene_path: &Path,
+    spec: &str,
+    output: Option<PathBuf>,
+    resolution: Option<Resolution>,
+    gpu: &GpuArgs,
+) -> Result<()> {
+    let scene = load_scene(scene_path, resolution)?;
+    let ctx = oit_harness::open_context(&gpu.options())?;
+    let spec = oit_harness::parse_spec(spec)?;
+    let output = output.unwrap_or_else(|| PathBuf::from(format!("{}-{}.exr", scene.name, oit_harness::file_stem(&spec.canonical()))));
+    let frame = oit_harness::render_once(&ctx, &scene, &spec)?;
+    oit_metrics::write_exr(&output, &[oit_metrics::ExrLayer::new("render", &frame.image)])?;
+    let png = output.with_extension("png");
+    oit_metrics::write_png_preview(&png, &frame.image)?;
+    println!("{} with {}: {} ({})", scene.name, spec.canonical(), output.display(), png.display());
+    Ok(())
+}
+
+fn compare(paths: &[PathBuf], specs: &[String], options: &oit_harness::CompareOptions) -> Result<()> {
+    let scenes = oit_harness::load_scenes(paths)?;
+    if scenes.is_empty() {
+        bail!("no scene files (*.json) found in {}", paths.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", "));
+    }
+    let ctx = oit_harness::open_context(&options.context)?;
+    let info = ctx.adapter_info();
+    eprintln!("adapter: {} ({}, {}, {})", info.name, info.backend, info.device_type, info.driver);
+    let specs = oit_harness::resolve_specs(specs)?;
+    let bar = progress_bar((scenes.len() * specs.len()) as u64, "compare");
+    let results = oit_harness::compare(&ctx, &scenes, &specs, options, &|msg: &str| {
+        bar.set_message(msg.to_owned());
+        bar.inc(1);
+    })?;
+    bar.finish_and_clear();
+    print!("{}", oit_harness::report::terminal_table(&results));
+    println!("\nwrote {}", options.out_dir.join("results.json").display());
+    Ok(())
+}

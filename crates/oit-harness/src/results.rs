@@ -1,0 +1,148 @@
+//! The `results.json` contract (schema `oit-lab/results/v1`, see DESIGN.md). Fields may be added;
+//! none may change meaning without a new schema version.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+pub const SCHEMA: &str = "oit-lab/results/v1";
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Results {
+    pub schema: String,
+    pub adapter: AdapterJson,
+    pub runs: Vec<Run>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AdapterJson {
+    pub name: String,
+    pub backend: String,
+    pub device_type: String,
+    pub driver: String,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RunStatus {
+    Ok,
+    Skipped,
+    Failed,
+}
+
+/// Median / min / max over the timed frames.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GpuMs {
+    pub median: f64,
+    pub min: f64,
+    pub max: f64,
+    pub frames: u32,
+    /// `timestamp` (GPU timestamp queries) or `wall-clock` (submit-and-wait; includes CPU work).
+    pub source: String,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PassMs {
+    pub name: String,
+    pub median_ms: f64,
+}
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Stats {
+    pub geometry_passes: u32,
+    pub layers_peeled: u64,
+    pub pixels_with_dropped_layers: u64,
+}
+
+/// Files written for one run, relative to the output directory.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Outputs {
+    pub exr: String,
+    pub render_png: String,
+    pub diff_png: String,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Run {
+    pub scene: String,
+    pub scene_file: String,
+    pub technique: String,
+    pub resolution: [u32; 2],
+    pub status: RunStatus,
+    /// Why a run was skipped or failed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reason: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gpu_ms: Option<GpuMs>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub passes: Vec<PassMs>,
+    /// CPU work per frame that the technique needs (e.g. sorting), median over timed frames.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cpu_ms: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub memory_bytes: Option<u64>,
+    /// `memory_bytes` divided by the pixel count.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bytes_per_pixel: Option<f64>,
+    /// Median GPU time divided by `unsorted`'s on the same scene in the same run.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cost_vs_unsorted: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub error: Option<oit_metrics::Errors>,
+    /// Largest per-channel absolute difference between the render in draw order and the render
+    /// with the draw order reversed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub order_dependence: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stats: Option<Stats>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub outputs: Option<Outputs>,
+}
+
+impl Run {
+    /// A run that did not render, with the reason.
+    pub fn not_rendered(
+        scene: &str,
+        scene_file: &str,
+        technique: &str,
+        resolution: [u32; 2],
+        status: RunStatus,
+        reason: String,
+    ) -> Self {
+        Run {
+            scene: scene.to_owned(),
+            scene_file: scene_file.to_owned(),
+            technique: technique.to_owned(),
+            resolution,
+            status,
+            reason: Some(reason),
+            gpu_ms: None,
+            passes: Vec::new(),
+            cpu_ms: None,
+            memory_bytes: None,
+            bytes_per_pixel: None,
+            cost_vs_unsorted: None,
+            error: None,
+            order_dependence: None,
+            stats: None,
+            outputs: None,
+        }
+    }
+}
+
+impl Results {
+    pub fn read(path: &Path) -> Result<Results, crate::HarnessError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| crate::HarnessError::io(path, e))?;
+        let results: Results = serde_json::from_str(&text).map_err(|e| {
+            crate::HarnessError::Invalid { path: path.to_path_buf(), message: e.to_string() }
+        })?;
+        if results.schema != SCHEMA {
+            return Err(crate::HarnessError::Invalid {
+                path: path.to_path_buf(),
+                message: format!("schema is `{}`; this build reads `{SCHEMA}`", results.schema),
+            });
+        }
+        Ok(results)
+    }
+}

@@ -1,0 +1,310 @@
+//! The comparison loop: for each scene, the reference (cached), then for each technique
+//! warm-up frames, timed frames, readback, metrics, the reversed-order render, and reports.
+
+use std::path::{Path, PathBuf};
+
+use oit_gpu::{
+    ColorFormat, Context, ContextOptions, GpuScene, GpuTimer, Targets, Technique, TechniqueSpec,
+    TimingSource, read_color, render_frame,
+};
+use oit_scene::{LinearImage, Resolution, Scene};
+
+use crate::results::{AdapterJson, GpuMs, Outputs, PassMs, Results, Run, RunStatus, SCHEMA, Stats};
+use crate::{HarnessError, SceneEntry, at_resolution, file_stem, registry};
+
+/// How `compare` runs.
+#[derive(Debug, Clone)]
+pub struct CompareOptions {
+    /// Overrides every scene's own resolution.
+    pub resolution: Option<Resolution>,
+    /// Timed frames per run (median, min and max are reported).
+    pub frames: u32,
+    /// Untimed frames first: pipelines compile and caches fill on the first frame.
+    pub warmup: u32,
+    pub out_dir: PathBuf,
+    /// Reference cache; [`crate::cache::default_dir`] when `None`.
+    pub cache_dir: Option<PathBuf>,
+    pub context: ContextOptions,
+}
+
+impl Default for CompareOptions {
+    fn default() -> Self {
+        CompareOptions {
+            resolution: None,
+            frames: 20,
+            warmup: 3,
+            out_dir: PathBuf::from("out"),
+            cache_dir: None,
+            context: ContextOptions::default(),
+        }
+    }
+}
+
+/// One rendered image and what it cost.
+#[derive(Debug, Clone)]
+pub struct RenderedFrame {
+    pub image: LinearImage,
+    pub stats: oit_gpu::RenderStats,
+    pub timings: oit_gpu::FrameTimings,
+    pub memory_bytes: u64,
+}
+
+fn build(spec: &TechniqueSpec) -> Result<Box<dyn Technique>, HarnessError> {
+    Ok(TechniqueSpec::build(&spec.canonical(), &registry())?)
+}
+
+/// Renders one frame of `scene` with `spec` (after one warm-up frame) and reads it back.
+pub fn render_once(ctx: &Context, scene: &Scene, spec: &TechniqueSpec) -> Result<RenderedFrame, HarnessError> {
+    let mut technique = build(spec)?;
+    let gpu_scene = GpuScene::upload(ctx, scene)?;
+    let targets = Targets::new(ctx, scene.resolution, ColorFormat::Rgba16Float)?;
+    let mut timer = GpuTimer::new(ctx);
+    render_frame(ctx, &gpu_scene, technique.as_mut(), &targets, &mut timer)?;
+    let frame = render_frame(ctx, &gpu_scene, technique.as_mut(), &targets, &mut timer)?;
+    let image = read_color(ctx, &targets)?;
+    Ok(RenderedFrame { image, stats: frame.stats, timings: frame.timings, memory_bytes: technique.memory_bytes() })
+}
+
+/// Runs every technique on every scene; writes `results.json`, `results.md` and per-run EXR
+/// and PNG files under `options.out_dir`. `progress` is called once per finished run.
+pub fn compare(
+    ctx: &Context,
+    scenes: &[SceneEntry],
+    specs: &[TechniqueSpec],
+    options: &CompareOptions,
+    progress: &dyn Fn(&str),
+) -> Result<Results, HarnessError> {
+    let out = &options.out_dir;
+    std::fs::create_dir_all(out).map_err(|e| HarnessError::io(out, e))?;
+    let cache_dir = options.cache_dir.clone().unwrap_or_else(crate::cache::default_dir);
+    let info = ctx.adapter_info();
+    let mut results = Results {
+        schema: SCHEMA.to_owned(),
+        adapter: AdapterJson {
+            name: info.name.clone(),
+            backend: info.backend.clone(),
+            device_type: info.device_type.clone(),
+            driver: format!("{} {}", info.driver, info.driver_info).trim().to_owned(),
+        },
+        runs: Vec::new(),
+    };
+    for entry in scenes {
+        let scene = at_resolution(&entry.scene, options.resolution);
+        let scene_file = entry.path.display().to_string();
+        let (reference, _cached) = crate::cache::reference(&cache_dir, &scene, || {
+            Ok(oit_reference::try_render(&scene, &oit_reference::ReferenceOptions::default())?)
+        })?;
+        let scene_dir = out.join(file_stem(&scene.name));
+        std::fs::create_dir_all(&scene_dir).map_err(|e| HarnessError::io(&scene_dir, e))?;
+        let forward = GpuScene::upload(ctx, &scene)?;
+        let reversed = GpuScene::upload(ctx, &scene.with_reversed_draw_order())?;
+        let targets = Targets::new(ctx, scene.resolution, ColorFormat::Rgba16Float)?;
+        let first_run = results.runs.len();
+        for spec in specs {
+            let canonical = spec.canonical();
+            let run = run_one(ctx, &scene, &scene_file, &forward, &reversed, &targets, spec, &reference, options, out)
+                .unwrap_or_else(|e| {
+                    Run::not_rendered(&scene.name, &scene_file, &canonical, res(&scene), RunStatus::Failed, e.to_string())
+                });
+            results.runs.push(run);
+            progress(&format!("{} {}", scene.name, canonical));
+        }
+        fill_costs(&mut results.runs[first_run..], || {
+            // `unsorted` was not requested: time it anyway, so every cost has its baseline.
+            let spec = TechniqueSpec::parse("unsorted", &registry()).ok()?;
+            let mut t = build(&spec).ok()?;
+            time_frames(ctx, &forward, t.as_mut(), &targets, options).ok().map(|(ms, _, _)| ms.median)
+        });
+    }
+    write_outputs(out, &results)?;
+    Ok(results)
+}
+
+fn res(scene: &Scene) -> [u32; 2] {
+    [scene.resolution.width, scene.resolution.height]
+}
+
+#[allow(clippy::too_many_arguments)] // one run needs all of these; a struct would only rename them
+fn run_one(
+    ctx: &Context,
+    scene: &Scene,
+    scene_file: &str,
+    forward: &GpuScene,
+    reversed: &GpuScene,
+    targets: &Targets,
+    spec: &TechniqueSpec,
+    reference: &oit_reference::Reference,
+    options: &CompareOptions,
+    out: &Path,
+) -> Result<Run, HarnessError> {
+    let canonical = spec.canonical();
+    let mut technique = build(spec)?;
+    if let Err(unsupported) = technique.check(&ctx.caps) {
+        return Ok(Run::not_rendered(&scene.name, scene_file, &canonical, res(scene), RunStatus::Skipped, unsupported.reason));
+    }
+    let (gpu_ms, passes, frame) = time_frames(ctx, forward, technique.as_mut(), targets, options)?;
+    let image = read_color(ctx, targets)?;
+
+    // The same technique with the draw order reversed: any difference is order dependence.
+    let mut timer = GpuTimer::wall_clock();
+    render_frame(ctx, reversed, technique.as_mut(), targets, &mut timer)?;
+    let reversed_image = read_color(ctx, targets)?;
+    let order_dependence = max_rgb_difference(&image, &reversed_image);
+
+    let error = oit_metrics::compare(&image, &reference.image)?;
+    let diff = oit_metrics::diff_image(&image, &reference.image)?;
+    let stem = file_stem(&canonical);
+    let dir = file_stem(&scene.name);
+    let outputs = Outputs {
+        exr: format!("{dir}/{stem}.exr"),
+        render_png: format!("{dir}/{stem}.png"),
+        diff_png: format!("{dir}/{stem}-diff.png"),
+    };
+    oit_metrics::write_exr(
+        &out.join(&outputs.exr),
+        &[
+            oit_metrics::ExrLayer::new("render", &image),
+            oit_metrics::ExrLayer::new("reference", &reference.image),
+            oit_metrics::ExrLayer::new("diff", &diff),
+        ],
+    )?;
+    oit_metrics::write_png_preview(&out.join(&outputs.render_png), &image)?;
+    let heat = oit_metrics::heatmap(&image, &reference.image)?;
+    oit_metrics::write_png_srgb8(&out.join(&outputs.diff_png), &heat)?;
+
+    let memory_bytes = technique.memory_bytes();
+    Ok(Run {
+        scene: scene.name.clone(),
+        scene_file: scene_file.to_owned(),
+        technique: canonical,
+        resolution: res(scene),
+        status: RunStatus::Ok,
+        reason: None,
+        gpu_ms: Some(gpu_ms),
+        passes,
+        cpu_ms: Some(frame.cpu_ms),
+        memory_bytes: Some(memory_bytes),
+        bytes_per_pixel: Some(memory_bytes as f64 / scene.resolution.pixel_count() as f64),
+        cost_vs_unsorted: None,
+        error: Some(error),
+        order_dependence: Some(order_dependence),
+        stats: Some(Stats {
+            geometry_passes: frame.geometry_passes,
+            layers_peeled: frame.layers_peeled,
+            pixels_with_dropped_layers: frame.pixels_with_dropped_layers,
+        }),
+        outputs: Some(outputs),
+    })
+}
+
+/// Warm-up then timed frames. Returns total GPU ms (median/min/max), per-pass medians, and the
+/// last frame's stats with `cpu_ms` replaced by its median over the timed frames.
+fn time_frames(
+    ctx: &Context,
+    scene: &GpuScene,
+    technique: &mut dyn Technique,
+    targets: &Targets,
+    options: &CompareOptions,
+) -> Result<(GpuMs, Vec<PassMs>, oit_gpu::RenderStats), HarnessError> {
+    let mut timer = GpuTimer::new(ctx);
+    for _ in 0..options.warmup {
+        render_frame(ctx, scene, technique, targets, &mut timer)?;
+    }
+    let frames = options.frames.max(1);
+    let mut totals = Vec::with_capacity(frames as usize);
+    let mut cpu = Vec::with_capacity(frames as usize);
+    let mut per_pass: Vec<(String, Vec<f64>)> = Vec::new();
+    let mut last = None;
+    let mut source = TimingSource::WallClock;
+    for _ in 0..frames {
+        let frame = render_frame(ctx, scene, technique, targets, &mut timer)?;
+        source = frame.timings.source;
+        // Wall-clock mode: total GPU busy time is unknowable, so the whole frame counts.
+        totals.push(match source {
+            TimingSource::Timestamp => frame.timings.total_ms,
+            TimingSource::WallClock => frame.timings.wall_ms,
+        });
+        cpu.push(frame.stats.cpu_ms);
+        for p in &frame.timings.passes {
+            match per_pass.iter_mut().find(|(n, _)| *n == p.name) {
+                Some((_, v)) => v.push(p.ms),
+                None => per_pass.push((p.name.clone(), vec![p.ms])),
+            }
+        }
+        last = Some(frame.stats);
+    }
+    let mut stats = last.expect("at least one frame");
+    stats.cpu_ms = median(&mut cpu);
+    let gpu = GpuMs {
+        median: median(&mut totals.clone()),
+        min: totals.iter().copied().fold(f64::INFINITY, f64::min),
+        max: totals.iter().copied().fold(0.0, f64::max),
+        frames,
+        source: source.name().to_owned(),
+    };
+    let passes = per_pass
+        .into_iter()
+        .map(|(name, mut v)| PassMs { name, median_ms: median(&mut v) })
+        .collect();
+    Ok((gpu, passes, stats))
+}
+
+fn median(values: &mut [f64]) -> f64 {
+    if values.is_empty() {
+        return 0.0;
+    }
+    values.sort_by(f64::total_cmp);
+    let n = values.len();
+    if n % 2 == 1 { values[n / 2] } else { 0.5 * (values[n / 2 - 1] + values[n / 2]) }
+}
+
+/// Largest per-channel |a − b| over RGB; NaN anywhere counts as infinitely different.
+pub fn max_rgb_difference(a: &LinearImage, b: &LinearImage) -> f64 {
+    a.pixels
+        .iter()
+        .zip(&b.pixels)
+        .flat_map(|(p, q)| (0..3).map(move |c| f64::from(p[c]) - f64::from(q[c])))
+        .map(|d| if d.is_nan() { f64::INFINITY } else { d.abs() })
+        .fold(0.0, f64::max)
+}
+
+/// Divides every ok run's median GPU time by `unsorted`'s in the same scene.
+fn fill_costs(runs: &mut [Run], measure_baseline: impl FnOnce() -> Option<f64>) {
+    let baseline = runs
+        .iter()
+        .find(|r| r.technique == "unsorted" && r.status == RunStatus::Ok)
+        .and_then(|r| r.gpu_ms.as_ref().map(|g| g.median));
+    let baseline = baseline.or_else(measure_baseline);
+    let Some(base) = baseline.filter(|b| *b > 0.0) else { return };
+    for run in runs.iter_mut().filter(|r| r.status == RunStatus::Ok) {
+        run.cost_vs_unsorted = run.gpu_ms.as_ref().map(|g| g.median / base);
+    }
+}
+
+fn write_outputs(out: &Path, results: &Results) -> Result<(), HarnessError> {
+    let json = serde_json::to_vec_pretty(results).expect("results serialize");
+    oit_metrics::write_atomic_bytes(&out.join("results.json"), &json)?;
+    oit_metrics::write_atomic_bytes(&out.join("results.md"), crate::report::markdown(results).as_bytes())?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn median_of_odd_and_even_counts() {
+        assert_eq!(median(&mut [3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(&mut [4.0, 1.0, 2.0, 3.0]), 2.5);
+    }
+
+    #[test]
+    fn order_difference_is_max_abs_and_nan_is_infinite() {
+        let a = LinearImage::new(2, 1, [0.5, 0.5, 0.5, 1.0]);
+        let mut b = a.clone();
+        b.pixels[1][2] = 0.25;
+        assert_eq!(max_rgb_difference(&a, &b), 0.25);
+        b.pixels[0][0] = f32::NAN;
+        assert_eq!(max_rgb_difference(&a, &b), f64::INFINITY);
+    }
+}
