@@ -1,0 +1,665 @@
+//! The weighted blended OIT tail, shared by the `wboit` technique and by dual depth peeling's
+//! `tail=wboit`: the WGSL weight and accumulation functions, the two accumulation targets with
+//! their blend states, and the guarded full-screen composite. Both users call these same
+//! functions, so the tail is one piece of code.
+//!
+//! A peel pass that accumulates its leftover layers:
+//!
+//! 1. appends [`WGSL`] to its shader source and, per fragment, writes
+//!    `wboit_accumulate(C, alpha, wboit_weight_default(wboit_view_distance_default(z), z, alpha))`'s
+//!    `accum` to the attachment of [`AccumTargets::attachments`]`[0]` and `reveal` to `[1]`;
+//! 2. builds its pipeline with [`AccumTargets::color_targets`] and the override constants of
+//!    [`pipeline_constants`] (for the scene's depth interval and projection);
+//! 3. calls [`composite`] once after the last accumulation pass.
+
+use crate::guards::{GUARD_SLOTS, GuardCounts};
+use oit_gpu::wgpu;
+use oit_gpu::{Context, GpuError, GpuTimer, MemoryLedger, Targets, Unsupported};
+use oit_scene::{Camera, Projection, Resolution, Scene};
+use std::sync::Mutex;
+
+/// WGSL with no bindings and no includes (shaders/wboit_tail.wgsl). It defines:
+///
+/// - `fn wboit_weight_default(view_z: f32, window_z: f32, alpha: f32) -> f32`: the `range`
+///   weight over the interval in the override constants `wboit_z_near`, `wboit_z_far`;
+/// - `fn wboit_weight_range(view_z, alpha, z_near, z_far) -> f32`: the same with the interval
+///   passed explicitly;
+/// - `fn wboit_view_distance(window_z, a, b, ortho: bool) -> f32` and
+///   `fn wboit_view_distance_default(window_z) -> f32` (overrides `wboit_proj_a`,
+///   `wboit_proj_b`, `wboit_ortho`): the positive view distance from window depth;
+/// - `struct WboitAccum { accum: vec4<f32>, reveal: vec4<f32> }` and
+///   `fn wboit_accumulate(premultiplied: vec3<f32>, alpha: f32, weight: f32) -> WboitAccum`.
+pub const WGSL: &str = include_str!("../../../shaders/wboit_tail.wgsl");
+
+/// The composite pass (shaders/wboit_composite.wgsl).
+pub(crate) const COMPOSITE_WGSL: &str = include_str!("../../../shaders/wboit_composite.wgsl");
+
+/// Accumulation target format: (premultiplied colour · w, α · w), additive.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum AccumFormat {
+    /// Blendable everywhere; overflows at 65504 (hdr-emissive, deep α = 1 stacks).
+    Rgba16f,
+    /// Needs `FLOAT32_BLENDABLE`.
+    Rgba32f,
+}
+
+impl AccumFormat {
+    pub const NAMES: &'static [&'static str] = &["rgba16f", "rgba32f"];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            AccumFormat::Rgba16f => "rgba16f",
+            AccumFormat::Rgba32f => "rgba32f",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<Self> {
+        match s {
+            "rgba16f" => Some(AccumFormat::Rgba16f),
+            "rgba32f" => Some(AccumFormat::Rgba32f),
+            _ => None,
+        }
+    }
+
+    pub fn texture_format(self) -> wgpu::TextureFormat {
+        match self {
+            AccumFormat::Rgba16f => wgpu::TextureFormat::Rgba16Float,
+            AccumFormat::Rgba32f => wgpu::TextureFormat::Rgba32Float,
+        }
+    }
+
+    /// Largest finite value: what the composite puts in place of an infinite channel.
+    pub fn max_finite(self) -> f32 {
+        match self {
+            AccumFormat::Rgba16f => 65504.0,
+            AccumFormat::Rgba32f => f32::MAX,
+        }
+    }
+}
+
+/// Revealage format: Π(1 − α) by (zero, one-minus-src) blending (or the fragment count of the
+/// weighted average, additive).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum RevealFormat {
+    /// 8-bit unorm: each blend rounds to 1/255, so α < 1/510 never moves it.
+    R8,
+    R16f,
+    /// Needs `FLOAT32_BLENDABLE`.
+    R32f,
+}
+
+impl RevealFormat {
+    pub const NAMES: &'static [&'static str] = &["r8", "r16f", "r32f"];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            RevealFormat::R8 => "r8",
+            RevealFormat::R16f => "r16f",
+            RevealFormat::R32f => "r32f",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<Self> {
+        match s {
+            "r8" => Some(RevealFormat::R8),
+            "r16f" => Some(RevealFormat::R16f),
+            "r32f" => Some(RevealFormat::R32f),
+            _ => None,
+        }
+    }
+
+    pub fn texture_format(self) -> wgpu::TextureFormat {
+        match self {
+            RevealFormat::R8 => wgpu::TextureFormat::R8Unorm,
+            RevealFormat::R16f => wgpu::TextureFormat::R16Float,
+            RevealFormat::R32f => wgpu::TextureFormat::R32Float,
+        }
+    }
+}
+
+/// How the composite turns the two targets into coverage.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum CompositeMode {
+    /// McGuire & Bavoil 2013: the second target is the revealage T = Π(1 − α).
+    Weighted,
+    /// Bavoil & Myers 2008: the second target is the fragment count n and T = (1 − Σα/n)^n.
+    Average,
+}
+
+impl CompositeMode {
+    fn index(self) -> u32 {
+        match self {
+            CompositeMode::Weighted => 0,
+            CompositeMode::Average => 1,
+        }
+    }
+}
+
+/// The formats of the tail's default targets: fp16 accumulation (blendable on every adapter)
+/// and fp16 revealage (keeps α = 1/512 layers that R8 loses).
+pub const DEFAULT_ACCUM: AccumFormat = AccumFormat::Rgba16f;
+pub const DEFAULT_REVEAL: RevealFormat = RevealFormat::R16f;
+
+/// `Ok` when this adapter can blend into both targets.
+pub fn check_formats(
+    caps: &oit_gpu::Caps,
+    accum: AccumFormat,
+    reveal: RevealFormat,
+) -> Result<(), Unsupported> {
+    caps.require_target(accum.texture_format(), true)
+        .map_err(|e| Unsupported::new(format!("accum={}: {}", accum.name(), e.reason)))?;
+    caps.require_target(reveal.texture_format(), true)
+        .map_err(|e| Unsupported::new(format!("reveal={}: {}", reveal.name(), e.reason)))?;
+    if caps.max_storage_buffers_per_shader_stage == 0 {
+        return Err(Unsupported::new(
+            "the adapter has no storage buffers in fragment shaders (scene materials, guard counters)",
+        ));
+    }
+    if caps.max_color_attachments < 2 {
+        return Err(Unsupported::new(
+            "the adapter has fewer than 2 colour attachments",
+        ));
+    }
+    Ok(())
+}
+
+/// The composite pipeline for one final colour format.
+#[derive(Debug)]
+struct CompositePipeline {
+    format: wgpu::TextureFormat,
+    pipeline: wgpu::RenderPipeline,
+}
+
+/// The accumulation and revealage textures, the composite's uniform, bind group and guard
+/// counters, and the cached composite pipeline.
+#[derive(Debug)]
+pub struct AccumTargets {
+    pub resolution: Resolution,
+    pub mode: CompositeMode,
+    pub accum_format: AccumFormat,
+    pub reveal_format: RevealFormat,
+    pub accum: wgpu::Texture,
+    pub accum_view: wgpu::TextureView,
+    pub reveal: wgpu::Texture,
+    pub reveal_view: wgpu::TextureView,
+    params: wgpu::Buffer,
+    guards: wgpu::Buffer,
+    guards_readback: wgpu::Buffer,
+    layout: wgpu::BindGroupLayout,
+    bind_group: wgpu::BindGroup,
+    pipeline: Mutex<Option<CompositePipeline>>,
+    ledger: MemoryLedger,
+}
+
+impl AccumTargets {
+    /// The default targets: weighted blended, `rgba16f` accumulation, `r16f` revealage.
+    pub fn new(ctx: &Context, resolution: Resolution) -> Result<Self, GpuError> {
+        Self::with_formats(
+            ctx,
+            resolution,
+            CompositeMode::Weighted,
+            DEFAULT_ACCUM,
+            DEFAULT_REVEAL,
+        )
+    }
+
+    pub fn with_formats(
+        ctx: &Context,
+        resolution: Resolution,
+        mode: CompositeMode,
+        accum_format: AccumFormat,
+        reveal_format: RevealFormat,
+    ) -> Result<Self, GpuError> {
+        check_formats(&ctx.caps, accum_format, reveal_format)?;
+        let max = ctx.caps.max_texture_dimension_2d;
+        if resolution.width > max || resolution.height > max || resolution.pixel_count() == 0 {
+            return Err(Unsupported::new(format!(
+                "resolution {resolution} is outside 1..={max} pixels per side"
+            ))
+            .into());
+        }
+        let size = wgpu::Extent3d {
+            width: resolution.width,
+            height: resolution.height,
+            depth_or_array_layers: 1,
+        };
+        let mut ledger = MemoryLedger::new();
+        let mut texture = |label, format| {
+            ledger.create_texture(
+                &ctx.device,
+                &wgpu::TextureDescriptor {
+                    label: Some(label),
+                    size,
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format,
+                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                        | wgpu::TextureUsages::TEXTURE_BINDING
+                        | wgpu::TextureUsages::COPY_SRC,
+                    view_formats: &[],
+                },
+            )
+        };
+        let accum = texture("wboit accumulation", accum_format.texture_format());
+        let reveal = texture("wboit revealage", reveal_format.texture_format());
+        let params = ledger.create_buffer(
+            &ctx.device,
+            &wgpu::BufferDescriptor {
+                label: Some("wboit composite params"),
+                size: 16,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            },
+        );
+        let guard_bytes = u64::from(GUARD_SLOTS) * 4;
+        let guards = ledger.create_buffer(
+            &ctx.device,
+            &wgpu::BufferDescriptor {
+                label: Some("wboit guard counters"),
+                size: guard_bytes,
+                usage: wgpu::BufferUsages::STORAGE
+                    | wgpu::BufferUsages::COPY_SRC
+                    | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            },
+        );
+        let guards_readback = ledger.create_buffer(
+            &ctx.device,
+            &wgpu::BufferDescriptor {
+                label: Some("wboit guard readback"),
+                size: guard_bytes,
+                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+                mapped_at_creation: false,
+            },
+        );
+        let accum_view = accum.create_view(&Default::default());
+        let reveal_view = reveal.create_view(&Default::default());
+        let texture_entry = |binding| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::FRAGMENT,
+            ty: wgpu::BindingType::Texture {
+                sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                view_dimension: wgpu::TextureViewDimension::D2,
+                multisampled: false,
+            },
+            count: None,
+        };
+        let layout = ctx
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("wboit composite"),
+                entries: &[
+                    texture_entry(0),
+                    texture_entry(1),
+                    wgpu::BindGroupLayoutEntry {
+                        binding: 2,
+                        visibility: wgpu::ShaderStages::FRAGMENT,
+                        ty: wgpu::BindingType::Buffer {
+                            ty: wgpu::BufferBindingType::Uniform,
+                            has_dynamic_offset: false,
+                            min_binding_size: None,
+                        },
+                        count: None,
+                    },
+                    wgpu::BindGroupLayoutEntry {
+                        binding: 3,
+                        visibility: wgpu::ShaderStages::FRAGMENT,
+                        ty: wgpu::BindingType::Buffer {
+                            ty: wgpu::BufferBindingType::Storage { read_only: false },
+                            has_dynamic_offset: false,
+                            min_binding_size: None,
+                        },
+                        count: None,
+                    },
+                ],
+            });
+        let bind_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("wboit composite"),
+            layout: &layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::TextureView(&accum_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(&reveal_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: params.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: guards.as_entire_binding(),
+                },
+            ],
+        });
+        Ok(AccumTargets {
+            resolution,
+            mode,
+            accum_format,
+            reveal_format,
+            accum,
+            accum_view,
+            reveal,
+            reveal_view,
+            params,
+            guards,
+            guards_readback,
+            layout,
+            bind_group,
+            pipeline: Mutex::new(None),
+            ledger,
+        })
+    }
+
+    /// Bytes of both textures, the composite uniform and the guard counters (and their
+    /// readback copy).
+    pub fn memory_bytes(&self) -> u64 {
+        self.ledger.total()
+    }
+
+    /// Bytes per pixel of the two textures alone.
+    pub fn bytes_per_pixel(&self) -> u64 {
+        let texel = |f: wgpu::TextureFormat| u64::from(f.block_copy_size(None).unwrap_or(0));
+        texel(self.accum_format.texture_format()) + texel(self.reveal_format.texture_format())
+    }
+
+    /// Colour target states for an accumulation pipeline: location 0 additive
+    /// (one, one), location 1 multiplicative revealage (zero, one-minus-src) or, for the
+    /// weighted average, an additive count.
+    pub fn color_targets(&self) -> [Option<wgpu::ColorTargetState>; 2] {
+        let add = wgpu::BlendComponent {
+            src_factor: wgpu::BlendFactor::One,
+            dst_factor: wgpu::BlendFactor::One,
+            operation: wgpu::BlendOperation::Add,
+        };
+        let reveal = match self.mode {
+            CompositeMode::Weighted => wgpu::BlendComponent {
+                src_factor: wgpu::BlendFactor::Zero,
+                dst_factor: wgpu::BlendFactor::OneMinusSrc,
+                operation: wgpu::BlendOperation::Add,
+            },
+            CompositeMode::Average => add,
+        };
+        [
+            Some(wgpu::ColorTargetState {
+                format: self.accum_format.texture_format(),
+                blend: Some(wgpu::BlendState {
+                    color: add,
+                    alpha: add,
+                }),
+                write_mask: wgpu::ColorWrites::ALL,
+            }),
+            Some(wgpu::ColorTargetState {
+                format: self.reveal_format.texture_format(),
+                blend: Some(wgpu::BlendState {
+                    color: reveal,
+                    alpha: reveal,
+                }),
+                write_mask: wgpu::ColorWrites::ALL,
+            }),
+        ]
+    }
+
+    /// The two colour attachments; `clear` sets accumulation to 0 and revealage to 1 (the
+    /// count of the weighted average to 0), otherwise they are loaded.
+    pub fn attachments(&self, clear: bool) -> [Option<wgpu::RenderPassColorAttachment<'_>>; 2] {
+        let reveal_clear = match self.mode {
+            CompositeMode::Weighted => 1.0,
+            CompositeMode::Average => 0.0,
+        };
+        let ops = |value: f64| wgpu::Operations {
+            load: if clear {
+                wgpu::LoadOp::Clear(wgpu::Color {
+                    r: value,
+                    g: value,
+                    b: value,
+                    a: value,
+                })
+            } else {
+                wgpu::LoadOp::Load
+            },
+            store: wgpu::StoreOp::Store,
+        };
+        [
+            Some(wgpu::RenderPassColorAttachment {
+                view: &self.accum_view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: ops(0.0),
+            }),
+            Some(wgpu::RenderPassColorAttachment {
+                view: &self.reveal_view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: ops(reveal_clear),
+            }),
+        ]
+    }
+
+    /// The guard counts of the last [`composite`] over these targets (waits for the GPU).
+    pub fn guard_counts(&self, ctx: &Context) -> Result<GuardCounts, GpuError> {
+        let (tx, rx) = std::sync::mpsc::channel();
+        self.guards_readback
+            .map_async(wgpu::MapMode::Read, .., move |r| {
+                let _ = tx.send(r);
+            });
+        ctx.wait()?;
+        let fail = |message: String| GpuError::Readback {
+            what: "wboit guard counters".to_owned(),
+            message,
+        };
+        rx.recv()
+            .map_err(|e| fail(e.to_string()))?
+            .map_err(|e| fail(e.to_string()))?;
+        let words: Vec<u32> = {
+            let data = self
+                .guards_readback
+                .get_mapped_range(..)
+                .map_err(|e| fail(e.to_string()))?;
+            data.chunks_exact(4)
+                .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+                .collect()
+        };
+        self.guards_readback.unmap();
+        Ok(GuardCounts::from_slots(&words))
+    }
+
+    fn pipeline(&self, ctx: &Context, format: wgpu::TextureFormat) -> wgpu::RenderPipeline {
+        let mut cache = self.pipeline.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(p) = cache.as_ref().filter(|p| p.format == format) {
+            return p.pipeline.clone();
+        }
+        let module = ctx
+            .device
+            .create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some("wboit_composite.wgsl"),
+                source: wgpu::ShaderSource::Wgsl(COMPOSITE_WGSL.into()),
+            });
+        let layout = ctx
+            .device
+            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("wboit composite"),
+                bind_group_layouts: &[Some(&self.layout)],
+                immediate_size: 0,
+            });
+        let pipeline = ctx
+            .device
+            .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some("wboit composite"),
+                layout: Some(&layout),
+                vertex: wgpu::VertexState {
+                    module: &module,
+                    entry_point: Some("vs_fullscreen"),
+                    compilation_options: Default::default(),
+                    buffers: &[],
+                },
+                primitive: Default::default(),
+                depth_stencil: None,
+                multisample: Default::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &module,
+                    entry_point: Some("fs_composite"),
+                    compilation_options: Default::default(),
+                    targets: &[Some(wgpu::ColorTargetState {
+                        format,
+                        blend: Some(COMPOSITE_BLEND),
+                        write_mask: wgpu::ColorWrites::ALL,
+                    })],
+                }),
+                multiview_mask: None,
+                cache: None,
+            });
+        *cache = Some(CompositePipeline {
+            format,
+            pipeline: pipeline.clone(),
+        });
+        pipeline
+    }
+}
+
+/// `dst = src + dst · src.a` on colour (the shader outputs (avg · (1 − T), T)); the target's
+/// alpha is kept.
+const COMPOSITE_BLEND: wgpu::BlendState = wgpu::BlendState {
+    color: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::One,
+        dst_factor: wgpu::BlendFactor::SrcAlpha,
+        operation: wgpu::BlendOperation::Add,
+    },
+    alpha: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::Zero,
+        dst_factor: wgpu::BlendFactor::One,
+        operation: wgpu::BlendOperation::Add,
+    },
+};
+
+/// Largest average colour the composite writes into a final target of `format`: half of fp16's
+/// maximum, so `avg · (1 − T) + dst · T` cannot overflow for any dst ≤ 32752.
+fn out_max(format: wgpu::TextureFormat) -> f32 {
+    match format {
+        wgpu::TextureFormat::Rgba32Float => 1e30,
+        _ => 32752.0,
+    }
+}
+
+/// The guarded full-screen composite of `accum` over `targets.color` (pass "wboit composite").
+/// Resets the guard counters, counts every guard that fires, and copies the counts for
+/// [`AccumTargets::guard_counts`].
+pub fn composite(
+    ctx: &Context,
+    targets: &Targets,
+    accum: &AccumTargets,
+    timer: &mut GpuTimer,
+) -> Result<(), GpuError> {
+    if targets.resolution != accum.resolution {
+        return Err(GpuError::Mismatch(format!(
+            "wboit accumulation targets are {} but the final colour is {}",
+            accum.resolution, targets.resolution
+        )));
+    }
+    let pipeline = accum.pipeline(ctx, targets.color_format);
+    let params: [u32; 4] = [
+        accum.mode.index(),
+        accum.accum_format.max_finite().to_bits(),
+        out_max(targets.color_format).to_bits(),
+        0,
+    ];
+    ctx.queue
+        .write_buffer(&accum.params, 0, bytemuck::cast_slice(&params));
+    let ts = timer.pass("wboit composite");
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    encoder.clear_buffer(&accum.guards, 0, None);
+    {
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("wboit composite"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &targets.color_view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Load,
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: None,
+            timestamp_writes: ts.writes(),
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &accum.bind_group, &[]);
+        pass.draw(0..3, 0..1);
+    }
+    encoder.copy_buffer_to_buffer(
+        &accum.guards,
+        0,
+        &accum.guards_readback,
+        0,
+        u64::from(GUARD_SLOTS) * 4,
+    );
+    timer.submit(ctx, encoder)
+}
+
+/// The terms that turn window depth back into view distance: `(a, b, ortho)` with a =
+/// proj[2][2], b = proj[3][2] of the camera's f32 projection (see `wboit_view_distance`).
+pub fn view_depth_terms(camera: &Camera) -> (f32, f32, bool) {
+    (
+        camera.proj.z_axis.z,
+        camera.proj.w_axis.z,
+        matches!(camera.projection, Projection::Orthographic { .. }),
+    )
+}
+
+/// CPU twin of `wboit_view_distance`.
+pub fn view_distance(camera: &Camera, window_z: f32) -> f32 {
+    let (a, b, ortho) = view_depth_terms(camera);
+    if ortho {
+        (b - window_z) / a
+    } else {
+        b / (window_z + a)
+    }
+}
+
+/// The view-distance interval `[near, far]` covered by the scene's transparent draws: the
+/// union of their bounding spheres along the view axis, clipped to the camera's near and far
+/// planes (the whole frustum when there are none). This is what the `range` weight spreads
+/// its curve over.
+pub fn transparent_depth_interval(scene: &Scene) -> (f32, f32) {
+    let cam = &scene.camera;
+    let mut lo = f32::INFINITY;
+    let mut hi = f32::NEG_INFINITY;
+    for d in &scene.draws {
+        if !scene.material_of(d).mode.is_transparent() || d.vertex_count == 0 {
+            continue;
+        }
+        let dist = -(cam.view.transform_point3(d.bounds_center)).z;
+        lo = lo.min(dist - d.bounds_radius);
+        hi = hi.max(dist + d.bounds_radius);
+    }
+    let near = cam.near.max(f32::MIN_POSITIVE);
+    let far = cam.far.max(near);
+    if lo > hi {
+        return (near, far);
+    }
+    let lo = lo.clamp(near, far);
+    let hi = hi.clamp(lo, far);
+    (lo, hi)
+}
+
+/// The override constants of [`WGSL`] for `scene` (its transparent depth interval and
+/// projection), for `wgpu::PipelineCompilationOptions::constants` of a pass that uses
+/// `wboit_weight_default` / `wboit_view_distance_default`.
+pub fn pipeline_constants(scene: &Scene) -> Vec<(&'static str, f64)> {
+    let (lo, hi) = transparent_depth_interval(scene);
+    let (a, b, ortho) = view_depth_terms(&scene.camera);
+    vec![
+        ("wboit_z_near", f64::from(lo)),
+        ("wboit_z_far", f64::from(hi)),
+        ("wboit_proj_a", f64::from(a)),
+        ("wboit_proj_b", f64::from(b)),
+        ("wboit_ortho", if ortho { 1.0 } else { 0.0 }),
+    ]
+}

@@ -1,0 +1,472 @@
+//! The `wboit` and `weighted-average` techniques: one accumulation pass over the transparent
+//! draws, then the shared guarded composite of [`crate::tail`].
+
+use crate::guards::GuardCounts;
+use crate::tail::{
+    self, AccumFormat, AccumTargets, CompositeMode, RevealFormat, transparent_depth_interval,
+    view_depth_terms,
+};
+use oit_gpu::wgpu;
+use oit_gpu::{
+    Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, RenderStats, Targets, Technique,
+    TechniqueSpec, Unsupported,
+};
+
+/// The accumulation pass (shaders/wboit_accum.wgsl; includes common.wgsl and the tail).
+pub const ACCUM_WGSL: &str = include_str!("../../../shaders/wboit_accum.wgsl");
+
+/// The weight functions. z is the positive view distance, d the conventional window depth
+/// (0 at near, 1 at far; `1 − window z` under reverse-Z), α the fragment's coverage.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Weight {
+    /// w = 1: Eq. 5 of the paper without depth weights.
+    Const,
+    /// w = α (pygfx's default).
+    Alpha,
+    /// Eq. 7: α·clamp(10 / (1e-5 + (z/5)² + (z/200)⁶), 1e-2, 3e3).
+    Eq7,
+    /// Eq. 8: α·clamp(10 / (1e-5 + (z/10)³ + (z/200)⁶), 1e-2, 3e3).
+    Eq8,
+    /// Eq. 9: α·clamp(0.03 / (1e-5 + (z/200)⁴), 1e-2, 3e3).
+    Eq9,
+    /// Eq. 10: α·max(1e-2, 3e3·(1 − d)³).
+    Eq10,
+    /// McGuire 2015: a = 8·min(1, α) + 0.01, b = 1 − 0.95·d, w = clamp(a³·1e8·b³, 1e-2, 3e2).
+    McGuire2015,
+    /// Ours: t = log-position of z in the scene's transparent depth interval (0 near end, 1
+    /// far end, from the transparent draws' bounding spheres), w = α·256·2^(−8t). Bounded to
+    /// [α, 256α] so fp16 neither overflows (255 opaque layers) nor goes denormal (α = 1/512).
+    Range,
+}
+
+impl Weight {
+    pub const ALL: [Weight; 8] = [
+        Weight::Const,
+        Weight::Alpha,
+        Weight::Eq7,
+        Weight::Eq8,
+        Weight::Eq9,
+        Weight::Eq10,
+        Weight::McGuire2015,
+        Weight::Range,
+    ];
+    pub const NAMES: &'static [&'static str] = &[
+        "const",
+        "alpha",
+        "eq7",
+        "eq8",
+        "eq9",
+        "eq10",
+        "mcguire2015",
+        "range",
+    ];
+
+    pub fn name(self) -> &'static str {
+        Self::NAMES[self.index() as usize]
+    }
+
+    /// The `weight` switch value in the shader.
+    pub fn index(self) -> u32 {
+        Self::ALL.iter().position(|&w| w == self).unwrap_or(0) as u32
+    }
+
+    pub fn parse(s: &str) -> Option<Self> {
+        Self::NAMES
+            .iter()
+            .position(|&n| n == s)
+            .map(|i| Self::ALL[i])
+    }
+
+    /// CPU twin of the shader's `weight` (for tests and documentation tables).
+    pub fn eval(self, z: f32, d: f32, alpha: f32, interval: (f32, f32)) -> f32 {
+        let cube = |x: f32| x * x * x;
+        match self {
+            Weight::Const => 1.0,
+            Weight::Alpha => alpha,
+            Weight::Eq7 => {
+                let s = z / 200.0;
+                alpha * (10.0 / (1e-5 + (z / 5.0).powi(2) + cube(s) * cube(s))).clamp(1e-2, 3e3)
+            }
+            Weight::Eq8 => {
+                let s = z / 200.0;
+                alpha * (10.0 / (1e-5 + cube(z / 10.0) + cube(s) * cube(s))).clamp(1e-2, 3e3)
+            }
+            Weight::Eq9 => alpha * (0.03 / (1e-5 + (z / 200.0).powi(4))).clamp(1e-2, 3e3),
+            Weight::Eq10 => alpha * (3e3 * cube(1.0 - d)).max(1e-2),
+            Weight::McGuire2015 => {
+                let a = alpha.min(1.0) * 8.0 + 0.01;
+                let b = 1.0 - 0.95 * d;
+                (cube(a) * 1e8 * cube(b)).clamp(1e-2, 3e2)
+            }
+            Weight::Range => {
+                let (near, far) = interval;
+                let lo = near.max(1e-30).log2();
+                let span = far.max(near).log2() - lo;
+                let t = if span > 1e-6 {
+                    ((z.max(1e-30).log2() - lo) / span).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                alpha * 256.0 * (-8.0 * t).exp2()
+            }
+        }
+    }
+}
+
+/// A `wboit` or `weighted-average` configuration.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Config {
+    Weighted {
+        weight: Weight,
+        accum: AccumFormat,
+        reveal: RevealFormat,
+    },
+    /// Bavoil & Myers 2008: rgba16f (ΣC, Σα) and an r32f fragment count.
+    Average,
+}
+
+impl Config {
+    /// The defaults: `range` (bounded for fp16 on every depth range), `rgba16f` (blendable on
+    /// every adapter), `r16f` (keeps α = 1/512 layers that R8 drops).
+    pub const DEFAULT: Config = Config::Weighted {
+        weight: Weight::Range,
+        accum: AccumFormat::Rgba16f,
+        reveal: RevealFormat::R16f,
+    };
+
+    pub fn spec(&self) -> TechniqueSpec {
+        match *self {
+            Config::Weighted {
+                weight,
+                accum,
+                reveal,
+            } => TechniqueSpec {
+                name: "wboit".to_owned(),
+                params: [
+                    ("accum", accum.name()),
+                    ("reveal", reveal.name()),
+                    ("weight", weight.name()),
+                ]
+                .into_iter()
+                .map(|(k, v)| (k.to_owned(), v.to_owned()))
+                .collect(),
+            },
+            Config::Average => TechniqueSpec {
+                name: "weighted-average".to_owned(),
+                params: Default::default(),
+            },
+        }
+    }
+
+    /// From a spec already validated against [`crate::techniques`]; unknown values fall back to
+    /// the defaults (they cannot occur after validation).
+    pub fn from_spec(spec: &TechniqueSpec) -> Config {
+        if spec.name == "weighted-average" {
+            return Config::Average;
+        }
+        let Config::Weighted {
+            weight: w0,
+            accum: a0,
+            reveal: r0,
+        } = Config::DEFAULT
+        else {
+            unreachable!("the default is weighted")
+        };
+        Config::Weighted {
+            weight: spec.get("weight").and_then(Weight::parse).unwrap_or(w0),
+            accum: spec.get("accum").and_then(AccumFormat::parse).unwrap_or(a0),
+            reveal: spec
+                .get("reveal")
+                .and_then(RevealFormat::parse)
+                .unwrap_or(r0),
+        }
+    }
+
+    fn formats(&self) -> (CompositeMode, AccumFormat, RevealFormat) {
+        match *self {
+            Config::Weighted { accum, reveal, .. } => (CompositeMode::Weighted, accum, reveal),
+            Config::Average => (
+                CompositeMode::Average,
+                AccumFormat::Rgba16f,
+                RevealFormat::R32f,
+            ),
+        }
+    }
+}
+
+#[derive(Debug)]
+struct Pipelines {
+    reverse_z: bool,
+    single_sided: wgpu::RenderPipeline,
+    double_sided: wgpu::RenderPipeline,
+}
+
+/// Weighted blended OIT or the weighted average.
+#[derive(Debug)]
+pub struct Wboit {
+    config: Config,
+    accum: Option<AccumTargets>,
+    pipelines: Option<Pipelines>,
+    params: Option<(wgpu::Buffer, wgpu::BindGroupLayout, wgpu::BindGroup)>,
+    ledger: MemoryLedger,
+}
+
+impl Wboit {
+    pub fn new(config: Config) -> Self {
+        Wboit {
+            config,
+            accum: None,
+            pipelines: None,
+            params: None,
+            ledger: MemoryLedger::new(),
+        }
+    }
+
+    pub fn config(&self) -> Config {
+        self.config
+    }
+
+    /// The guard counts of the last rendered frame (waits for the GPU). `None` before the
+    /// first frame.
+    pub fn last_guard_counts(&self, ctx: &Context) -> Result<Option<GuardCounts>, GpuError> {
+        self.accum.as_ref().map(|a| a.guard_counts(ctx)).transpose()
+    }
+
+    /// The accumulation targets (after the first frame), e.g. to read them back in tests.
+    pub fn accum_targets(&self) -> Option<&AccumTargets> {
+        self.accum.as_ref()
+    }
+
+    fn ensure(&mut self, ctx: &Context, scene: &GpuScene) -> Result<(), GpuError> {
+        let (mode, accum, reveal) = self.config.formats();
+        let res = scene.scene.resolution;
+        if self.accum.as_ref().is_none_or(|a| a.resolution != res) {
+            self.accum = Some(AccumTargets::with_formats(ctx, res, mode, accum, reveal)?);
+        }
+        if self.params.is_none() {
+            let buffer = self.ledger.create_buffer(
+                &ctx.device,
+                &wgpu::BufferDescriptor {
+                    label: Some("wboit weight params"),
+                    size: 32,
+                    usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                },
+            );
+            let layout = ctx
+                .device
+                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                    label: Some("wboit weight params"),
+                    entries: &[wgpu::BindGroupLayoutEntry {
+                        binding: 0,
+                        visibility: wgpu::ShaderStages::FRAGMENT,
+                        ty: wgpu::BindingType::Buffer {
+                            ty: wgpu::BufferBindingType::Uniform,
+                            has_dynamic_offset: false,
+                            min_binding_size: None,
+                        },
+                        count: None,
+                    }],
+                });
+            let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("wboit weight params"),
+                layout: &layout,
+                entries: &[wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: buffer.as_entire_binding(),
+                }],
+            });
+            self.params = Some((buffer, layout, group));
+        }
+        let reverse_z = scene.scene.camera.reverse_z;
+        if self
+            .pipelines
+            .as_ref()
+            .is_none_or(|p| p.reverse_z != reverse_z)
+        {
+            let accum = self
+                .accum
+                .as_ref()
+                .expect("accumulation targets built above");
+            let (_, layout, _) = self.params.as_ref().expect("params built above");
+            let code = oit_gpu::shaders::compose(ACCUM_WGSL, &|name| match name {
+                "wboit_tail.wgsl" => Some(tail::WGSL.to_owned()),
+                other => oit_gpu::shaders::shared_module(other).map(str::to_owned),
+            })
+            .map_err(|e| GpuError::Shader {
+                shader: "wboit_accum.wgsl".to_owned(),
+                message: e.to_string(),
+            })?;
+            let module = ctx
+                .device
+                .create_shader_module(wgpu::ShaderModuleDescriptor {
+                    label: Some("wboit_accum.wgsl"),
+                    source: wgpu::ShaderSource::Wgsl(code.into()),
+                });
+            let pipeline_layout =
+                ctx.device
+                    .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                        label: Some("wboit accumulate"),
+                        bind_group_layouts: &[Some(ctx.scene_layout()), Some(layout)],
+                        immediate_size: 0,
+                    });
+            let entry = match self.config {
+                Config::Weighted { .. } => "fs_wboit",
+                Config::Average => "fs_average",
+            };
+            let targets = accum.color_targets();
+            let make = |cull| {
+                accumulation_pipeline(
+                    ctx,
+                    &module,
+                    entry,
+                    &pipeline_layout,
+                    &targets,
+                    scene.depth_nearer(),
+                    cull,
+                )
+            };
+            self.pipelines = Some(Pipelines {
+                reverse_z,
+                single_sided: make(Some(wgpu::Face::Back)),
+                double_sided: make(None),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// A scene pipeline with two colour targets (oit-gpu's `scene_pipeline` takes one): the shared
+/// vertex stage of common.wgsl, depth tested strictly nearer than the opaque depth, no depth
+/// writes.
+fn accumulation_pipeline(
+    ctx: &Context,
+    module: &wgpu::ShaderModule,
+    entry: &str,
+    layout: &wgpu::PipelineLayout,
+    targets: &[Option<wgpu::ColorTargetState>],
+    depth_compare: wgpu::CompareFunction,
+    cull: Option<wgpu::Face>,
+) -> wgpu::RenderPipeline {
+    ctx.device
+        .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("wboit accumulate"),
+            layout: Some(layout),
+            vertex: wgpu::VertexState {
+                module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[Some(oit_gpu::vertex_layout())],
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: wgpu::PrimitiveTopology::TriangleList,
+                front_face: wgpu::FrontFace::Ccw,
+                cull_mode: cull,
+                ..Default::default()
+            },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: wgpu::TextureFormat::Depth32Float,
+                depth_write_enabled: Some(false),
+                depth_compare: Some(depth_compare),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                targets,
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
+}
+
+impl Technique for Wboit {
+    fn spec(&self) -> TechniqueSpec {
+        self.config.spec()
+    }
+
+    fn check(&self, caps: &Caps) -> Result<(), Unsupported> {
+        let (_, accum, reveal) = self.config.formats();
+        tail::check_formats(caps, accum, reveal)
+    }
+
+    fn render(
+        &mut self,
+        ctx: &Context,
+        scene: &GpuScene,
+        targets: &Targets,
+        timer: &mut GpuTimer,
+    ) -> Result<RenderStats, GpuError> {
+        self.ensure(ctx, scene)?;
+        let s = &scene.scene;
+        let (a, b, ortho) = view_depth_terms(&s.camera);
+        let (z_near, z_far) = transparent_depth_interval(s);
+        let weight = match self.config {
+            Config::Weighted { weight, .. } => weight.index(),
+            Config::Average => Weight::Const.index(),
+        };
+        let words: [u32; 8] = [
+            weight,
+            u32::from(s.camera.reverse_z),
+            u32::from(ortho),
+            0,
+            a.to_bits(),
+            b.to_bits(),
+            z_near.to_bits(),
+            z_far.to_bits(),
+        ];
+        let (params, _, group) = self.params.as_ref().expect("params built in ensure");
+        ctx.queue
+            .write_buffer(params, 0, bytemuck::cast_slice(&words));
+        let accum = self.accum.as_ref().expect("targets built in ensure");
+        let pipelines = self.pipelines.as_ref().expect("pipelines built in ensure");
+        let ts = timer.pass("wboit accumulate");
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        {
+            let attachments = accum.attachments(true);
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("wboit accumulate"),
+                color_attachments: &attachments,
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &targets.depth_view,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Load,
+                        store: wgpu::StoreOp::Store,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: ts.writes(),
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            scene.bind(&mut pass);
+            pass.set_bind_group(1, group, &[]);
+            for i in scene.transparent_draws() {
+                let d = &s.draws[i];
+                if d.vertex_count == 0 {
+                    continue;
+                }
+                let p = if s.material_of(d).double_sided {
+                    &pipelines.double_sided
+                } else {
+                    &pipelines.single_sided
+                };
+                pass.set_pipeline(p);
+                pass.draw(d.first_vertex..d.first_vertex + d.vertex_count, 0..1);
+            }
+        }
+        timer.submit(ctx, encoder)?;
+        tail::composite(ctx, targets, accum, timer)?;
+        Ok(RenderStats {
+            geometry_passes: 1,
+            ..Default::default()
+        })
+    }
+
+    fn memory_bytes(&self) -> u64 {
+        self.ledger.total() + self.accum.as_ref().map_or(0, AccumTargets::memory_bytes)
+    }
+}

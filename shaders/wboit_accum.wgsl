@@ -1,0 +1,100 @@
+// Weighted blended OIT accumulation pass (one geometry pass, depth-tested against the opaque
+// depth, no depth writes) and the weighted-average (Bavoil & Myers 2008) variant.
+#include "common.wgsl"
+#include "wboit_tail.wgsl"
+
+struct WboitParams {
+    // 0 const, 1 alpha, 2 eq7, 3 eq8, 4 eq9, 5 eq10, 6 mcguire2015, 7 range.
+    weight: u32,
+    // 1 when window depth 1 is near (then the paper's depth d = 1 - window z).
+    reverse_z: u32,
+    ortho: u32,
+    pad: u32,
+    // Projection terms for wboit_view_distance.
+    proj_a: f32,
+    proj_b: f32,
+    // The scene's transparent depth interval (view distances) for the `range` weight.
+    z_near: f32,
+    z_far: f32,
+}
+
+@group(1) @binding(0) var<uniform> params: WboitParams;
+
+fn cube(x: f32) -> f32 {
+    return x * x * x;
+}
+
+// The paper's weights (McGuire & Bavoil 2013, eqs. 7-10), McGuire's 2015 blog form, and ours.
+// z is the positive view distance, d the conventional window depth (0 near, 1 far).
+fn weight(kind: u32, z: f32, d: f32, alpha: f32) -> f32 {
+    switch kind {
+        case 0u: {
+            return 1.0;
+        }
+        case 1u: {
+            return alpha;
+        }
+        case 2u: {
+            let q = z / 5.0;
+            let s = z / 200.0;
+            return alpha * clamp(10.0 / (1e-5 + q * q + cube(s) * cube(s)), 1e-2, 3e3);
+        }
+        case 3u: {
+            let s = z / 200.0;
+            return alpha * clamp(10.0 / (1e-5 + cube(z / 10.0) + cube(s) * cube(s)), 1e-2, 3e3);
+        }
+        case 4u: {
+            let s = z / 200.0;
+            let s2 = s * s;
+            return alpha * clamp(0.03 / (1e-5 + s2 * s2), 1e-2, 3e3);
+        }
+        case 5u: {
+            return alpha * max(1e-2, 3e3 * cube(1.0 - d));
+        }
+        case 6u: {
+            let a = min(1.0, alpha) * 8.0 + 0.01;
+            let b = 1.0 - 0.95 * d;
+            return clamp(cube(a) * 1e8 * cube(b), 1e-2, 3e2);
+        }
+        default: {
+            return wboit_weight_range(z, alpha, params.z_near, params.z_far);
+        }
+    }
+}
+
+struct Outputs {
+    @location(0) accum: vec4<f32>,
+    @location(1) reveal: vec4<f32>,
+}
+
+@fragment
+fn fs_wboit(v: VertexOut, @builtin(front_facing) front_facing: bool) -> Outputs {
+    let s = shade(v, front_facing);
+    if !s.keep {
+        discard;
+    }
+    let window_z = v.clip.z;
+    var d = window_z;
+    if params.reverse_z != 0u {
+        d = 1.0 - window_z;
+    }
+    let z = wboit_view_distance(window_z, params.proj_a, params.proj_b, params.ortho != 0u);
+    let a = wboit_accumulate(s.color, s.alpha, weight(params.weight, z, d, s.alpha));
+    var out: Outputs;
+    out.accum = a.accum;
+    out.reveal = a.reveal;
+    return out;
+}
+
+// Weighted average: (sum C, sum alpha) and the fragment count n (additive into .r).
+@fragment
+fn fs_average(v: VertexOut, @builtin(front_facing) front_facing: bool) -> Outputs {
+    let s = shade(v, front_facing);
+    if !s.keep {
+        discard;
+    }
+    var out: Outputs;
+    out.accum = vec4<f32>(s.color, s.alpha);
+    out.reveal = vec4<f32>(1.0, 0.0, 0.0, 0.0);
+    return out;
+}

@@ -1,0 +1,125 @@
+// Weighted blended OIT composite: one full-screen triangle over the final colour, with guards
+// that keep the output finite and count how often each fires.
+//
+// Output (avg * (1 - T), T) with blending (one, src-alpha) gives avg * (1 - T) + dst * T.
+
+struct CompositeParams {
+    // 0: weighted blended (reveal = prod(1 - alpha)); 1: weighted average (reveal = count n).
+    mode: u32,
+    // Largest finite value of the accumulation format (what an infinite channel becomes).
+    accum_max: f32,
+    // Largest average colour written (keeps the final target and its blend finite).
+    out_max: f32,
+    pad: f32,
+}
+
+@group(0) @binding(0) var accum_tex: texture_2d<f32>;
+@group(0) @binding(1) var reveal_tex: texture_2d<f32>;
+@group(0) @binding(2) var<uniform> params: CompositeParams;
+@group(0) @binding(3) var<storage, read_write> guards: array<atomic<u32>, 8>;
+
+// Guard counter slots (oit_wboit::GuardCounts reads them in this order).
+const G_PIXELS: u32 = 0u;
+const G_COVERED: u32 = 1u;
+const G_ACCUM_NONFINITE: u32 = 2u;
+const G_ZERO_WEIGHT: u32 = 3u;
+const G_AVERAGE_CLAMPED: u32 = 4u;
+const G_REVEAL_CLAMPED: u32 = 5u;
+const G_REVEAL_LOST: u32 = 6u;
+const G_OPAQUE: u32 = 7u;
+
+@vertex
+fn vs_fullscreen(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
+    let x = f32(i32(i & 1u) * 4 - 1);
+    let y = f32(i32(i >> 1u) * 4 - 1);
+    return vec4<f32>(x, y, 0.0, 1.0);
+}
+
+// Exponent bits all set: Inf or NaN. Tested on the bits because WGSL lets compilers assume
+// floats are finite, which may fold `x != x` away.
+fn non_finite(x: f32) -> bool {
+    return (bitcast<u32>(x) & 0x7f800000u) == 0x7f800000u;
+}
+
+fn is_nan(x: f32) -> bool {
+    return non_finite(x) && (bitcast<u32>(x) & 0x007fffffu) != 0u;
+}
+
+// +Inf -> accum_max, NaN and -Inf -> 0.
+fn finite_or(x: f32) -> f32 {
+    if !non_finite(x) {
+        return x;
+    }
+    if is_nan(x) || x < 0.0 {
+        return 0.0;
+    }
+    return params.accum_max;
+}
+
+@fragment
+fn fs_composite(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
+    let xy = vec2<i32>(position.xy);
+    var acc = textureLoad(accum_tex, xy, 0);
+    let r = textureLoad(reveal_tex, xy, 0).r;
+    atomicAdd(&guards[G_PIXELS], 1u);
+
+    if non_finite(acc.r) || non_finite(acc.g) || non_finite(acc.b) || non_finite(acc.a) {
+        atomicAdd(&guards[G_ACCUM_NONFINITE], 1u);
+        acc = vec4<f32>(finite_or(acc.r), finite_or(acc.g), finite_or(acc.b), finite_or(acc.a));
+    }
+
+    // Revealage T: stored directly, or (1 - sum alpha / n)^n for the weighted average.
+    var t = 1.0;
+    var reveal_bad = false;
+    if params.mode == 0u {
+        t = r;
+        reveal_bad = non_finite(r) || r < 0.0 || r > 1.0;
+    } else {
+        let n = r;
+        if non_finite(n) || n < 0.0 {
+            reveal_bad = true;
+        } else if n > 0.0 {
+            let mean = acc.a / n;
+            reveal_bad = mean < 0.0 || mean > 1.0;
+            t = pow(clamp(1.0 - mean, 0.0, 1.0), n);
+        }
+    }
+    if reveal_bad {
+        atomicAdd(&guards[G_REVEAL_CLAMPED], 1u);
+        if is_nan(t) {
+            t = 0.0;
+        }
+        t = clamp(t, 0.0, 1.0);
+    }
+
+    let weighted = acc.a != 0.0 || acc.r != 0.0 || acc.g != 0.0 || acc.b != 0.0;
+    if t >= 1.0 {
+        if weighted {
+            // Fragments were accumulated but the revealage never moved: their coverage is lost
+            // (R8 revealage with alpha < 1/510), so they cannot show.
+            atomicAdd(&guards[G_REVEAL_LOST], 1u);
+        }
+        // Leaves the destination exactly as it is (0 + dst * 1).
+        return vec4<f32>(0.0, 0.0, 0.0, 1.0);
+    }
+    atomicAdd(&guards[G_COVERED], 1u);
+    if t <= 0.0 {
+        atomicAdd(&guards[G_OPAQUE], 1u);
+    }
+
+    var avg = vec3<f32>(0.0);
+    if acc.a > 0.0 {
+        avg = acc.rgb / acc.a;
+    } else {
+        // Covered, but every weight underflowed to zero: the colour is unknown. Black (the
+        // "darker than the inputs" underflow symptom) rather than a division by zero.
+        atomicAdd(&guards[G_ZERO_WEIGHT], 1u);
+    }
+    let bad = non_finite(avg.r) || non_finite(avg.g) || non_finite(avg.b);
+    if bad || max(avg.r, max(avg.g, avg.b)) > params.out_max || min(avg.r, min(avg.g, avg.b)) < 0.0 {
+        atomicAdd(&guards[G_AVERAGE_CLAMPED], 1u);
+        avg = vec3<f32>(finite_or(avg.r), finite_or(avg.g), finite_or(avg.b));
+        avg = clamp(avg, vec3<f32>(0.0), vec3<f32>(params.out_max));
+    }
+    return vec4<f32>(avg * (1.0 - t), t);
+}
