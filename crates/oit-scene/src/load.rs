@@ -329,9 +329,16 @@ impl Ctx<'_> {
             draws: Vec::new(),
             vertices: Vec::new(),
         };
+        // Validate every object and count its triangles before generating any geometry, so an
+        // absurd scene is rejected without allocating anything.
         let mut total_triangles: u64 = 0;
+        let mut prepared = Vec::with_capacity(raw.objects.len());
         for (i, obj) in raw.objects.iter().enumerate() {
-            self.object(i, obj, light.as_ref(), &mut total_triangles, &mut scene)?;
+            prepared.push(self.prepare(i, obj, &mut total_triangles)?);
+        }
+        scene.vertices.reserve(total_triangles as usize * 3);
+        for (i, (obj, prep)) in raw.objects.iter().zip(&prepared).enumerate() {
+            self.object(i, obj, prep, light.as_ref(), &mut scene)?;
         }
         Ok(scene)
     }
@@ -612,29 +619,19 @@ impl Ctx<'_> {
         self.range(amin, amax, &format!("{p}.alpha_max"))
     }
 
-    fn object(
-        &self,
-        i: usize,
-        obj: &RawObject,
-        light: Option<&Light>,
-        total_triangles: &mut u64,
-        scene: &mut Scene,
-    ) -> Result<()> {
+    /// Parses and validates one object and adds its triangles to the running total.
+    fn prepare(&self, i: usize, obj: &RawObject, total_triangles: &mut u64) -> Result<Prepared> {
         let p = format!("objects[{i}]");
         let mesh = self.mesh(&obj.mesh, &format!("{p}.mesh"))?;
         self.check_mesh(&mesh, &format!("{p}.mesh"))?;
         let world = self.transform(&obj.transform, &format!("{p}.transform"))?;
         let material = self.material(&obj.material, &format!("{p}.material"))?;
-
         let (counts, spacing) = match &obj.instances {
             None => ([1u32; 3], Vec3::ZERO),
             Some(inst) => {
                 for k in 0..3 {
-                    self.nonempty(
-                        inst.counts[k],
-                        "instance count",
-                        &format!("{p}.instances.counts[{k}]"),
-                    )?;
+                    let path = format!("{p}.instances.counts[{k}]");
+                    self.nonempty(inst.counts[k], "instance count", &path)?;
                 }
                 (
                     inst.counts,
@@ -645,8 +642,8 @@ impl Ctx<'_> {
         let instances = counts
             .iter()
             .fold(1u64, |a, &c| a.saturating_mul(u64::from(c)));
-        *total_triangles =
-            total_triangles.saturating_add(mesh::triangle_count(&mesh).saturating_mul(instances));
+        let triangles = mesh::triangle_count(&mesh).saturating_mul(instances);
+        *total_triangles = total_triangles.saturating_add(triangles);
         if *total_triangles > MAX_TRIANGLES {
             return Err(self.err(
                 p,
@@ -655,6 +652,33 @@ impl Ctx<'_> {
                 },
             ));
         }
+        Ok(Prepared {
+            mesh,
+            world,
+            material,
+            counts,
+            spacing,
+        })
+    }
+
+    /// Generates one validated object's draws.
+    fn object(
+        &self,
+        i: usize,
+        obj: &RawObject,
+        prep: &Prepared,
+        light: Option<&Light>,
+        scene: &mut Scene,
+    ) -> Result<()> {
+        let p = format!("objects[{i}]");
+        let Prepared {
+            mesh,
+            world,
+            material,
+            counts,
+            spacing,
+        } = prep;
+        let (mesh, world, material, counts, spacing) = (mesh, *world, *material, *counts, *spacing);
 
         let material_index = scene.materials.len() as u32;
         scene.materials.push(material);
@@ -812,6 +836,16 @@ impl Ctx<'_> {
         }
         Ok(())
     }
+}
+
+/// An object after validation, before its geometry is generated.
+#[derive(Debug)]
+struct Prepared {
+    mesh: RawMesh,
+    world: Affine3A,
+    material: Material,
+    counts: [u32; 3],
+    spacing: Vec3,
 }
 
 /// A directional light, ready to bake: `rgb *= ambient + color · max(0, n · to_light)`.
