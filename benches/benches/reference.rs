@@ -8,10 +8,15 @@ use oit_reference::{ReferenceOptions, render};
 use oit_scene::Resolution;
 
 fn scene(name: &str, size: u32) -> oit_scene::Scene {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes").join(format!("{name}.json"));
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../scenes")
+        .join(format!("{name}.json"));
     oit_scene::load(&path)
         .unwrap_or_else(|e| panic!("{e}"))
-        .with_resolution(Resolution { width: size, height: size })
+        .with_resolution(Resolution {
+            width: size,
+            height: size,
+        })
 }
 
 fn reference(c: &mut Criterion) {

@@ -23,7 +23,9 @@ fn run() -> Result<()> {
     match args.first().map(String::as_str) {
         Some("ci") => ci(),
         Some("help") | Some("--help") | Some("-h") | None => {
-            println!("usage: cargo xtask <task>\n\ntasks:\n  ci    cargo fmt --check, clippy -D warnings, cargo test --workspace");
+            println!(
+                "usage: cargo xtask <task>\n\ntasks:\n  ci    cargo fmt --check, clippy -D warnings, cargo test --workspace"
+            );
             Ok(())
         }
         Some(other) => bail!("unknown task `{other}`; valid tasks: ci"),
@@ -32,7 +34,17 @@ fn run() -> Result<()> {
 
 fn ci() -> Result<()> {
     step("format", &["fmt", "--all", "--", "--check"])?;
-    step("clippy", &["clippy", "--workspace", "--all-targets", "--", "-D", "warnings"])?;
+    step(
+        "clippy",
+        &[
+            "clippy",
+            "--workspace",
+            "--all-targets",
+            "--",
+            "-D",
+            "warnings",
+        ],
+    )?;
     step("test", &["test", "--workspace", "--no-fail-fast"])?;
     Ok(())
 }

@@ -12,7 +12,11 @@ use indicatif::{ProgressBar, ProgressStyle};
 use oit_scene::{Resolution, Scene};
 
 #[derive(Debug, Parser)]
-#[command(name = "oit", version, about = "Order-independent transparency testbed: every technique against an exact CPU reference")]
+#[command(
+    name = "oit",
+    version,
+    about = "Order-independent transparency testbed: every technique against an exact CPU reference"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -95,7 +99,10 @@ impl GpuArgs {
             "gl" => oit_gpu::Backend::Gl,
             _ => oit_gpu::Backend::Auto,
         };
-        oit_gpu::ContextOptions { backend, adapter: self.adapter.clone() }
+        oit_gpu::ContextOptions {
+            backend,
+            adapter: self.adapter.clone(),
+        }
     }
 }
 
@@ -104,13 +111,22 @@ fn parse_resolution(s: &str) -> Result<Resolution, String> {
         .split_once(['x', 'X'])
         .ok_or_else(|| format!("`{s}` is not WIDTHxHEIGHT (e.g. 256x256)"))?;
     let parse = |v: &str, what: &str| -> Result<u32, String> {
-        let n: u32 = v.trim().parse().map_err(|_| format!("{what} `{v}` is not a whole number"))?;
+        let n: u32 = v
+            .trim()
+            .parse()
+            .map_err(|_| format!("{what} `{v}` is not a whole number"))?;
         if n == 0 || n > Resolution::MAX_DIMENSION {
-            return Err(format!("{what} {n} is outside 1..={}", Resolution::MAX_DIMENSION));
+            return Err(format!(
+                "{what} {n} is outside 1..={}",
+                Resolution::MAX_DIMENSION
+            ));
         }
         Ok(n)
     };
-    Ok(Resolution { width: parse(w, "width")?, height: parse(h, "height")? })
+    Ok(Resolution {
+        width: parse(w, "width")?,
+        height: parse(h, "height")?,
+    })
 }
 
 fn main() -> ExitCode {
@@ -131,11 +147,28 @@ fn run(command: Command) -> Result<()> {
             print!("{}", oit_harness::techniques_help());
             Ok(())
         }
-        Command::Reference { scene, output, resolution } => reference(&scene, output, resolution),
-        Command::Render { scene, technique, output, resolution, gpu } => {
-            render(&scene, &technique, output, resolution, &gpu)
-        }
-        Command::Compare { scenes, techniques, out, resolution, frames, warmup, cache, gpu } => {
+        Command::Reference {
+            scene,
+            output,
+            resolution,
+        } => reference(&scene, output, resolution),
+        Command::Render {
+            scene,
+            technique,
+            output,
+            resolution,
+            gpu,
+        } => render(&scene, &technique, output, resolution, &gpu),
+        Command::Compare {
+            scenes,
+            techniques,
+            out,
+            resolution,
+            frames,
+            warmup,
+            cache,
+            gpu,
+        } => {
             let options = oit_harness::CompareOptions {
                 resolution,
                 frames,
@@ -193,16 +226,24 @@ fn scenes(path: &Path) -> Result<()> {
     Ok(())
 }
 
-fn reference(scene_path: &Path, output: Option<PathBuf>, resolution: Option<Resolution>) -> Result<()> {
+fn reference(
+    scene_path: &Path,
+    output: Option<PathBuf>,
+    resolution: Option<Resolution>,
+) -> Result<()> {
     let scene = load_scene(scene_path, resolution)?;
     let output = output.unwrap_or_else(|| PathBuf::from(format!("{}-reference.exr", scene.name)));
     let bar = progress_bar(0, &format!("reference {}", scene.name));
     let tick = bar.clone();
-    let progress: oit_reference::Progress = std::sync::Arc::new(move |done: usize, total: usize| {
-        tick.set_length(total as u64);
-        tick.set_position(done as u64);
-    });
-    let options = oit_reference::ReferenceOptions { progress: Some(progress), ..Default::default() };
+    let progress: oit_reference::Progress =
+        std::sync::Arc::new(move |done: usize, total: usize| {
+            tick.set_length(total as u64);
+            tick.set_position(done as u64);
+        });
+    let options = oit_reference::ReferenceOptions {
+        progress: Some(progress),
+        ..Default::default()
+    };
     let reference = oit_reference::try_render(&scene, &options)
         .with_context(|| format!("reference of {}", scene_path.display()))?;
     bar.finish_and_clear();
@@ -236,23 +277,52 @@ fn render(
     let scene = load_scene(scene_path, resolution)?;
     let ctx = oit_harness::open_context(&gpu.options())?;
     let spec = oit_harness::parse_spec(spec)?;
-    let output = output.unwrap_or_else(|| PathBuf::from(format!("{}-{}.exr", scene.name, oit_harness::file_stem(&spec.canonical()))));
+    let output = output.unwrap_or_else(|| {
+        PathBuf::from(format!(
+            "{}-{}.exr",
+            scene.name,
+            oit_harness::file_stem(&spec.canonical())
+        ))
+    });
     let frame = oit_harness::render_once(&ctx, &scene, &spec)?;
-    oit_metrics::write_exr(&output, &[oit_metrics::ExrLayer::new("render", &frame.image)])?;
+    oit_metrics::write_exr(
+        &output,
+        &[oit_metrics::ExrLayer::new("render", &frame.image)],
+    )?;
     let png = output.with_extension("png");
     oit_metrics::write_png_preview(&png, &frame.image)?;
-    println!("{} with {}: {} ({})", scene.name, spec.canonical(), output.display(), png.display());
+    println!(
+        "{} with {}: {} ({})",
+        scene.name,
+        spec.canonical(),
+        output.display(),
+        png.display()
+    );
     Ok(())
 }
 
-fn compare(paths: &[PathBuf], specs: &[String], options: &oit_harness::CompareOptions) -> Result<()> {
+fn compare(
+    paths: &[PathBuf],
+    specs: &[String],
+    options: &oit_harness::CompareOptions,
+) -> Result<()> {
     let scenes = oit_harness::load_scenes(paths)?;
     if scenes.is_empty() {
-        bail!("no scene files (*.json) found in {}", paths.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", "));
+        bail!(
+            "no scene files (*.json) found in {}",
+            paths
+                .iter()
+                .map(|p| p.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
     }
     let ctx = oit_harness::open_context(&options.context)?;
     let info = ctx.adapter_info();
-    eprintln!("adapter: {} ({}, {}, {})", info.name, info.backend, info.device_type, info.driver);
+    eprintln!(
+        "adapter: {} ({}, {}, {})",
+        info.name, info.backend, info.device_type, info.driver
+    );
     let specs = oit_harness::resolve_specs(specs)?;
     let bar = progress_bar((scenes.len() * specs.len()) as u64, "compare");
     let results = oit_harness::compare(&ctx, &scenes, &specs, options, &|msg: &str| {

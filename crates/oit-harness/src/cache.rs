@@ -109,5 +109,67 @@ fn decode(bytes: &[u8], scene: &Scene) -> Option<Reference> {
     if at != bytes.len() {
         return None;
     }
-    Some(Reference { image: LinearImage { width, height, pixels }, layers, fragments, stats })
+    Some(Reference {
+        image: LinearImage {
+            width,
+            height,
+            pixels,
+        },
+        layers,
+        fragments,
+        stats,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const SCENE: &str = r#"{
+        "name": "cache-test", "description": "two layers", "resolution": [16, 8],
+        "camera": {"eye": [0, 0, 5], "target": [0, 0, 0], "up": [0, 1, 0], "fov_y": 45, "near": 0.1, "far": 100},
+        "background": [0.2, 0.3, 0.4],
+        "objects": [
+            {"mesh": {"kind": "quad", "size": [3, 3]}, "material": {"base_color": [1, 0, 0], "alpha": 0.5, "mode": "blend"}},
+            {"mesh": {"kind": "quad", "size": [2, 2]}, "transform": {"translate": [0, 0, 0.5]},
+             "material": {"base_color": [0, 1, 0], "alpha": 0.25, "mode": "blend"}}
+        ]
+    }"#;
+
+    #[test]
+    fn encode_decode_round_trip_is_exact_and_checks_size() {
+        let scene = oit_scene::parse(SCENE, "cache-test.json").unwrap();
+        let reference = oit_reference::render(&scene, &Default::default());
+        let bytes = encode(&reference);
+        assert_eq!(decode(&bytes, &scene), Some(reference.clone()));
+        // Another resolution, a truncated file or trailing bytes are misses, never wrong data.
+        let other = scene.with_resolution(oit_scene::Resolution {
+            width: 8,
+            height: 8,
+        });
+        assert_eq!(decode(&bytes, &other), None);
+        assert_eq!(decode(&bytes[..bytes.len() - 1], &scene), None);
+        let mut longer = bytes.clone();
+        longer.push(0);
+        assert_eq!(decode(&longer, &scene), None);
+    }
+
+    #[test]
+    fn second_lookup_hits_and_does_not_compute() {
+        let scene = oit_scene::parse(SCENE, "cache-test.json").unwrap();
+        let dir = std::env::temp_dir().join(format!("oit-cache-unit-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let (first, hit) = reference(&dir, &scene, || {
+            Ok(oit_reference::render(&scene, &Default::default()))
+        })
+        .unwrap();
+        assert!(!hit);
+        let (second, hit) = reference(&dir, &scene, || panic!("must not recompute")).unwrap();
+        assert!(hit);
+        assert_eq!(first, second);
+        // A changed scene (different content hash) is a different entry.
+        let moved = scene.with_reversed_draw_order();
+        assert_ne!(key_path(&dir, &moved), key_path(&dir, &scene));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }

@@ -41,7 +41,10 @@ pub enum HarnessError {
 
 impl HarnessError {
     pub fn io(path: &Path, source: std::io::Error) -> Self {
-        HarnessError::Io { path: path.to_path_buf(), source }
+        HarnessError::Io {
+            path: path.to_path_buf(),
+            source,
+        }
     }
 }
 
@@ -84,7 +87,10 @@ pub fn techniques_help() -> String {
                 p.key, p.allowed, p.default, p.description
             ));
         }
-        out.push_str(&format!("    canonical default: {}\n", info.default_spec().canonical()));
+        out.push_str(&format!(
+            "    canonical default: {}\n",
+            info.default_spec().canonical()
+        ));
     }
     out
 }
@@ -111,7 +117,10 @@ pub fn load_scenes(paths: &[PathBuf]) -> Result<Vec<SceneEntry>, HarnessError> {
                 out.push(SceneEntry { path, scene });
             }
         } else {
-            out.push(SceneEntry { path: path.clone(), scene: oit_scene::load(path)? });
+            out.push(SceneEntry {
+                path: path.clone(),
+                scene: oit_scene::load(path)?,
+            });
         }
     }
     Ok(out)
@@ -140,7 +149,10 @@ pub fn file_stem(text: &str) -> String {
 
 /// Writes a reference as a linear EXR: layer `reference` (RGBA) plus single channels `layers`
 /// (transparent fragments composited per pixel) and `fragments` (all rasterized fragments).
-pub fn write_reference_exr(path: &Path, reference: &oit_reference::Reference) -> Result<(), HarnessError> {
+pub fn write_reference_exr(
+    path: &Path,
+    reference: &oit_reference::Reference,
+) -> Result<(), HarnessError> {
     let to_f32 = |v: &[u32]| v.iter().map(|&x| x as f32).collect::<Vec<f32>>();
     let layers = to_f32(&reference.layers);
     let fragments = to_f32(&reference.fragments);
@@ -159,7 +171,10 @@ mod tests {
 
     #[test]
     fn file_stems_are_safe_and_readable() {
-        assert_eq!(file_stem("dual-peel:passes=5,tail=wboit"), "dual-peel_passes-5_tail-wboit");
+        assert_eq!(
+            file_stem("dual-peel:passes=5,tail=wboit"),
+            "dual-peel_passes-5_tail-wboit"
+        );
         assert_eq!(file_stem("a/b c"), "a_b_c");
     }
 
@@ -178,7 +193,9 @@ mod tests {
 
     #[test]
     fn unknown_technique_is_an_error_listing_valid_names() {
-        let err = resolve_specs(&["no-such-technique".into()]).unwrap_err().to_string();
+        let err = resolve_specs(&["no-such-technique".into()])
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("no-such-technique"), "{err}");
         assert!(err.contains("unsorted"), "{err}");
     }

@@ -36,8 +36,16 @@ pub fn markdown(results: &Results) -> String {
 
 /// Fixed-width table for the terminal.
 pub fn terminal_table(results: &Results) -> String {
-    const HEAD: [&str; 8] =
-        ["technique", "GPU ms", "× unsorted", "B/px", "RMSE", "max err", "FLIP", "order dep."];
+    const HEAD: [&str; 8] = [
+        "technique",
+        "GPU ms",
+        "× unsorted",
+        "B/px",
+        "RMSE",
+        "max err",
+        "FLIP",
+        "order dep.",
+    ];
     let mut out = String::new();
     for (scene, runs) in by_scene(results) {
         let rows: Vec<Vec<String>> = runs.iter().map(|r| row_cells(r)).collect();
@@ -55,7 +63,11 @@ pub fn terminal_table(results: &Results) -> String {
                 .enumerate()
                 .map(|(i, (c, w))| {
                     let pad = w - c.chars().count();
-                    if i == 0 { format!("{c}{}", " ".repeat(pad)) } else { format!("{}{c}", " ".repeat(pad)) }
+                    if i == 0 {
+                        format!("{c}{}", " ".repeat(pad))
+                    } else {
+                        format!("{}{c}", " ".repeat(pad))
+                    }
                 })
                 .collect::<Vec<_>>()
                 .join("  ")
@@ -82,8 +94,15 @@ fn by_scene(results: &Results) -> Vec<(String, Vec<&Run>)> {
 
 fn row_cells(r: &Run) -> Vec<String> {
     if r.status != RunStatus::Ok {
-        let status = if r.status == RunStatus::Skipped { "skipped" } else { "failed" };
-        let mut cells = vec![r.technique.clone(), format!("{status}: {}", r.reason.as_deref().unwrap_or(""))];
+        let status = if r.status == RunStatus::Skipped {
+            "skipped"
+        } else {
+            "failed"
+        };
+        let mut cells = vec![
+            r.technique.clone(),
+            format!("{status}: {}", r.reason.as_deref().unwrap_or("")),
+        ];
         cells.resize(8, String::new());
         return cells;
     }
@@ -91,12 +110,22 @@ fn row_cells(r: &Run) -> Vec<String> {
         .gpu_ms
         .as_ref()
         .map(|g| {
-            let flag = if g.source == "timestamp" { "" } else { " (wall)" };
+            let flag = if g.source == "timestamp" {
+                ""
+            } else {
+                " (wall)"
+            };
             format!("{:.3}{flag}", g.median)
         })
         .unwrap_or_default();
-    let cost = r.cost_vs_unsorted.map(|c| format!("{c:.2}")).unwrap_or_else(|| "–".into());
-    let bpp = r.bytes_per_pixel.map(|b| format!("{b:.1}")).unwrap_or_default();
+    let cost = r
+        .cost_vs_unsorted
+        .map(|c| format!("{c:.2}"))
+        .unwrap_or_else(|| "–".into());
+    let bpp = r
+        .bytes_per_pixel
+        .map(|b| format!("{b:.1}"))
+        .unwrap_or_default();
     let (rmse, max, flip) = match &r.error {
         Some(e) => (sci(e.rmse), sci(e.max_abs), format!("{:.4}", e.flip_mean)),
         None => Default::default(),

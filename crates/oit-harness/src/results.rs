@@ -132,15 +132,19 @@ impl Run {
 
 impl Results {
     pub fn read(path: &Path) -> Result<Results, crate::HarnessError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| crate::HarnessError::io(path, e))?;
-        let results: Results = serde_json::from_str(&text).map_err(|e| {
-            crate::HarnessError::Invalid { path: path.to_path_buf(), message: e.to_string() }
-        })?;
+        let text = std::fs::read_to_string(path).map_err(|e| crate::HarnessError::io(path, e))?;
+        let results: Results =
+            serde_json::from_str(&text).map_err(|e| crate::HarnessError::Invalid {
+                path: path.to_path_buf(),
+                message: e.to_string(),
+            })?;
         if results.schema != SCHEMA {
             return Err(crate::HarnessError::Invalid {
                 path: path.to_path_buf(),
-                message: format!("schema is `{}`; this build reads `{SCHEMA}`", results.schema),
+                message: format!(
+                    "schema is `{}`; this build reads `{SCHEMA}`",
+                    results.schema
+                ),
             });
         }
         Ok(results)

@@ -54,7 +54,11 @@ fn build(spec: &TechniqueSpec) -> Result<Box<dyn Technique>, HarnessError> {
 }
 
 /// Renders one frame of `scene` with `spec` (after one warm-up frame) and reads it back.
-pub fn render_once(ctx: &Context, scene: &Scene, spec: &TechniqueSpec) -> Result<RenderedFrame, HarnessError> {
+pub fn render_once(
+    ctx: &Context,
+    scene: &Scene,
+    spec: &TechniqueSpec,
+) -> Result<RenderedFrame, HarnessError> {
     let mut technique = build(spec)?;
     let gpu_scene = GpuScene::upload(ctx, scene)?;
     let targets = Targets::new(ctx, scene.resolution, ColorFormat::Rgba16Float)?;
@@ -62,7 +66,12 @@ pub fn render_once(ctx: &Context, scene: &Scene, spec: &TechniqueSpec) -> Result
     render_frame(ctx, &gpu_scene, technique.as_mut(), &targets, &mut timer)?;
     let frame = render_frame(ctx, &gpu_scene, technique.as_mut(), &targets, &mut timer)?;
     let image = read_color(ctx, &targets)?;
-    Ok(RenderedFrame { image, stats: frame.stats, timings: frame.timings, memory_bytes: technique.memory_bytes() })
+    Ok(RenderedFrame {
+        image,
+        stats: frame.stats,
+        timings: frame.timings,
+        memory_bytes: technique.memory_bytes(),
+    })
 }
 
 /// Runs every technique on every scene; writes `results.json`, `results.md` and per-run EXR
@@ -76,7 +85,10 @@ pub fn compare(
 ) -> Result<Results, HarnessError> {
     let out = &options.out_dir;
     std::fs::create_dir_all(out).map_err(|e| HarnessError::io(out, e))?;
-    let cache_dir = options.cache_dir.clone().unwrap_or_else(crate::cache::default_dir);
+    let cache_dir = options
+        .cache_dir
+        .clone()
+        .unwrap_or_else(crate::cache::default_dir);
     let info = ctx.adapter_info();
     let mut results = Results {
         schema: SCHEMA.to_owned(),
@@ -84,7 +96,9 @@ pub fn compare(
             name: info.name.clone(),
             backend: info.backend.clone(),
             device_type: info.device_type.clone(),
-            driver: format!("{} {}", info.driver, info.driver_info).trim().to_owned(),
+            driver: format!("{} {}", info.driver, info.driver_info)
+                .trim()
+                .to_owned(),
         },
         runs: Vec::new(),
     };
@@ -92,20 +106,44 @@ pub fn compare(
         let scene = at_resolution(&entry.scene, options.resolution);
         let scene_file = entry.path.display().to_string();
         let (reference, _cached) = crate::cache::reference(&cache_dir, &scene, || {
-            Ok(oit_reference::try_render(&scene, &oit_reference::ReferenceOptions::default())?)
+            Ok(oit_reference::try_render(
+                &scene,
+                &oit_reference::ReferenceOptions::default(),
+            )?)
         })?;
         let scene_dir = out.join(file_stem(&scene.name));
         std::fs::create_dir_all(&scene_dir).map_err(|e| HarnessError::io(&scene_dir, e))?;
+        // The reference once per scene, for reports that show it beside every render.
+        crate::write_reference_exr(&scene_dir.join("reference.exr"), &reference)?;
+        oit_metrics::write_png_preview(&scene_dir.join("reference.png"), &reference.image)?;
         let forward = GpuScene::upload(ctx, &scene)?;
         let reversed = GpuScene::upload(ctx, &scene.with_reversed_draw_order())?;
         let targets = Targets::new(ctx, scene.resolution, ColorFormat::Rgba16Float)?;
         let first_run = results.runs.len();
         for spec in specs {
             let canonical = spec.canonical();
-            let run = run_one(ctx, &scene, &scene_file, &forward, &reversed, &targets, spec, &reference, options, out)
-                .unwrap_or_else(|e| {
-                    Run::not_rendered(&scene.name, &scene_file, &canonical, res(&scene), RunStatus::Failed, e.to_string())
-                });
+            let run = run_one(
+                ctx,
+                &scene,
+                &scene_file,
+                &forward,
+                &reversed,
+                &targets,
+                spec,
+                &reference,
+                options,
+                out,
+            )
+            .unwrap_or_else(|e| {
+                Run::not_rendered(
+                    &scene.name,
+                    &scene_file,
+                    &canonical,
+                    res(&scene),
+                    RunStatus::Failed,
+                    e.to_string(),
+                )
+            });
             results.runs.push(run);
             progress(&format!("{} {}", scene.name, canonical));
         }
@@ -113,7 +151,9 @@ pub fn compare(
             // `unsorted` was not requested: time it anyway, so every cost has its baseline.
             let spec = TechniqueSpec::parse("unsorted", &registry()).ok()?;
             let mut t = build(&spec).ok()?;
-            time_frames(ctx, &forward, t.as_mut(), &targets, options).ok().map(|(ms, _, _)| ms.median)
+            time_frames(ctx, &forward, t.as_mut(), &targets, options)
+                .ok()
+                .map(|(ms, _, _)| ms.median)
         });
     }
     write_outputs(out, &results)?;
@@ -140,7 +180,14 @@ fn run_one(
     let canonical = spec.canonical();
     let mut technique = build(spec)?;
     if let Err(unsupported) = technique.check(&ctx.caps) {
-        return Ok(Run::not_rendered(&scene.name, scene_file, &canonical, res(scene), RunStatus::Skipped, unsupported.reason));
+        return Ok(Run::not_rendered(
+            &scene.name,
+            scene_file,
+            &canonical,
+            res(scene),
+            RunStatus::Skipped,
+            unsupported.reason,
+        ));
     }
     let (gpu_ms, passes, frame) = time_frames(ctx, forward, technique.as_mut(), targets, options)?;
     let image = read_color(ctx, targets)?;
@@ -244,7 +291,10 @@ fn time_frames(
     };
     let passes = per_pass
         .into_iter()
-        .map(|(name, mut v)| PassMs { name, median_ms: median(&mut v) })
+        .map(|(name, mut v)| PassMs {
+            name,
+            median_ms: median(&mut v),
+        })
         .collect();
     Ok((gpu, passes, stats))
 }
@@ -255,7 +305,11 @@ fn median(values: &mut [f64]) -> f64 {
     }
     values.sort_by(f64::total_cmp);
     let n = values.len();
-    if n % 2 == 1 { values[n / 2] } else { 0.5 * (values[n / 2 - 1] + values[n / 2]) }
+    if n % 2 == 1 {
+        values[n / 2]
+    } else {
+        0.5 * (values[n / 2 - 1] + values[n / 2])
+    }
 }
 
 /// Largest per-channel |a − b| over RGB; NaN anywhere counts as infinitely different.
@@ -275,7 +329,9 @@ fn fill_costs(runs: &mut [Run], measure_baseline: impl FnOnce() -> Option<f64>) 
         .find(|r| r.technique == "unsorted" && r.status == RunStatus::Ok)
         .and_then(|r| r.gpu_ms.as_ref().map(|g| g.median));
     let baseline = baseline.or_else(measure_baseline);
-    let Some(base) = baseline.filter(|b| *b > 0.0) else { return };
+    let Some(base) = baseline.filter(|b| *b > 0.0) else {
+        return;
+    };
     for run in runs.iter_mut().filter(|r| r.status == RunStatus::Ok) {
         run.cost_vs_unsorted = run.gpu_ms.as_ref().map(|g| g.median / base);
     }
@@ -284,7 +340,10 @@ fn fill_costs(runs: &mut [Run], measure_baseline: impl FnOnce() -> Option<f64>) 
 fn write_outputs(out: &Path, results: &Results) -> Result<(), HarnessError> {
     let json = serde_json::to_vec_pretty(results).expect("results serialize");
     oit_metrics::write_atomic_bytes(&out.join("results.json"), &json)?;
-    oit_metrics::write_atomic_bytes(&out.join("results.md"), crate::report::markdown(results).as_bytes())?;
+    oit_metrics::write_atomic_bytes(
+        &out.join("results.md"),
+        crate::report::markdown(results).as_bytes(),
+    )?;
     Ok(())
 }
 

@@ -1,0 +1,182 @@
+//! `compare` end to end on the bundled suite: results.json holds every schema field, the
+//! metrics can fail (unsorted is wrong and order dependent), costs have their baseline, every
+//! output file exists, and the reference cache is used the second time.
+
+use std::path::{Path, PathBuf};
+
+use oit_harness::results::{Results, RunStatus};
+use oit_harness::{CompareOptions, compare, load_scenes, resolve_specs};
+use oit_scene::Resolution;
+
+fn scenes_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes")
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("oit-harness-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+const SORTED: [&str; 5] = [
+    "unsorted",
+    "sorted-object",
+    "sorted-triangle",
+    "depth-prepass",
+    "cull-split",
+];
+
+#[test]
+fn compare_suite_writes_complete_results() {
+    let Some(ctx) = oit_gpu::testing::context_or_skip("compare_suite_writes_complete_results")
+    else {
+        return;
+    };
+    let out = temp_dir("out");
+    let cache = temp_dir("cache");
+    let scenes = load_scenes(&[scenes_dir()]).unwrap();
+    assert!(
+        scenes.len() >= 15,
+        "bundled suite has {} scenes",
+        scenes.len()
+    );
+    let specs = resolve_specs(&SORTED.map(String::from)).unwrap();
+    let options = CompareOptions {
+        resolution: Some(Resolution {
+            width: 128,
+            height: 128,
+        }),
+        frames: 2,
+        warmup: 1,
+        out_dir: out.clone(),
+        cache_dir: Some(cache.clone()),
+        context: Default::default(),
+    };
+    let runs_done = std::sync::atomic::AtomicUsize::new(0);
+    let results = compare(&ctx, &scenes, &specs, &options, &|_| {
+        runs_done.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    })
+    .unwrap();
+    assert_eq!(runs_done.into_inner(), scenes.len() * specs.len());
+
+    // The file on disk is the same document, and parses with the published types.
+    let on_disk = Results::read(&out.join("results.json")).unwrap();
+    assert_eq!(on_disk, results);
+    assert!(out.join("results.md").is_file());
+
+    // Every field of the schema, checked on the raw JSON so a renamed field cannot hide.
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("results.json")).unwrap()).unwrap();
+    assert_eq!(json["schema"], "oit-lab/results/v1");
+    for key in ["name", "backend", "device_type", "driver"] {
+        assert!(json["adapter"][key].is_string(), "adapter.{key}");
+    }
+    let runs = json["runs"].as_array().unwrap();
+    assert_eq!(runs.len(), scenes.len() * SORTED.len());
+    for run in runs {
+        assert_eq!(run["status"], "ok", "{run}");
+        for key in ["scene", "scene_file", "technique"] {
+            assert!(run[key].is_string(), "{key} in {run}");
+        }
+        assert_eq!(run["resolution"], serde_json::json!([128, 128]));
+        for key in ["median", "min", "max"] {
+            assert!(run["gpu_ms"][key].as_f64().unwrap() >= 0.0, "gpu_ms.{key}");
+        }
+        assert_eq!(run["gpu_ms"]["frames"], 2);
+        assert!(matches!(
+            run["gpu_ms"]["source"].as_str(),
+            Some("timestamp" | "wall-clock")
+        ));
+        assert!(!run["passes"].as_array().unwrap().is_empty());
+        for p in run["passes"].as_array().unwrap() {
+            assert!(p["name"].is_string() && p["median_ms"].is_number());
+        }
+        for key in [
+            "cpu_ms",
+            "memory_bytes",
+            "order_dependence",
+            "cost_vs_unsorted",
+            "bytes_per_pixel",
+        ] {
+            assert!(run[key].is_number(), "{key} in {run}");
+        }
+        for key in [
+            "rmse",
+            "psnr",
+            "mean_abs",
+            "max_abs",
+            "over_1_255",
+            "over_1_64",
+            "flip_mean",
+            "nonfinite",
+        ] {
+            assert!(run["error"][key].is_number(), "error.{key} in {run}");
+        }
+        assert_eq!(run["error"]["nonfinite"], 0, "non-finite pixels in {run}");
+        for key in [
+            "geometry_passes",
+            "layers_peeled",
+            "pixels_with_dropped_layers",
+        ] {
+            assert!(run["stats"][key].is_number(), "stats.{key}");
+        }
+        for key in ["exr", "render_png", "diff_png"] {
+            let file = out.join(run["outputs"][key].as_str().unwrap());
+            assert!(file.is_file(), "{} missing", file.display());
+        }
+    }
+    for entry in &scenes {
+        let dir = out.join(oit_harness::file_stem(&entry.scene.name));
+        assert!(dir.join("reference.png").is_file() && dir.join("reference.exr").is_file());
+    }
+
+    let run = |scene: &str, technique: &str| {
+        results
+            .runs
+            .iter()
+            .find(|r| r.scene == scene && r.technique == technique)
+            .unwrap()
+    };
+    // The metrics can fail: `sorted-quads` is listed front to back, so draw order is wrong.
+    let unsorted = run("sorted-quads", "unsorted");
+    assert!(unsorted.error.unwrap().max_abs > 0.05, "{unsorted:?}");
+    assert!(unsorted.order_dependence.unwrap() > 0.05, "{unsorted:?}");
+    assert_eq!(unsorted.cost_vs_unsorted, Some(1.0));
+    // ... and pass: sorting by object fixes it to the target's precision, order independently.
+    let sorted = run("sorted-quads", "sorted-object");
+    assert!(sorted.error.unwrap().max_abs <= 2e-3, "{sorted:?}");
+    assert!(sorted.order_dependence.unwrap() <= 1e-3, "{sorted:?}");
+    assert!(results.runs.iter().all(|r| r.status == RunStatus::Ok));
+
+    // A second comparison finds every reference in the cache.
+    let cached = std::fs::read_dir(&cache).unwrap().count();
+    assert_eq!(cached, scenes.len(), "one cached reference per scene");
+    let before: Vec<_> = std::fs::read_dir(&cache)
+        .unwrap()
+        .map(|e| e.unwrap().metadata().unwrap().modified().unwrap())
+        .collect();
+    let one = resolve_specs(&["sorted-object".to_string()]).unwrap();
+    let again = compare(&ctx, &scenes[..2], &one, &options, &|_| {}).unwrap();
+    assert_eq!(again.runs.len(), 2);
+    // Only `unsorted` baseline timing is extra; no reference was recomputed.
+    let after: Vec<_> = std::fs::read_dir(&cache)
+        .unwrap()
+        .map(|e| e.unwrap().metadata().unwrap().modified().unwrap())
+        .collect();
+    assert_eq!(before, after, "cache files were rewritten");
+    // The baseline was measured even though `unsorted` was not requested.
+    assert!(again.runs.iter().all(|r| r.cost_vs_unsorted.is_some()));
+
+    let _ = std::fs::remove_dir_all(&out);
+    let _ = std::fs::remove_dir_all(&cache);
+}
+
+#[test]
+fn unknown_option_is_rejected_before_any_gpu_work() {
+    // Specs are validated before any GPU work: an unknown option is an error listing what is valid.
+    let err = resolve_specs(&["sorted-object:bogus=1".to_string()])
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("bogus"), "{err}");
+}
