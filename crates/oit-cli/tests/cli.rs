@@ -1,0 +1,190 @@
+//! The `oit` binary as a user runs it: outputs, exit codes and one-line errors.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn oit() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_oit"));
+    c.current_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join("../.."));
+    c
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("oit-cli-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+#[test]
+fn reference_writes_exr_with_layers_and_png_and_matches_enderton() {
+    let dir = temp_dir("reference");
+    let exr = dir.join("enderton.exr");
+    let out = oit()
+        .args([
+            "reference",
+            "scenes/enderton.json",
+            "--resolution",
+            "64x48",
+            "-o",
+        ])
+        .arg(&exr)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let image = oit_metrics::read_exr_rgba(&exr, None).unwrap();
+    assert_eq!((image.width, image.height), (64, 48));
+    // Red .45 over green .45 over blue: (0.45, 0.2475, 0.3025) on every pixel.
+    for p in &image.pixels {
+        assert!(
+            (p[0] - 0.45).abs() < 1e-6
+                && (p[1] - 0.2475).abs() < 1e-6
+                && (p[2] - 0.3025).abs() < 1e-6,
+            "{p:?}"
+        );
+    }
+    let layers = oit_metrics::read_exr_channel(&exr, None, "layers").unwrap();
+    assert!(
+        layers.samples.iter().all(|&l| l == 2.0),
+        "two transparent layers everywhere"
+    );
+    assert!(dir.join("enderton.png").is_file());
+    // Nothing but the outputs: no temporary files left behind.
+    let mut names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["enderton.exr", "enderton.png"]);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_scene_fails_with_one_line_naming_file_and_field() {
+    let dir = temp_dir("bad");
+    let scene = dir.join("bad.json");
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/enderton.json"),
+    )
+    .unwrap()
+    .replacen("\"alpha\": 0.45", "\"alpha\": 1.5", 1);
+    std::fs::write(&scene, text).unwrap();
+    let exr = dir.join("never.exr");
+    let out = oit()
+        .arg("reference")
+        .arg(&scene)
+        .arg("-o")
+        .arg(&exr)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
+    assert!(
+        stderr.contains("bad.json") && stderr.contains("objects[0].material.alpha"),
+        "{stderr}"
+    );
+    assert!(!exr.exists(), "no output for a failed run");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn unknown_technique_lists_the_valid_ones() {
+    let out = oit()
+        .args(["render", "scenes/enderton.json", "--technique", "magic"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("magic") && stderr.contains("sorted-object"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn bad_resolution_is_a_usage_error() {
+    let out = oit()
+        .args(["reference", "scenes/enderton.json", "--resolution", "0x10"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("width 0"));
+}
+
+#[test]
+fn techniques_lists_every_registered_technique_with_defaults() {
+    let out = oit().arg("techniques").output().unwrap();
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    for info in oit_harness::registry() {
+        assert!(text.contains(info.name), "{} missing", info.name);
+        for p in &info.params {
+            assert!(
+                text.contains(&format!("{}=", p.key)),
+                "{}.{} missing",
+                info.name,
+                p.key
+            );
+        }
+    }
+}
+
+#[test]
+fn scenes_lists_the_suite_with_depth_complexity() {
+    let out = oit().args(["scenes", "scenes"]).output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    let enderton = text
+        .lines()
+        .find(|l| l.starts_with("enderton "))
+        .expect("enderton listed");
+    let cols: Vec<&str> = enderton.split_whitespace().collect();
+    // name, size, triangles, transparent triangles, draws, max depth, mean depth
+    assert_eq!(cols[2], "6");
+    assert_eq!(cols[3], "4");
+    assert_eq!(cols[5], "2", "max depth complexity: {enderton}");
+    assert_eq!(text.lines().count(), 1 + 15, "{text}");
+}
+
+#[test]
+fn render_writes_an_image_close_to_the_reference() {
+    if oit_gpu::testing::context_or_skip("cli render").is_none() {
+        return;
+    }
+    let dir = temp_dir("render");
+    let exr = dir.join("r.exr");
+    let out = oit()
+        .args([
+            "render",
+            "scenes/enderton.json",
+            "--technique",
+            "sorted-object",
+            "--resolution",
+            "32x32",
+            "-o",
+        ])
+        .arg(&exr)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let image = oit_metrics::read_exr_rgba(&exr, Some("render")).unwrap();
+    let p = image.get(16, 16);
+    assert!(
+        (p[0] - 0.45).abs() < 2e-3 && (p[1] - 0.2475).abs() < 2e-3 && (p[2] - 0.3025).abs() < 2e-3,
+        "{p:?}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
