@@ -4,22 +4,28 @@
 
 use serde::Deserialize;
 
-use crate::scene::AlphaMode;
+use crate::scene::{AlphaMode, Resolution};
 
 /// Cap on the total triangle count of one scene (after instancing), checked before any geometry
 /// is generated, so a typo like `"count": 1e9` cannot exhaust memory. 4 million triangles is
 /// 432 MB of vertices, well above the bundled suite and within a CI box.
 pub const MAX_TRIANGLES: u64 = 4_000_000;
 
-/// Default resolution when a scene gives none.
-pub const DEFAULT_RESOLUTION: [u64; 2] = [256, 256];
+/// Resolution of a scene that gives none (the bundled suite's size: small enough for CI).
+pub const DEFAULT_RESOLUTION: Resolution = Resolution {
+    width: 256,
+    height: 256,
+};
 
 /// Valid `kind` values of a mesh, listed in errors.
 pub const MESH_KINDS: &str =
     "`quad`, `box`, `uv-sphere`, `torus`, `cylinder`, `layers`, `soup`, `billboards`";
 
 fn default_resolution() -> [u64; 2] {
-    DEFAULT_RESOLUTION
+    [
+        u64::from(DEFAULT_RESOLUTION.width),
+        u64::from(DEFAULT_RESOLUTION.height),
+    ]
 }
 fn yes() -> bool {
     true
