@@ -542,3 +542,37 @@ fn ids_are_draw_indices_in_file_order() {
         assert_eq!(next as usize, s.vertices.len());
     }
 }
+
+/// Soup and billboard normals (used only for lighting) agree with their winding: baking a light
+/// with no ambient gives exactly max(0, n · to_light) for the geometric normal of each triangle.
+#[test]
+fn scatter_normals_match_their_counter_clockwise_winding() {
+    for kind in ["soup", "billboards"] {
+        let v = scene_with(json!([{
+            "mesh": {"kind": kind, "seed": 5, "count": 200, "size": 0.2,
+                     "bounds": {"min": [-1, -1, -1], "max": [1, 1, 1]},
+                     "color_min": [1, 1, 1], "color_max": [1, 1, 1]},
+            "transform": {"rotate": [20, 40, 0], "scale": [1, 2, 0.5]}
+        }]));
+        let v = with(
+            v,
+            "/lighting",
+            json!({"directional": {"direction": [0.3, -0.2, -1], "color": [1, 1, 1]}}),
+        );
+        let s = load_ok(&v);
+        let to_light = -Vec3::new(0.3, -0.2, -1.0).normalize();
+        let mut lit = 0;
+        for (t, tri) in triangles(&s, 0).into_iter().enumerate() {
+            let want = geometric_normal(tri).dot(to_light).max(0.0);
+            lit += usize::from(want > 0.0);
+            for v in &s.vertices[3 * t..3 * t + 3] {
+                assert!(
+                    (v.color[0] - want).abs() < 1e-4,
+                    "{kind} triangle {t}: {} vs {want}",
+                    v.color[0]
+                );
+            }
+        }
+        assert!(lit > 20, "{kind}: only {lit} lit triangles");
+    }
+}
