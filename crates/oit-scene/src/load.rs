@@ -678,20 +678,17 @@ impl Ctx<'_> {
             counts,
             spacing,
         } = prep;
-        let (mesh, world, material, counts, spacing) = (mesh, *world, *material, *counts, *spacing);
-
         let material_index = scene.materials.len() as u32;
-        scene.materials.push(material);
+        scene.materials.push(*material);
         let facing = match scene.camera.projection {
             Projection::Perspective { .. } => Facing::Eye(scene.camera.eye),
             Projection::Orthographic { .. } => {
                 Facing::Direction((scene.camera.eye - scene.camera.target).normalize())
             }
         };
-        let local = match &mesh {
-            RawMesh::Billboards(_) => None,
-            other => Some(mesh::local(other)),
-        };
+        // Generated once and transformed per instance (empty for billboards, which are built
+        // per instance in world space).
+        let local = mesh::local(mesh);
         let derived_path = if obj.instances.is_some() {
             format!("{p}.instances")
         } else {
@@ -701,14 +698,14 @@ impl Ctx<'_> {
         for iz in 0..counts[2] {
             for iy in 0..counts[1] {
                 for ix in 0..counts[0] {
-                    let offset = spacing * Vec3::new(ix as f32, iy as f32, iz as f32);
-                    let w = Affine3A::from_translation(offset) * world;
-                    let (geometry, in_world) = match (&mesh, &local) {
-                        (RawMesh::Billboards(b), _) => {
-                            (mesh::billboards(b, &w, facing, scene.camera.up), true)
-                        }
-                        (_, Some(g)) => (g.clone(), false),
-                        (_, None) => (Geometry::default(), false),
+                    let offset = *spacing * Vec3::new(ix as f32, iy as f32, iz as f32);
+                    let w = Affine3A::from_translation(offset) * *world;
+                    let built;
+                    let (geometry, in_world) = if let RawMesh::Billboards(b) = mesh {
+                        built = mesh::billboards(b, &w, facing, scene.camera.up);
+                        (&built, true)
+                    } else {
+                        (&local, false)
                     };
                     let base = if obj.instances.is_some() {
                         format!("{p}.instances[{instance}]")
@@ -717,7 +714,7 @@ impl Ctx<'_> {
                     };
                     let named_parts = matches!(mesh, RawMesh::Layers(_));
                     self.emit(
-                        &geometry,
+                        geometry,
                         in_world,
                         &w,
                         light,
