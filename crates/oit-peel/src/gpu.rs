@@ -1,0 +1,607 @@
+//! GPU machinery shared by both peelers: shader composition, pipelines with several colour
+//! targets, the per-frame counters, the pass-index uniform, and the GPU-side termination gate.
+
+use oit_gpu::wgpu;
+use oit_gpu::{Context, GpuError, GpuScene, MemoryLedger, ScenePipelines};
+
+/// Slots per counter array in the counters buffer (shaders/peel_common.wgsl `COUNTER_SLOTS`):
+/// `[0, S)` "pass i left something for pass i + 1", `[S, 2S)` fragments composited by pass i,
+/// `2S` pixels that lost layers.
+pub const COUNTER_SLOTS: u32 = 160;
+const PEELED_BASE: u32 = COUNTER_SLOTS;
+const DROPPED_SLOT: u32 = 2 * COUNTER_SLOTS;
+const COUNTER_WORDS: u32 = 2 * COUNTER_SLOTS + 1;
+
+pub(crate) const PEEL_COMMON: &str = include_str!("../../../shaders/peel_common.wgsl");
+pub(crate) const PEEL_DUAL: &str = include_str!("../../../shaders/peel_dual.wgsl");
+pub(crate) const PEEL_FRONT: &str = include_str!("../../../shaders/peel_front.wgsl");
+pub(crate) const PEEL_COMPOSITE: &str = include_str!("../../../shaders/peel_composite.wgsl");
+pub(crate) const PEEL_GATE: &str = include_str!("../../../shaders/peel_gate.wgsl");
+pub(crate) const PEEL_TAIL: &str = include_str!("../../../shaders/peel_tail.wgsl");
+
+/// How `auto` (and a fixed count larger than needed) stops.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Termination {
+    /// Indirect draws whose instance counts a compute pass sets from the previous pass's
+    /// "something left" flag: no CPU wait per pass. A frame records as many passes as the
+    /// previous frame ran and reads the flags back once, with the stats; only when that budget
+    /// was too small does it record more (one extra round trip per chunk).
+    #[default]
+    GpuGated,
+    /// The classic loop: submit a pass, wait for its flag on the CPU, decide. Direct draws.
+    /// Kept to measure what the stall costs.
+    CpuReadbackPerPass,
+}
+
+/// Implementation switches that are not part of the technique spec: the measured ablations
+/// and the termination strategy.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Options {
+    pub termination: Termination,
+    /// Range test before any shading (`false` shades every fragment first, as Babylon.js).
+    pub test_before_shading: bool,
+    /// Dual peeling: init pass with one (−min, max) target and coverage only (`false` runs the
+    /// full peel shader with all three targets, as a naive port of the SDK sample does).
+    pub depth_only_init: bool,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            termination: Termination::GpuGated,
+            test_before_shading: true,
+            depth_only_init: true,
+        }
+    }
+}
+
+/// What the last frame did, pass by pass (more detail than [`oit_gpu::RenderStats`]).
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct PeelReport {
+    /// Geometry passes recorded (including ones the gate skipped), init pass included.
+    pub passes_recorded: u32,
+    /// Geometry passes that rasterized (not skipped by the gate), init pass included.
+    pub passes_run: u32,
+    /// CPU waits for GPU results in the frame (stats readback included).
+    pub readbacks: u32,
+    /// Fragments composited by each recorded pass (index 0 is the init pass for dual peeling).
+    pub peeled_per_pass: Vec<u32>,
+    /// Pixels where layers were left after the last pass.
+    pub dropped_pixels: u32,
+}
+
+/// Expands `#include` lines against oit-gpu's shared modules and this crate's.
+pub(crate) fn shader(ctx: &Context, name: &str, source: &str) -> Result<wgpu::ShaderModule, GpuError> {
+    let code = oit_gpu::shaders::compose(source, &|n| match n {
+        "peel_common.wgsl" => Some(PEEL_COMMON.to_owned()),
+        "wboit_tail.wgsl" => Some(oit_wboit::tail::WGSL.to_owned()),
+        other => oit_gpu::shaders::shared_module(other).map(str::to_owned),
+    })
+    .map_err(|e| GpuError::Shader {
+        shader: name.to_owned(),
+        message: e.to_string(),
+    })?;
+    Ok(ctx
+        .device
+        .create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(name),
+            source: wgpu::ShaderSource::Wgsl(code.into()),
+        }))
+}
+
+/// A scene pipeline with any number of colour targets and override constants (oit-gpu's
+/// `scene_pipeline` takes one target and no constants).
+pub(crate) struct PipelineDesc<'a> {
+    pub label: &'a str,
+    pub module: &'a wgpu::ShaderModule,
+    pub layout: &'a wgpu::PipelineLayout,
+    pub fragment_entry: &'a str,
+    pub targets: &'a [Option<wgpu::ColorTargetState>],
+    pub depth: Option<wgpu::DepthStencilState>,
+    pub constants: &'a [(&'a str, f64)],
+}
+
+fn pipeline(ctx: &Context, desc: &PipelineDesc<'_>, cull: Option<wgpu::Face>) -> wgpu::RenderPipeline {
+    let options = wgpu::PipelineCompilationOptions {
+        constants: desc.constants,
+        zero_initialize_workgroup_memory: true,
+    };
+    ctx.device
+        .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some(desc.label),
+            layout: Some(desc.layout),
+            vertex: wgpu::VertexState {
+                module: desc.module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[Some(oit_gpu::vertex_layout())],
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: wgpu::PrimitiveTopology::TriangleList,
+                front_face: wgpu::FrontFace::Ccw,
+                cull_mode: cull,
+                ..Default::default()
+            },
+            depth_stencil: desc.depth.clone(),
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: desc.module,
+                entry_point: Some(desc.fragment_entry),
+                compilation_options: options,
+                targets: desc.targets,
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
+}
+
+/// Single-sided (back faces culled) and double-sided variants.
+pub(crate) fn scene_pipelines(ctx: &Context, desc: &PipelineDesc<'_>) -> ScenePipelines {
+    ScenePipelines {
+        single_sided: pipeline(ctx, desc, Some(wgpu::Face::Back)),
+        double_sided: pipeline(ctx, desc, None),
+    }
+}
+
+/// A full-screen triangle pipeline of shaders/peel_composite.wgsl.
+pub(crate) fn fullscreen_pipeline(
+    ctx: &Context,
+    module: &wgpu::ShaderModule,
+    layout: &wgpu::PipelineLayout,
+    entry: &str,
+    target: wgpu::ColorTargetState,
+) -> wgpu::RenderPipeline {
+    ctx.device
+        .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some(entry),
+            layout: Some(layout),
+            vertex: wgpu::VertexState {
+                module,
+                entry_point: Some("vs_fullscreen"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: Default::default(),
+            depth_stencil: None,
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                targets: &[Some(target)],
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
+}
+
+pub(crate) fn uniform_entry(binding: u32, visibility: wgpu::ShaderStages, dynamic: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: dynamic,
+            // The dynamic pass index is one 16-byte PassInfo; other uniforms are checked whole.
+            min_binding_size: if dynamic { wgpu::BufferSize::new(16) } else { None },
+        },
+        count: None,
+    }
+}
+
+pub(crate) fn storage_entry(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only: false },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+pub(crate) fn texture_entry(binding: u32, visibility: wgpu::ShaderStages, depth: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Texture {
+            sample_type: if depth {
+                wgpu::TextureSampleType::Depth
+            } else {
+                wgpu::TextureSampleType::Float { filterable: false }
+            },
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
+/// Premultiplied under-blending into a (Σ C·T, T) accumulator: colour src·T + dst, T·(1 − α).
+pub(crate) const UNDER: wgpu::BlendState = wgpu::BlendState {
+    color: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::DstAlpha,
+        dst_factor: wgpu::BlendFactor::One,
+        operation: wgpu::BlendOperation::Add,
+    },
+    alpha: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::Zero,
+        dst_factor: wgpu::BlendFactor::OneMinusSrcAlpha,
+        operation: wgpu::BlendOperation::Add,
+    },
+};
+
+/// The front accumulator (F, T) over what is behind: colour F + T·dst, destination alpha kept.
+pub(crate) const FRONT_OVER: wgpu::BlendState = wgpu::BlendState {
+    color: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::One,
+        dst_factor: wgpu::BlendFactor::SrcAlpha,
+        operation: wgpu::BlendOperation::Add,
+    },
+    alpha: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::Zero,
+        dst_factor: wgpu::BlendFactor::One,
+        operation: wgpu::BlendOperation::Add,
+    },
+};
+
+/// MAX blending (wgpu requires factors One/One with Min/Max).
+pub(crate) const MAX_BLEND: wgpu::BlendState = wgpu::BlendState {
+    color: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::One,
+        dst_factor: wgpu::BlendFactor::One,
+        operation: wgpu::BlendOperation::Max,
+    },
+    alpha: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::One,
+        dst_factor: wgpu::BlendFactor::One,
+        operation: wgpu::BlendOperation::Max,
+    },
+};
+
+pub(crate) fn texture_2d(
+    ctx: &Context,
+    ledger: &mut MemoryLedger,
+    label: &str,
+    resolution: oit_scene::Resolution,
+    format: wgpu::TextureFormat,
+) -> (wgpu::Texture, wgpu::TextureView) {
+    let t = ledger.create_texture(
+        &ctx.device,
+        &wgpu::TextureDescriptor {
+            label: Some(label),
+            size: wgpu::Extent3d {
+                width: resolution.width,
+                height: resolution.height,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        },
+    );
+    let v = t.create_view(&Default::default());
+    (t, v)
+}
+
+/// Counters, pass-index uniform, gate and count pipelines: everything that does not depend on
+/// the scene. The indirect argument buffer is per scene ([`DrawList`]).
+#[derive(Debug)]
+pub(crate) struct Control {
+    pub counters: wgpu::Buffer,
+    readback: wgpu::Buffer,
+    /// Kept with the bind group that reads it.
+    _pass_buffer: wgpu::Buffer,
+    pass_stride: u32,
+    pub pass_layout: wgpu::BindGroupLayout,
+    pub pass_group: wgpu::BindGroup,
+    gate_module: wgpu::ShaderModule,
+    gate_layout: wgpu::BindGroupLayout,
+    gate_pipeline: wgpu::ComputePipeline,
+}
+
+impl Control {
+    pub fn new(ctx: &Context, ledger: &mut MemoryLedger) -> Result<Self, GpuError> {
+        let device = &ctx.device;
+        let counters = ledger.create_buffer(
+            device,
+            &wgpu::BufferDescriptor {
+                label: Some("peel counters"),
+                size: u64::from(COUNTER_WORDS) * 4,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            },
+        );
+        let readback = ledger.create_buffer(
+            device,
+            &wgpu::BufferDescriptor {
+                label: Some("peel counters readback"),
+                size: u64::from(COUNTER_WORDS) * 4,
+                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+                mapped_at_creation: false,
+            },
+        );
+        // One 16-byte PassInfo per pass index at the dynamic-offset alignment.
+        let pass_stride = device.limits().min_uniform_buffer_offset_alignment.max(16);
+        let mut words = vec![0u32; (pass_stride / 4 * COUNTER_SLOTS) as usize];
+        for i in 0..COUNTER_SLOTS {
+            words[(i * pass_stride / 4) as usize] = i;
+        }
+        let pass_buffer = ledger.create_buffer(
+            device,
+            &wgpu::BufferDescriptor {
+                label: Some("peel pass indices"),
+                size: u64::from(pass_stride) * u64::from(COUNTER_SLOTS),
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            },
+        );
+        ctx.queue.write_buffer(&pass_buffer, 0, bytemuck::cast_slice(&words));
+        let all = wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE;
+        let pass_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("peel pass index"),
+            entries: &[uniform_entry(0, all, true)],
+        });
+        let pass_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("peel pass index"),
+            layout: &pass_layout,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: &pass_buffer,
+                    offset: 0,
+                    size: wgpu::BufferSize::new(16),
+                }),
+            }],
+        });
+        let gate_module = shader(ctx, "peel_gate.wgsl", PEEL_GATE)?;
+        let cs = wgpu::ShaderStages::COMPUTE;
+        let gate_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("peel gate"),
+            entries: &[storage_entry(0, cs), storage_entry(1, cs), uniform_entry(2, cs, false)],
+        });
+        let gate_pipeline = compute_pipeline(ctx, &gate_module, &[&gate_layout, &pass_layout], "cs_gate");
+        Ok(Control {
+            counters,
+            readback,
+            _pass_buffer: pass_buffer,
+            pass_stride,
+            pass_layout,
+            pass_group,
+            gate_module,
+            gate_layout,
+            gate_pipeline,
+        })
+    }
+
+    /// The dynamic offset that selects pass index `i`.
+    pub fn offset(&self, i: u32) -> u32 {
+        i * self.pass_stride
+    }
+
+    /// Zeroes the counters at the start of a frame.
+    pub fn clear(&self, encoder: &mut wgpu::CommandEncoder) {
+        encoder.clear_buffer(&self.counters, 0, None);
+    }
+
+    /// After pass `i`: instance count of every draw = "pass i left something".
+    pub fn gate(&self, encoder: &mut wgpu::CommandEncoder, list: &DrawList, i: u32) {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("peel gate"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&self.gate_pipeline);
+        pass.set_bind_group(0, &list.gate_group, &[]);
+        pass.set_bind_group(1, &self.pass_group, &[self.offset(i)]);
+        pass.dispatch_workgroups((list.draws.len() as u32).div_ceil(64).max(1), 1, 1);
+    }
+
+    /// A count pipeline of peel_gate.wgsl (`cs_count_range` or `cs_count_candidates`) with the
+    /// layout its bindings need.
+    pub fn count_pipeline(
+        &self,
+        ctx: &Context,
+        entry: &str,
+        extra: wgpu::BindGroupLayoutEntry,
+    ) -> (wgpu::BindGroupLayout, wgpu::ComputePipeline) {
+        let cs = wgpu::ShaderStages::COMPUTE;
+        let layout = ctx.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some(entry),
+            entries: &[storage_entry(0, cs), uniform_entry(2, cs, false), extra],
+        });
+        let pipeline = compute_pipeline(ctx, &self.gate_module, &[&layout], entry);
+        (layout, pipeline)
+    }
+
+    /// Copies the counters back (waits for the GPU).
+    pub fn read(&self, ctx: &Context) -> Result<Counters, GpuError> {
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        encoder.copy_buffer_to_buffer(&self.counters, 0, &self.readback, 0, u64::from(COUNTER_WORDS) * 4);
+        ctx.queue.submit([encoder.finish()]);
+        let (tx, rx) = std::sync::mpsc::channel();
+        self.readback.map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        ctx.wait()?;
+        let fail = |message: String| GpuError::Readback {
+            what: "peel counters".to_owned(),
+            message,
+        };
+        rx.recv().map_err(|e| fail(e.to_string()))?.map_err(|e| fail(e.to_string()))?;
+        let words: Vec<u32> = {
+            let view = self.readback.get_mapped_range(..).map_err(|e| fail(e.to_string()))?;
+            bytemuck::cast_slice::<u8, u32>(&view).to_vec()
+        };
+        self.readback.unmap();
+        Ok(Counters { words })
+    }
+}
+
+fn compute_pipeline(
+    ctx: &Context,
+    module: &wgpu::ShaderModule,
+    groups: &[&wgpu::BindGroupLayout],
+    entry: &str,
+) -> wgpu::ComputePipeline {
+    let groups: Vec<Option<&wgpu::BindGroupLayout>> = groups.iter().map(|g| Some(*g)).collect();
+    let layout = ctx.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some(entry),
+        bind_group_layouts: &groups,
+        immediate_size: 0,
+    });
+    ctx.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(entry),
+        layout: Some(&layout),
+        module,
+        entry_point: Some(entry),
+        compilation_options: Default::default(),
+        cache: None,
+    })
+}
+
+/// The counters of one frame, read back.
+#[derive(Debug, Clone)]
+pub(crate) struct Counters {
+    words: Vec<u32>,
+}
+
+impl Counters {
+    /// Pass `i` left something for pass `i + 1`.
+    pub fn left(&self, i: u32) -> bool {
+        self.words.get(i as usize).is_some_and(|&w| w != 0)
+    }
+
+    pub fn peeled(&self, i: u32) -> u32 {
+        self.words.get((PEELED_BASE + i) as usize).copied().unwrap_or(0)
+    }
+
+    pub fn dropped(&self) -> u32 {
+        self.words.get(DROPPED_SLOT as usize).copied().unwrap_or(0)
+    }
+}
+
+/// The transparent draws of one scene and their indirect arguments.
+#[derive(Debug)]
+pub(crate) struct DrawList {
+    pub scene_id: u64,
+    /// Indices into `scene.draws`, draw order, empty draws removed.
+    pub draws: Vec<usize>,
+    pub args: wgpu::Buffer,
+    initial: Vec<u32>,
+    pub grid: wgpu::Buffer,
+    gate_group: wgpu::BindGroup,
+}
+
+impl DrawList {
+    pub fn new(ctx: &Context, control: &Control, scene: &GpuScene, ledger: &mut MemoryLedger) -> Self {
+        let draws: Vec<usize> = scene
+            .transparent_draws()
+            .into_iter()
+            .filter(|&i| scene.scene.draws[i].vertex_count > 0)
+            .collect();
+        let mut initial = Vec::with_capacity(draws.len().max(1) * 4);
+        for &i in &draws {
+            let d = &scene.scene.draws[i];
+            initial.extend([d.vertex_count, 1, d.first_vertex, 0]);
+        }
+        if initial.is_empty() {
+            initial.extend([0, 0, 0, 0]);
+        }
+        let args = ledger.create_buffer(
+            &ctx.device,
+            &wgpu::BufferDescriptor {
+                label: Some("peel indirect draws"),
+                size: initial.len() as u64 * 4,
+                usage: wgpu::BufferUsages::INDIRECT | wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            },
+        );
+        let res = scene.scene.resolution;
+        let grid = ledger.create_buffer(
+            &ctx.device,
+            &wgpu::BufferDescriptor {
+                label: Some("peel grid"),
+                size: 16,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            },
+        );
+        ctx.queue.write_buffer(
+            &grid,
+            0,
+            bytemuck::cast_slice(&[res.width, res.height, draws.len() as u32, 0]),
+        );
+        let gate_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("peel gate"),
+            layout: &control.gate_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: control.counters.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: args.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: grid.as_entire_binding(),
+                },
+            ],
+        });
+        DrawList {
+            scene_id: scene.id,
+            draws,
+            args,
+            initial,
+            grid,
+            gate_group,
+        }
+    }
+
+    /// Every draw enabled again (start of a frame).
+    pub fn reset(&self, ctx: &Context) {
+        ctx.queue.write_buffer(&self.args, 0, bytemuck::cast_slice(&self.initial));
+    }
+
+    /// Draws every transparent draw: indirect (gated) or direct.
+    pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, scene: &GpuScene, pipelines: &ScenePipelines, indirect: bool) {
+        for (slot, &i) in self.draws.iter().enumerate() {
+            let d = &scene.scene.draws[i];
+            pass.set_pipeline(pipelines.for_material(scene.scene.material_of(d)));
+            if indirect {
+                pass.draw_indirect(&self.args, slot as u64 * 16);
+            } else {
+                pass.draw(d.first_vertex..d.first_vertex + d.vertex_count, 0..1);
+            }
+        }
+    }
+}
+
+/// How many passes the next frame records for `auto`: what this scene needed last time.
+#[derive(Debug, Default)]
+pub(crate) struct Budget {
+    scene_id: Option<u64>,
+    passes: u32,
+}
+
+impl Budget {
+    /// Passes to record first (at least `min`, at most `max`).
+    pub fn first(&self, scene_id: u64, initial: u32, max: u32) -> u32 {
+        let n = if self.scene_id == Some(scene_id) { self.passes } else { initial };
+        n.clamp(1, max)
+    }
+
+    pub fn remember(&mut self, scene_id: u64, passes: u32) {
+        self.scene_id = Some(scene_id);
+        self.passes = passes;
+    }
+}
+
+/// Chunk of extra passes recorded when the budget was too small.
+pub(crate) const CHUNK: u32 = 8;
