@@ -275,10 +275,29 @@ impl Context {
     /// order) and creates a device with every feature in the wanted set the adapter has and
     /// the adapter's own limits.
     pub fn new(options: &ContextOptions) -> Result<Context, GpuError> {
-        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
-        desc.backends = options.backend.backends();
-        let instance = wgpu::Instance::new(desc);
-        let mut adapters = pollster::block_on(instance.enumerate_adapters(desc_backends(options)));
+        // Auto tries Vulkan/Metal/DX12 first and only falls back to GL when they have no
+        // adapter (initialising EGL is slow and noisy on headless machines).
+        let tiers: &[wgpu::Backends] = match options.backend {
+            Backend::Auto => &[wgpu::Backends::PRIMARY, wgpu::Backends::SECONDARY],
+            b => &[b.backends()],
+        };
+        let mut instance = None;
+        let mut adapters = Vec::new();
+        for &backends in tiers {
+            let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+            desc.backends = backends;
+            let inst = wgpu::Instance::new(desc);
+            adapters = pollster::block_on(inst.enumerate_adapters(backends));
+            instance = Some(inst);
+            if !adapters.is_empty() {
+                break;
+            }
+        }
+        let Some(instance) = instance else {
+            return Err(GpuError::NoAdapter {
+                backend: options.backend.name().to_owned(),
+            });
+        };
         if adapters.is_empty() {
             return Err(GpuError::NoAdapter {
                 backend: options.backend.name().to_owned(),
@@ -377,8 +396,4 @@ impl Context {
                 source: wgpu::ShaderSource::Wgsl(code.into()),
             }))
     }
-}
-
-fn desc_backends(options: &ContextOptions) -> wgpu::Backends {
-    options.backend.backends()
 }

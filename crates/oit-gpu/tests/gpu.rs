@@ -176,7 +176,11 @@ fn opaque_pass_matches_reference() {
                 .expect("frame");
             let image = oit_gpu::read_color(&ctx, &targets).expect("readback");
             let max = max_abs_rgb(&image.pixels, &reference.image.pixels);
-            println!("{name} opaque only, {format:?}: max abs error {max:e}");
+            let worst = worst_pixel(&image.pixels, &reference.image.pixels);
+            println!(
+                "{name} opaque only, {format:?}: max abs error {max:e} at pixel {worst}: GPU {:?}, reference {:?}",
+                image.pixels[worst], reference.image.pixels[worst]
+            );
             // Rgba16Float rounds to 11 significant bits; colour interpolation differs in the last
             // f32 bits at most.
             let tol = if format == ColorFormat::Rgba16Float {
@@ -184,9 +188,27 @@ fn opaque_pass_matches_reference() {
             } else {
                 1e-4
             };
+            let over = image
+                .pixels
+                .iter()
+                .zip(&reference.image.pixels)
+                .filter(|(p, q)| (0..3).any(|c| (p[c] - q[c]).abs() > tol))
+                .count();
+            println!("  {over} pixels over {tol:e}");
             assert!(max <= tol, "{name} {format:?}: max abs error {max} > {tol}");
         }
     }
+}
+
+fn worst_pixel(a: &[[f32; 4]], b: &[[f32; 4]]) -> usize {
+    let err = |i: usize| {
+        (0..3)
+            .map(|c| (a[i][c] - b[i][c]).abs())
+            .fold(0.0, f32::max)
+    };
+    (0..a.len())
+        .max_by(|&i, &j| err(i).total_cmp(&err(j)))
+        .unwrap_or(0)
 }
 
 fn max_abs_rgb(a: &[[f32; 4]], b: &[[f32; 4]]) -> f32 {

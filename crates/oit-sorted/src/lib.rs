@@ -1,1 +1,43 @@
-//! oit-sorted
+//! oit-sorted: the blended baselines every OIT technique is measured against.
+//!
+//! All five draw the transparent geometry with premultiplied OVER blending (src One, dst
+//! OneMinusSrcAlpha) over the shared opaque pass, depth-tested against the opaque depth
+//! (strictly nearer) without writing depth, except where noted:
+//!
+//! - `unsorted`: transparent draws in draw order. The baseline every cost is divided by.
+//! - `sorted-object`: draws sorted as Babylon does ([`object_order`]).
+//! - `sorted-triangle`: every transparent triangle sorted back to front by the view depth of its
+//!   centroid, each frame, on the CPU ([`DepthSorter`]); render groups first.
+//! - `depth-prepass`: a depth-only pass of the transparent geometry (writes depth; mask-blend
+//!   discards honoured), then an EQUAL-depth blended pass: only the nearest transparent layer.
+//! - `cull-split`: in sorted-object order, each double-sided object's back faces, then its
+//!   front faces (Babylon's separateCullingPass); single-sided objects draw their front faces.
+
+mod sort;
+mod technique;
+
+pub use sort::{
+    DepthSorter, back_to_front_key, centroid, object_order, ordered_bits, radix_sort_pairs,
+};
+pub use technique::{Blended, Kind};
+
+use oit_gpu::TechniqueInfo;
+
+/// The registry entries of this crate.
+pub fn techniques() -> Vec<TechniqueInfo> {
+    Kind::ALL
+        .iter()
+        .map(|&kind| TechniqueInfo {
+            name: kind.name(),
+            description: kind.description(),
+            params: Vec::new(),
+            build: match kind {
+                Kind::Unsorted => |_| Box::new(Blended::new(Kind::Unsorted)),
+                Kind::SortedObject => |_| Box::new(Blended::new(Kind::SortedObject)),
+                Kind::SortedTriangle => |_| Box::new(Blended::new(Kind::SortedTriangle)),
+                Kind::DepthPrepass => |_| Box::new(Blended::new(Kind::DepthPrepass)),
+                Kind::CullSplit => |_| Box::new(Blended::new(Kind::CullSplit)),
+            },
+        })
+        .collect()
+}
