@@ -1,0 +1,377 @@
+//! `a2c:samples=4|8`: MSAA alpha-to-coverage.
+//!
+//! The opaque pass is single-sampled (shared by all techniques), so its colour and depth are
+//! copied into every sample of multisampled targets first; transparent draws then write
+//! opaque fragments with depth while alpha-to-coverage keeps ≈ α·N of the N samples; the
+//! colour is resolved (sample average) into the final target.
+//!
+//! Compared with the single-sample reference: inside a triangle every sample is covered and
+//! the only difference is the driver's α → mask quantisation (N + 1 levels, the same mask for
+//! the same α, so equal-α layers correlate). Along transparent triangle edges, MSAA covers a
+//! fraction of a pixel's samples where the reference takes all-or-nothing at the pixel centre:
+//! the resolve blends across the edge (anti-aliasing the reference does not have). Opaque
+//! edges come from the single-sample pass and stay aliased exactly as in the reference.
+
+use crate::config::{A2cConfig, ConfigError};
+use crate::gpu::{self, PipelineDesc, PipelinePair};
+use oit_gpu::wgpu;
+use oit_gpu::{
+    Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, RenderStats, Targets, Technique,
+    TechniqueSpec, Unsupported,
+};
+use oit_scene::Resolution;
+
+/// WGSL of the alpha-to-coverage pass.
+pub const A2C_WGSL: &str = include_str!("../../../shaders/stochastic_a2c.wgsl");
+/// WGSL of the pass that copies the opaque pass into the multisampled targets.
+pub const SEED_MSAA_WGSL: &str = include_str!("../../../shaders/stochastic_seed_msaa.wgsl");
+
+/// The `a2c` technique.
+#[derive(Debug)]
+pub struct AlphaToCoverage {
+    config: Result<A2cConfig, ConfigError>,
+    gpu: Option<Resources>,
+    ledger: MemoryLedger,
+}
+
+#[derive(Debug)]
+struct Resources {
+    key: (wgpu::TextureFormat, bool, Resolution),
+    color_view: wgpu::TextureView,
+    depth_view: wgpu::TextureView,
+    seed_layout: wgpu::BindGroupLayout,
+    seed: wgpu::RenderPipeline,
+    a2c: PipelinePair,
+}
+
+/// Whether `format` can be multisampled `samples`× (and resolved, for colour) on this device.
+fn multisample_supported(
+    ctx: &Context,
+    format: wgpu::TextureFormat,
+    samples: u32,
+    resolve: bool,
+) -> bool {
+    let features = if ctx.caps.adapter_specific_format_features {
+        ctx.adapter.get_texture_format_features(format)
+    } else {
+        format.guaranteed_format_features(ctx.device.features())
+    };
+    features.flags.sample_count_supported(samples)
+        && (!resolve
+            || features
+                .flags
+                .contains(wgpu::TextureFormatFeatureFlags::MULTISAMPLE_RESOLVE))
+}
+
+impl AlphaToCoverage {
+    pub fn new(config: A2cConfig) -> Self {
+        AlphaToCoverage {
+            config: Ok(config),
+            gpu: None,
+            ledger: MemoryLedger::new(),
+        }
+    }
+
+    /// Builds from a spec; an invalid spec gives a technique whose `check` says why.
+    pub fn from_spec(spec: &TechniqueSpec) -> Self {
+        AlphaToCoverage {
+            config: A2cConfig::from_spec(spec),
+            gpu: None,
+            ledger: MemoryLedger::new(),
+        }
+    }
+
+    /// `Err` with the reason when this device cannot multisample the final colour format and
+    /// Depth32Float `samples`× (format features, as wgpu validates them).
+    pub fn supported(
+        ctx: &Context,
+        color: wgpu::TextureFormat,
+        samples: u32,
+    ) -> Result<(), Unsupported> {
+        for (format, resolve) in [(color, true), (wgpu::TextureFormat::Depth32Float, false)] {
+            if !multisample_supported(ctx, format, samples, resolve) {
+                return Err(Unsupported::new(format!(
+                    "the adapter cannot {} {format:?} with {samples} samples{}",
+                    if resolve {
+                        "multisample and resolve"
+                    } else {
+                        "multisample"
+                    },
+                    if ctx.caps.adapter_specific_format_features {
+                        ""
+                    } else {
+                        " (no TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES: only WebGPU's 4x is guaranteed)"
+                    }
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    fn prepare(
+        &mut self,
+        ctx: &Context,
+        scene: &GpuScene,
+        targets: &Targets,
+        samples: u32,
+    ) -> Result<(), GpuError> {
+        let key = (
+            targets.color_format,
+            scene.scene.camera.reverse_z,
+            targets.resolution,
+        );
+        if self.gpu.as_ref().is_some_and(|g| g.key == key) {
+            return Ok(());
+        }
+        Self::supported(ctx, targets.color_format, samples)?;
+        self.gpu = None;
+        self.ledger.clear();
+        let device = &ctx.device;
+        let size = wgpu::Extent3d {
+            width: targets.resolution.width,
+            height: targets.resolution.height,
+            depth_or_array_layers: 1,
+        };
+        let mut texture = |label, format| {
+            self.ledger.create_texture(
+                device,
+                &wgpu::TextureDescriptor {
+                    label: Some(label),
+                    size,
+                    mip_level_count: 1,
+                    sample_count: samples,
+                    dimension: wgpu::TextureDimension::D2,
+                    format,
+                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+                    view_formats: &[],
+                },
+            )
+        };
+        let color = texture("a2c msaa colour", targets.color_format);
+        let depth = texture("a2c msaa depth", wgpu::TextureFormat::Depth32Float);
+        let multisample = wgpu::MultisampleState {
+            count: samples,
+            mask: !0,
+            alpha_to_coverage_enabled: false,
+        };
+        let seed_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("a2c seed"),
+            entries: &[
+                gpu::float_texture_entry(0),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 1,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Depth,
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+            ],
+        });
+        let seed_module = gpu::shader(ctx, "stochastic_seed_msaa.wgsl", SEED_MSAA_WGSL)?;
+        let seed_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("a2c seed"),
+            bind_group_layouts: &[Some(&seed_layout)],
+            immediate_size: 0,
+        });
+        let seed = gpu::fullscreen_pipeline(
+            ctx,
+            gpu::FullscreenDesc {
+                label: "a2c seed",
+                layout: &seed_pipeline_layout,
+                module: &seed_module,
+                fragment_entry: "fs_seed",
+                color: wgpu::ColorTargetState {
+                    format: targets.color_format,
+                    blend: None,
+                    write_mask: wgpu::ColorWrites::ALL,
+                },
+                depth: Some(wgpu::DepthStencilState {
+                    format: wgpu::TextureFormat::Depth32Float,
+                    depth_write_enabled: Some(true),
+                    depth_compare: Some(wgpu::CompareFunction::Always),
+                    stencil: Default::default(),
+                    bias: Default::default(),
+                }),
+                multisample,
+            },
+        );
+        let module = gpu::shader(ctx, "stochastic_a2c.wgsl", A2C_WGSL)?;
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("a2c"),
+            bind_group_layouts: &[Some(ctx.scene_layout())],
+            immediate_size: 0,
+        });
+        let a2c = PipelinePair::new(
+            ctx,
+            &PipelineDesc {
+                label: "a2c",
+                layout: &layout,
+                module: &module,
+                vertex_entry: "vs_main",
+                fragment_entry: "fs_a2c",
+                color: wgpu::ColorTargetState {
+                    format: targets.color_format,
+                    blend: None,
+                    write_mask: wgpu::ColorWrites::ALL,
+                },
+                depth_write: true,
+                depth_compare: scene.depth_nearer(),
+                multisample: wgpu::MultisampleState {
+                    alpha_to_coverage_enabled: true,
+                    ..multisample
+                },
+            },
+        );
+        self.gpu = Some(Resources {
+            key,
+            color_view: color.create_view(&Default::default()),
+            depth_view: depth.create_view(&Default::default()),
+            seed_layout,
+            seed,
+            a2c,
+        });
+        Ok(())
+    }
+
+    /// `(label, bytes)` of every allocation (empty before the first render).
+    pub fn memory_entries(&self) -> &[(String, u64)] {
+        self.ledger.entries()
+    }
+}
+
+impl Technique for AlphaToCoverage {
+    fn spec(&self) -> TechniqueSpec {
+        match &self.config {
+            Ok(c) => c.spec(),
+            Err(_) => TechniqueSpec {
+                name: "a2c".into(),
+                params: Default::default(),
+            },
+        }
+    }
+
+    fn check(&self, caps: &Caps) -> Result<(), Unsupported> {
+        let config = self
+            .config
+            .as_ref()
+            .map_err(|e| Unsupported::new(format!("the spec is invalid: {e}")))?;
+        if caps.max_storage_buffers_per_shader_stage == 0 {
+            return Err(Unsupported::new(
+                "the adapter has no storage buffers in fragment shaders",
+            ));
+        }
+        // Caps only records 4x; the exact test for the target's format runs in `render`.
+        let depth = caps.format(wgpu::TextureFormat::Depth32Float);
+        if config.samples == 4 && !depth.multisample_x4 {
+            return Err(Unsupported::new(
+                "the adapter cannot multisample Depth32Float 4x",
+            ));
+        }
+        if config.samples == 8 && !caps.adapter_specific_format_features {
+            return Err(Unsupported::new(
+                "8x MSAA needs TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES (WebGPU guarantees only 4x)",
+            ));
+        }
+        Ok(())
+    }
+
+    fn render(
+        &mut self,
+        ctx: &Context,
+        scene: &GpuScene,
+        targets: &Targets,
+        timer: &mut GpuTimer,
+    ) -> Result<RenderStats, GpuError> {
+        let config = *self.config.as_ref().map_err(|e| {
+            GpuError::Unsupported(Unsupported::new(format!("the spec is invalid: {e}")))
+        })?;
+        self.prepare(ctx, scene, targets, config.samples)?;
+        let r = self.gpu.as_ref().expect("resources prepared above");
+        let seed_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("a2c seed"),
+            layout: &r.seed_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::TextureView(&targets.color_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(&targets.depth_view),
+                },
+            ],
+        });
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        let ts = timer.pass("a2c seed msaa");
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("a2c seed msaa"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &r.color_view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &r.depth_view,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(scene.scene.camera.far_depth()),
+                        store: wgpu::StoreOp::Store,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: ts.writes(),
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&r.seed);
+            pass.set_bind_group(0, &seed_group, &[]);
+            pass.draw(0..3, 0..1);
+        }
+        let ts = timer.pass("a2c");
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("a2c"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &r.color_view,
+                    depth_slice: None,
+                    resolve_target: Some(&targets.color_view),
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Load,
+                        store: wgpu::StoreOp::Discard,
+                    },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &r.depth_view,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Load,
+                        store: wgpu::StoreOp::Discard,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: ts.writes(),
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            scene.bind(&mut pass);
+            for i in gpu::reversed_transparent_draws(scene) {
+                gpu::draw_with_id(&mut pass, scene, &r.a2c, i);
+            }
+        }
+        timer.submit(ctx, encoder)?;
+        Ok(RenderStats {
+            geometry_passes: 1,
+            ..Default::default()
+        })
+    }
+
+    fn memory_bytes(&self) -> u64 {
+        self.ledger.total()
+    }
+}

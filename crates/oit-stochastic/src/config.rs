@@ -1,0 +1,236 @@
+//! Parameters of the two techniques, read from a validated [`TechniqueSpec`].
+
+use oit_gpu::{Allowed, ParamInfo, TechniqueSpec};
+
+/// Where a fragment's survival threshold comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Pattern {
+    /// A fresh hash per pixel, seed and frame: independent thresholds, the textbook estimator.
+    White,
+    /// The project's 64×64 void-and-cluster blue-noise tile.
+    Blue,
+    /// 4×4 ordered dither (17 coverage levels).
+    Bayer4,
+    /// 8×8 ordered dither (65 coverage levels).
+    Bayer8,
+    /// Wyman & McGuire 2017 hashed alpha testing on the world position, with the CDF correction.
+    Hashed,
+}
+
+impl Pattern {
+    pub const ALL: [Pattern; 5] = [
+        Pattern::White,
+        Pattern::Blue,
+        Pattern::Bayer4,
+        Pattern::Bayer8,
+        Pattern::Hashed,
+    ];
+    pub const NAMES: &'static [&'static str] = &["white", "blue", "bayer4", "bayer8", "hashed"];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Pattern::White => "white",
+            Pattern::Blue => "blue",
+            Pattern::Bayer4 => "bayer4",
+            Pattern::Bayer8 => "bayer8",
+            Pattern::Hashed => "hashed",
+        }
+    }
+
+    /// Side of the threshold table a tiled pattern reads (`None` for procedural patterns).
+    pub fn tile(self) -> Option<u32> {
+        match self {
+            Pattern::Blue => Some(crate::pattern::BLUE_NOISE_SIDE as u32),
+            Pattern::Bayer4 => Some(4),
+            Pattern::Bayer8 => Some(8),
+            Pattern::White | Pattern::Hashed => None,
+        }
+    }
+}
+
+/// How the pattern is decorrelated between layers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Seed {
+    /// No offset: every layer sees the same screen-fixed pattern (the classic screen door,
+    /// kept to show the correlation failure).
+    None,
+    /// One offset per draw, from its stable id.
+    Object,
+    /// One offset per triangle (draw id and triangle).
+    Primitive,
+}
+
+impl Seed {
+    pub const NAMES: &'static [&'static str] = &["object", "primitive", "none"];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Seed::None => "none",
+            Seed::Object => "object",
+            Seed::Primitive => "primitive",
+        }
+    }
+}
+
+/// Largest `spp`: each frame is two timed passes and the frame timer holds 512.
+pub const MAX_SPP: u64 = 128;
+
+/// `stochastic:pattern=…,seed=…,spp=N`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct StochasticConfig {
+    pub pattern: Pattern,
+    pub seed: Seed,
+    /// Frames averaged (each with its own pattern shift).
+    pub spp: u32,
+}
+
+/// `a2c:samples=4|8`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct A2cConfig {
+    pub samples: u32,
+}
+
+/// A spec that does not describe a configuration of these techniques (only possible when a
+/// spec is built by hand instead of parsed against [`crate::techniques`]).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ConfigError {
+    #[error("technique spec {spec:?}: expected technique {expected:?}")]
+    WrongName {
+        spec: String,
+        expected: &'static str,
+    },
+    #[error(
+        "technique spec {spec:?}: {key} is missing or {value:?} is not allowed; allowed: {allowed}"
+    )]
+    BadValue {
+        spec: String,
+        key: &'static str,
+        value: String,
+        allowed: String,
+    },
+}
+
+pub(crate) fn stochastic_params() -> Vec<ParamInfo> {
+    vec![
+        ParamInfo {
+            key: "pattern",
+            description: "threshold pattern: white noise, 64x64 void-and-cluster blue noise, Bayer 4x4/8x8, or hashed alpha (Wyman & McGuire 2017)",
+            default: "blue",
+            allowed: Allowed::Values(Pattern::NAMES),
+        },
+        ParamInfo {
+            key: "seed",
+            description: "pattern offset per object (draw id), per primitive (draw id and triangle), or none (same pattern on every layer)",
+            default: "object",
+            allowed: Allowed::Values(Seed::NAMES),
+        },
+        ParamInfo {
+            key: "spp",
+            description: "frames averaged, each with an R2 tile shift and golden-ratio rotation (tiled) or a fresh hash (white, hashed)",
+            default: "1",
+            allowed: Allowed::Integer {
+                min: 1,
+                max: MAX_SPP,
+                words: &[],
+            },
+        },
+    ]
+}
+
+pub(crate) fn a2c_params() -> Vec<ParamInfo> {
+    vec![ParamInfo {
+        key: "samples",
+        description: "MSAA samples per pixel (the adapter must support the count for the colour and depth formats)",
+        default: "4",
+        allowed: Allowed::Values(&["4", "8"]),
+    }]
+}
+
+fn value<'s>(
+    spec: &'s TechniqueSpec,
+    key: &'static str,
+    allowed: &[&str],
+) -> Result<&'s str, ConfigError> {
+    match spec.get(key) {
+        Some(v) if allowed.contains(&v) => Ok(v),
+        other => Err(ConfigError::BadValue {
+            spec: spec.to_string(),
+            key,
+            value: other.unwrap_or("").to_owned(),
+            allowed: allowed.join(", "),
+        }),
+    }
+}
+
+impl StochasticConfig {
+    pub fn from_spec(spec: &TechniqueSpec) -> Result<Self, ConfigError> {
+        if spec.name != "stochastic" {
+            return Err(ConfigError::WrongName {
+                spec: spec.to_string(),
+                expected: "stochastic",
+            });
+        }
+        let p = value(spec, "pattern", Pattern::NAMES)?;
+        let pattern = Pattern::ALL
+            .into_iter()
+            .find(|x| x.name() == p)
+            .unwrap_or(Pattern::Blue);
+        let seed = match value(spec, "seed", Seed::NAMES)? {
+            "none" => Seed::None,
+            "primitive" => Seed::Primitive,
+            _ => Seed::Object,
+        };
+        let spp_text = spec.get("spp").unwrap_or("");
+        let spp = spp_text
+            .parse::<u32>()
+            .ok()
+            .filter(|n| (1..=MAX_SPP).contains(&u64::from(*n)))
+            .ok_or_else(|| ConfigError::BadValue {
+                spec: spec.to_string(),
+                key: "spp",
+                value: spp_text.to_owned(),
+                allowed: format!("an integer 1..={MAX_SPP}"),
+            })?;
+        Ok(StochasticConfig { pattern, seed, spp })
+    }
+
+    pub fn spec(&self) -> TechniqueSpec {
+        TechniqueSpec {
+            name: "stochastic".into(),
+            params: [
+                ("pattern", self.pattern.name().to_owned()),
+                ("seed", self.seed.name().to_owned()),
+                ("spp", self.spp.to_string()),
+            ]
+            .into_iter()
+            .map(|(k, v)| (k.to_owned(), v))
+            .collect(),
+        }
+    }
+}
+
+impl A2cConfig {
+    pub fn from_spec(spec: &TechniqueSpec) -> Result<Self, ConfigError> {
+        if spec.name != "a2c" {
+            return Err(ConfigError::WrongName {
+                spec: spec.to_string(),
+                expected: "a2c",
+            });
+        }
+        let samples = if value(spec, "samples", &["4", "8"])? == "8" {
+            8
+        } else {
+            4
+        };
+        Ok(A2cConfig { samples })
+    }
+
+    pub fn spec(&self) -> TechniqueSpec {
+        TechniqueSpec {
+            name: "a2c".into(),
+            params: [("samples".to_owned(), self.samples.to_string())]
+                .into_iter()
+                .collect(),
+        }
+    }
+}

@@ -1,0 +1,192 @@
+//! Pipeline and resource helpers shared by the two techniques.
+//!
+//! `oit_gpu::scene_pipeline` fixes the vertex entry (`vs_main`) and single sampling; the
+//! dither pass needs its own vertex stage (world position, draw id, triangle seed) and a2c
+//! needs multisampling, so this is the same builder with those two knobs. (Candidate to move
+//! into oit-gpu as fields of `ScenePipelineDesc`.)
+
+use oit_gpu::wgpu;
+use oit_gpu::{Context, GpuError, GpuScene, vertex_layout};
+
+pub(crate) struct PipelineDesc<'a> {
+    pub label: &'a str,
+    pub layout: &'a wgpu::PipelineLayout,
+    pub module: &'a wgpu::ShaderModule,
+    pub vertex_entry: &'a str,
+    pub fragment_entry: &'a str,
+    pub color: wgpu::ColorTargetState,
+    pub depth_write: bool,
+    pub depth_compare: wgpu::CompareFunction,
+    pub multisample: wgpu::MultisampleState,
+}
+
+/// Single-sided (back faces culled) and double-sided pipelines of one scene pass.
+#[derive(Debug, Clone)]
+pub(crate) struct PipelinePair {
+    pub single_sided: wgpu::RenderPipeline,
+    pub double_sided: wgpu::RenderPipeline,
+}
+
+impl PipelinePair {
+    pub fn new(ctx: &Context, desc: &PipelineDesc<'_>) -> Self {
+        let make = |cull| scene_pipeline(ctx, desc, cull);
+        PipelinePair {
+            single_sided: make(Some(wgpu::Face::Back)),
+            double_sided: make(None),
+        }
+    }
+}
+
+fn scene_pipeline(
+    ctx: &Context,
+    desc: &PipelineDesc<'_>,
+    cull: Option<wgpu::Face>,
+) -> wgpu::RenderPipeline {
+    ctx.device
+        .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some(desc.label),
+            layout: Some(desc.layout),
+            vertex: wgpu::VertexState {
+                module: desc.module,
+                entry_point: Some(desc.vertex_entry),
+                compilation_options: Default::default(),
+                buffers: &[Some(vertex_layout())],
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: wgpu::PrimitiveTopology::TriangleList,
+                front_face: wgpu::FrontFace::Ccw,
+                cull_mode: cull,
+                ..Default::default()
+            },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: wgpu::TextureFormat::Depth32Float,
+                depth_write_enabled: Some(desc.depth_write),
+                depth_compare: Some(desc.depth_compare),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: desc.multisample,
+            fragment: Some(wgpu::FragmentState {
+                module: desc.module,
+                entry_point: Some(desc.fragment_entry),
+                compilation_options: Default::default(),
+                targets: &[Some(desc.color.clone())],
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
+}
+
+/// A fullscreen-triangle pass (no vertex buffers, no culling) of a module with `vs_fullscreen`.
+pub(crate) struct FullscreenDesc<'a> {
+    pub label: &'a str,
+    pub layout: &'a wgpu::PipelineLayout,
+    pub module: &'a wgpu::ShaderModule,
+    pub fragment_entry: &'a str,
+    pub color: wgpu::ColorTargetState,
+    pub depth: Option<wgpu::DepthStencilState>,
+    pub multisample: wgpu::MultisampleState,
+}
+
+pub(crate) fn fullscreen_pipeline(ctx: &Context, desc: FullscreenDesc<'_>) -> wgpu::RenderPipeline {
+    ctx.device
+        .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some(desc.label),
+            layout: Some(desc.layout),
+            vertex: wgpu::VertexState {
+                module: desc.module,
+                entry_point: Some("vs_fullscreen"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: Default::default(),
+            depth_stencil: desc.depth,
+            multisample: desc.multisample,
+            fragment: Some(wgpu::FragmentState {
+                module: desc.module,
+                entry_point: Some(desc.fragment_entry),
+                compilation_options: Default::default(),
+                targets: &[Some(desc.color)],
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
+}
+
+/// The scene's transparent draws in REVERSE draw order: with a strictly-nearer depth test the
+/// first survivor at a depth keeps it, so among exactly coplanar survivors the later draw wins,
+/// which is the reference's tie rule.
+pub(crate) fn reversed_transparent_draws(scene: &GpuScene) -> Vec<usize> {
+    let mut order = scene.transparent_draws();
+    order.reverse();
+    order
+}
+
+/// Draws one scene draw as instance `draw.id` (the vertex stage reads it as the object seed).
+pub(crate) fn draw_with_id(
+    pass: &mut wgpu::RenderPass<'_>,
+    scene: &GpuScene,
+    pipelines: &PipelinePair,
+    index: usize,
+) {
+    let d = &scene.scene.draws[index];
+    if d.vertex_count == 0 {
+        return;
+    }
+    let pipeline = if scene.scene.material_of(d).double_sided {
+        &pipelines.double_sided
+    } else {
+        &pipelines.single_sided
+    };
+    pass.set_pipeline(pipeline);
+    pass.draw(
+        d.first_vertex..d.first_vertex + d.vertex_count,
+        d.id..d.id + 1,
+    );
+}
+
+/// Texture layout entry for `textureLoad` of a float texture in the fragment stage.
+pub(crate) fn float_texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable: false },
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
+/// Uniform entry with a dynamic offset (one entry per frame in one buffer).
+pub(crate) fn dynamic_uniform_entry(
+    binding: u32,
+    visibility: wgpu::ShaderStages,
+    size: u64,
+) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: true,
+            min_binding_size: wgpu::BufferSize::new(size),
+        },
+        count: None,
+    }
+}
+
+/// `size` rounded up to the device's uniform offset alignment.
+pub(crate) fn uniform_stride(ctx: &Context, size: u64) -> u64 {
+    let align = u64::from(ctx.device.limits().min_uniform_buffer_offset_alignment).max(1);
+    size.div_ceil(align) * align
+}
+
+pub(crate) fn shader(
+    ctx: &Context,
+    name: &str,
+    source: &str,
+) -> Result<wgpu::ShaderModule, GpuError> {
+    ctx.shader(name, source)
+}

@@ -1,0 +1,123 @@
+//! oit-stochastic: stochastic transparency, where α is a probability of survival.
+//!
+//! Both techniques write transparent fragments as opaque fragments with depth, so they are
+//! order independent by construction (up to exact depth ties, see below) and exact only in
+//! expectation:
+//!
+//! - `stochastic:pattern=white|blue|bayer4|bayer8|hashed,seed=object|primitive|none,spp=N`: a
+//!   fragment survives when its α exceeds the pattern's threshold at that pixel ([`pattern`]
+//!   builds the Bayer and void-and-cluster tables on the CPU). `spp=N` averages N frames,
+//!   each with its own pattern shift, in f32; the error falls as N grows, which is the
+//!   convergence axis the harness plots.
+//! - `a2c:samples=4|8`: MSAA with alpha-to-coverage; the driver's α → sample-mask table does
+//!   the dithering, the resolve averages the samples.
+//!
+//! Exact depth ties: transparent draws are issued in reverse draw order with a strictly-nearer
+//! depth test, so among coplanar survivors of different draws the later draw wins, as in the
+//! reference. Within one draw, the earlier triangle wins (the reference picks the later one).
+//!
+//! Premultiplied materials survive with probability α and show `C/α`; a premultiplied
+//! fragment with α = 0 (purely additive light) never survives and is lost, a limit of every
+//! stochastic method.
+
+mod a2c;
+mod config;
+mod gpu;
+pub mod pattern;
+mod stochastic;
+
+pub use a2c::AlphaToCoverage;
+pub use config::{A2cConfig, ConfigError, MAX_SPP, Pattern, Seed, StochasticConfig};
+pub use stochastic::Stochastic;
+
+use oit_gpu::TechniqueInfo;
+
+/// The registry entries of this crate: `stochastic` and `a2c`.
+pub fn techniques() -> Vec<TechniqueInfo> {
+    vec![
+        TechniqueInfo {
+            name: "stochastic",
+            description: "dithered alpha test: fragments survive when alpha exceeds a white/blue-noise/Bayer/hashed threshold and are written opaque with depth; spp frames averaged",
+            params: config::stochastic_params(),
+            build: |s| Box::new(Stochastic::from_spec(s)),
+        },
+        TechniqueInfo {
+            name: "a2c",
+            description: "MSAA alpha-to-coverage: opaque writes with depth, alpha turned into a sample mask by the driver, samples resolved",
+            params: config::a2c_params(),
+            build: |s| Box::new(AlphaToCoverage::from_spec(s)),
+        },
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use oit_gpu::TechniqueSpec;
+
+    #[test]
+    fn registry_parses_and_round_trips() {
+        let reg = techniques();
+        for info in &reg {
+            info.validate().unwrap();
+        }
+        let s = TechniqueSpec::parse("stochastic", &reg).unwrap();
+        assert_eq!(s.to_string(), "stochastic:pattern=blue,seed=object,spp=1");
+        let t =
+            TechniqueSpec::build("stochastic:spp=16,pattern=hashed,seed=primitive", &reg).unwrap();
+        assert_eq!(
+            t.spec().to_string(),
+            "stochastic:pattern=hashed,seed=primitive,spp=16"
+        );
+        let t = TechniqueSpec::build("a2c", &reg).unwrap();
+        assert_eq!(t.spec().to_string(), "a2c:samples=4");
+        let e = TechniqueSpec::parse("stochastic:pattern=pink", &reg).unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("white, blue, bayer4, bayer8, hashed"),
+            "{e}"
+        );
+        let e = TechniqueSpec::parse("stochastic:spp=129", &reg).unwrap_err();
+        assert!(e.to_string().contains("1..=128"), "{e}");
+        let e = TechniqueSpec::parse("a2c:samples=2", &reg).unwrap_err();
+        assert!(e.to_string().contains("4, 8"), "{e}");
+        let c = StochasticConfig::from_spec(
+            &TechniqueSpec::parse("stochastic:pattern=bayer8,seed=none,spp=7", &reg).unwrap(),
+        )
+        .unwrap();
+        assert_eq!(
+            c,
+            StochasticConfig {
+                pattern: Pattern::Bayer8,
+                seed: Seed::None,
+                spp: 7
+            }
+        );
+        assert_eq!(StochasticConfig::from_spec(&c.spec()).unwrap(), c);
+    }
+
+    #[test]
+    fn hand_built_bad_specs_are_errors_not_panics() {
+        let mut spec = TechniqueSpec::parse("stochastic", &techniques()).unwrap();
+        spec.params.insert("spp".into(), "0".into());
+        let e = StochasticConfig::from_spec(&spec).unwrap_err();
+        assert!(
+            e.to_string().contains("spp") && e.to_string().contains("1..=128"),
+            "{e}"
+        );
+        // The technique still builds and says why it cannot run.
+        let t = Stochastic::from_spec(&spec);
+        let caps_err = t.config_error().unwrap();
+        assert!(caps_err.contains("spp"), "{caps_err}");
+        let wrong = TechniqueSpec {
+            name: "a2c".into(),
+            params: Default::default(),
+        };
+        assert!(matches!(
+            StochasticConfig::from_spec(&wrong),
+            Err(ConfigError::WrongName { .. })
+        ));
+        let e = A2cConfig::from_spec(&wrong).unwrap_err();
+        assert!(e.to_string().contains("samples"), "{e}");
+    }
+}

@@ -1,0 +1,563 @@
+//! `stochastic:pattern=…,seed=…,spp=N`: dithered alpha testing, optionally averaged over frames.
+
+use crate::config::{ConfigError, Pattern, Seed, StochasticConfig};
+use crate::gpu::{self, PipelineDesc, PipelinePair};
+use crate::pattern;
+use oit_gpu::wgpu;
+use oit_gpu::{
+    Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, RenderStats, Targets, Technique,
+    TechniqueSpec, Unsupported,
+};
+use oit_scene::Resolution;
+
+/// WGSL of the dither pass.
+pub const DITHER_WGSL: &str = include_str!("../../../shaders/stochastic_dither.wgsl");
+/// WGSL of the frame averaging pass.
+pub const ACCUMULATE_WGSL: &str = include_str!("../../../shaders/stochastic_accumulate.wgsl");
+
+/// Bytes of `struct Dither` in stochastic_dither.wgsl.
+const DITHER_UNIFORM_BYTES: u64 = 32;
+/// Bytes of `struct Accumulate` in stochastic_accumulate.wgsl.
+const ACCUMULATE_UNIFORM_BYTES: u64 = 8;
+/// Format of the running sum of frames: f32, so 128 frames add without visible rounding.
+const SUM_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+
+/// The `stochastic` technique.
+#[derive(Debug)]
+pub struct Stochastic {
+    config: Result<StochasticConfig, ConfigError>,
+    gpu: Option<Resources>,
+    ledger: MemoryLedger,
+}
+
+/// Everything allocated for one (colour format, depth direction, resolution).
+#[derive(Debug)]
+struct Resources {
+    key: (wgpu::TextureFormat, bool, Resolution),
+    dither: PipelinePair,
+    dither_bind_group: wgpu::BindGroup,
+    dither_stride: u64,
+    frames: Option<FrameResources>,
+}
+
+/// Only for `spp > 1`: where each frame renders and where frames are summed.
+#[derive(Debug)]
+struct FrameResources {
+    color: wgpu::Texture,
+    color_view: wgpu::TextureView,
+    depth: wgpu::Texture,
+    depth_view: wgpu::TextureView,
+    sum_views: [wgpu::TextureView; 2],
+    /// `bind_groups[p]` reads the frame and sum `1 − p` (the sum of the previous frames).
+    bind_groups: [wgpu::BindGroup; 2],
+    accumulate_stride: u64,
+    to_sum: wgpu::RenderPipeline,
+    to_final: wgpu::RenderPipeline,
+}
+
+impl Stochastic {
+    pub fn new(config: StochasticConfig) -> Self {
+        Stochastic {
+            config: Ok(config),
+            gpu: None,
+            ledger: MemoryLedger::new(),
+        }
+    }
+
+    /// Builds from a spec; a spec that is not a valid configuration gives a technique whose
+    /// `check` reports why (specs parsed against [`crate::techniques`] are always valid).
+    pub fn from_spec(spec: &TechniqueSpec) -> Self {
+        Stochastic {
+            config: StochasticConfig::from_spec(spec),
+            gpu: None,
+            ledger: MemoryLedger::new(),
+        }
+    }
+
+    /// The configuration error, if the spec was not valid.
+    pub fn config_error(&self) -> Option<String> {
+        self.config.as_ref().err().map(ToString::to_string)
+    }
+
+    pub fn config(&self) -> Option<StochasticConfig> {
+        self.config.as_ref().ok().copied()
+    }
+
+    /// The per-frame uniform entries (`struct Dither` at `stride`-byte offsets).
+    fn dither_uniforms(config: &StochasticConfig, stride: u64) -> Vec<u8> {
+        let tile = config.pattern.tile().unwrap_or(1);
+        let mut bytes = vec![0u8; (stride * u64::from(config.spp)) as usize];
+        for k in 0..config.spp {
+            let (offset, rotation) = pattern::frame_shift(k, tile);
+            let words: [u32; 8] = [
+                match config.pattern {
+                    Pattern::White => 0,
+                    Pattern::Blue | Pattern::Bayer4 | Pattern::Bayer8 => 1,
+                    Pattern::Hashed => 2,
+                },
+                match config.seed {
+                    Seed::None => 0,
+                    Seed::Object => 1,
+                    Seed::Primitive => 2,
+                },
+                tile,
+                k,
+                offset[0],
+                offset[1],
+                rotation.to_bits(),
+                1.0f32.to_bits(),
+            ];
+            let start = (stride * u64::from(k)) as usize;
+            bytes[start..start + 32].copy_from_slice(bytemuck::cast_slice(&words));
+        }
+        bytes
+    }
+
+    fn table(pattern: Pattern) -> Vec<f32> {
+        match pattern {
+            Pattern::Blue => pattern::thresholds(&pattern::blue_noise().0),
+            Pattern::Bayer4 => pattern::thresholds(&pattern::bayer(4)),
+            Pattern::Bayer8 => pattern::thresholds(&pattern::bayer(8)),
+            // Procedural patterns read no table; the binding still needs a buffer.
+            Pattern::White | Pattern::Hashed => vec![0.0; 4],
+        }
+    }
+
+    fn prepare(
+        &mut self,
+        ctx: &Context,
+        scene: &GpuScene,
+        targets: &Targets,
+        config: &StochasticConfig,
+    ) -> Result<(), GpuError> {
+        let key = (
+            targets.color_format,
+            scene.scene.camera.reverse_z,
+            targets.resolution,
+        );
+        if self.gpu.as_ref().is_some_and(|g| g.key == key) {
+            return Ok(());
+        }
+        self.gpu = None;
+        self.ledger.clear();
+        let device = &ctx.device;
+        let ledger = &mut self.ledger;
+
+        // Dither pass: group 0 = scene, group 1 = per-frame uniform + threshold table.
+        let dither_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("stochastic dither"),
+            entries: &[
+                gpu::dynamic_uniform_entry(
+                    0,
+                    wgpu::ShaderStages::VERTEX_FRAGMENT,
+                    DITHER_UNIFORM_BYTES,
+                ),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 1,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Storage { read_only: true },
+                        has_dynamic_offset: false,
+                        min_binding_size: wgpu::BufferSize::new(4),
+                    },
+                    count: None,
+                },
+            ],
+        });
+        let dither_stride = gpu::uniform_stride(ctx, DITHER_UNIFORM_BYTES);
+        let uniforms = Self::dither_uniforms(config, dither_stride);
+        let dither_buffer = ledger.create_buffer(
+            device,
+            &wgpu::BufferDescriptor {
+                label: Some("stochastic frame parameters"),
+                size: uniforms.len() as u64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            },
+        );
+        ctx.queue.write_buffer(&dither_buffer, 0, &uniforms);
+        let table = Self::table(config.pattern);
+        let table_buffer = ledger.create_buffer(
+            device,
+            &wgpu::BufferDescriptor {
+                label: Some("stochastic threshold table"),
+                size: table.len() as u64 * 4,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            },
+        );
+        ctx.queue
+            .write_buffer(&table_buffer, 0, bytemuck::cast_slice(&table));
+        let dither_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("stochastic dither"),
+            layout: &dither_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer: &dither_buffer,
+                        offset: 0,
+                        size: wgpu::BufferSize::new(DITHER_UNIFORM_BYTES),
+                    }),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: table_buffer.as_entire_binding(),
+                },
+            ],
+        });
+        let module = gpu::shader(ctx, "stochastic_dither.wgsl", DITHER_WGSL)?;
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("stochastic dither"),
+            bind_group_layouts: &[Some(ctx.scene_layout()), Some(&dither_layout)],
+            immediate_size: 0,
+        });
+        let dither = PipelinePair::new(
+            ctx,
+            &PipelineDesc {
+                label: "stochastic dither",
+                layout: &layout,
+                module: &module,
+                vertex_entry: "vs_stochastic",
+                fragment_entry: "fs_stochastic",
+                color: wgpu::ColorTargetState {
+                    format: targets.color_format,
+                    blend: None,
+                    write_mask: wgpu::ColorWrites::ALL,
+                },
+                depth_write: true,
+                depth_compare: scene.depth_nearer(),
+                multisample: Default::default(),
+            },
+        );
+        let frames = if config.spp > 1 {
+            Some(Self::frame_resources(ctx, ledger, targets, config.spp)?)
+        } else {
+            None
+        };
+        self.gpu = Some(Resources {
+            key,
+            dither,
+            dither_bind_group,
+            dither_stride,
+            frames,
+        });
+        Ok(())
+    }
+
+    fn frame_resources(
+        ctx: &Context,
+        ledger: &mut MemoryLedger,
+        targets: &Targets,
+        spp: u32,
+    ) -> Result<FrameResources, GpuError> {
+        let device = &ctx.device;
+        ctx.caps.require_target(SUM_FORMAT, false)?;
+        let size = wgpu::Extent3d {
+            width: targets.resolution.width,
+            height: targets.resolution.height,
+            depth_or_array_layers: 1,
+        };
+        let texture = |ledger: &mut MemoryLedger, label, format, usage| {
+            ledger.create_texture(
+                device,
+                &wgpu::TextureDescriptor {
+                    label: Some(label),
+                    size,
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format,
+                    usage,
+                    view_formats: &[],
+                },
+            )
+        };
+        use wgpu::TextureUsages as U;
+        let color = texture(
+            ledger,
+            "stochastic frame colour",
+            targets.color_format,
+            U::COPY_DST | U::RENDER_ATTACHMENT | U::TEXTURE_BINDING,
+        );
+        let depth = texture(
+            ledger,
+            "stochastic frame depth",
+            wgpu::TextureFormat::Depth32Float,
+            U::COPY_DST | U::RENDER_ATTACHMENT,
+        );
+        let sums = [
+            texture(
+                ledger,
+                "stochastic sum a",
+                SUM_FORMAT,
+                U::RENDER_ATTACHMENT | U::TEXTURE_BINDING,
+            ),
+            texture(
+                ledger,
+                "stochastic sum b",
+                SUM_FORMAT,
+                U::RENDER_ATTACHMENT | U::TEXTURE_BINDING,
+            ),
+        ];
+        let accumulate_stride = gpu::uniform_stride(ctx, ACCUMULATE_UNIFORM_BYTES);
+        let uniform = ledger.create_buffer(
+            device,
+            &wgpu::BufferDescriptor {
+                label: Some("stochastic accumulate parameters"),
+                size: accumulate_stride * 3,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            },
+        );
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("stochastic accumulate"),
+            entries: &[
+                gpu::float_texture_entry(0),
+                gpu::float_texture_entry(1),
+                gpu::dynamic_uniform_entry(
+                    2,
+                    wgpu::ShaderStages::FRAGMENT,
+                    ACCUMULATE_UNIFORM_BYTES,
+                ),
+            ],
+        });
+        let color_view = color.create_view(&Default::default());
+        let sum_views = [
+            sums[0].create_view(&Default::default()),
+            sums[1].create_view(&Default::default()),
+        ];
+        let bind_group = |previous: &wgpu::TextureView| {
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("stochastic accumulate"),
+                layout: &layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: wgpu::BindingResource::TextureView(&color_view),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: wgpu::BindingResource::TextureView(previous),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                            buffer: &uniform,
+                            offset: 0,
+                            size: wgpu::BufferSize::new(ACCUMULATE_UNIFORM_BYTES),
+                        }),
+                    },
+                ],
+            })
+        };
+        let bind_groups = [bind_group(&sum_views[1]), bind_group(&sum_views[0])];
+        let module = gpu::shader(ctx, "stochastic_accumulate.wgsl", ACCUMULATE_WGSL)?;
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("stochastic accumulate"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = |format| {
+            gpu::fullscreen_pipeline(
+                ctx,
+                gpu::FullscreenDesc {
+                    label: "stochastic accumulate",
+                    layout: &pipeline_layout,
+                    module: &module,
+                    fragment_entry: "fs_accumulate",
+                    color: wgpu::ColorTargetState {
+                        format,
+                        blend: None,
+                        write_mask: wgpu::ColorWrites::ALL,
+                    },
+                    depth: None,
+                    multisample: Default::default(),
+                },
+            )
+        };
+        // Entries: first frame (no previous sum), middle frames, last frame (sum ÷ spp).
+        let mut data = vec![0u8; (accumulate_stride * 3) as usize];
+        let stride = accumulate_stride as usize;
+        let entries: [(f32, u32); 3] = [(1.0, 0), (1.0, 1), (1.0 / spp as f32, 1)];
+        for (i, (scale, has_previous)) in entries.into_iter().enumerate() {
+            data[i * stride..i * stride + 4].copy_from_slice(&scale.to_le_bytes());
+            data[i * stride + 4..i * stride + 8].copy_from_slice(&has_previous.to_le_bytes());
+        }
+        ctx.queue.write_buffer(&uniform, 0, &data);
+        let depth_view = depth.create_view(&Default::default());
+        Ok(FrameResources {
+            to_sum: pipeline(SUM_FORMAT),
+            to_final: pipeline(targets.color_format),
+            color,
+            color_view,
+            depth,
+            depth_view,
+            sum_views,
+            bind_groups,
+            accumulate_stride,
+        })
+    }
+}
+
+fn load_store<T>(load: wgpu::LoadOp<T>) -> wgpu::Operations<T> {
+    wgpu::Operations {
+        load,
+        store: wgpu::StoreOp::Store,
+    }
+}
+
+impl Technique for Stochastic {
+    fn spec(&self) -> TechniqueSpec {
+        match &self.config {
+            Ok(c) => c.spec(),
+            Err(_) => TechniqueSpec {
+                name: "stochastic".into(),
+                params: Default::default(),
+            },
+        }
+    }
+
+    fn check(&self, caps: &Caps) -> Result<(), Unsupported> {
+        let config = self
+            .config
+            .as_ref()
+            .map_err(|e| Unsupported::new(format!("the spec is invalid: {e}")))?;
+        if caps.max_storage_buffers_per_shader_stage == 0 {
+            return Err(Unsupported::new(
+                "the adapter has no storage buffers in fragment shaders",
+            ));
+        }
+        if config.spp > 1 {
+            caps.require_target(SUM_FORMAT, false)?;
+        }
+        Ok(())
+    }
+
+    fn render(
+        &mut self,
+        ctx: &Context,
+        scene: &GpuScene,
+        targets: &Targets,
+        timer: &mut GpuTimer,
+    ) -> Result<RenderStats, GpuError> {
+        let config = *self.config.as_ref().map_err(|e| {
+            GpuError::Unsupported(Unsupported::new(format!("the spec is invalid: {e}")))
+        })?;
+        self.prepare(ctx, scene, targets, &config)?;
+        let r = self.gpu.as_ref().expect("resources prepared above");
+        let order = gpu::reversed_transparent_draws(scene);
+        let draw_pass = |encoder: &mut wgpu::CommandEncoder,
+                         timer: &mut GpuTimer,
+                         name: &str,
+                         color: &wgpu::TextureView,
+                         depth: &wgpu::TextureView,
+                         frame: u32| {
+            let ts = timer.pass(name);
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some(name),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: color,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: load_store(wgpu::LoadOp::Load),
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: depth,
+                    depth_ops: Some(load_store(wgpu::LoadOp::Load)),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: ts.writes(),
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            scene.bind(&mut pass);
+            let offset = (r.dither_stride * u64::from(frame)) as u32;
+            pass.set_bind_group(1, &r.dither_bind_group, &[offset]);
+            for &i in &order {
+                gpu::draw_with_id(&mut pass, scene, &r.dither, i);
+            }
+        };
+        let stats = RenderStats {
+            geometry_passes: config.spp,
+            ..Default::default()
+        };
+        let Some(f) = &r.frames else {
+            // One frame: dither straight into the final targets over the opaque pass.
+            let mut encoder = ctx.device.create_command_encoder(&Default::default());
+            draw_pass(
+                &mut encoder,
+                timer,
+                "stochastic",
+                &targets.color_view,
+                &targets.depth_view,
+                0,
+            );
+            timer.submit(ctx, encoder)?;
+            return Ok(stats);
+        };
+        for k in 0..config.spp {
+            let mut encoder = ctx.device.create_command_encoder(&Default::default());
+            // Every frame starts from the opaque pass.
+            encoder.copy_texture_to_texture(
+                targets.color.as_image_copy(),
+                f.color.as_image_copy(),
+                targets.color.size(),
+            );
+            encoder.copy_texture_to_texture(
+                targets.depth.as_image_copy(),
+                f.depth.as_image_copy(),
+                targets.depth.size(),
+            );
+            draw_pass(
+                &mut encoder,
+                timer,
+                &format!("stochastic frame {k}"),
+                &f.color_view,
+                &f.depth_view,
+                k,
+            );
+            let last = k + 1 == config.spp;
+            let parity = (k % 2) as usize;
+            let (target, pipeline, entry) = if last {
+                (&targets.color_view, &f.to_final, 2)
+            } else {
+                (&f.sum_views[parity], &f.to_sum, u64::from(k > 0))
+            };
+            let name = format!("accumulate frame {k}");
+            let ts = timer.pass(&name);
+            {
+                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some(&name),
+                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                        view: target,
+                        depth_slice: None,
+                        resolve_target: None,
+                        ops: load_store(wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT)),
+                    })],
+                    depth_stencil_attachment: None,
+                    timestamp_writes: ts.writes(),
+                    occlusion_query_set: None,
+                    multiview_mask: None,
+                });
+                pass.set_pipeline(pipeline);
+                let offset = (f.accumulate_stride * entry) as u32;
+                pass.set_bind_group(0, &f.bind_groups[parity], &[offset]);
+                pass.draw(0..3, 0..1);
+            }
+            timer.submit(ctx, encoder)?;
+        }
+        Ok(stats)
+    }
+
+    fn memory_bytes(&self) -> u64 {
+        self.ledger.total()
+    }
+}
+
+impl Stochastic {
+    /// `(label, bytes)` of every allocation (empty before the first render).
+    pub fn memory_entries(&self) -> &[(String, u64)] {
+        self.ledger.entries()
+    }
+}

@@ -1,0 +1,444 @@
+//! Stochastic techniques against the CPU reference on whatever adapter is present (lavapipe in
+//! CI): determinism, convergence with spp, layer correlation, a2c edges, finiteness, memory.
+
+use oit_gpu::testing::context_or_skip;
+use oit_gpu::{
+    ColorFormat, Context, GpuScene, GpuTimer, Targets, Technique, TechniqueSpec, read_color,
+    render_frame,
+};
+use oit_scene::{LinearImage, Resolution, Scene};
+use oit_stochastic::AlphaToCoverage;
+use std::path::Path;
+use std::time::Instant;
+
+const RES: Resolution = Resolution {
+    width: 128,
+    height: 128,
+};
+
+fn scene_named(name: &str, res: Resolution) -> Scene {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../../scenes/{name}.json"));
+    oit_scene::load(&path)
+        .expect("bundled scene")
+        .with_resolution(res)
+}
+
+fn build(spec: &str) -> Box<dyn Technique> {
+    TechniqueSpec::build(spec, &oit_stochastic::techniques()).expect("valid spec")
+}
+
+/// A scene uploaded once with its targets, rendering any number of specs.
+struct Bench<'c> {
+    ctx: &'c Context,
+    scene: GpuScene,
+    targets: Targets,
+    timer: GpuTimer,
+}
+
+impl<'c> Bench<'c> {
+    fn new(ctx: &'c Context, scene: &Scene) -> Self {
+        Bench {
+            ctx,
+            scene: GpuScene::upload(ctx, scene).expect("upload"),
+            targets: Targets::new(ctx, scene.resolution, ColorFormat::Rgba16Float)
+                .expect("targets"),
+            timer: GpuTimer::new(ctx),
+        }
+    }
+
+    fn render_with(&mut self, technique: &mut dyn Technique) -> LinearImage {
+        render_frame(
+            self.ctx,
+            &self.scene,
+            technique,
+            &self.targets,
+            &mut self.timer,
+        )
+        .unwrap_or_else(|e| panic!("{}: {e}", technique.spec()));
+        read_color(self.ctx, &self.targets).expect("readback")
+    }
+
+    fn render(&mut self, spec: &str) -> LinearImage {
+        self.render_with(build(spec).as_mut())
+    }
+}
+
+fn rmse(a: &LinearImage, b: &LinearImage, keep: impl Fn(usize) -> bool) -> f64 {
+    let (mut sum, mut n) = (0.0f64, 0u64);
+    for (i, (p, q)) in a.pixels.iter().zip(&b.pixels).enumerate() {
+        if keep(i) {
+            for c in 0..3 {
+                let d = f64::from(p[c]) - f64::from(q[c]);
+                sum += d * d;
+            }
+            n += 3;
+        }
+    }
+    (sum / n.max(1) as f64).sqrt()
+}
+
+/// Least-squares slope of log(y) against log(x).
+fn log_log_slope(x: &[f64], y: &[f64]) -> f64 {
+    let lx: Vec<f64> = x.iter().map(|v| v.ln()).collect();
+    let ly: Vec<f64> = y.iter().map(|v| v.ln()).collect();
+    let n = lx.len() as f64;
+    let (mx, my) = (lx.iter().sum::<f64>() / n, ly.iter().sum::<f64>() / n);
+    let cov: f64 = lx.iter().zip(&ly).map(|(a, b)| (a - mx) * (b - my)).sum();
+    let var: f64 = lx.iter().map(|a| (a - mx) * (a - mx)).sum();
+    cov / var
+}
+
+#[test]
+fn same_spec_gives_a_bit_identical_image() {
+    let Some(ctx) = context_or_skip("same_spec_gives_a_bit_identical_image") else {
+        return;
+    };
+    let mut bench = Bench::new(&ctx, &scene_named("intersecting-quads", RES));
+    for spec in [
+        "stochastic:pattern=white,spp=4",
+        "stochastic:pattern=blue,spp=4",
+        "stochastic:pattern=bayer4",
+        "stochastic:pattern=bayer8,seed=primitive",
+        "stochastic:pattern=hashed,spp=3",
+        "a2c:samples=4",
+    ] {
+        // A fresh technique each time: nothing may depend on state left by an earlier run.
+        let a = bench.render(spec);
+        let b = bench.render(spec);
+        let bits = |img: &LinearImage| -> Vec<u32> {
+            img.pixels.iter().flatten().map(|v| v.to_bits()).collect()
+        };
+        assert!(bits(&a) == bits(&b), "{spec}: two renders differ");
+        // And the same technique value rendering twice.
+        let mut t = build(spec);
+        let c = bench.render_with(t.as_mut());
+        let d = bench.render_with(t.as_mut());
+        assert!(
+            bits(&c) == bits(&d) && bits(&a) == bits(&c),
+            "{spec}: re-render differs"
+        );
+    }
+}
+
+/// 3x3 box filter (edge pixels clamp): what a display, the eye or a TAA resolve averages over.
+fn box3(img: &LinearImage) -> LinearImage {
+    let (w, h) = (img.width as i64, img.height as i64);
+    let mut out = img.clone();
+    for y in 0..h {
+        for x in 0..w {
+            let mut sum = [0.0f32; 4];
+            for dy in -1..=1 {
+                for dx in -1..=1 {
+                    let p = img.pixels
+                        [((y + dy).clamp(0, h - 1) * w + (x + dx).clamp(0, w - 1)) as usize];
+                    for c in 0..4 {
+                        sum[c] += p[c] / 9.0;
+                    }
+                }
+            }
+            out.pixels[(y * w + x) as usize] = sum;
+        }
+    }
+    out
+}
+
+/// RMSE against the reference falls with spp; white noise at the Monte-Carlo rate N^(-1/2);
+/// blue noise has the lower error at spp = 1 once the error is seen at more than one pixel
+/// (3x3 box-filtered RMSE and FLIP). Per-pixel RMSE cannot tell blue from white: a pixel's
+/// threshold is uniform either way, so its variance is the same; blue noise moves the error
+/// to high spatial frequencies, which any filter (eye, display, TAA) removes.
+#[test]
+fn error_falls_with_spp() {
+    let Some(ctx) = context_or_skip("error_falls_with_spp") else {
+        return;
+    };
+    let spps = [1u32, 4, 16, 64];
+    let mut report = String::new();
+    for name in ["many-layers-64", "intersecting-quads"] {
+        let scene = scene_named(name, RES);
+        let reference = oit_reference::render(&scene, &Default::default());
+        let filtered_reference = box3(&reference.image);
+        let mut bench = Bench::new(&ctx, &scene);
+        let mut at_spp1 = Vec::new();
+        for pattern in ["white", "blue", "hashed", "bayer8"] {
+            let mut errors = Vec::new();
+            for &spp in &spps {
+                let t0 = Instant::now();
+                let image = bench.render(&format!("stochastic:pattern={pattern},spp={spp}"));
+                let ms = t0.elapsed().as_secs_f64() * 1e3;
+                let e = rmse(&image, &reference.image, |_| true);
+                let filtered = rmse(&box3(&image), &filtered_reference, |_| true);
+                let flip = oit_metrics::compare(&image, &reference.image)
+                    .expect("compare")
+                    .flip_mean;
+                report += &format!(
+                    "{name} {pattern} spp={spp}: rmse {e:.5}, 3x3 rmse {filtered:.5}, flip {flip:.4} ({ms:.0} ms)\n"
+                );
+                errors.push(e);
+                if spp == 1 {
+                    at_spp1.push((pattern, filtered, flip));
+                }
+            }
+            let slope = log_log_slope(&spps.map(f64::from), &errors);
+            report += &format!("{name} {pattern}: log-log slope {slope:.3}\n");
+            for w in errors.windows(2) {
+                assert!(
+                    w[1] < w[0],
+                    "{name} {pattern}: rmse does not fall: {errors:?}\n{report}"
+                );
+            }
+            if pattern == "white" {
+                assert!(
+                    (-0.6..=-0.4).contains(&slope),
+                    "{name}: white slope {slope}\n{report}"
+                );
+            } else {
+                assert!(slope < -0.3, "{name} {pattern}: slope {slope}\n{report}");
+            }
+        }
+        let (_, white_filtered, white_flip) = at_spp1[0];
+        let (_, blue_filtered, blue_flip) = at_spp1[1];
+        assert!(
+            blue_filtered < 0.95 * white_filtered && blue_flip < white_flip,
+            "{name} at spp=1: blue {blue_filtered}/{blue_flip} vs white {white_filtered}/{white_flip}\n{report}"
+        );
+    }
+    println!("{report}");
+}
+
+/// Two screen-filling quads of exactly α = 0.5 over a black background.
+fn two_halves(bg_alpha: f32) -> Scene {
+    let json = format!(
+        r#"{{
+  "name": "two-halves",
+  "resolution": [128, 128],
+  "camera": {{"eye": [0, 0, 5], "target": [0, 0, 0], "up": [0, 1, 0], "fov_y": 45, "near": 0.1, "far": 100}},
+  "background": [0, 0, 0],
+  "objects": [
+    {{"mesh": {{"kind": "quad", "size": [8, 8]}}, "transform": {{"translate": [0, 0, 0.5]}},
+      "material": {{"base_color": [1, 0, 0], "alpha": 0.5, "mode": "blend"}}}},
+    {{"mesh": {{"kind": "quad", "size": [8, 8]}}, "transform": {{"translate": [0, 0, 0]}},
+      "material": {{"base_color": [0, 1, 0], "alpha": {bg_alpha}, "mode": "blend"}}}}
+  ]
+}}"#
+    );
+    oit_scene::parse(&json, "two-halves (inline)").expect("inline scene")
+}
+
+/// Fraction of pixels where at least one layer survived (not the black background).
+fn coverage(image: &LinearImage) -> f64 {
+    let covered = image
+        .pixels
+        .iter()
+        .filter(|p| p[0] > 0.0 || p[1] > 0.0 || p[2] > 0.0)
+        .count();
+    covered as f64 / image.pixels.len() as f64
+}
+
+#[test]
+fn correlated_layers_cover_half_and_seeds_fix_it() {
+    let Some(ctx) = context_or_skip("correlated_layers_cover_half_and_seeds_fix_it") else {
+        return;
+    };
+    let scene = two_halves(0.5);
+    let mut bench = Bench::new(&ctx, &scene);
+    let mut report = String::new();
+    let mut cov = |spec: &str| {
+        let c = coverage(&bench.render(spec));
+        report += &format!("{spec}: coverage {:.4}\n", c);
+        (c, report.clone())
+    };
+    // The same screen-fixed pattern on both layers: the same pixels survive, 50% not 75%.
+    for spec in [
+        "stochastic:pattern=bayer4,seed=none",
+        "stochastic:pattern=bayer8,seed=none",
+        "stochastic:pattern=blue,seed=none",
+    ] {
+        let (c, r) = cov(spec);
+        assert!((c - 0.5).abs() < 1e-9, "{spec}: {c}\n{r}");
+    }
+    let (c, r) = cov("stochastic:pattern=white,seed=none");
+    assert!((c - 0.5).abs() < 0.02, "white seed=none: {c}\n{r}");
+    // Shifting an ordered-dither tile per object cannot decorrelate it: at α = 1/2 the
+    // surviving set is a checkerboard, and a shifted checkerboard is either the same (50%)
+    // or the complement (100%).
+    for spec in [
+        "stochastic:pattern=bayer4,seed=object",
+        "stochastic:pattern=bayer8,seed=object",
+    ] {
+        let (c, r) = cov(spec);
+        assert!(
+            (c - 0.5).abs() < 1e-9 || (c - 1.0).abs() < 1e-9,
+            "{spec}: {c}\n{r}"
+        );
+    }
+    // Decorrelated seeds: within 2% of 1 − (1 − ½)² = 75%.
+    for spec in [
+        "stochastic:pattern=blue,seed=object",
+        "stochastic:pattern=blue,seed=primitive",
+        "stochastic:pattern=white,seed=object",
+        "stochastic:pattern=white,seed=primitive",
+        "stochastic:pattern=hashed,seed=object",
+        "stochastic:pattern=hashed,seed=primitive",
+    ] {
+        let (c, r) = cov(spec);
+        assert!((c - 0.75).abs() < 0.02, "{spec}: {c}\n{r}");
+    }
+    println!("{report}");
+}
+
+/// Pixels next to a change in the reference's transparent layer count: where a transparent
+/// triangle edge crosses the pixel and MSAA sees partial coverage.
+fn edge_pixels(layers: &[u32], res: Resolution) -> Vec<bool> {
+    let (w, h) = (res.width as i64, res.height as i64);
+    let at = |x: i64, y: i64| layers[(y.clamp(0, h - 1) * w + x.clamp(0, w - 1)) as usize];
+    (0..w * h)
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            let c = at(x, y);
+            [
+                (-1, 0),
+                (1, 0),
+                (0, -1),
+                (0, 1),
+                (-1, -1),
+                (1, 1),
+                (-1, 1),
+                (1, -1),
+            ]
+            .iter()
+            .any(|&(dx, dy)| at(x + dx, y + dy) != c)
+        })
+        .collect()
+}
+
+#[test]
+fn a2c_interior_and_edge_error() {
+    let Some(ctx) = context_or_skip("a2c_interior_and_edge_error") else {
+        return;
+    };
+    let mut report = String::new();
+    for name in ["intersecting-quads", "sorted-quads", "quad-through-sphere"] {
+        let scene = scene_named(name, RES);
+        let reference = oit_reference::render(&scene, &Default::default());
+        let edges = edge_pixels(&reference.layers, RES);
+        let n_edge = edges.iter().filter(|&&e| e).count();
+        let mut bench = Bench::new(&ctx, &scene);
+        for samples in [4u32, 8] {
+            if let Err(e) =
+                AlphaToCoverage::supported(&ctx, wgpu::TextureFormat::Rgba16Float, samples)
+            {
+                report += &format!("{name} a2c:samples={samples}: {e}\n");
+                let mut t = build(&format!("a2c:samples={samples}"));
+                let err = oit_gpu::render_frame(
+                    &ctx,
+                    &bench.scene,
+                    t.as_mut(),
+                    &bench.targets,
+                    &mut bench.timer,
+                )
+                .expect_err("unsupported sample count must be an error");
+                assert!(err.to_string().contains("samples"), "{err}");
+                continue;
+            }
+            let image = bench.render(&format!("a2c:samples={samples}"));
+            let interior = rmse(&image, &reference.image, |i| !edges[i]);
+            let edge = rmse(&image, &reference.image, |i| edges[i]);
+            let all = rmse(&image, &reference.image, |_| true);
+            let st = rmse(
+                &bench.render("stochastic:pattern=blue"),
+                &reference.image,
+                |_| true,
+            );
+            report += &format!(
+                "{name} a2c:samples={samples}: rmse all {all:.4}, interior {interior:.4}, edge {edge:.4} ({n_edge} edge pixels of {}); stochastic:blue spp=1 all {st:.4}\n",
+                RES.pixel_count()
+            );
+            assert!(interior.is_finite() && edge.is_finite());
+        }
+    }
+    println!("{report}");
+}
+
+#[test]
+fn every_pattern_and_a2c_is_finite_on_every_bundled_scene() {
+    let Some(ctx) = context_or_skip("every_pattern_and_a2c_is_finite_on_every_bundled_scene")
+    else {
+        return;
+    };
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+    let scenes = oit_scene::load_dir(&dir).expect("bundled scenes");
+    assert!(
+        scenes.len() >= 10,
+        "bundled scenes missing: {}",
+        scenes.len()
+    );
+    let specs = [
+        "stochastic:pattern=white",
+        "stochastic:pattern=blue",
+        "stochastic:pattern=bayer4",
+        "stochastic:pattern=bayer8",
+        "stochastic:pattern=hashed",
+        "stochastic:pattern=blue,seed=primitive,spp=2",
+        "a2c:samples=4",
+    ];
+    let mut report = String::new();
+    for (path, scene) in scenes {
+        let scene = scene.with_resolution(RES);
+        let reference = oit_reference::render(&scene, &Default::default());
+        let mut bench = Bench::new(&ctx, &scene);
+        let mut line = format!(
+            "{:24}",
+            path.file_stem().unwrap_or_default().to_string_lossy()
+        );
+        for spec in specs {
+            let image = bench.render(spec);
+            let errors = oit_metrics::compare(&image, &reference.image).expect("compare");
+            assert_eq!(
+                errors.nonfinite,
+                0,
+                "{spec} on {}: non-finite pixels",
+                path.display()
+            );
+            line += &format!(" {:.3}", errors.rmse);
+        }
+        report += &line;
+        report.push('\n');
+    }
+    println!("rmse per scene for {specs:?}\n{report}");
+}
+
+#[test]
+fn memory_is_counted_exactly() {
+    let Some(ctx) = context_or_skip("memory_is_counted_exactly") else {
+        return;
+    };
+    let scene = scene_named("sorted-quads", RES);
+    let mut bench = Bench::new(&ctx, &scene);
+    let px = RES.pixel_count() as u64;
+    let align = u64::from(ctx.device.limits().min_uniform_buffer_offset_alignment);
+    let stride = |size: u64| size.div_ceil(align) * align;
+    let cases: [(&str, u64); 5] = [
+        // Frame uniforms + 64x64 f32 thresholds.
+        ("stochastic:pattern=blue", stride(32) + 4096 * 4),
+        ("stochastic:pattern=bayer4", stride(32) + 16 * 4),
+        ("stochastic:pattern=white", stride(32) + 16),
+        // + frame colour (Rgba16Float) and depth, two Rgba32Float sums, 3 accumulate entries.
+        (
+            "stochastic:pattern=hashed,spp=16",
+            16 * stride(32) + 16 + px * (8 + 4 + 16 + 16) + 3 * stride(8),
+        ),
+        // MSAA colour (Rgba16Float) and depth, 4 samples.
+        ("a2c:samples=4", px * 4 * (8 + 4)),
+    ];
+    for (spec, expected) in cases {
+        let mut t = build(spec);
+        assert_eq!(
+            t.memory_bytes(),
+            0,
+            "{spec}: nothing before the first render"
+        );
+        bench.render_with(t.as_mut());
+        assert_eq!(t.memory_bytes(), expected, "{spec}");
+    }
+}

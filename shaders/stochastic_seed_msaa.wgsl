@@ -1,0 +1,27 @@
+// Copies the single-sample opaque colour and depth into every sample of multisampled targets
+// (oit-stochastic `a2c:`): the fragment runs once per pixel and writes all covered samples.
+
+@group(0) @binding(0) var opaque_color: texture_2d<f32>;
+@group(0) @binding(1) var opaque_depth: texture_depth_2d;
+
+struct SeedOut {
+    @location(0) color: vec4<f32>,
+    @builtin(frag_depth) depth: f32,
+}
+
+// One triangle covering the viewport.
+@vertex
+fn vs_fullscreen(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
+    let x = f32((i << 1u) & 2u) * 2.0 - 1.0;
+    let y = f32(i & 2u) * 2.0 - 1.0;
+    return vec4<f32>(x, y, 0.0, 1.0);
+}
+
+@fragment
+fn fs_seed(@builtin(position) position: vec4<f32>) -> SeedOut {
+    let p = vec2<i32>(position.xy);
+    var out: SeedOut;
+    out.color = textureLoad(opaque_color, p, 0);
+    out.depth = textureLoad(opaque_depth, p, 0);
+    return out;
+}
