@@ -130,7 +130,11 @@ impl Tail {
     }
 }
 
-fn get<'s>(spec: &'s TechniqueSpec, key: &'static str, allowed: &str) -> Result<&'s str, PeelError> {
+fn get<'s>(
+    spec: &'s TechniqueSpec,
+    key: &'static str,
+    allowed: &str,
+) -> Result<&'s str, PeelError> {
     spec.get(key).ok_or_else(|| PeelError::Missing {
         spec: spec.to_string(),
         technique: if spec.name == "front-peel" {
@@ -210,7 +214,10 @@ impl DualPeelConfig {
             ("depth", self.depth.name().to_owned()),
             ("encoding", self.encoding.name().to_owned()),
             ("passes", self.passes.name()),
-            ("reverse-z", if self.reverse_z { "on" } else { "off" }.to_owned()),
+            (
+                "reverse-z",
+                if self.reverse_z { "on" } else { "off" }.to_owned(),
+            ),
             ("tail", self.tail.name().to_owned()),
         ];
         TechniqueSpec {
@@ -250,7 +257,9 @@ impl FrontPeelConfig {
     pub fn spec(&self) -> TechniqueSpec {
         TechniqueSpec {
             name: "front-peel".to_owned(),
-            params: [("layers".to_owned(), self.layers.name())].into_iter().collect(),
+            params: [("layers".to_owned(), self.layers.name())]
+                .into_iter()
+                .collect(),
         }
     }
 }

@@ -8,15 +8,17 @@
 //! fragment behind the opaque surface is farther than every key of the init range. After the
 //! last pass: optional WBOIT tail over what is left, then front accumulator over the colour.
 
+use crate::MAX_DUAL_PASSES;
 use crate::config::{DualPeelConfig, PassCount, Tail};
 use crate::encoding::KeyParams;
 use crate::error::PeelError;
-use crate::gpu::{self, Budget, Control, Counters, DrawList, Options, PeelReport, PipelineDesc, Termination};
-use crate::MAX_DUAL_PASSES;
+use crate::gpu::{
+    self, Budget, Control, Counters, DrawList, Options, PeelReport, PipelineDesc, Termination,
+};
 use oit_gpu::wgpu;
 use oit_gpu::{
-    Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, PREMULTIPLIED_OVER, RenderStats, ScenePipelines,
-    Targets, Technique, TechniqueSpec, Unsupported,
+    Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, PREMULTIPLIED_OVER, RenderStats,
+    ScenePipelines, Targets, Technique, TechniqueSpec, Unsupported,
 };
 use oit_scene::Resolution;
 use oit_wboit::tail as wboit;
@@ -129,11 +131,28 @@ impl DualPeel {
             },
         );
         let res = targets.resolution;
-        let range = [0, 1].map(|i| gpu::texture_2d(ctx, &mut ledger, &format!("dual-peel range {i}"), res, range_format).1);
+        let range = [0, 1].map(|i| {
+            gpu::texture_2d(
+                ctx,
+                &mut ledger,
+                &format!("dual-peel range {i}"),
+                res,
+                range_format,
+            )
+            .1
+        });
         // Same format as the final colour: the front layers end up there at that precision.
-        let front = gpu::texture_2d(ctx, &mut ledger, "dual-peel front", res, targets.color_format).1;
-        let whole = (!self.options.depth_only_init)
-            .then(|| gpu::texture_2d(ctx, &mut ledger, "dual-peel whole range", res, range_format).1);
+        let front = gpu::texture_2d(
+            ctx,
+            &mut ledger,
+            "dual-peel front",
+            res,
+            targets.color_format,
+        )
+        .1;
+        let whole = (!self.options.depth_only_init).then(|| {
+            gpu::texture_2d(ctx, &mut ledger, "dual-peel whole range", res, range_format).1
+        });
         let fs = wgpu::ShaderStages::FRAGMENT;
         let group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("dual-peel"),
@@ -167,7 +186,11 @@ impl DualPeel {
         let whole_group = whole.as_ref().map(group);
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("dual-peel"),
-            bind_group_layouts: &[Some(ctx.scene_layout()), Some(&group_layout), Some(&control.pass_layout)],
+            bind_group_layouts: &[
+                Some(ctx.scene_layout()),
+                Some(&group_layout),
+                Some(&control.pass_layout),
+            ],
             immediate_size: 0,
         });
         let module = gpu::shader(ctx, "peel_dual.wgsl", gpu::PEEL_DUAL)?;
@@ -203,7 +226,11 @@ impl DualPeel {
                     label: "dual-peel init",
                     module: &module,
                     layout: &layout,
-                    fragment_entry: if self.options.depth_only_init { "fs_init" } else { "fs_peel" },
+                    fragment_entry: if self.options.depth_only_init {
+                        "fs_init"
+                    } else {
+                        "fs_peel"
+                    },
                     targets: init_targets,
                     depth: Some(wgpu::DepthStencilState {
                         format: wgpu::TextureFormat::Depth32Float,
@@ -247,11 +274,12 @@ impl DualPeel {
                 },
             ],
         });
-        let composite_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("peel composite"),
-            bind_group_layouts: &[Some(&composite_layout), Some(&control.pass_layout)],
-            immediate_size: 0,
-        });
+        let composite_pipeline_layout =
+            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("peel composite"),
+                bind_group_layouts: &[Some(&composite_layout), Some(&control.pass_layout)],
+                immediate_size: 0,
+            });
         let front_pipeline = gpu::fullscreen_pipeline(
             ctx,
             &composite_module,
@@ -263,8 +291,11 @@ impl DualPeel {
                 write_mask: wgpu::ColorWrites::ALL,
             },
         );
-        let (count_layout, count_pipeline) =
-            control.count_pipeline(ctx, "cs_count_range", gpu::texture_entry(3, wgpu::ShaderStages::COMPUTE, false));
+        let (count_layout, count_pipeline) = control.count_pipeline(
+            ctx,
+            "cs_count_range",
+            gpu::texture_entry(3, wgpu::ShaderStages::COMPUTE, false),
+        );
         self.gpu = Some(Resources {
             key,
             ledger,
@@ -289,17 +320,27 @@ impl DualPeel {
 }
 
 /// Override constants of shaders/peel_common.wgsl for a configuration.
-fn key_constants(config: &DualPeelConfig, range_format: wgpu::TextureFormat, test_first: bool) -> Vec<(&'static str, f64)> {
+fn key_constants(
+    config: &DualPeelConfig,
+    range_format: wgpu::TextureFormat,
+    test_first: bool,
+) -> Vec<(&'static str, f64)> {
     let flag = |b: bool| if b { 1.0 } else { 0.0 };
     vec![
         ("ENCODING", f64::from(config.encoding.index())),
         ("KEY_REVERSE", flag(config.reverse_z)),
-        ("KEY_HALF", flag(range_format == wgpu::TextureFormat::Rg16Float)),
+        (
+            "KEY_HALF",
+            flag(range_format == wgpu::TextureFormat::Rg16Float),
+        ),
         ("TEST_FIRST", flag(test_first)),
     ]
 }
 
-fn clear_attachment(view: &wgpu::TextureView, value: f64) -> Option<wgpu::RenderPassColorAttachment<'_>> {
+fn clear_attachment(
+    view: &wgpu::TextureView,
+    value: f64,
+) -> Option<wgpu::RenderPassColorAttachment<'_>> {
     Some(wgpu::RenderPassColorAttachment {
         view,
         depth_slice: None,
@@ -350,7 +391,15 @@ fn clear_pass(encoder: &mut wgpu::CommandEncoder, view: &wgpu::TextureView, colo
 
 impl DualPeel {
     /// Records peel pass `k` (reads range (k+1) mod 2, writes range k mod 2) and its gate.
-    fn peel_pass(&self, ctx: &Context, scene: &GpuScene, targets: &Targets, timer: &mut GpuTimer, k: u32, gated: bool) -> Result<(), GpuError> {
+    fn peel_pass(
+        &self,
+        ctx: &Context,
+        scene: &GpuScene,
+        targets: &Targets,
+        timer: &mut GpuTimer,
+        k: u32,
+        gated: bool,
+    ) -> Result<(), GpuError> {
         let g = self.gpu.as_ref().expect("resources built");
         let list = self.list.as_ref().expect("draw list built");
         let ts = timer.pass(&format!("peel {k}"));
@@ -392,7 +441,10 @@ impl Technique for DualPeel {
     }
 
     fn check(&self, caps: &Caps) -> Result<(), Unsupported> {
-        let config = self.config.as_ref().map_err(|e| Unsupported::new(e.to_string()))?;
+        let config = self
+            .config
+            .as_ref()
+            .map_err(|e| Unsupported::new(e.to_string()))?;
         config.depth.resolve(caps)?;
         if caps.max_storage_buffers_per_shader_stage < 2 {
             return Err(Unsupported::new(
@@ -409,8 +461,17 @@ impl Technique for DualPeel {
         Ok(())
     }
 
-    fn render(&mut self, ctx: &Context, scene: &GpuScene, targets: &Targets, timer: &mut GpuTimer) -> Result<RenderStats, GpuError> {
-        let config = self.config.clone().map_err(|e| Unsupported::new(e.to_string()))?;
+    fn render(
+        &mut self,
+        ctx: &Context,
+        scene: &GpuScene,
+        targets: &Targets,
+        timer: &mut GpuTimer,
+    ) -> Result<RenderStats, GpuError> {
+        let config = self
+            .config
+            .clone()
+            .map_err(|e| Unsupported::new(e.to_string()))?;
         let range_format = config.depth.resolve(&ctx.caps)?;
         self.resources(ctx, &config, range_format, targets)?;
         if self.list.as_ref().is_none_or(|l| l.scene_id != scene.id) {
@@ -418,12 +479,21 @@ impl Technique for DualPeel {
             let control = &self.gpu.as_ref().expect("resources built").control;
             self.list = Some(DrawList::new(ctx, control, scene, &mut self.list_ledger));
         }
-        if config.tail == Tail::Wboit && self.tail.as_ref().is_none_or(|t| t.scene_id != scene.id || t.accum.resolution != targets.resolution) {
+        if config.tail == Tail::Wboit
+            && self
+                .tail
+                .as_ref()
+                .is_none_or(|t| t.scene_id != scene.id || t.accum.resolution != targets.resolution)
+        {
             self.tail = Some(self.tail_pass(ctx, scene, &config, range_format, targets)?);
         }
         let g = self.gpu.as_mut().expect("resources built");
         if g.params_scene != Some(scene.id) {
-            ctx.queue.write_buffer(&g.params, 0, bytemuck::bytes_of(&KeyParams::new(&scene.scene)));
+            ctx.queue.write_buffer(
+                &g.params,
+                0,
+                bytemuck::bytes_of(&KeyParams::new(&scene.scene)),
+            );
             g.params_scene = Some(scene.id);
         }
         let g = self.gpu.as_ref().expect("resources built");
@@ -435,10 +505,28 @@ impl Technique for DualPeel {
         list.reset(ctx);
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         g.control.clear(&mut encoder);
-        clear_pass(&mut encoder, &g.front, wgpu::Color { r: 0.0, g: 0.0, b: 0.0, a: 1.0 });
+        clear_pass(
+            &mut encoder,
+            &g.front,
+            wgpu::Color {
+                r: 0.0,
+                g: 0.0,
+                b: 0.0,
+                a: 1.0,
+            },
+        );
         if let Some(whole) = &g.whole {
             // The naive init reads "everything is still inside": (−(−3), 3).
-            clear_pass(&mut encoder, whole, wgpu::Color { r: 3.0, g: 3.0, b: 3.0, a: 3.0 });
+            clear_pass(
+                &mut encoder,
+                whole,
+                wgpu::Color {
+                    r: 3.0,
+                    g: 3.0,
+                    b: 3.0,
+                    a: 3.0,
+                },
+            );
         }
         let ts = timer.pass("init");
         {
@@ -450,7 +538,11 @@ impl Technique for DualPeel {
             ];
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("dual-peel init"),
-                color_attachments: if naive.is_some() { &attachments[..] } else { &attachments[..1] },
+                color_attachments: if naive.is_some() {
+                    &attachments[..]
+                } else {
+                    &attachments[..1]
+                },
                 depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                     view: &targets.depth_view,
                     depth_ops: Some(wgpu::Operations {
@@ -523,7 +615,7 @@ impl Technique for DualPeel {
         // Known from the flags without counting: nothing was left after the last pass.
         let finished = counters.as_ref().is_some_and(|c| !c.left(recorded));
 
-        let mut geometry_passes = 0;
+        let mut tail_recorded = false;
         if let (Some(tail), false) = (&self.tail, finished) {
             let ts = timer.pass("tail");
             let mut encoder = ctx.device.create_command_encoder(&Default::default());
@@ -540,11 +632,12 @@ impl Technique for DualPeel {
                 scene.bind(&mut pass);
                 pass.set_bind_group(1, &g.groups[last], &[]);
                 pass.set_bind_group(2, &g.control.pass_group, &[g.control.offset(recorded)]);
-                list.draw(&mut pass, scene, &tail.pipelines, false);
+                // Gated like a peel pass: skipped on the GPU when the last pass left nothing.
+                list.draw(&mut pass, scene, &tail.pipelines, gated);
             }
             timer.submit(ctx, encoder)?;
             wboit::composite(ctx, targets, &tail.accum, timer)?;
-            geometry_passes += 1;
+            tail_recorded = true;
         }
 
         let ts = timer.pass("front composite");
@@ -605,7 +698,8 @@ impl Technique for DualPeel {
         report.passes_run = 1 + peel_run;
         report.peeled_per_pass = (0..=recorded).map(|k| counters.peeled(k)).collect();
         report.dropped_pixels = if finished { 0 } else { counters.dropped() };
-        geometry_passes += report.passes_run;
+        let geometry_passes =
+            report.passes_run + u32::from(tail_recorded && counters.left(recorded));
         if config.passes == PassCount::Auto {
             self.budget.remember(scene.id, peel_run.max(1));
         }
@@ -638,11 +732,17 @@ impl DualPeel {
         let g = self.gpu.as_ref().expect("resources built");
         let accum = wboit::AccumTargets::new(ctx, targets.resolution)?;
         let module = gpu::shader(ctx, "peel_tail.wgsl", gpu::PEEL_TAIL)?;
-        let layout = ctx.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("dual-peel tail"),
-            bind_group_layouts: &[Some(ctx.scene_layout()), Some(&g.group_layout), Some(&g.control.pass_layout)],
-            immediate_size: 0,
-        });
+        let layout = ctx
+            .device
+            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("dual-peel tail"),
+                bind_group_layouts: &[
+                    Some(ctx.scene_layout()),
+                    Some(&g.group_layout),
+                    Some(&g.control.pass_layout),
+                ],
+                immediate_size: 0,
+            });
         let mut constants = key_constants(config, range_format, true);
         constants.retain(|(k, _)| *k != "TEST_FIRST");
         constants.extend(wboit::pipeline_constants(&scene.scene));

@@ -111,7 +111,11 @@ impl KeyParams {
     /// View distance of window depth `z` (the shader's `view_distance`).
     pub fn view_distance(&self, z: f32) -> f32 {
         let lin = self.depth_a * z + self.depth_b;
-        if self.perspective != 0 { 1.0 / lin } else { lin }
+        if self.perspective != 0 {
+            1.0 / lin
+        } else {
+            lin
+        }
     }
 }
 
@@ -188,7 +192,9 @@ pub fn peel_key(
             let d = params.view_distance(z).clamp(params.d_min, params.d_max);
             match (encoding, key_reverse) {
                 (DepthEncoding::Linear, true) => (params.d_max - d) / (params.d_max - params.d_min),
-                (DepthEncoding::Linear, false) => (d - params.d_min) / (params.d_max - params.d_min),
+                (DepthEncoding::Linear, false) => {
+                    (d - params.d_min) / (params.d_max - params.d_min)
+                }
                 (_, true) => (params.d_max / d).ln() / params.log_span,
                 (_, false) => (d / params.d_min).ln() / params.log_span,
             }
@@ -232,7 +238,9 @@ mod tests {
     fn window_depth_inverts_to_view_distance() {
         for reverse in [false, true] {
             for projection in [
-                Projection::Perspective { fov_y_degrees: 60.0 },
+                Projection::Perspective {
+                    fov_y_degrees: 60.0,
+                },
                 Projection::Orthographic { height: 4.0 },
             ] {
                 let cam = camera(reverse, projection);
@@ -258,7 +266,10 @@ mod tests {
         assert_eq!(f16_round(-0.333_333), -0.333_251_95);
         // 1 + 2^-11 is halfway between 1 and 1 + 2^-10: ties to even gives 1.
         assert_eq!(f16_round(1.0 + 2f32.powi(-11)), 1.0);
-        assert_eq!(f16_round(1.0 + 3.0 * 2f32.powi(-11)), 1.0 + 2.0 * 2f32.powi(-10));
+        assert_eq!(
+            f16_round(1.0 + 3.0 * 2f32.powi(-11)),
+            1.0 + 2.0 * 2f32.powi(-10)
+        );
         // Subnormal spacing 2^-24.
         assert_eq!(f16_round(3.0 * 2f32.powi(-24)), 3.0 * 2f32.powi(-24));
         assert_eq!(f16_round(1e-9), 0.0);
@@ -272,7 +283,12 @@ mod tests {
 
     #[test]
     fn keys_are_monotonic_in_the_requested_direction() {
-        let cam = camera(true, Projection::Perspective { fov_y_degrees: 60.0 });
+        let cam = camera(
+            true,
+            Projection::Perspective {
+                fov_y_degrees: 60.0,
+            },
+        );
         let params = KeyParams {
             depth_a: depth_to_distance(&cam).0,
             depth_b: depth_to_distance(&cam).1,
@@ -298,7 +314,10 @@ mod tests {
                         "{encoding:?} reverse {reverse}: {keys:?}"
                     );
                 }
-                assert!(keys.iter().all(|k| (-1e-5..=1.0 + 1e-5).contains(k)), "{keys:?}");
+                assert!(
+                    keys.iter().all(|k| (-1e-5..=1.0 + 1e-5).contains(k)),
+                    "{keys:?}"
+                );
             }
         }
     }

@@ -12,11 +12,13 @@ use crate::MAX_FRONT_LAYERS;
 use crate::config::{FrontPeelConfig, PassCount};
 use crate::encoding::KeyParams;
 use crate::error::PeelError;
-use crate::gpu::{self, Budget, Control, Counters, DrawList, Options, PeelReport, PipelineDesc, Termination};
+use crate::gpu::{
+    self, Budget, Control, Counters, DrawList, Options, PeelReport, PipelineDesc, Termination,
+};
 use oit_gpu::wgpu;
 use oit_gpu::{
-    Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, RenderStats, ScenePipelines, Targets, Technique,
-    TechniqueSpec, Unsupported,
+    Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, RenderStats, ScenePipelines,
+    Targets, Technique, TechniqueSpec, Unsupported,
 };
 use oit_scene::Resolution;
 
@@ -90,7 +92,12 @@ impl FrontPeel {
         &self.report
     }
 
-    fn resources(&mut self, ctx: &Context, targets: &Targets, reverse_z: bool) -> Result<(), GpuError> {
+    fn resources(
+        &mut self,
+        ctx: &Context,
+        targets: &Targets,
+        reverse_z: bool,
+    ) -> Result<(), GpuError> {
         let key = (targets.color_format, targets.resolution, reverse_z);
         if self.gpu.as_ref().is_some_and(|g| g.key == key) {
             return Ok(());
@@ -111,10 +118,31 @@ impl FrontPeel {
         );
         let res = targets.resolution;
         let depth = [0, 1].map(|i| {
-            gpu::texture_2d(ctx, &mut ledger, &format!("front-peel depth {i}"), res, wgpu::TextureFormat::Depth32Float).1
+            gpu::texture_2d(
+                ctx,
+                &mut ledger,
+                &format!("front-peel depth {i}"),
+                res,
+                wgpu::TextureFormat::Depth32Float,
+            )
+            .1
         });
-        let layer = gpu::texture_2d(ctx, &mut ledger, "front-peel layer", res, targets.color_format).1;
-        let accum = gpu::texture_2d(ctx, &mut ledger, "front-peel accumulator", res, targets.color_format).1;
+        let layer = gpu::texture_2d(
+            ctx,
+            &mut ledger,
+            "front-peel layer",
+            res,
+            targets.color_format,
+        )
+        .1;
+        let accum = gpu::texture_2d(
+            ctx,
+            &mut ledger,
+            "front-peel accumulator",
+            res,
+            targets.color_format,
+        )
+        .1;
         let candidates = ledger.create_buffer(
             device,
             &wgpu::BufferDescriptor {
@@ -137,7 +165,11 @@ impl FrontPeel {
         });
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("front-peel"),
-            bind_group_layouts: &[Some(ctx.scene_layout()), Some(&group_layout), Some(&control.pass_layout)],
+            bind_group_layouts: &[
+                Some(ctx.scene_layout()),
+                Some(&group_layout),
+                Some(&control.pass_layout),
+            ],
             immediate_size: 0,
         });
         let module = gpu::shader(ctx, "peel_front.wgsl", gpu::PEEL_FRONT)?;
@@ -146,7 +178,11 @@ impl FrontPeel {
             blend: None,
             write_mask: wgpu::ColorWrites::ALL,
         })];
-        let nearer = if reverse_z { wgpu::CompareFunction::Greater } else { wgpu::CompareFunction::Less };
+        let nearer = if reverse_z {
+            wgpu::CompareFunction::Greater
+        } else {
+            wgpu::CompareFunction::Less
+        };
         let flag = |b: bool| if b { 1.0 } else { 0.0 };
         let test_first = self.options.test_before_shading;
         let layer_pipelines = [false, true].map(|first| {
@@ -198,11 +234,12 @@ impl FrontPeel {
         };
         let under_group = composite_group(&layer);
         let final_group = composite_group(&accum);
-        let composite_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("peel composite"),
-            bind_group_layouts: &[Some(&composite_layout), Some(&control.pass_layout)],
-            immediate_size: 0,
-        });
+        let composite_pipeline_layout =
+            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("peel composite"),
+                bind_group_layouts: &[Some(&composite_layout), Some(&control.pass_layout)],
+                immediate_size: 0,
+            });
         let fullscreen = |entry: &str, blend: wgpu::BlendState| {
             gpu::fullscreen_pipeline(
                 ctx,
@@ -246,7 +283,10 @@ impl FrontPeel {
     }
 
     /// Records layer pass `k` (0-based), its under-composite and its gate.
-    #[allow(clippy::too_many_arguments, reason = "one frame's state, passed explicitly")]
+    #[allow(
+        clippy::too_many_arguments,
+        reason = "one frame's state, passed explicitly"
+    )]
     fn layer_pass(
         &self,
         ctx: &Context,
@@ -273,7 +313,12 @@ impl FrontPeel {
                     resolve_target: None,
                     ops: wgpu::Operations {
                         // Alpha −1 marks "no fragment" for the composite.
-                        load: wgpu::LoadOp::Clear(wgpu::Color { r: 0.0, g: 0.0, b: 0.0, a: -1.0 }),
+                        load: wgpu::LoadOp::Clear(wgpu::Color {
+                            r: 0.0,
+                            g: 0.0,
+                            b: 0.0,
+                            a: -1.0,
+                        }),
                         store: wgpu::StoreOp::Store,
                     },
                 })],
@@ -341,7 +386,9 @@ impl Technique for FrontPeel {
     }
 
     fn check(&self, caps: &Caps) -> Result<(), Unsupported> {
-        self.config.as_ref().map_err(|e| Unsupported::new(e.to_string()))?;
+        self.config
+            .as_ref()
+            .map_err(|e| Unsupported::new(e.to_string()))?;
         if caps.max_storage_buffers_per_shader_stage < 3 {
             return Err(Unsupported::new(
                 "the adapter has fewer than 3 storage buffers per fragment shader (materials, peel counters, candidates)",
@@ -350,8 +397,17 @@ impl Technique for FrontPeel {
         Ok(())
     }
 
-    fn render(&mut self, ctx: &Context, scene: &GpuScene, targets: &Targets, timer: &mut GpuTimer) -> Result<RenderStats, GpuError> {
-        let config = self.config.clone().map_err(|e| Unsupported::new(e.to_string()))?;
+    fn render(
+        &mut self,
+        ctx: &Context,
+        scene: &GpuScene,
+        targets: &Targets,
+        timer: &mut GpuTimer,
+    ) -> Result<RenderStats, GpuError> {
+        let config = self
+            .config
+            .clone()
+            .map_err(|e| Unsupported::new(e.to_string()))?;
         self.resources(ctx, targets, scene.scene.camera.reverse_z)?;
         if self.list.as_ref().is_none_or(|l| l.scene_id != scene.id) {
             self.list_ledger.clear();
@@ -360,7 +416,11 @@ impl Technique for FrontPeel {
         }
         let g = self.gpu.as_mut().expect("resources built");
         if g.params_scene != Some(scene.id) {
-            ctx.queue.write_buffer(&g.params, 0, bytemuck::bytes_of(&KeyParams::new(&scene.scene)));
+            ctx.queue.write_buffer(
+                &g.params,
+                0,
+                bytemuck::bytes_of(&KeyParams::new(&scene.scene)),
+            );
             g.params_scene = Some(scene.id);
         }
         let g = self.gpu.as_ref().expect("resources built");
@@ -407,7 +467,12 @@ impl Technique for FrontPeel {
                 depth_slice: None,
                 resolve_target: None,
                 ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(wgpu::Color { r: 0.0, g: 0.0, b: 0.0, a: 1.0 }),
+                    load: wgpu::LoadOp::Clear(wgpu::Color {
+                        r: 0.0,
+                        g: 0.0,
+                        b: 0.0,
+                        a: 1.0,
+                    }),
                     store: wgpu::StoreOp::Store,
                 },
             })],
@@ -422,7 +487,15 @@ impl Technique for FrontPeel {
         let counters: Counters;
         match self.options.termination {
             Termination::CpuReadbackPerPass => loop {
-                self.layer_pass(ctx, scene, &groups, timer, recorded, recorded + 1 == max, false)?;
+                self.layer_pass(
+                    ctx,
+                    scene,
+                    &groups,
+                    timer,
+                    recorded,
+                    recorded + 1 == max,
+                    false,
+                )?;
                 recorded += 1;
                 let c = g.control.read(ctx)?;
                 report.readbacks += 1;
@@ -438,7 +511,15 @@ impl Technique for FrontPeel {
                 };
                 loop {
                     while recorded < end {
-                        self.layer_pass(ctx, scene, &groups, timer, recorded, recorded + 1 == end, true)?;
+                        self.layer_pass(
+                            ctx,
+                            scene,
+                            &groups,
+                            timer,
+                            recorded,
+                            recorded + 1 == end,
+                            true,
+                        )?;
                         recorded += 1;
                     }
                     let c = g.control.read(ctx)?;

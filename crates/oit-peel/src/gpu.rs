@@ -71,7 +71,11 @@ pub struct PeelReport {
 }
 
 /// Expands `#include` lines against oit-gpu's shared modules and this crate's.
-pub(crate) fn shader(ctx: &Context, name: &str, source: &str) -> Result<wgpu::ShaderModule, GpuError> {
+pub(crate) fn shader(
+    ctx: &Context,
+    name: &str,
+    source: &str,
+) -> Result<wgpu::ShaderModule, GpuError> {
     let code = oit_gpu::shaders::compose(source, &|n| match n {
         "peel_common.wgsl" => Some(PEEL_COMMON.to_owned()),
         "wboit_tail.wgsl" => Some(oit_wboit::tail::WGSL.to_owned()),
@@ -101,7 +105,11 @@ pub(crate) struct PipelineDesc<'a> {
     pub constants: &'a [(&'a str, f64)],
 }
 
-fn pipeline(ctx: &Context, desc: &PipelineDesc<'_>, cull: Option<wgpu::Face>) -> wgpu::RenderPipeline {
+fn pipeline(
+    ctx: &Context,
+    desc: &PipelineDesc<'_>,
+    cull: Option<wgpu::Face>,
+) -> wgpu::RenderPipeline {
     let options = wgpu::PipelineCompilationOptions {
         constants: desc.constants,
         zero_initialize_workgroup_memory: true,
@@ -175,7 +183,11 @@ pub(crate) fn fullscreen_pipeline(
         })
 }
 
-pub(crate) fn uniform_entry(binding: u32, visibility: wgpu::ShaderStages, dynamic: bool) -> wgpu::BindGroupLayoutEntry {
+pub(crate) fn uniform_entry(
+    binding: u32,
+    visibility: wgpu::ShaderStages,
+    dynamic: bool,
+) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
         visibility,
@@ -183,13 +195,20 @@ pub(crate) fn uniform_entry(binding: u32, visibility: wgpu::ShaderStages, dynami
             ty: wgpu::BufferBindingType::Uniform,
             has_dynamic_offset: dynamic,
             // The dynamic pass index is one 16-byte PassInfo; other uniforms are checked whole.
-            min_binding_size: if dynamic { wgpu::BufferSize::new(16) } else { None },
+            min_binding_size: if dynamic {
+                wgpu::BufferSize::new(16)
+            } else {
+                None
+            },
         },
         count: None,
     }
 }
 
-pub(crate) fn storage_entry(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
+pub(crate) fn storage_entry(
+    binding: u32,
+    visibility: wgpu::ShaderStages,
+) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
         visibility,
@@ -202,7 +221,11 @@ pub(crate) fn storage_entry(binding: u32, visibility: wgpu::ShaderStages) -> wgp
     }
 }
 
-pub(crate) fn texture_entry(binding: u32, visibility: wgpu::ShaderStages, depth: bool) -> wgpu::BindGroupLayoutEntry {
+pub(crate) fn texture_entry(
+    binding: u32,
+    visibility: wgpu::ShaderStages,
+    depth: bool,
+) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
         visibility,
@@ -313,7 +336,9 @@ impl Control {
             &wgpu::BufferDescriptor {
                 label: Some("peel counters"),
                 size: u64::from(COUNTER_WORDS) * 4,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+                usage: wgpu::BufferUsages::STORAGE
+                    | wgpu::BufferUsages::COPY_SRC
+                    | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             },
         );
@@ -341,7 +366,8 @@ impl Control {
                 mapped_at_creation: false,
             },
         );
-        ctx.queue.write_buffer(&pass_buffer, 0, bytemuck::cast_slice(&words));
+        ctx.queue
+            .write_buffer(&pass_buffer, 0, bytemuck::cast_slice(&words));
         let all = wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE;
         let pass_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("peel pass index"),
@@ -363,9 +389,14 @@ impl Control {
         let cs = wgpu::ShaderStages::COMPUTE;
         let gate_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("peel gate"),
-            entries: &[storage_entry(0, cs), storage_entry(1, cs), uniform_entry(2, cs, false)],
+            entries: &[
+                storage_entry(0, cs),
+                storage_entry(1, cs),
+                uniform_entry(2, cs, false),
+            ],
         });
-        let gate_pipeline = compute_pipeline(ctx, &gate_module, &[&gate_layout, &pass_layout], "cs_gate");
+        let gate_pipeline =
+            compute_pipeline(ctx, &gate_module, &[&gate_layout, &pass_layout], "cs_gate");
         Ok(Control {
             counters,
             readback,
@@ -410,10 +441,12 @@ impl Control {
         extra: wgpu::BindGroupLayoutEntry,
     ) -> (wgpu::BindGroupLayout, wgpu::ComputePipeline) {
         let cs = wgpu::ShaderStages::COMPUTE;
-        let layout = ctx.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some(entry),
-            entries: &[storage_entry(0, cs), uniform_entry(2, cs, false), extra],
-        });
+        let layout = ctx
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some(entry),
+                entries: &[storage_entry(0, cs), uniform_entry(2, cs, false), extra],
+            });
         let pipeline = compute_pipeline(ctx, &self.gate_module, &[&layout], entry);
         (layout, pipeline)
     }
@@ -421,7 +454,13 @@ impl Control {
     /// Copies the counters back (waits for the GPU).
     pub fn read(&self, ctx: &Context) -> Result<Counters, GpuError> {
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
-        encoder.copy_buffer_to_buffer(&self.counters, 0, &self.readback, 0, u64::from(COUNTER_WORDS) * 4);
+        encoder.copy_buffer_to_buffer(
+            &self.counters,
+            0,
+            &self.readback,
+            0,
+            u64::from(COUNTER_WORDS) * 4,
+        );
         ctx.queue.submit([encoder.finish()]);
         let (tx, rx) = std::sync::mpsc::channel();
         self.readback.map_async(wgpu::MapMode::Read, .., move |r| {
@@ -432,9 +471,14 @@ impl Control {
             what: "peel counters".to_owned(),
             message,
         };
-        rx.recv().map_err(|e| fail(e.to_string()))?.map_err(|e| fail(e.to_string()))?;
+        rx.recv()
+            .map_err(|e| fail(e.to_string()))?
+            .map_err(|e| fail(e.to_string()))?;
         let words: Vec<u32> = {
-            let view = self.readback.get_mapped_range(..).map_err(|e| fail(e.to_string()))?;
+            let view = self
+                .readback
+                .get_mapped_range(..)
+                .map_err(|e| fail(e.to_string()))?;
             bytemuck::cast_slice::<u8, u32>(&view).to_vec()
         };
         self.readback.unmap();
@@ -449,19 +493,22 @@ fn compute_pipeline(
     entry: &str,
 ) -> wgpu::ComputePipeline {
     let groups: Vec<Option<&wgpu::BindGroupLayout>> = groups.iter().map(|g| Some(*g)).collect();
-    let layout = ctx.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label: Some(entry),
-        bind_group_layouts: &groups,
-        immediate_size: 0,
-    });
-    ctx.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some(entry),
-        layout: Some(&layout),
-        module,
-        entry_point: Some(entry),
-        compilation_options: Default::default(),
-        cache: None,
-    })
+    let layout = ctx
+        .device
+        .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some(entry),
+            bind_group_layouts: &groups,
+            immediate_size: 0,
+        });
+    ctx.device
+        .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(entry),
+            layout: Some(&layout),
+            module,
+            entry_point: Some(entry),
+            compilation_options: Default::default(),
+            cache: None,
+        })
 }
 
 /// The counters of one frame, read back.
@@ -477,7 +524,10 @@ impl Counters {
     }
 
     pub fn peeled(&self, i: u32) -> u32 {
-        self.words.get((PEELED_BASE + i) as usize).copied().unwrap_or(0)
+        self.words
+            .get((PEELED_BASE + i) as usize)
+            .copied()
+            .unwrap_or(0)
     }
 
     pub fn dropped(&self) -> u32 {
@@ -498,7 +548,12 @@ pub(crate) struct DrawList {
 }
 
 impl DrawList {
-    pub fn new(ctx: &Context, control: &Control, scene: &GpuScene, ledger: &mut MemoryLedger) -> Self {
+    pub fn new(
+        ctx: &Context,
+        control: &Control,
+        scene: &GpuScene,
+        ledger: &mut MemoryLedger,
+    ) -> Self {
         let draws: Vec<usize> = scene
             .transparent_draws()
             .into_iter()
@@ -517,7 +572,9 @@ impl DrawList {
             &wgpu::BufferDescriptor {
                 label: Some("peel indirect draws"),
                 size: initial.len() as u64 * 4,
-                usage: wgpu::BufferUsages::INDIRECT | wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                usage: wgpu::BufferUsages::INDIRECT
+                    | wgpu::BufferUsages::STORAGE
+                    | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             },
         );
@@ -566,11 +623,18 @@ impl DrawList {
 
     /// Every draw enabled again (start of a frame).
     pub fn reset(&self, ctx: &Context) {
-        ctx.queue.write_buffer(&self.args, 0, bytemuck::cast_slice(&self.initial));
+        ctx.queue
+            .write_buffer(&self.args, 0, bytemuck::cast_slice(&self.initial));
     }
 
     /// Draws every transparent draw: indirect (gated) or direct.
-    pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, scene: &GpuScene, pipelines: &ScenePipelines, indirect: bool) {
+    pub fn draw(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        scene: &GpuScene,
+        pipelines: &ScenePipelines,
+        indirect: bool,
+    ) {
         for (slot, &i) in self.draws.iter().enumerate() {
             let d = &scene.scene.draws[i];
             pass.set_pipeline(pipelines.for_material(scene.scene.material_of(d)));
@@ -593,7 +657,11 @@ pub(crate) struct Budget {
 impl Budget {
     /// Passes to record first (at least `min`, at most `max`).
     pub fn first(&self, scene_id: u64, initial: u32, max: u32) -> u32 {
-        let n = if self.scene_id == Some(scene_id) { self.passes } else { initial };
+        let n = if self.scene_id == Some(scene_id) {
+            self.passes
+        } else {
+            initial
+        };
         n.clamp(1, max)
     }
 

@@ -33,7 +33,11 @@ fn strips(reference: &oit_reference::Reference) -> Vec<(u32, u32)> {
 }
 
 /// Largest RGB error inside each strip.
-fn strip_errors(image: &oit_scene::LinearImage, reference: &oit_reference::Reference, strips: &[(u32, u32)]) -> Vec<f64> {
+fn strip_errors(
+    image: &oit_scene::LinearImage,
+    reference: &oit_reference::Reference,
+    strips: &[(u32, u32)],
+) -> Vec<f64> {
     strips
         .iter()
         .map(|&(x0, x1)| {
@@ -42,7 +46,9 @@ fn strip_errors(image: &oit_scene::LinearImage, reference: &oit_reference::Refer
                 for x in x0..x1 {
                     let i = (y * RES.width + x) as usize;
                     for c in 0..3 {
-                        worst = worst.max(f64::from((image.pixels[i][c] - reference.image.pixels[i][c]).abs()));
+                        worst = worst.max(f64::from(
+                            (image.pixels[i][c] - reference.image.pixels[i][c]).abs(),
+                        ));
                     }
                 }
             }
@@ -69,7 +75,11 @@ fn depth_range_encodings() {
     let scene = scene("depth-range");
     let reference = reference(&scene);
     let strips = strips(&reference);
-    assert_eq!(strips.len(), 5, "depth-range has five pairs in five strips: {strips:?}");
+    assert_eq!(
+        strips.len(),
+        5,
+        "depth-range has five pairs in five strips: {strips:?}"
+    );
     const SEPARATED: f64 = 4e-3;
 
     // RG32F: exact for every encoding and direction.
@@ -88,7 +98,9 @@ fn depth_range_encodings() {
         }
     }
 
-    println!("depth-range, rg16f, worse of natural and reversed draw order; max error per pair (distance 0.1, 1, 10, 1000, 50000); * = separated (max <= {SEPARATED:e})");
+    println!(
+        "depth-range, rg16f, worse of natural and reversed draw order; max error per pair (distance 0.1, 1, 10, 1000, 50000); * = separated (max <= {SEPARATED:e})"
+    );
     let mut rmse = std::collections::BTreeMap::new();
     let mut separated = std::collections::BTreeMap::new();
     for encoding in DepthEncoding::ALL {
@@ -137,7 +149,13 @@ fn depth_range_encodings() {
     // The fixed-point log key separates all five pairs in either direction, beating reverse-Z.
     for reverse in [true, false] {
         assert_eq!(count(("log", reverse)), 5, "{separated:?}");
-        assert!(rmse[&("log", reverse)] < rmse[&("window", true)], "{rmse:?}");
+        assert!(
+            rmse[&("log", reverse)] < rmse[&("window", true)],
+            "{rmse:?}"
+        );
     }
-    assert!(count(("window", true)) >= 3, "reverse-Z keeps the pairs nearer than ~166 units: {separated:?}");
+    assert!(
+        count(("window", true)) >= 3,
+        "reverse-Z keeps the pairs nearer than ~166 units: {separated:?}"
+    );
 }

@@ -41,17 +41,29 @@ pub fn reference(scene: &Scene) -> oit_reference::Reference {
 }
 
 /// Renders one frame of `technique` into Rgba32Float targets.
-pub fn render(ctx: &Context, scene: &Scene, technique: &mut dyn Technique) -> (LinearImage, RenderStats) {
+pub fn render(
+    ctx: &Context,
+    scene: &Scene,
+    technique: &mut dyn Technique,
+) -> (LinearImage, RenderStats) {
     let gpu = GpuScene::upload(ctx, scene).expect("upload");
     render_uploaded(ctx, &gpu, technique)
 }
 
-pub fn render_uploaded(ctx: &Context, gpu: &GpuScene, technique: &mut dyn Technique) -> (LinearImage, RenderStats) {
-    let targets = Targets::new(ctx, gpu.scene.resolution, ColorFormat::Rgba32Float).expect("targets");
+pub fn render_uploaded(
+    ctx: &Context,
+    gpu: &GpuScene,
+    technique: &mut dyn Technique,
+) -> (LinearImage, RenderStats) {
+    let targets =
+        Targets::new(ctx, gpu.scene.resolution, ColorFormat::Rgba32Float).expect("targets");
     let mut timer = GpuTimer::new(ctx);
     let frame = oit_gpu::render_frame(ctx, gpu, technique, &targets, &mut timer)
         .unwrap_or_else(|e| panic!("{}: {e}", technique.spec()));
-    (oit_gpu::read_color(ctx, &targets).expect("readback"), frame.stats)
+    (
+        oit_gpu::read_color(ctx, &targets).expect("readback"),
+        frame.stats,
+    )
 }
 
 pub fn errors(image: &LinearImage, reference: &LinearImage) -> oit_metrics::Errors {
@@ -74,7 +86,11 @@ pub fn build(spec: &str) -> Box<dyn Technique> {
 /// Pixels where the GPU rasterizes a different number of fragments than the reference (the
 /// rasterization conformance of oit-gpu/oit-reference, not a property of peeling). The
 /// peel tests compare every other pixel and bound how many are excluded.
-pub fn conformance_mismatches(ctx: &Context, scene: &Scene, reference: &oit_reference::Reference) -> Vec<usize> {
+pub fn conformance_mismatches(
+    ctx: &Context,
+    scene: &Scene,
+    reference: &oit_reference::Reference,
+) -> Vec<usize> {
     let gpu = GpuScene::upload(ctx, scene).expect("upload");
     let counts = oit_gpu::count_fragments(ctx, &gpu).expect("count fragments");
     counts
@@ -87,7 +103,11 @@ pub fn conformance_mismatches(ctx: &Context, scene: &Scene, reference: &oit_refe
 }
 
 /// `errors` with the given pixels taken from the reference.
-pub fn errors_except(image: &LinearImage, reference: &LinearImage, skip: &[usize]) -> oit_metrics::Errors {
+pub fn errors_except(
+    image: &LinearImage,
+    reference: &LinearImage,
+    skip: &[usize],
+) -> oit_metrics::Errors {
     let mut image = image.clone();
     for &i in skip {
         image.pixels[i] = reference.pixels[i];

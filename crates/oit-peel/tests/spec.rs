@@ -1,0 +1,70 @@
+//! Registry entries, canonical specs and errors (no GPU).
+
+use oit_gpu::TechniqueSpec;
+use oit_peel::{
+    DepthFormat, DualPeel, DualPeelConfig, FrontPeelConfig, PassCount, PeelError, Tail,
+};
+
+#[test]
+fn registry_entries_are_valid_and_canonical() {
+    let registry = oit_peel::techniques();
+    for info in &registry {
+        info.validate().unwrap();
+    }
+    let dual = TechniqueSpec::parse("dual-peel", &registry).unwrap();
+    assert_eq!(
+        dual.to_string(),
+        "dual-peel:depth=auto,encoding=window,passes=5,reverse-z=on,tail=drop"
+    );
+    assert_eq!(
+        DualPeelConfig::from_spec(&dual).unwrap(),
+        DualPeelConfig::default()
+    );
+    let t = TechniqueSpec::build(
+        "dual-peel:passes=auto,tail=wboit,depth=rg16f,encoding=log,reverse-z=off",
+        &registry,
+    )
+    .unwrap();
+    assert_eq!(
+        t.spec().to_string(),
+        "dual-peel:depth=rg16f,encoding=log,passes=auto,reverse-z=off,tail=wboit"
+    );
+    let c = DualPeelConfig::from_spec(&t.spec()).unwrap();
+    assert_eq!(
+        (c.passes, c.depth, c.tail, c.reverse_z),
+        (PassCount::Auto, DepthFormat::Rg16f, Tail::Wboit, false)
+    );
+    let front = TechniqueSpec::build("front-peel:layers=12", &registry).unwrap();
+    assert_eq!(front.spec().to_string(), "front-peel:layers=12");
+    assert_eq!(
+        FrontPeelConfig::from_spec(&front.spec()).unwrap().layers,
+        PassCount::Fixed(12)
+    );
+    for bad in [
+        "dual-peel:passes=0",
+        "dual-peel:passes=65",
+        "dual-peel:depth=r32f",
+        "front-peel:layers=129",
+        "dual-peel:tail=sort",
+    ] {
+        let e = TechniqueSpec::parse(bad, &registry).unwrap_err();
+        assert!(e.to_string().contains("allowed"), "{bad}: {e}");
+    }
+}
+
+#[test]
+fn hand_built_bad_specs_are_reported_by_check() {
+    let mut spec = TechniqueSpec::parse("dual-peel", &oit_peel::techniques()).unwrap();
+    spec.params.insert("passes".into(), "many".into());
+    let e = DualPeelConfig::from_spec(&spec).unwrap_err();
+    assert!(
+        matches!(e, PeelError::BadValue { key: "passes", .. }),
+        "{e}"
+    );
+    assert!(e.to_string().contains("1..=64, auto"), "{e}");
+    spec.params.remove("depth");
+    let t = DualPeel::from_spec(&spec);
+    assert!(t.config().is_err());
+    let e = FrontPeelConfig::from_spec(&spec).unwrap_err();
+    assert!(matches!(e, PeelError::WrongTechnique { .. }), "{e}");
+}
