@@ -318,6 +318,35 @@ fn a2c_interior_and_edge_error() {
         return;
     };
     let mut report = String::new();
+    // One tilted quad of α = 1/2 (exactly 2 of 4 samples) over an opaque quad and the
+    // background: inside, a2c is exact; only edges differ from the pixel-centre reference.
+    let tilted = oit_scene::parse(
+        r#"{
+  "name": "tilted-half",
+  "resolution": [128, 128],
+  "camera": {"eye": [0, 0, 5], "target": [0, 0, 0], "up": [0, 1, 0], "fov_y": 45, "near": 0.1, "far": 100},
+  "background": [0.1, 0.1, 0.2],
+  "objects": [
+    {"mesh": {"kind": "quad", "size": [2, 2]}, "transform": {"translate": [0.7, 0, -1]},
+      "material": {"base_color": [0.9, 0.8, 0.1], "mode": "opaque"}},
+    {"mesh": {"kind": "quad", "size": [2.2, 1.6]}, "transform": {"rotate": [0, 0, 27]},
+      "material": {"base_color": [0.2, 0.6, 1], "alpha": 0.5, "mode": "blend"}}
+  ]
+}"#,
+        "tilted-half (inline)",
+    )
+    .expect("inline scene");
+    {
+        let reference = oit_reference::render(&tilted, &Default::default());
+        let edges = edge_pixels(&reference.layers, RES);
+        let image = Bench::new(&ctx, &tilted).render("a2c:samples=4");
+        let interior = rmse(&image, &reference.image, |i| !edges[i]);
+        let edge = rmse(&image, &reference.image, |i| edges[i]);
+        report += &format!("tilted-half a2c:samples=4: interior {interior:.5}, edge {edge:.5}\n");
+        // f16 target rounding only inside; a visible difference along the edges.
+        assert!(interior < 1e-3, "interior {interior}\n{report}");
+        assert!(edge > 0.01, "edge {edge}\n{report}");
+    }
     for name in ["intersecting-quads", "sorted-quads", "quad-through-sphere"] {
         let scene = scene_named(name, RES);
         let reference = oit_reference::render(&scene, &Default::default());
@@ -441,4 +470,61 @@ fn memory_is_counted_exactly() {
         bench.render_with(t.as_mut());
         assert_eq!(t.memory_bytes(), expected, "{spec}");
     }
+}
+
+/// One white quad of coverage `alpha` filling the screen over black.
+fn one_layer(alpha: f32) -> Scene {
+    let json = format!(
+        r#"{{
+  "name": "one-layer",
+  "resolution": [32, 32],
+  "camera": {{"eye": [0, 0, 5], "target": [0, 0, 0], "up": [0, 1, 0], "fov_y": 45, "near": 0.1, "far": 100}},
+  "background": [0, 0, 0],
+  "objects": [
+    {{"mesh": {{"kind": "quad", "size": [8, 8]}},
+      "material": {{"base_color": [1, 1, 1], "alpha": {alpha}, "mode": "blend"}}}}
+  ]
+}}"#
+    );
+    oit_scene::parse(&json, "one-layer (inline)").expect("inline scene")
+}
+
+/// The driver's α → sample-mask table, read back through the resolve: the resolved white
+/// over black is the covered fraction. It must be a whole number of samples per pixel on
+/// average, grow with α, and stay within one sample of α (what alpha-to-coverage promises).
+#[test]
+fn a2c_coverage_table() {
+    let Some(ctx) = context_or_skip("a2c_coverage_table") else {
+        return;
+    };
+    let samples = 4.0;
+    let mut previous = -1.0;
+    let mut table = String::new();
+    for step in 0..=16 {
+        let alpha = step as f32 / 16.0;
+        let image = Bench::new(&ctx, &one_layer(alpha)).render("a2c:samples=4");
+        let mean =
+            image.pixels.iter().map(|p| f64::from(p[0])).sum::<f64>() / image.pixels.len() as f64;
+        let distinct: std::collections::BTreeSet<u32> =
+            image.pixels.iter().map(|p| p[0].to_bits()).collect();
+        table += &format!(
+            "alpha {alpha:.4}: covered {mean:.4} ({} distinct pixel values)\n",
+            distinct.len()
+        );
+        assert!(mean >= previous, "coverage falls at alpha {alpha}\n{table}");
+        assert!(
+            (mean - f64::from(alpha)).abs() <= 1.0 / samples + 1e-3,
+            "alpha {alpha}: covered {mean}\n{table}"
+        );
+        for p in &image.pixels {
+            let k = f64::from(p[0]) * samples;
+            assert!(
+                (k - k.round()).abs() < 1e-2,
+                "alpha {alpha}: pixel {}\n{table}",
+                p[0]
+            );
+        }
+        previous = mean;
+    }
+    println!("{table}");
 }
