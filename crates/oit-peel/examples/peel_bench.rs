@@ -2,8 +2,10 @@
 //! `unsorted`, bytes per pixel, the peel-test-before-shading and depth-only-init ablations, and
 //! what a CPU round trip per pass costs against GPU-gated termination.
 //!
-//! `cargo run --release -p oit-peel --example peel_bench -- [SCENE] [SIZE] [FRAMES]`
-//! (defaults: many-layers-64 128 7). Times are medians over FRAMES frames after one warm-up.
+//! `cargo run -p oit-peel --example peel_bench -- [SCENE] [SIZE] [FRAMES]`
+//! (defaults: many-layers-64 128 7). After one warm-up frame each, the configurations render
+//! in interleaved rounds (one frame of each per round), so load from other processes on a
+//! shared machine hits them alike; times are medians over the rounds.
 
 use oit_gpu::{ColorFormat, Context, ContextOptions, GpuScene, GpuTimer, Targets, Technique};
 use oit_peel::{
@@ -11,78 +13,91 @@ use oit_peel::{
     PassCount, Tail, Termination,
 };
 use oit_scene::Resolution;
+use std::collections::BTreeMap;
 use std::path::Path;
 
-struct Sample {
-    gpu_ms: f64,
-    wall_ms: f64,
-    passes: Vec<(String, f64)>,
+struct Run {
+    label: &'static str,
+    technique: Box<dyn Technique>,
+    targets: Targets,
+    timer: GpuTimer,
+    gpu_ms: Vec<f64>,
+    wall_ms: Vec<f64>,
+    /// Per pass kind ("init", "peel", "layer", …): the frame's sum, one entry per frame.
+    kinds: BTreeMap<String, Vec<f64>>,
     geometry_passes: u32,
-    bytes: u64,
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
+    v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
 }
 
-fn measure(
-    ctx: &Context,
-    scene: &GpuScene,
-    t: &mut dyn Technique,
-    frames: usize,
-) -> anyhow::Result<Sample> {
-    let targets = Targets::new(ctx, scene.scene.resolution, ColorFormat::Rgba16Float)?;
-    let mut timer = GpuTimer::new(ctx);
-    oit_gpu::render_frame(ctx, scene, t, &targets, &mut timer)?;
-    let (mut gpu, mut wall) = (Vec::new(), Vec::new());
-    let mut per_pass: Vec<(String, Vec<f64>)> = Vec::new();
-    let mut geometry_passes = 0;
-    for _ in 0..frames {
+impl Run {
+    fn frame(&mut self, ctx: &Context, scene: &GpuScene, record: bool) -> anyhow::Result<()> {
         let start = std::time::Instant::now();
-        let f = oit_gpu::render_frame(ctx, scene, t, &targets, &mut timer)?;
-        wall.push(start.elapsed().as_secs_f64() * 1e3);
-        // The shared opaque pass is not the technique's.
-        gpu.push(
-            f.timings
-                .passes
-                .iter()
-                .filter(|p| p.name != "opaque")
-                .map(|p| p.ms)
-                .sum(),
-        );
-        geometry_passes = f.stats.geometry_passes;
-        for p in &f.timings.passes {
-            let key = if p.name.starts_with("peel ")
-                || p.name.starts_with("layer ")
-                || p.name.starts_with("under ")
-            {
-                p.name.split(' ').next().unwrap_or("").to_owned() + " (sum)"
-            } else {
-                p.name.clone()
-            };
-            match per_pass.iter_mut().find(|(n, _)| *n == key) {
-                Some((_, v)) => v.push(p.ms),
-                None => per_pass.push((key, vec![p.ms])),
-            }
+        let f = oit_gpu::render_frame(
+            ctx,
+            scene,
+            self.technique.as_mut(),
+            &self.targets,
+            &mut self.timer,
+        )?;
+        let wall = start.elapsed().as_secs_f64() * 1e3;
+        if !record {
+            return Ok(());
         }
+        self.wall_ms.push(wall);
+        // The shared opaque pass is not the technique's.
+        let mine = f.timings.passes.iter().filter(|p| p.name != "opaque");
+        self.gpu_ms.push(mine.clone().map(|p| p.ms).sum());
+        let mut sums: BTreeMap<String, f64> = BTreeMap::new();
+        for p in mine {
+            let kind = match p.name.split(' ').next() {
+                Some(k @ ("peel" | "layer" | "under")) => k.to_owned(),
+                _ => p.name.clone(),
+            };
+            *sums.entry(kind).or_default() += p.ms;
+        }
+        for (k, v) in sums {
+            self.kinds.entry(k).or_default().push(v);
+        }
+        self.geometry_passes = f.stats.geometry_passes;
+        Ok(())
     }
-    // Sums over a frame's passes of one kind, median over frames.
-    let passes = per_pass
-        .into_iter()
-        .map(|(n, v)| {
-            let per_frame = v.len() / frames;
-            let sums: Vec<f64> = v.chunks(per_frame.max(1)).map(|c| c.iter().sum()).collect();
-            (n, median(sums))
-        })
-        .collect();
-    Ok(Sample {
-        gpu_ms: median(gpu),
-        wall_ms: median(wall),
-        passes,
-        geometry_passes,
-        bytes: t.memory_bytes(),
-    })
+}
+
+/// What a CPU loop pays per pass at least: one copy-submit-map-wait cycle with nothing else
+/// queued (the same cycle as the peel counters' readback).
+fn round_trip(ctx: &Context) -> f64 {
+    use oit_gpu::wgpu;
+    let size = 1284;
+    let src = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("round trip source"),
+        size,
+        usage: wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let dst = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("round trip readback"),
+        size,
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    let mut times = Vec::new();
+    for _ in 0..51 {
+        let start = std::time::Instant::now();
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        encoder.copy_buffer_to_buffer(&src, 0, &dst, 0, size);
+        ctx.queue.submit([encoder.finish()]);
+        dst.map_async(wgpu::MapMode::Read, .., |_| {});
+        if ctx.wait().is_err() {
+            return f64::NAN;
+        }
+        dst.unmap();
+        times.push(start.elapsed().as_secs_f64() * 1e3);
+    }
+    median(times)
 }
 
 fn dual(passes: PassCount, depth: DepthFormat) -> DualPeelConfig {
@@ -93,6 +108,12 @@ fn dual(passes: PassCount, depth: DepthFormat) -> DualPeelConfig {
         tail: Tail::Drop,
         encoding: DepthEncoding::Window,
     }
+}
+
+fn with(f: impl FnOnce(&mut Options)) -> Options {
+    let mut o = Options::default();
+    f(&mut o);
+    o
 }
 
 fn main() -> anyhow::Result<()> {
@@ -117,54 +138,35 @@ fn main() -> anyhow::Result<()> {
         GpuTimer::new(&ctx).source()
     );
     println!(
-        "scene {name} {size}x{size}, max depth complexity L = {l}, {frames} frames (median)\n"
+        "scene {name} {size}x{size}, max depth complexity L = {l}, {frames} interleaved rounds (median)\n"
     );
 
-    let mut unsorted = oit_gpu::TechniqueSpec::build("unsorted", &oit_sorted::techniques())?;
-    let u = measure(&ctx, &gpu, unsorted.as_mut(), frames)?;
-    println!(
-        "{:58} {:>9} {:>9} {:>6} {:>8}",
-        "technique", "gpu ms", "wall ms", "geom", "B/px"
-    );
-    let row = |label: &str, s: &Sample| {
-        println!(
-            "{label:58} {:9.3} {:9.3} {:6} {:8.1}",
-            s.gpu_ms,
-            s.wall_ms,
-            s.geometry_passes,
-            s.bytes as f64 / pixels
-        );
-    };
-    row("unsorted", &u);
-    let mut results = Vec::new();
-    let runs: Vec<(&str, Box<dyn Technique>)> = vec![
+    let cpu_loop = with(|o| o.termination = Termination::CpuReadbackPerPass);
+    let late = with(|o| o.test_before_shading = false);
+    let full_init = with(|o| o.depth_only_init = false);
+    let babylon = with(|o| {
+        o.test_before_shading = false;
+        o.depth_only_init = false;
+    });
+    let auto32 = dual(PassCount::Auto, DepthFormat::Rg32f);
+    let front = FrontPeelConfig::default();
+    let techniques: Vec<(&'static str, Box<dyn Technique>)> = vec![
         (
-            "front-peel:layers=auto",
-            Box::new(FrontPeel::new(FrontPeelConfig::default())),
+            "unsorted",
+            oit_gpu::TechniqueSpec::build("unsorted", &oit_sorted::techniques())?,
         ),
+        ("front-peel:layers=auto", Box::new(FrontPeel::new(front))),
         (
             "front-peel:layers=auto (shade before test)",
-            Box::new(FrontPeel::with_options(
-                FrontPeelConfig::default(),
-                Options {
-                    test_before_shading: false,
-                    ..Options::default()
-                },
-            )),
+            Box::new(FrontPeel::with_options(front, late)),
         ),
         (
             "front-peel:layers=auto (CPU readback per pass)",
-            Box::new(FrontPeel::with_options(
-                FrontPeelConfig::default(),
-                Options {
-                    termination: Termination::CpuReadbackPerPass,
-                    ..Options::default()
-                },
-            )),
+            Box::new(FrontPeel::with_options(front, cpu_loop)),
         ),
         (
             "dual-peel:passes=auto,depth=rg32f",
-            Box::new(DualPeel::new(dual(PassCount::Auto, DepthFormat::Rg32f))),
+            Box::new(DualPeel::new(auto32)),
         ),
         (
             "dual-peel:passes=auto,depth=rg16f",
@@ -172,44 +174,19 @@ fn main() -> anyhow::Result<()> {
         ),
         (
             "dual-peel:passes=auto,depth=rg32f (shade before test)",
-            Box::new(DualPeel::with_options(
-                dual(PassCount::Auto, DepthFormat::Rg32f),
-                Options {
-                    test_before_shading: false,
-                    ..Options::default()
-                },
-            )),
+            Box::new(DualPeel::with_options(auto32, late)),
         ),
         (
             "dual-peel:passes=auto,depth=rg32f (full-shader init)",
-            Box::new(DualPeel::with_options(
-                dual(PassCount::Auto, DepthFormat::Rg32f),
-                Options {
-                    depth_only_init: false,
-                    ..Options::default()
-                },
-            )),
+            Box::new(DualPeel::with_options(auto32, full_init)),
         ),
         (
-            "dual-peel:passes=auto,depth=rg32f (Babylon: both)",
-            Box::new(DualPeel::with_options(
-                dual(PassCount::Auto, DepthFormat::Rg32f),
-                Options {
-                    depth_only_init: false,
-                    test_before_shading: false,
-                    ..Options::default()
-                },
-            )),
+            "dual-peel:passes=auto,depth=rg32f (both, as Babylon)",
+            Box::new(DualPeel::with_options(auto32, babylon)),
         ),
         (
             "dual-peel:passes=auto,depth=rg32f (CPU readback per pass)",
-            Box::new(DualPeel::with_options(
-                dual(PassCount::Auto, DepthFormat::Rg32f),
-                Options {
-                    termination: Termination::CpuReadbackPerPass,
-                    ..Options::default()
-                },
-            )),
+            Box::new(DualPeel::with_options(auto32, cpu_loop)),
         ),
         (
             "dual-peel:passes=5 (Babylon default)",
@@ -223,55 +200,85 @@ fn main() -> anyhow::Result<()> {
             })),
         ),
     ];
-    for (label, mut t) in runs {
-        let s = measure(&ctx, &gpu, t.as_mut(), frames)?;
-        row(label, &s);
-        results.push((label, s));
+    let mut runs = Vec::new();
+    for (label, technique) in techniques {
+        let mut run = Run {
+            label,
+            technique,
+            targets: Targets::new(&ctx, scene.resolution, ColorFormat::Rgba16Float)?,
+            timer: GpuTimer::new(&ctx),
+            gpu_ms: Vec::new(),
+            wall_ms: Vec::new(),
+            kinds: BTreeMap::new(),
+            geometry_passes: 0,
+        };
+        run.frame(&ctx, &gpu, false)?;
+        runs.push(run);
     }
-    let get = |label: &str| {
-        &results
-            .iter()
-            .find(|(l, _)| *l == label)
-            .expect("measured")
-            .1
-    };
-    let front = get("front-peel:layers=auto");
-    let dualr = get("dual-peel:passes=auto,depth=rg32f");
+    for _ in 0..frames {
+        for run in &mut runs {
+            run.frame(&ctx, &gpu, true)?;
+        }
+    }
+    println!(
+        "{:58} {:>9} {:>9} {:>6} {:>8}",
+        "technique", "gpu ms", "wall ms", "geom", "B/px"
+    );
+    for r in &runs {
+        println!(
+            "{:58} {:9.3} {:9.3} {:6} {:8.1}",
+            r.label,
+            median(r.gpu_ms.clone()),
+            median(r.wall_ms.clone()),
+            r.geometry_passes,
+            r.technique.memory_bytes() as f64 / pixels
+        );
+    }
+    let get = |label: &str| runs.iter().find(|r| r.label == label).expect("measured");
+    let ms = |label: &str| median(get(label).gpu_ms.clone());
+    let wall = |label: &str| median(get(label).wall_ms.clone());
+    let (u, f, d) = (
+        ms("unsorted"),
+        ms("front-peel:layers=auto"),
+        ms("dual-peel:passes=auto,depth=rg32f"),
+    );
     let lf = f64::from(l);
     println!(
         "\nper peeled layer (gpu ms / L): front {:.4} ms = {:.3}x unsorted, dual {:.4} ms = {:.3}x unsorted; dual/front = {:.3}",
-        front.gpu_ms / lf,
-        front.gpu_ms / lf / u.gpu_ms,
-        dualr.gpu_ms / lf,
-        dualr.gpu_ms / lf / u.gpu_ms,
-        dualr.gpu_ms / front.gpu_ms
+        f / lf,
+        f / lf / u,
+        d / lf,
+        d / lf / u,
+        d / f
     );
-    for (label, s) in &results {
-        let interesting: Vec<String> = s
-            .passes
+    for r in &runs {
+        let kinds: Vec<String> = r
+            .kinds
             .iter()
-            .filter(|(n, _)| n != "opaque")
-            .map(|(n, ms)| format!("{n} {ms:.3}"))
+            .map(|(k, v)| format!("{k} {:.3}", median(v.clone())))
             .collect();
-        println!("  {label}: {}", interesting.join(", "));
+        println!("  {}: {}", r.label, kinds.join(", "));
     }
-    let stall = |a: &str, b: &str| {
-        let (x, y) = (get(a), get(b));
+    println!(
+        "\nround trip (copy, submit, map, wait) on an idle queue: {:.3} ms median",
+        round_trip(&ctx)
+    );
+    for (gated, looped) in [
+        (
+            "front-peel:layers=auto",
+            "front-peel:layers=auto (CPU readback per pass)",
+        ),
+        (
+            "dual-peel:passes=auto,depth=rg32f",
+            "dual-peel:passes=auto,depth=rg32f (CPU readback per pass)",
+        ),
+    ] {
+        let (a, b) = (wall(gated), wall(looped));
         println!(
-            "stall: {b}: wall {:.3} ms vs gated {:.3} ms (+{:.3} ms, {:.3} ms per pass)",
-            y.wall_ms,
-            x.wall_ms,
-            y.wall_ms - x.wall_ms,
-            (y.wall_ms - x.wall_ms) / f64::from(y.geometry_passes)
+            "stall: {looped}: wall {b:.3} ms vs gated {a:.3} ms ({:+.3} ms, {:+.3} ms per pass)",
+            b - a,
+            (b - a) / f64::from(get(looped).geometry_passes)
         );
-    };
-    stall(
-        "front-peel:layers=auto",
-        "front-peel:layers=auto (CPU readback per pass)",
-    );
-    stall(
-        "dual-peel:passes=auto,depth=rg32f",
-        "dual-peel:passes=auto,depth=rg32f (CPU readback per pass)",
-    );
+    }
     Ok(())
 }

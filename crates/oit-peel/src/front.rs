@@ -408,6 +408,13 @@ impl Technique for FrontPeel {
             .config
             .clone()
             .map_err(|e| Unsupported::new(e.to_string()))?;
+        // `Caps` does not say which backend it describes, so this check lives here.
+        if ctx.wgpu_adapter_info().backend == wgpu::Backend::Gl {
+            return Err(Unsupported::new(
+                "front-peel reads depth textures in the fragment shader, which wgpu's GL backend cannot translate (textureLoad from depth textures is not supported in GLSL)",
+            )
+            .into());
+        }
         self.resources(ctx, targets, scene.scene.camera.reverse_z)?;
         if self.list.as_ref().is_none_or(|l| l.scene_id != scene.id) {
             self.list_ledger.clear();

@@ -416,4 +416,12 @@ fn gl_backend_falls_back_to_rg16f() {
         e.rmse < 1e-2,
         "rg16f on GL is close to the reference: {e:?}"
     );
+    // front-peel reads depth textures, which naga cannot translate to GLSL: reported, not a crash.
+    let mut front = build("front-peel");
+    let err = oit_gpu::render_frame(&ctx, &gpu, front.as_mut(), &targets, &mut timer)
+        .expect_err("front-peel is unsupported on GL");
+    assert!(
+        matches!(err, oit_gpu::GpuError::Unsupported(_)) && err.to_string().contains("GL"),
+        "{err}"
+    );
 }
