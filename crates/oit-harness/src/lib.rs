@@ -51,7 +51,11 @@ impl HarnessError {
 /// Every technique the project implements, in the order reports list them. `unsorted` comes
 /// first: it is the baseline every cost is divided by.
 pub fn registry() -> Vec<TechniqueInfo> {
-    oit_sorted::techniques()
+    let mut all = oit_sorted::techniques();
+    all.extend(oit_peel::techniques());
+    all.extend(oit_wboit::techniques());
+    all.extend(oit_stochastic::techniques());
+    all
 }
 
 /// Parses a spec against the registry.
@@ -68,12 +72,66 @@ pub fn resolve_specs(texts: &[String]) -> Result<Vec<TechniqueSpec>, HarnessErro
         specs = registry.iter().map(TechniqueInfo::default_spec).collect();
     }
     for text in texts {
-        let spec = TechniqueSpec::parse(text, &registry)?;
-        if !specs.iter().any(|s| s.canonical() == spec.canonical()) {
-            specs.push(spec);
+        for one in expand_sweep(text) {
+            let spec = TechniqueSpec::parse(&one, &registry)?;
+            if !specs.iter().any(|s| s.canonical() == spec.canonical()) {
+                specs.push(spec);
+            }
         }
     }
     Ok(specs)
+}
+
+/// Expands a sweep into single specs, in parameter order: a value list `spp=1,4,16` (a token
+/// without `=` continues the previous key's list) and an integer range `passes=1..8`
+/// (inclusive). Several swept keys give their cartesian product, the first key varying
+/// slowest. Text without sweeps comes back unchanged; validation is left to the spec parser.
+pub fn expand_sweep(text: &str) -> Vec<String> {
+    let Some((name, params)) = text.split_once(':') else {
+        return vec![text.to_owned()];
+    };
+    let mut keys: Vec<(String, Vec<String>)> = Vec::new();
+    for token in params.split(',') {
+        match token.split_once('=') {
+            Some((k, v)) => keys.push((k.to_owned(), vec![v.to_owned()])),
+            None => match keys.last_mut() {
+                Some((_, values)) => values.push(token.to_owned()),
+                // A leading token without `=`: let the parser report it as written.
+                None => return vec![text.to_owned()],
+            },
+        }
+    }
+    for (_, values) in &mut keys {
+        *values = values.iter().flat_map(|v| expand_range(v)).collect();
+    }
+    let mut out = vec![String::new()];
+    for (key, values) in &keys {
+        out = out
+            .iter()
+            .flat_map(|prefix| {
+                values.iter().map(move |v| {
+                    if prefix.is_empty() {
+                        format!("{key}={v}")
+                    } else {
+                        format!("{prefix},{key}={v}")
+                    }
+                })
+            })
+            .collect();
+    }
+    out.into_iter().map(|p| format!("{name}:{p}")).collect()
+}
+
+/// `a..b` with integers a ≤ b and at most 1024 values expands; anything else is kept as is.
+fn expand_range(value: &str) -> Vec<String> {
+    if let Some((a, b)) = value.split_once("..")
+        && let (Ok(a), Ok(b)) = (a.parse::<u64>(), b.parse::<u64>())
+        && a <= b
+        && b - a < 1024
+    {
+        return (a..=b).map(|v| v.to_string()).collect();
+    }
+    vec![value.to_owned()]
 }
 
 /// `oit techniques`: every technique with its parameters and defaults.
@@ -183,6 +241,52 @@ mod tests {
         let specs = resolve_specs(&[]).unwrap();
         assert_eq!(specs.len(), registry().len());
         assert_eq!(specs[0].canonical(), "unsorted");
+    }
+
+    #[test]
+    fn sweeps_expand_lists_ranges_and_products_in_parameter_order() {
+        assert_eq!(expand_sweep("unsorted"), ["unsorted"]);
+        assert_eq!(
+            expand_sweep("stochastic:spp=1,4,16,64"),
+            [
+                "stochastic:spp=1",
+                "stochastic:spp=4",
+                "stochastic:spp=16",
+                "stochastic:spp=64"
+            ]
+        );
+        assert_eq!(
+            expand_sweep("dual-peel:passes=1..3,tail=drop"),
+            [
+                "dual-peel:passes=1,tail=drop",
+                "dual-peel:passes=2,tail=drop",
+                "dual-peel:passes=3,tail=drop"
+            ]
+        );
+        assert_eq!(
+            expand_sweep("x:a=1..2,b=p,q"),
+            ["x:a=1,b=p", "x:a=1,b=q", "x:a=2,b=p", "x:a=2,b=q"]
+        );
+        // Not a range: left for the spec parser to judge.
+        assert_eq!(expand_sweep("x:a=3..1"), ["x:a=3..1"]);
+    }
+
+    #[test]
+    fn a_sweep_resolves_to_one_canonical_spec_per_value() {
+        let specs = resolve_specs(&[
+            "dual-peel:passes=1..8".into(),
+            "stochastic:spp=1,4,16,64".into(),
+        ])
+        .unwrap();
+        assert_eq!(specs.len(), 12);
+        assert_eq!(
+            specs[0].canonical(),
+            "dual-peel:depth=auto,encoding=window,passes=1,reverse-z=on,tail=drop"
+        );
+        assert_eq!(
+            specs[11].canonical(),
+            "stochastic:pattern=blue,seed=object,spp=64"
+        );
     }
 
     #[test]
