@@ -36,8 +36,9 @@ pub(crate) struct SetupTriangle {
     /// Snapped window x, y in 1/256 pixel, y down.
     pub x: [i64; 3],
     pub y: [i64; 3],
-    /// Twice the signed area in sub-pixel units², always > 0 after normalisation.
-    pub area2: i64,
+    /// 1 / (twice the signed area in sub-pixel units², > 0 after normalisation): barycentrics
+    /// then cost a multiply per fragment.
+    pub inv_area2: f64,
     /// Inclusive pixel bounding box (min x, min y, max x, max y), clamped to the viewport.
     pub bbox: [u32; 4],
     /// Window depth per vertex (z_clip / w_clip, f32 as the GPU computes it).
@@ -297,7 +298,7 @@ pub(crate) fn setup_triangle(
         out.push(SetupTriangle {
             x: [a.x, b.x, c.x],
             y: [a.y, b.y, c.y],
-            area2: area,
+            inv_area2: 1.0 / area as f64,
             bbox: [x0, y0, x1, y1],
             z: [a.z, b.z, c.z],
             inv_w: [a.inv_w, b.inv_w, c.inv_w],

@@ -1,0 +1,202 @@
+//! Reference throughput and scaling, the numbers quoted in the README:
+//!
+//! ```text
+//! cargo run --release -p oit-reference --example reference_perf [SCENES_DIR]
+//! ```
+//!
+//! Prints fragments per second on `many-layers-64` and `particles` at 1024×1024, time against
+//! resolution (4 sizes) and against layer count (4 counts, synthetic full-screen layers), the
+//! per-phase times (setup and binning are wall time; raster, sort and composite are summed
+//! over the worker threads) and the peak per-tile storage. Each figure is the best of 3 runs.
+
+use std::path::PathBuf;
+
+use glam::Vec3;
+use oit_reference::{Reference, ReferenceOptions, render};
+use oit_scene::{AlphaMode, Camera, Draw, Material, Projection, Resolution, Scene, Vertex, load};
+
+fn best_of(scene: &Scene, options: &ReferenceOptions, runs: usize) -> Reference {
+    let mut best: Option<Reference> = None;
+    for _ in 0..runs {
+        let r = render(scene, options);
+        if best
+            .as_ref()
+            .is_none_or(|b| r.stats.seconds < b.stats.seconds)
+        {
+            best = Some(r);
+        }
+    }
+    best.expect("at least one run")
+}
+
+fn row(label: &str, r: &Reference) {
+    let s = &r.stats;
+    println!(
+        "{label:<28} {:>9.1} ms {:>12} frags {:>8.1} Mfrag/s | setup {:>6.1} bin {:>6.1} raster {:>7.1} sort {:>7.1} composite {:>7.1} ms | max {:>3} mean {:>6.2} | peak tile {:>9} B",
+        s.seconds * 1e3,
+        s.fragments,
+        s.fragments_per_second / 1e6,
+        s.setup_seconds * 1e3,
+        s.binning_seconds * 1e3,
+        s.raster_seconds * 1e3,
+        s.sort_seconds * 1e3,
+        s.composite_seconds * 1e3,
+        s.max_depth_complexity,
+        s.mean_depth_complexity,
+        s.peak_tile_bytes,
+    );
+}
+
+/// `n` full-screen blended layers with varied colour and alpha, orthographic, 1024².
+fn layers_scene(n: usize, size: u32) -> Scene {
+    let camera = Camera::new(
+        Vec3::new(0.0, 0.0, 10.0),
+        Vec3::ZERO,
+        Vec3::Y,
+        Projection::Orthographic { height: 2.0 },
+        0.5,
+        100.0,
+        true,
+        1.0,
+    );
+    let mut materials = Vec::new();
+    let mut draws = Vec::new();
+    let mut vertices = Vec::new();
+    for i in 0..n {
+        let t = i as f32 / n as f32;
+        materials.push(Material {
+            base_color: [t, 1.0 - t, 0.5],
+            alpha: 0.05 + 0.4 * ((i * 7) % 11) as f32 / 10.0,
+            mode: AlphaMode::Blend,
+            cutoff: 0.5,
+            double_sided: false,
+            premultiplied: false,
+            intensity: 1.0,
+        });
+        let z = -(i as f32) * 0.01;
+        let c = [
+            [-1.5, -1.5],
+            [1.5, -1.5],
+            [1.5, 1.5],
+            [-1.5, -1.5],
+            [1.5, 1.5],
+            [-1.5, 1.5],
+        ];
+        let first = vertices.len() as u32;
+        for [x, y] in c {
+            vertices.push(Vertex {
+                position: [x, y, z],
+                color: [1.0; 4],
+                uv: [0.0; 2],
+            });
+        }
+        draws.push(Draw {
+            id: i as u32,
+            name: format!("layers[{i}]"),
+            material: i as u32,
+            first_vertex: first,
+            vertex_count: 6,
+            render_group: 0,
+            alpha_index: 0,
+            bounds_center: Vec3::new(0.0, 0.0, z),
+            bounds_radius: 2.2,
+        });
+    }
+    Scene {
+        name: format!("layers-{n}"),
+        description: "synthetic full-screen layers".into(),
+        resolution: Resolution {
+            width: size,
+            height: size,
+        },
+        camera,
+        background: [0.1, 0.1, 0.1],
+        materials,
+        draws,
+        vertices,
+    }
+}
+
+fn main() {
+    // Arguments: [SCENES_DIR] [--quick] [--tile N]; --quick stops after the two scenes.
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let quick = args.iter().any(|a| a == "--quick");
+    let tile = args
+        .iter()
+        .position(|a| a == "--tile")
+        .and_then(|i| args.get(i + 1));
+    let tile_size = match tile {
+        Some(t) => t
+            .parse()
+            .unwrap_or_else(|_| panic!("--tile {t}: expected a number of pixels")),
+        None => ReferenceOptions::DEFAULT_TILE_SIZE,
+    };
+    let dir = args
+        .iter()
+        .enumerate()
+        .find(|(i, a)| !a.starts_with("--") && (*i == 0 || args[i - 1] != "--tile"))
+        .map(|(_, a)| PathBuf::from(a))
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes"));
+    let options = ReferenceOptions {
+        tile_size,
+        progress: None,
+    };
+    println!(
+        "oit-reference perf: {} rayon threads, tile {} px, best of 3",
+        rayon::current_num_threads(),
+        options.tile_size
+    );
+    let at = |s: &Scene, n: u32| {
+        s.with_resolution(Resolution {
+            width: n,
+            height: n,
+        })
+    };
+
+    println!("\n== bundled scenes at 1024x1024 ==");
+    for name in ["many-layers-64", "particles"] {
+        match load(&dir.join(format!("{name}.json"))) {
+            Ok(scene) => row(name, &best_of(&at(&scene, 1024), &options, 3)),
+            Err(e) => println!("{name}: cannot load ({e})"),
+        }
+    }
+
+    if quick {
+        return;
+    }
+    println!("\n== time vs resolution ==");
+    for name in ["many-layers-64", "particles"] {
+        if let Ok(scene) = load(&dir.join(format!("{name}.json"))) {
+            for n in [256, 512, 1024, 2048] {
+                row(
+                    &format!("{name} {n}x{n}"),
+                    &best_of(&at(&scene, n), &options, 3),
+                );
+            }
+        }
+    }
+
+    println!("\n== time vs layer count (synthetic full-screen layers, 1024x1024) ==");
+    for n in [8, 32, 128, 512] {
+        row(
+            &format!("layers-{n}"),
+            &best_of(&layers_scene(n, 1024), &options, 3),
+        );
+    }
+
+    println!("\n== tile size (layers-64 and particles, 1024x1024) ==");
+    let particles = load(&dir.join("particles.json")).ok().map(|s| at(&s, 1024));
+    for tile_size in [8, 16, 32, 64, 128] {
+        let o = ReferenceOptions {
+            tile_size,
+            progress: None,
+        };
+        row(
+            &format!("layers-64 tile {tile_size}"),
+            &best_of(&layers_scene(64, 1024), &o, 3),
+        );
+        if let Some(p) = &particles {
+            row(&format!("particles tile {tile_size}"), &best_of(p, &o, 3));
+        }
+    }
+}
