@@ -53,10 +53,9 @@ const PARALLEL_KEYS: usize = 1 << 15;
 /// Reusable scratch for sorting triangles back to front (allocations survive between frames).
 #[derive(Debug, Default, Clone)]
 pub struct DepthSorter {
-    keys: Vec<u32>,
+    packed: Vec<u64>,
+    tmp: Vec<u64>,
     order: Vec<u32>,
-    tmp_keys: Vec<u32>,
-    tmp_order: Vec<u32>,
 }
 
 impl DepthSorter {
@@ -68,73 +67,94 @@ impl DepthSorter {
     /// of the centroid under `view` (a right-handed view matrix, camera looking down −z). Returns
     /// the triangle indices, farthest first. Stable: equal depths keep their input order.
     ///
-    /// Method: one pass computes u32 keys ([`back_to_front_key`], in parallel above 32k
-    /// triangles), then an LSD radix sort of (key, index) pairs, 8 bits per pass, skipping the
-    /// passes where every key has the same byte.
+    /// Method: one pass packs `(key << 32) | index` into u64s ([`back_to_front_key`], in
+    /// parallel above 32k triangles), then an LSD radix sort on the 32 key bits in three passes of
+    /// 11, 11 and 10 bits (one scatter stream per pass; passes where every key has the same digit
+    /// are skipped).
     pub fn sort_back_to_front(&mut self, view: &Mat4, centroids: &[Vec3]) -> &[u32] {
         let n = centroids.len();
+        assert!(n <= u32::MAX as usize, "at most 2^32 triangles");
         // z_view = row 2 of the view matrix · (p, 1).
         let row = view.row(2);
-        let key = |p: &Vec3| back_to_front_key(-(row.x * p.x + row.y * p.y + row.z * p.z + row.w));
-        self.keys.clear();
+        let pack = |(i, p): (usize, &Vec3)| {
+            let key = back_to_front_key(-(row.x * p.x + row.y * p.y + row.z * p.z + row.w));
+            (u64::from(key) << 32) | i as u64
+        };
+        self.packed.clear();
         if n >= PARALLEL_KEYS {
             centroids
                 .par_iter()
-                .map(key)
-                .collect_into_vec(&mut self.keys);
+                .enumerate()
+                .map(pack)
+                .collect_into_vec(&mut self.packed);
         } else {
-            self.keys.extend(centroids.iter().map(key));
+            self.packed.extend(centroids.iter().enumerate().map(pack));
         }
+        radix_sort_high32(&mut self.packed, &mut self.tmp);
         self.order.clear();
-        self.order.extend(0..n as u32);
-        radix_sort_pairs(
-            &mut self.keys,
-            &mut self.order,
-            &mut self.tmp_keys,
-            &mut self.tmp_order,
-        );
+        self.order.extend(self.packed.iter().map(|&p| p as u32));
         &self.order
     }
 }
 
-/// Stable LSD radix sort of `values` by `keys` (ascending), 8 bits per pass. `tmp_*` are scratch.
+/// Stable LSD radix sort of `values` by `keys` (ascending). `tmp_*` are scratch (kept for
+/// callers that reuse them; the sort itself packs pairs into u64).
 pub fn radix_sort_pairs(
     keys: &mut Vec<u32>,
     values: &mut Vec<u32>,
     tmp_keys: &mut Vec<u32>,
     tmp_values: &mut Vec<u32>,
 ) {
-    let n = keys.len();
-    assert_eq!(n, values.len(), "one value per key");
-    let mut hist = [[0usize; 256]; 4];
-    for &k in keys.iter() {
-        for (b, h) in hist.iter_mut().enumerate() {
-            h[((k >> (8 * b)) & 0xff) as usize] += 1;
+    assert_eq!(keys.len(), values.len(), "one value per key");
+    // Pack the position too, so equal (key, value) pairs stay stable and values come back.
+    let mut packed: Vec<u64> = keys
+        .iter()
+        .zip(values.iter())
+        .map(|(&k, &v)| (u64::from(k) << 32) | u64::from(v))
+        .collect();
+    let mut tmp = Vec::new();
+    radix_sort_high32(&mut packed, &mut tmp);
+    tmp_keys.clear();
+    tmp_values.clear();
+    for (k, p) in keys.iter_mut().zip(&packed) {
+        *k = (p >> 32) as u32;
+    }
+    for (v, p) in values.iter_mut().zip(&packed) {
+        *v = *p as u32;
+    }
+}
+
+/// Digit widths of the three passes over the key (bits 32..64 of each element).
+const DIGITS: [(u32, u32); 3] = [(32, 11), (43, 11), (54, 10)];
+
+/// Stable LSD radix sort of u64s by their high 32 bits.
+fn radix_sort_high32(data: &mut Vec<u64>, tmp: &mut Vec<u64>) {
+    let n = data.len();
+    let mut hist = vec![[0usize; 2048]; 3];
+    for &x in data.iter() {
+        for (h, &(shift, bits)) in hist.iter_mut().zip(&DIGITS) {
+            h[((x >> shift) & ((1 << bits) - 1)) as usize] += 1;
         }
     }
-    tmp_keys.resize(n, 0);
-    tmp_values.resize(n, 0);
-    for (b, h) in hist.iter().enumerate() {
-        // Every key has the same byte here: the pass would be the identity permutation.
+    tmp.resize(n, 0);
+    for (h, &(shift, bits)) in hist.iter().zip(&DIGITS) {
+        // Every key has the same digit here: the pass would be the identity permutation.
         if h.contains(&n) {
             continue;
         }
-        let mut offset = [0usize; 256];
+        let mut offset = [0usize; 2048];
         let mut sum = 0;
         for (o, &c) in offset.iter_mut().zip(h) {
             *o = sum;
             sum += c;
         }
-        let shift = 8 * b;
-        for (&k, &v) in keys.iter().zip(values.iter()) {
-            let bucket = ((k >> shift) & 0xff) as usize;
-            let dst = offset[bucket];
-            offset[bucket] += 1;
-            tmp_keys[dst] = k;
-            tmp_values[dst] = v;
+        let mask = (1u64 << bits) - 1;
+        for &x in data.iter() {
+            let d = ((x >> shift) & mask) as usize;
+            tmp[offset[d]] = x;
+            offset[d] += 1;
         }
-        std::mem::swap(keys, tmp_keys);
-        std::mem::swap(values, tmp_values);
+        std::mem::swap(data, tmp);
     }
 }
 
