@@ -97,29 +97,18 @@ impl DepthSorter {
     }
 }
 
-/// Stable LSD radix sort of `values` by `keys` (ascending). `tmp_*` are scratch (kept for
-/// callers that reuse them; the sort itself packs pairs into u64).
-pub fn radix_sort_pairs(
-    keys: &mut Vec<u32>,
-    values: &mut Vec<u32>,
-    tmp_keys: &mut Vec<u32>,
-    tmp_values: &mut Vec<u32>,
-) {
+/// Stable LSD radix sort of `values` by `keys` (ascending): the same sort
+/// [`DepthSorter::sort_back_to_front`] runs, for arbitrary key/value pairs.
+pub fn radix_sort_pairs(keys: &mut [u32], values: &mut [u32]) {
     assert_eq!(keys.len(), values.len(), "one value per key");
-    // Pack the position too, so equal (key, value) pairs stay stable and values come back.
     let mut packed: Vec<u64> = keys
         .iter()
         .zip(values.iter())
         .map(|(&k, &v)| (u64::from(k) << 32) | u64::from(v))
         .collect();
-    let mut tmp = Vec::new();
-    radix_sort_high32(&mut packed, &mut tmp);
-    tmp_keys.clear();
-    tmp_values.clear();
-    for (k, p) in keys.iter_mut().zip(&packed) {
+    radix_sort_high32(&mut packed, &mut Vec::new());
+    for ((k, v), p) in keys.iter_mut().zip(values.iter_mut()).zip(&packed) {
         *k = (p >> 32) as u32;
-    }
-    for (v, p) in values.iter_mut().zip(&packed) {
         *v = *p as u32;
     }
 }
@@ -206,7 +195,7 @@ mod tests {
         let mut expected: Vec<(u32, u32)> = keys.iter().copied().zip(0..).collect();
         expected.sort_by_key(|p| p.0);
         let mut values: Vec<u32> = (0..keys.len() as u32).collect();
-        radix_sort_pairs(&mut keys, &mut values, &mut Vec::new(), &mut Vec::new());
+        radix_sort_pairs(&mut keys, &mut values);
         let got: Vec<(u32, u32)> = keys.into_iter().zip(values).collect();
         assert_eq!(got, expected);
     }
