@@ -528,3 +528,37 @@ fn a2c_coverage_table() {
     }
     println!("{table}");
 }
+
+/// The full-float target works too (frames copy from it, the average is written into it) and
+/// agrees with the half-float one up to half rounding.
+#[test]
+fn rgba32float_target_agrees_with_rgba16float() {
+    let Some(ctx) = context_or_skip("rgba32float_target_agrees_with_rgba16float") else {
+        return;
+    };
+    if ctx
+        .caps
+        .require_target(wgpu::TextureFormat::Rgba32Float, true)
+        .is_err()
+    {
+        eprintln!("skipped: no blendable Rgba32Float target on this adapter");
+        return;
+    }
+    let scene = scene_named("intersecting-quads", RES);
+    let gpu_scene = GpuScene::upload(&ctx, &scene).expect("upload");
+    let mut timer = GpuTimer::new(&ctx);
+    let mut images = Vec::new();
+    for format in [ColorFormat::Rgba16Float, ColorFormat::Rgba32Float] {
+        let targets = Targets::new(&ctx, RES, format).expect("targets");
+        let mut t = build("stochastic:pattern=blue,spp=4");
+        render_frame(&ctx, &gpu_scene, t.as_mut(), &targets, &mut timer).expect("render");
+        images.push(read_color(&ctx, &targets).expect("readback"));
+    }
+    let max = images[0]
+        .pixels
+        .iter()
+        .zip(&images[1].pixels)
+        .flat_map(|(a, b)| (0..3).map(move |c| (a[c] - b[c]).abs()))
+        .fold(0.0f32, f32::max);
+    assert!(max < 2e-3, "max difference {max}");
+}
