@@ -13,7 +13,7 @@ struct Dither {
     pattern: u32,
     // 0 none (same pattern on every layer), 1 per object, 2 per primitive.
     seed_mode: u32,
-    // Side of the threshold table (tiled patterns).
+    // Side of the threshold table (tiled patterns; a power of two).
     tile: u32,
     // Frame index within the average (white and hashed hash it in).
     frame: u32,
@@ -106,8 +106,11 @@ fn vs_stochastic(
 // then converges to a biased value. Frame 0 is the plain pattern.
 fn tiled_threshold(pixel: vec2<u32>, seed: u32) -> f32 {
     let t = dither.tile;
+    // Tiles are powers of two: a mask instead of `%` (integer division is slow on CPU
+    // rasterizers, where it is not vectorized).
+    let mask = vec2<u32>(t - 1u);
     let seed_shift = vec2<u32>(seed & 0xffffu, seed >> 16u);
-    let q = (pixel % vec2<u32>(t) + seed_shift % vec2<u32>(t) + dither.frame_offset) % vec2<u32>(t);
+    let q = (pixel + seed_shift + dither.frame_offset) & mask;
     var rotation = dither.rotation;
     if dither.seed_mode != SEED_NONE && dither.frame > 0u {
         rotation = unit(pcg(seed ^ pcg(dither.frame + 0x632be5abu)));

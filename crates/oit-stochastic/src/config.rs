@@ -38,6 +38,7 @@ impl Pattern {
     }
 
     /// Side of the threshold table a tiled pattern reads (`None` for procedural patterns).
+    /// Always a power of two: the shader wraps coordinates with a mask.
     pub fn tile(self) -> Option<u32> {
         match self {
             Pattern::Blue => Some(crate::pattern::BLUE_NOISE_SIDE as u32),

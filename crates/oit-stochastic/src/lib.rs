@@ -97,6 +97,15 @@ mod tests {
     }
 
     #[test]
+    fn tiles_are_powers_of_two() {
+        for p in Pattern::ALL {
+            if let Some(t) = p.tile() {
+                assert!(t.is_power_of_two(), "{}: tile {t}", p.name());
+            }
+        }
+    }
+
+    #[test]
     fn hand_built_bad_specs_are_errors_not_panics() {
         let mut spec = TechniqueSpec::parse("stochastic", &techniques()).unwrap();
         spec.params.insert("spp".into(), "0".into());
