@@ -9,7 +9,8 @@ struct WboitParams {
     // 1 when window depth 1 is near (then the paper's depth d = 1 - window z).
     reverse_z: u32,
     ortho: u32,
-    pad: u32,
+    // The `range` weight's fall in bits.
+    range_fall: f32,
     // Projection terms for wboit_view_distance.
     proj_a: f32,
     proj_b: f32,
@@ -57,7 +58,7 @@ fn weight(kind: u32, z: f32, d: f32, alpha: f32) -> f32 {
             return clamp(cube(a) * 1e8 * cube(b), 1e-2, 3e2);
         }
         default: {
-            return wboit_weight_range(z, alpha, params.z_near, params.z_far);
+            return wboit_weight_range(z, alpha, params.z_near, params.z_far, params.range_fall);
         }
     }
 }

@@ -21,7 +21,7 @@ struct CompositeParams {
 // Guard counter slots (oit_wboit::GuardCounts reads them in this order).
 const G_PIXELS: u32 = 0u;
 const G_COVERED: u32 = 1u;
-const G_ACCUM_NONFINITE: u32 = 2u;
+const G_ACCUM_OVERFLOW: u32 = 2u;
 const G_ZERO_WEIGHT: u32 = 3u;
 const G_AVERAGE_CLAMPED: u32 = 4u;
 const G_REVEAL_CLAMPED: u32 = 5u;
@@ -45,6 +45,10 @@ fn is_nan(x: f32) -> bool {
     return non_finite(x) && (bitcast<u32>(x) & 0x007fffffu) != 0u;
 }
 
+fn overflowed(x: f32) -> bool {
+    return non_finite(x) || abs(x) >= params.accum_max;
+}
+
 // +Inf -> accum_max, NaN and -Inf -> 0.
 fn finite_or(x: f32) -> f32 {
     if !non_finite(x) {
@@ -63,8 +67,10 @@ fn fs_composite(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32
     let r = textureLoad(reveal_tex, xy, 0).r;
     atomicAdd(&guards[G_PIXELS], 1u);
 
-    if non_finite(acc.r) || non_finite(acc.g) || non_finite(acc.b) || non_finite(acc.a) {
-        atomicAdd(&guards[G_ACCUM_NONFINITE], 1u);
+    // Overflow shows as Inf (IEEE blending) or as the format's largest finite value (blenders
+    // that saturate, as lavapipe does for fp16); both are counted.
+    if overflowed(acc.r) || overflowed(acc.g) || overflowed(acc.b) || overflowed(acc.a) {
+        atomicAdd(&guards[G_ACCUM_OVERFLOW], 1u);
         acc = vec4<f32>(finite_or(acc.r), finite_or(acc.g), finite_or(acc.b), finite_or(acc.a));
     }
 

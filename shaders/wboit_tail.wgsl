@@ -4,10 +4,12 @@
 // file). It has no bindings and no includes; a pass appends it to its own source. Scene-dependent
 // values come either as function arguments or as the pipeline-overridable constants below.
 
-// The transparent depth interval [near, far] of the `range` weight as view distances, for callers
-// that use `wboit_weight_default` (set them with oit_wboit::tail::pipeline_constants(scene)).
+// The `range` weight's scene inputs (oit_wboit::RangeParams), for callers that use
+// `wboit_weight_default`: the transparent depth interval [near, far] as view distances and the
+// fall in bits. Set them with oit_wboit::tail::pipeline_constants(scene).
 override wboit_z_near: f32 = 0.1;
 override wboit_z_far: f32 = 1000.0;
+override wboit_range_fall: f32 = 8.0;
 // The projection terms that turn window depth back into view distance (see
 // `wboit_view_distance`); the defaults are a standard perspective with near 0.1, far 1000.
 override wboit_proj_a: f32 = -1.0001;
@@ -16,8 +18,8 @@ override wboit_ortho: bool = false;
 
 // Largest `range` weight: 2^8, so 255 layers of alpha 1 and colour 1 still fit in fp16 (65504).
 const WBOIT_RANGE_MAX: f32 = 256.0;
-// Doublings the `range` weight falls across the interval (nearest 256, farthest 256 / 2^K).
-const WBOIT_RANGE_FALL: f32 = 8.0;
+// Largest fall (bits): the smallest weight 256 * 2^-12 keeps alpha = 1/512 terms normal in fp16.
+const WBOIT_RANGE_MAX_FALL: f32 = 12.0;
 
 // View distance (positive, along the view axis) of a fragment from its window depth, for the
 // f32 projection matrix `proj` of the camera: a = proj[2][2], b = proj[3][2]. Perspective
@@ -34,24 +36,24 @@ fn wboit_view_distance_default(window_z: f32) -> f32 {
     return wboit_view_distance(window_z, wboit_proj_a, wboit_proj_b, wboit_ortho);
 }
 
-// The `range` weight: t is the fragment's position in the transparent interval on a log scale
-// (0 at the near end, 1 at the far end) and w = alpha * 256 * 2^(-8 t). A log scale gives every
-// decade of a huge interval the same share of the curve; 256 keeps fp16 sums finite for 255
-// opaque layers and 1 = 256 / 2^8 keeps alpha = 1/512 contributions (2e-3) normal in fp16.
-fn wboit_weight_range(view_z: f32, alpha: f32, z_near: f32, z_far: f32) -> f32 {
-    let lo = log2(max(z_near, 1e-30));
-    let span = log2(max(z_far, z_near)) - lo;
+// The `range` weight: an estimate of the transmittance in front of the fragment. t is the
+// fragment's position in the transparent interval (0 at the near end, 1 at the far end) and
+// `fall` the absorbance in bits the scene puts in front of its farthest fragments (see
+// oit_wboit::RangeParams), assumed spread evenly over the interval:
+// w = alpha * 256 * 2^(-fall * t), fall clamped to [0, 12].
+fn wboit_weight_range(view_z: f32, alpha: f32, z_near: f32, z_far: f32, fall: f32) -> f32 {
+    let span = z_far - z_near;
     var t = 0.0;
-    if span > 1e-6 {
-        t = clamp((log2(max(view_z, 1e-30)) - lo) / span, 0.0, 1.0);
+    if span > 0.0 {
+        t = clamp((view_z - z_near) / span, 0.0, 1.0);
     }
-    return alpha * WBOIT_RANGE_MAX * exp2(-WBOIT_RANGE_FALL * t);
+    return alpha * WBOIT_RANGE_MAX * exp2(-clamp(fall, 0.0, WBOIT_RANGE_MAX_FALL) * t);
 }
 
-// The default weight (the `range` weight over [wboit_z_near, wboit_z_far]). `window_z` is
+// The default weight (the `range` weight with the overridable constants). `window_z` is
 // unused by this weight; it is in the signature so the default can change without callers.
 fn wboit_weight_default(view_z: f32, window_z: f32, alpha: f32) -> f32 {
-    return wboit_weight_range(view_z, alpha, wboit_z_near, wboit_z_far);
+    return wboit_weight_range(view_z, alpha, wboit_z_near, wboit_z_far, wboit_range_fall);
 }
 
 // The two accumulation outputs of one fragment: location 0 (additive) gets

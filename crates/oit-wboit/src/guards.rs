@@ -11,9 +11,10 @@ pub struct GuardCounts {
     pub pixels: u32,
     /// Pixels with transparent coverage (revealage below 1).
     pub covered: u32,
-    /// An accumulation channel was Inf or NaN (fp16/fp32 overflow of Σ C·w or Σ α·w); each
-    /// such channel was replaced with the format's largest finite value (NaN and −Inf by 0).
-    pub accum_nonfinite: u32,
+    /// An accumulation channel overflowed (Σ C·w or Σ α·w beyond the format): Inf or NaN, or
+    /// exactly the format's largest finite value (lavapipe saturates fp16 blends at 65504
+    /// instead of producing Inf). Inf became the largest finite value, NaN and −Inf 0.
+    pub accum_overflow: u32,
     /// Covered, but Σ α·w was zero (every weight underflowed, or α = 0 with coverage from
     /// rounding): the average colour was set to black instead of dividing by zero.
     pub zero_weight: u32,
@@ -37,7 +38,7 @@ impl GuardCounts {
         GuardCounts {
             pixels: w(0),
             covered: w(1),
-            accum_nonfinite: w(2),
+            accum_overflow: w(2),
             zero_weight: w(3),
             average_clamped: w(4),
             reveal_clamped: w(5),
@@ -49,7 +50,7 @@ impl GuardCounts {
     /// Pixels where a guard changed the output (the informational `covered`, `pixels` and
     /// `opaque` excluded).
     pub fn fired(&self) -> u32 {
-        self.accum_nonfinite + self.zero_weight + self.average_clamped + self.reveal_clamped
+        self.accum_overflow + self.zero_weight + self.average_clamped + self.reveal_clamped
     }
 }
 
@@ -57,10 +58,10 @@ impl std::fmt::Display for GuardCounts {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "pixels {} covered {} accum_nonfinite {} zero_weight {} average_clamped {} reveal_clamped {} reveal_lost {} opaque {}",
+            "pixels {} covered {} accum_overflow {} zero_weight {} average_clamped {} reveal_clamped {} reveal_lost {} opaque {}",
             self.pixels,
             self.covered,
-            self.accum_nonfinite,
+            self.accum_overflow,
             self.zero_weight,
             self.average_clamped,
             self.reveal_clamped,
@@ -78,7 +79,7 @@ mod tests {
     fn slots_in_shader_order() {
         let g = GuardCounts::from_slots(&[1, 2, 3, 4, 5, 6, 7, 8]);
         assert_eq!(
-            (g.pixels, g.covered, g.accum_nonfinite, g.zero_weight),
+            (g.pixels, g.covered, g.accum_overflow, g.zero_weight),
             (1, 2, 3, 4)
         );
         assert_eq!(

@@ -12,10 +12,12 @@
 //! - [`tail`]: the WGSL, targets and composite that dual depth peeling's `tail=wboit` reuses.
 
 mod guards;
+pub mod range;
 pub mod tail;
 mod technique;
 
 pub use guards::{GUARD_SLOTS, GuardCounts};
+pub use range::RangeParams;
 pub use technique::{ACCUM_WGSL, Config, Wboit, Weight};
 
 use oit_gpu::{Allowed, ParamInfo, TechniqueInfo};
@@ -29,7 +31,7 @@ pub fn techniques() -> Vec<TechniqueInfo> {
             params: vec![
                 ParamInfo {
                     key: "weight",
-                    description: "depth weight: const (1), alpha, the paper's eq7-eq10, mcguire2015 (the 1e8 form), range (ours: log-depth over the scene's transparent interval, fp16-bounded)",
+                    description: "depth weight: const (1), alpha, the paper's eq7-eq10, mcguire2015 (the 1e8 form), range (ours: estimated transmittance from the scene's transparent depth interval and mean absorbance, fp16-bounded)",
                     default: "range",
                     allowed: Allowed::Values(Weight::NAMES),
                 },

@@ -13,6 +13,7 @@
 //! 3. calls [`composite`] once after the last accumulation pass.
 
 use crate::guards::{GUARD_SLOTS, GuardCounts};
+use crate::range::RangeParams;
 use oit_gpu::wgpu;
 use oit_gpu::{Context, GpuError, GpuTimer, MemoryLedger, Targets, Unsupported};
 use oit_scene::{Camera, Projection, Resolution, Scene};
@@ -21,9 +22,10 @@ use std::sync::Mutex;
 /// WGSL with no bindings and no includes (shaders/wboit_tail.wgsl). It defines:
 ///
 /// - `fn wboit_weight_default(view_z: f32, window_z: f32, alpha: f32) -> f32`: the `range`
-///   weight over the interval in the override constants `wboit_z_near`, `wboit_z_far`;
-/// - `fn wboit_weight_range(view_z, alpha, z_near, z_far) -> f32`: the same with the interval
-///   passed explicitly;
+///   weight with the scene inputs in the override constants `wboit_z_near`, `wboit_z_far`,
+///   `wboit_range_fall` (defaults 0.1, 1000, 8);
+/// - `fn wboit_weight_range(view_z, alpha, z_near, z_far, fall) -> f32`: the same with the
+///   inputs passed explicitly ([`RangeParams`]);
 /// - `fn wboit_view_distance(window_z, a, b, ortho: bool) -> f32` and
 ///   `fn wboit_view_distance_default(window_z) -> f32` (overrides `wboit_proj_a`,
 ///   `wboit_proj_b`, `wboit_ortho`): the positive view distance from window depth;
@@ -32,7 +34,7 @@ use std::sync::Mutex;
 pub const WGSL: &str = include_str!("../../../shaders/wboit_tail.wgsl");
 
 /// The composite pass (shaders/wboit_composite.wgsl).
-pub(crate) const COMPOSITE_WGSL: &str = include_str!("../../../shaders/wboit_composite.wgsl");
+pub const COMPOSITE_WGSL: &str = include_str!("../../../shaders/wboit_composite.wgsl");
 
 /// Accumulation target format: (premultiplied colour · w, α · w), additive.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -236,7 +238,8 @@ impl AccumTargets {
                     format,
                     usage: wgpu::TextureUsages::RENDER_ATTACHMENT
                         | wgpu::TextureUsages::TEXTURE_BINDING
-                        | wgpu::TextureUsages::COPY_SRC,
+                        | wgpu::TextureUsages::COPY_SRC
+                        | wgpu::TextureUsages::COPY_DST,
                     view_formats: &[],
                 },
             )
@@ -623,43 +626,116 @@ pub fn view_distance(camera: &Camera, window_z: f32) -> f32 {
     }
 }
 
-/// The view-distance interval `[near, far]` covered by the scene's transparent draws: the
-/// union of their bounding spheres along the view axis, clipped to the camera's near and far
-/// planes (the whole frustum when there are none). This is what the `range` weight spreads
-/// its curve over.
-pub fn transparent_depth_interval(scene: &Scene) -> (f32, f32) {
-    let cam = &scene.camera;
-    let mut lo = f32::INFINITY;
-    let mut hi = f32::NEG_INFINITY;
-    for d in &scene.draws {
-        if !scene.material_of(d).mode.is_transparent() || d.vertex_count == 0 {
-            continue;
-        }
-        let dist = -(cam.view.transform_point3(d.bounds_center)).z;
-        lo = lo.min(dist - d.bounds_radius);
-        hi = hi.max(dist + d.bounds_radius);
-    }
-    let near = cam.near.max(f32::MIN_POSITIVE);
-    let far = cam.far.max(near);
-    if lo > hi {
-        return (near, far);
-    }
-    let lo = lo.clamp(near, far);
-    let hi = hi.clamp(lo, far);
-    (lo, hi)
-}
-
 /// The override constants of [`WGSL`] for `scene` (its transparent depth interval and
-/// projection), for `wgpu::PipelineCompilationOptions::constants` of a pass that uses
+/// projection, see [`RangeParams`]), for `wgpu::PipelineCompilationOptions::constants` of a pass that uses
 /// `wboit_weight_default` / `wboit_view_distance_default`.
 pub fn pipeline_constants(scene: &Scene) -> Vec<(&'static str, f64)> {
-    let (lo, hi) = transparent_depth_interval(scene);
+    let range = RangeParams::of(scene);
     let (a, b, ortho) = view_depth_terms(&scene.camera);
     vec![
-        ("wboit_z_near", f64::from(lo)),
-        ("wboit_z_far", f64::from(hi)),
+        ("wboit_z_near", f64::from(range.z_near)),
+        ("wboit_z_far", f64::from(range.z_far)),
+        ("wboit_range_fall", f64::from(range.fall)),
         ("wboit_proj_a", f64::from(a)),
         ("wboit_proj_b", f64::from(b)),
         ("wboit_ortho", if ortho { 1.0 } else { 0.0 }),
     ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    /// `view_distance` inverts the camera's own projection for every projection kind.
+    #[test]
+    fn view_distance_round_trips_through_the_projection() {
+        for (projection, reverse_z) in [
+            (
+                Projection::Perspective {
+                    fov_y_degrees: 45.0,
+                },
+                true,
+            ),
+            (
+                Projection::Perspective {
+                    fov_y_degrees: 60.0,
+                },
+                false,
+            ),
+            (Projection::Orthographic { height: 4.0 }, true),
+            (Projection::Orthographic { height: 4.0 }, false),
+        ] {
+            let cam = Camera::new(
+                Vec3::new(1.0, 2.0, 5.0),
+                Vec3::ZERO,
+                Vec3::Y,
+                projection,
+                0.1,
+                100.0,
+                reverse_z,
+                1.5,
+            );
+            let forward = (cam.target - cam.eye).normalize();
+            let side = forward.cross(Vec3::Y).normalize();
+            for dist in [0.2f32, 1.0, 5.0, 30.0, 90.0] {
+                let clip = cam.clip(cam.eye + forward * dist + side * 0.1);
+                let window_z = clip.z / clip.w;
+                let back = view_distance(&cam, window_z);
+                assert!(
+                    (back - dist).abs() <= 2e-3 * dist.max(1.0),
+                    "{projection:?} reverse_z={reverse_z}: {dist} -> z {window_z} -> {back}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn formats_and_names() {
+        for n in AccumFormat::NAMES {
+            assert_eq!(AccumFormat::parse(n).map(AccumFormat::name), Some(*n));
+        }
+        for n in RevealFormat::NAMES {
+            assert_eq!(RevealFormat::parse(n).map(RevealFormat::name), Some(*n));
+        }
+        assert_eq!(AccumFormat::parse("rgba8"), None);
+        assert_eq!(
+            DEFAULT_ACCUM.texture_format().block_copy_size(None),
+            Some(8)
+        );
+        assert_eq!(
+            DEFAULT_REVEAL.texture_format().block_copy_size(None),
+            Some(2)
+        );
+    }
+
+    #[test]
+    fn the_tail_wgsl_stands_alone_and_composes() {
+        // No bindings or includes of its own, so a peel shader can append it.
+        assert!(!WGSL.contains("@group") && !WGSL.contains("#include"));
+        for name in [
+            "fn wboit_weight_default(view_z: f32, window_z: f32, alpha: f32) -> f32",
+            "fn wboit_accumulate(premultiplied: vec3<f32>, alpha: f32, weight: f32) -> WboitAccum",
+            "fn wboit_view_distance_default(window_z: f32) -> f32",
+        ] {
+            assert!(WGSL.contains(name), "{name}");
+        }
+        let constants = [
+            "wboit_z_near",
+            "wboit_z_far",
+            "wboit_range_fall",
+            "wboit_proj_a",
+            "wboit_proj_b",
+            "wboit_ortho",
+        ];
+        for c in constants {
+            assert!(WGSL.contains(&format!("override {c}:")), "{c}");
+        }
+        assert!(
+            crate::range::MAX_WEIGHT == 256.0 && WGSL.contains("WBOIT_RANGE_MAX: f32 = 256.0;")
+        );
+        assert!(
+            crate::range::MAX_FALL == 12.0 && WGSL.contains("WBOIT_RANGE_MAX_FALL: f32 = 12.0;")
+        );
+    }
 }

@@ -2,10 +2,8 @@
 //! draws, then the shared guarded composite of [`crate::tail`].
 
 use crate::guards::GuardCounts;
-use crate::tail::{
-    self, AccumFormat, AccumTargets, CompositeMode, RevealFormat, transparent_depth_interval,
-    view_depth_terms,
-};
+use crate::range::RangeParams;
+use crate::tail::{self, AccumFormat, AccumTargets, CompositeMode, RevealFormat, view_depth_terms};
 use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, RenderStats, Targets, Technique,
@@ -33,9 +31,11 @@ pub enum Weight {
     Eq10,
     /// McGuire 2015: a = 8·min(1, α) + 0.01, b = 1 − 0.95·d, w = clamp(a³·1e8·b³, 1e-2, 3e2).
     McGuire2015,
-    /// Ours: t = log-position of z in the scene's transparent depth interval (0 near end, 1
-    /// far end, from the transparent draws' bounding spheres), w = α·256·2^(−8t). Bounded to
-    /// [α, 256α] so fp16 neither overflows (255 opaque layers) nor goes denormal (α = 1/512).
+    /// Ours: an estimate of the transmittance in front of the fragment, w = α·256·2^(−fall·t),
+    /// t = position of z in the scene's transparent depth interval (0 near end, 1 far end),
+    /// fall = the scene's mean absorbance in bits in front of its farthest fragments, in
+    /// [0, 12] ([`RangeParams`]). Bounded to [α/16, 256α]: fp16 neither overflows (255 opaque
+    /// layers) nor goes denormal (α = 1/512).
     Range,
 }
 
@@ -78,7 +78,7 @@ impl Weight {
     }
 
     /// CPU twin of the shader's `weight` (for tests and documentation tables).
-    pub fn eval(self, z: f32, d: f32, alpha: f32, interval: (f32, f32)) -> f32 {
+    pub fn eval(self, z: f32, d: f32, alpha: f32, range: &RangeParams) -> f32 {
         let cube = |x: f32| x * x * x;
         match self {
             Weight::Const => 1.0,
@@ -98,17 +98,7 @@ impl Weight {
                 let b = 1.0 - 0.95 * d;
                 (cube(a) * 1e8 * cube(b)).clamp(1e-2, 3e2)
             }
-            Weight::Range => {
-                let (near, far) = interval;
-                let lo = near.max(1e-30).log2();
-                let span = far.max(near).log2() - lo;
-                let t = if span > 1e-6 {
-                    ((z.max(1e-30).log2() - lo) / span).clamp(0.0, 1.0)
-                } else {
-                    0.0
-                };
-                alpha * 256.0 * (-8.0 * t).exp2()
-            }
+            Weight::Range => range.weight(z, alpha),
         }
     }
 }
@@ -208,6 +198,8 @@ pub struct Wboit {
     accum: Option<AccumTargets>,
     pipelines: Option<Pipelines>,
     params: Option<(wgpu::Buffer, wgpu::BindGroupLayout, wgpu::BindGroup)>,
+    /// `range` inputs of the last scene (by `GpuScene::id`): computed once per scene.
+    range: Option<(u64, RangeParams)>,
     ledger: MemoryLedger,
 }
 
@@ -218,6 +210,7 @@ impl Wboit {
             accum: None,
             pipelines: None,
             params: None,
+            range: None,
             ledger: MemoryLedger::new(),
         }
     }
@@ -235,6 +228,18 @@ impl Wboit {
     /// The accumulation targets (after the first frame), e.g. to read them back in tests.
     pub fn accum_targets(&self) -> Option<&AccumTargets> {
         self.accum.as_ref()
+    }
+
+    /// The `range` weight's inputs for `scene` (cached per uploaded scene).
+    fn range(&mut self, scene: &GpuScene) -> RangeParams {
+        match self.range {
+            Some((id, r)) if id == scene.id => r,
+            _ => {
+                let r = RangeParams::of(&scene.scene);
+                self.range = Some((scene.id, r));
+                r
+            }
+        }
     }
 
     fn ensure(&mut self, ctx: &Context, scene: &GpuScene) -> Result<(), GpuError> {
@@ -403,7 +408,7 @@ impl Technique for Wboit {
         self.ensure(ctx, scene)?;
         let s = &scene.scene;
         let (a, b, ortho) = view_depth_terms(&s.camera);
-        let (z_near, z_far) = transparent_depth_interval(s);
+        let range = self.range(scene);
         let weight = match self.config {
             Config::Weighted { weight, .. } => weight.index(),
             Config::Average => Weight::Const.index(),
@@ -412,11 +417,11 @@ impl Technique for Wboit {
             weight,
             u32::from(s.camera.reverse_z),
             u32::from(ortho),
-            0,
+            range.fall.to_bits(),
             a.to_bits(),
             b.to_bits(),
-            z_near.to_bits(),
-            z_far.to_bits(),
+            range.z_near.to_bits(),
+            range.z_far.to_bits(),
         ];
         let (params, _, group) = self.params.as_ref().expect("params built in ensure");
         ctx.queue
@@ -468,5 +473,42 @@ impl Technique for Wboit {
 
     fn memory_bytes(&self) -> u64 {
         self.ledger.total() + self.accum.as_ref().map_or(0, AccumTargets::memory_bytes)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The clamp crossings of the paper's weights as tabulated in the anchors (computed there
+    /// independently): eq7 caps below z = 0.29 and floors above 158, eq8 1.49 and 100, eq9
+    /// floors above 263; the 1e8 form sits at its 3e2 cap for α = 0.1 at every depth.
+    #[test]
+    fn paper_weights_cross_their_clamps_where_tabulated() {
+        let r = RangeParams {
+            z_near: 1.0,
+            z_far: 2.0,
+            fall: 1.0,
+        };
+        let w = |weight: Weight, z: f32| weight.eval(z, 0.5, 1.0, &r);
+        assert_eq!(w(Weight::Eq7, 0.28), 3e3);
+        assert!(w(Weight::Eq7, 0.30) < 3e3);
+        assert!(w(Weight::Eq7, 157.0) > 1e-2);
+        assert_eq!(w(Weight::Eq7, 159.0), 1e-2);
+        assert_eq!(w(Weight::Eq8, 1.48), 3e3);
+        assert!(w(Weight::Eq8, 1.50) < 3e3);
+        assert!(w(Weight::Eq8, 99.0) > 1e-2);
+        assert_eq!(w(Weight::Eq8, 101.0), 1e-2);
+        assert!(w(Weight::Eq9, 262.0) > 1e-2);
+        assert_eq!(w(Weight::Eq9, 264.0), 1e-2);
+        for d in [0.0, 0.5, 0.99, 1.0] {
+            assert_eq!(Weight::McGuire2015.eval(1.0, d, 0.1, &r), 3e2, "d = {d}");
+        }
+        // Eq. 10 on window depth: 3e3 at the near plane, the 1e-2 floor at the far plane.
+        assert_eq!(Weight::Eq10.eval(1.0, 0.0, 1.0, &r), 3e3);
+        assert_eq!(Weight::Eq10.eval(1.0, 1.0, 1.0, &r), 1e-2);
+        assert_eq!(Weight::Const.eval(7.0, 0.3, 0.2, &r), 1.0);
+        assert_eq!(Weight::Alpha.eval(7.0, 0.3, 0.2, &r), 0.2);
+        assert_eq!(Weight::Range.eval(2.0, 0.3, 1.0, &r), 128.0);
     }
 }
