@@ -293,8 +293,8 @@ pub(crate) fn setup_triangle(
             continue;
         };
         let color = [a.color, b.color, c.color];
-        let constant = (color[0] == color[1] && color[0] == color[2])
-            .then(|| material.shade(color[0]));
+        let constant =
+            (color[0] == color[1] && color[0] == color[2]).then(|| material.shade(color[0]));
         // Every fragment would be discarded by the cutoff: nothing to rasterize or count.
         if constant == Some(Shaded::Discarded) {
             continue;

@@ -193,3 +193,67 @@ fn depth_stays_in_range_and_layers_sort_near_the_near_plane() {
         assert!(r.layers.iter().all(|&l| (2..=3).contains(&l)));
     }
 }
+
+#[test]
+fn guard_band_clipped_giant_quads_stay_watertight() {
+    // Corners a million units out (NDC ±1e6, far beyond the 2^21-pixel guard band): every
+    // triangle is cut by the band, yet the shared diagonals must still cover each pixel once.
+    for (size, far_out) in [(128u32, 1.0e6f32), (96, 3.7e5)] {
+        let mut b = SceneBuilder::new(size, size);
+        b.quad(
+            blend([1.0; 3], 0.5),
+            rect(-far_out, -far_out * 0.7, far_out * 1.3, far_out, -1.0),
+            white(),
+        );
+        // A second, rotated giant quad split the other way.
+        let q = [
+            Vec3::new(0.0, -far_out, -2.0),
+            Vec3::new(far_out, 0.1, -2.0),
+            Vec3::new(0.0, far_out, -2.0),
+            Vec3::new(-far_out, -0.1, -2.0),
+        ];
+        b.triangles(
+            blend([1.0; 3], 0.5),
+            &[[q[0], q[1], q[3]], [q[1], q[2], q[3]]],
+            white(),
+        );
+        let r = render(&b.build(), &ReferenceOptions::default());
+        assert_all_finite(&r.image);
+        assert!(
+            r.fragments.iter().all(|&f| f == 2),
+            "size {size}: each giant quad once per pixel"
+        );
+    }
+}
+
+mod fuzz {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn point() -> impl Strategy<Value = Vec3> {
+        // Around the eye, including behind it, on its plane (w = 0) and very far away.
+        let c = prop_oneof![-3.0f32..3.0, Just(0.0f32), -1e5f32..1e5];
+        (c.clone(), c.clone(), c).prop_map(|(x, y, z)| Vec3::new(x, y, z))
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+
+        #[test]
+        fn triangles_around_the_eye_never_produce_nan(
+            tris in prop::collection::vec(prop::array::uniform3(point()), 1..6),
+            reverse_z in any::<bool>(),
+        ) {
+            let mut b = SceneBuilder::new(64, 64).camera(camera(reverse_z));
+            b.triangles(double_sided(blend([0.5, 0.7, 0.9], 0.5)), &tris, white());
+            b.triangles(double_sided(opaque([0.2, 0.1, 0.0])), &tris[..1], white());
+            let r = render(&b.build(), &ReferenceOptions::default());
+            for p in &r.image.pixels {
+                prop_assert!(p.iter().all(|c| c.is_finite()), "{p:?}");
+            }
+            // Double-sided, non-overlapping fan pieces: at most one fragment per triangle.
+            let max = tris.len() as u32 + 1;
+            prop_assert!(r.fragments.iter().all(|&f| f <= max));
+        }
+    }
+}
