@@ -2,7 +2,9 @@
 // (oit-stochastic `a2c:`): the fragment runs once per pixel and writes all covered samples.
 
 @group(0) @binding(0) var opaque_color: texture_2d<f32>;
-@group(0) @binding(1) var opaque_depth: texture_depth_2d;
+// Depth32Float bound as an unfilterable float texture (WebGPU allows it): GLSL, for the GL
+// backend, has no texelFetch of depth (shadow) textures.
+@group(0) @binding(1) var opaque_depth: texture_2d<f32>;
 
 struct SeedOut {
     @location(0) color: vec4<f32>,
@@ -22,6 +24,6 @@ fn fs_seed(@builtin(position) position: vec4<f32>) -> SeedOut {
     let p = vec2<i32>(position.xy);
     var out: SeedOut;
     out.color = textureLoad(opaque_color, p, 0);
-    out.depth = textureLoad(opaque_depth, p, 0);
+    out.depth = textureLoad(opaque_depth, p, 0).x;
     return out;
 }

@@ -156,19 +156,7 @@ impl AlphaToCoverage {
         };
         let seed_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("a2c seed"),
-            entries: &[
-                gpu::float_texture_entry(0),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 1,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Depth,
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
-            ],
+            entries: &[gpu::float_texture_entry(0), gpu::float_texture_entry(1)],
         });
         let seed_module = gpu::shader(ctx, "stochastic_seed_msaa.wgsl", SEED_MSAA_WGSL)?;
         let seed_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
