@@ -1,18 +1,20 @@
-// Front-to-back depth peeling (Everitt 2001): each pass keeps, per pixel, the nearest fragment
-// strictly behind the previous pass's layer and strictly in front of the opaque surface (the
-// hardware depth test against a depth target cleared to the far plane picks the nearest), and
-// writes its premultiplied colour to a layer texture that peel_composite.wgsl under-blends.
+// Front-to-back depth peeling (Everitt 2001). Per frame, `fs_opaque_bits` stores the bits of the
+// visible opaque depth (an EQUAL-depth pass over the opaque draws). Pass k then draws every
+// transparent fragment with the strictly-nearer depth test (depth written, target cleared to
+// far), so the hardware keeps the nearest fragment the shader did not discard; the shader
+// discards fragments not strictly in front of the opaque surface and not strictly behind the
+// previous layer. Both depths come from R32Uint colour outputs (the f32 bits), not from depth
+// textures or depth copies, which wgpu's GL backend cannot do; the pass has no storage writes.
 #include "peel_common.wgsl"
 
-@group(1) @binding(1) var prev_depth: texture_depth_2d;
-@group(1) @binding(3) var opaque_depth: texture_depth_2d;
-// Per pixel: candidates the counting pass saw (more than one means layers were left behind).
-@group(1) @binding(4) var<storage, read_write> candidates: array<atomic<u32>>;
+// Bits of the previous layer's window depth (R32Uint: renderable everywhere, R32Float is not on GL).
+@group(1) @binding(1) var prev_depth: texture_2d<u32>;
+
+// Bits of the visible opaque surface's window depth (far where there is none).
+@group(1) @binding(3) var opaque_depth: texture_2d<u32>;
 
 // The first pass has no previous layer.
 override FIRST_LAYER: bool = false;
-// The last recorded pass counts candidates per pixel (for pixels_with_dropped_layers).
-override COUNT_CANDIDATES: bool = false;
 
 fn nearer(a: f32, b: f32) -> bool {
     if peel.scene_reverse_z != 0u {
@@ -21,8 +23,15 @@ fn nearer(a: f32, b: f32) -> bool {
     return a < b;
 }
 
+struct LayerOut {
+    // Premultiplied colour and alpha of the layer's fragment.
+    @location(0) color: vec4<f32>,
+    // Its window depth, the next pass's "previous layer".
+    @location(1) depth: vec4<u32>,
+}
+
 @fragment
-fn fs_layer(v: VertexOut, @builtin(front_facing) front_facing: bool) -> @location(0) vec4<f32> {
+fn fs_layer(v: VertexOut, @builtin(front_facing) front_facing: bool) -> LayerOut {
     var shaded: Shaded;
     if !TEST_FIRST {
         shaded = shade(v, front_facing);
@@ -32,10 +41,10 @@ fn fs_layer(v: VertexOut, @builtin(front_facing) front_facing: bool) -> @locatio
     }
     let z = v.clip.z;
     let px = vec2<i32>(v.clip.xy);
-    if !nearer(z, textureLoad(opaque_depth, px, 0)) {
+    if !nearer(z, bitcast<f32>(textureLoad(opaque_depth, px, 0).x)) {
         discard;
     }
-    if !FIRST_LAYER && !nearer(textureLoad(prev_depth, px, 0), z) {
+    if !FIRST_LAYER && !nearer(bitcast<f32>(textureLoad(prev_depth, px, 0).x), z) {
         discard;
     }
     if TEST_FIRST {
@@ -44,9 +53,18 @@ fn fs_layer(v: VertexOut, @builtin(front_facing) front_facing: bool) -> @locatio
             discard;
         }
     }
-    mark_pass(pass_info.index);
-    if COUNT_CANDIDATES {
-        atomicAdd(&candidates[u32(px.y) * peel.width + u32(px.x)], 1u);
+    var out: LayerOut;
+    out.color = vec4<f32>(shaded.color, shaded.alpha);
+    out.depth = vec4<u32>(bitcast<u32>(z), 0u, 0u, 0u);
+    return out;
+}
+
+// The opaque draws again, depth-tested EQUAL against the shared opaque depth: the bits of the
+// visible opaque depth per pixel.
+@fragment
+fn fs_opaque_bits(v: VertexOut, @builtin(front_facing) front_facing: bool) -> @location(0) vec4<u32> {
+    if !shade(v, front_facing).keep {
+        discard;
     }
-    return vec4<f32>(shaded.color, shaded.alpha);
+    return vec4<u32>(bitcast<u32>(v.clip.z), 0u, 0u, 0u);
 }

@@ -27,8 +27,8 @@ struct Grid {
 // wgpu::util::DrawIndirectArgs per draw: vertex_count, instance_count, first_vertex, first_instance.
 @group(0) @binding(1) var<storage, read_write> args: array<u32>;
 @group(0) @binding(2) var<uniform> grid: Grid;
+// Dual: the last range target. Front: the detection pass's layer texture.
 @group(0) @binding(3) var last_range: texture_2d<f32>;
-@group(0) @binding(4) var<storage, read_write> candidates: array<u32>;
 @group(1) @binding(0) var<uniform> pass_info: PassInfo;
 
 @compute @workgroup_size(64)
@@ -49,11 +49,12 @@ fn cs_count_range(@builtin(global_invocation_id) id: vec3<u32>) {
     }
 }
 
-// Front peeling: pixels where the last pass saw more than one candidate.
+// Front peeling: pixels where the detection pass after the last layer found another layer
+// (the layer texture's alpha is -1 where it found none).
 @compute @workgroup_size(8, 8)
-fn cs_count_candidates(@builtin(global_invocation_id) id: vec3<u32>) {
+fn cs_count_layer(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x < grid.width && id.y < grid.height {
-        if candidates[id.y * grid.width + id.x] > 1u {
+        if textureLoad(last_range, vec2<i32>(id.xy), 0).a >= 0.0 {
             atomicAdd(&counters[DROPPED_SLOT], 1u);
         }
     }

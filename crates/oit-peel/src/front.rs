@@ -1,12 +1,18 @@
 //! `front-peel`: front-to-back depth peeling (Everitt 2001) with GPU-gated termination.
 //!
-//! Pass k renders every transparent draw with the hardware depth test (strictly nearer, depth
-//! written) into depth k mod 2 cleared to the far plane; the shader discards fragments not
-//! strictly in front of the opaque depth and not strictly behind depth (k−1) mod 2, so the
-//! test keeps the k-th nearest surface. Its colour goes to a layer texture that a full-screen
-//! pass under-blends into the front accumulator; after the last pass the accumulator goes over
-//! the final colour. Equal-depth fragments are one layer: the first drawn wins (strict depth
-//! test in draw order) and the others are lost, deterministically.
+//! Per frame, one EQUAL-depth pass over the opaque draws stores the bits of the visible opaque
+//! depth in an R32Uint target. Pass k renders every transparent draw with the strictly-nearer
+//! test and depth writes into its own depth target cleared to far, so the hardware keeps the
+//! nearest fragment the shader kept; the shader discards fragments not strictly in front of the
+//! opaque surface and not strictly behind layer k−1, whose depth bits it reads from an R32Uint
+//! colour output of pass k−1 (bit-exact: all are the fragment's own `@invariant` window depth).
+//! No depth-texture reads and no depth copies, so it also runs on wgpu's GL backend. The
+//! layer's colour goes to a layer texture that a full-screen pass under-blends into the front
+//! accumulator (and flags "layer k exists", which gates pass k+1); after the last pass the
+//! accumulator goes over the final colour. When the layer budget may have cut layers off, one
+//! more (gated) pass detects them for `pixels_with_dropped_layers`. Equal-depth fragments are
+//! one layer: the first drawn wins (strict test in draw order) and the others are lost,
+//! deterministically.
 
 use crate::MAX_FRONT_LAYERS;
 use crate::config::{FrontPeelConfig, PassCount};
@@ -32,28 +38,6 @@ pub struct FrontPeel {
     list_ledger: MemoryLedger,
     budget: Budget,
     report: PeelReport,
-}
-
-#[derive(Debug)]
-struct Resources {
-    key: (wgpu::TextureFormat, Resolution, bool),
-    ledger: MemoryLedger,
-    control: Control,
-    params: wgpu::Buffer,
-    params_scene: Option<u64>,
-    depth: [wgpu::TextureView; 2],
-    layer: wgpu::TextureView,
-    accum: wgpu::TextureView,
-    candidates: wgpu::Buffer,
-    group_layout: wgpu::BindGroupLayout,
-    /// `[first layer][count candidates]`.
-    layer_pipelines: [[ScenePipelines; 2]; 2],
-    under_group: wgpu::BindGroup,
-    final_group: wgpu::BindGroup,
-    under_pipeline: wgpu::RenderPipeline,
-    front_pipeline: wgpu::RenderPipeline,
-    count_pipeline: wgpu::ComputePipeline,
-    count_layout: wgpu::BindGroupLayout,
 }
 
 impl FrontPeel {
@@ -91,7 +75,47 @@ impl FrontPeel {
     pub fn last_report(&self) -> &PeelReport {
         &self.report
     }
+}
 
+#[derive(Debug)]
+struct Resources {
+    key: (wgpu::TextureFormat, Resolution, bool),
+    ledger: MemoryLedger,
+    control: Control,
+    params: wgpu::Buffer,
+    params_scene: Option<u64>,
+    /// Depth target of the layer passes (cleared to far each pass).
+    depth: wgpu::TextureView,
+    /// Bits of the visible opaque depth (R32Uint).
+    opaque_bits: wgpu::TextureView,
+    /// Group-0-only pipelines of `fs_opaque_bits` (EQUAL against the shared opaque depth).
+    opaque_pipelines: ScenePipelines,
+    /// Bits of layer k's window depth in `prev[k % 2]` (cleared to the far plane).
+    prev: [wgpu::TextureView; 2],
+    layer: wgpu::TextureView,
+    accum: wgpu::TextureView,
+    /// Group 1 with `prev_depth` = prev[j].
+    groups: [wgpu::BindGroup; 2],
+    /// `[first layer]`.
+    layer_pipelines: [ScenePipelines; 2],
+    under_group: wgpu::BindGroup,
+    final_group: wgpu::BindGroup,
+    under_pipeline: wgpu::RenderPipeline,
+    front_pipeline: wgpu::RenderPipeline,
+    count_pipeline: wgpu::ComputePipeline,
+    count_layout: wgpu::BindGroupLayout,
+}
+
+/// What a layer pass does besides rendering its layer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum PassRole {
+    /// Under-blend the layer into the accumulator (a peel pass).
+    Peel,
+    /// Leave the layer in its texture for the dropped-pixel count (the detection pass).
+    Detect,
+}
+
+impl FrontPeel {
     fn resources(
         &mut self,
         ctx: &Context,
@@ -117,13 +141,39 @@ impl FrontPeel {
             },
         );
         let res = targets.resolution;
-        let depth = [0, 1].map(|i| {
+        let depth_texture = ledger.create_texture(
+            device,
+            &wgpu::TextureDescriptor {
+                label: Some("front-peel depth"),
+                size: wgpu::Extent3d {
+                    width: res.width,
+                    height: res.height,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: wgpu::TextureFormat::Depth32Float,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+                view_formats: &[],
+            },
+        );
+        let depth = depth_texture.create_view(&Default::default());
+        let opaque_bits = gpu::texture_2d(
+            ctx,
+            &mut ledger,
+            "front-peel opaque depth bits",
+            res,
+            wgpu::TextureFormat::R32Uint,
+        )
+        .1;
+        let prev = [0, 1].map(|i| {
             gpu::texture_2d(
                 ctx,
                 &mut ledger,
-                &format!("front-peel depth {i}"),
+                &format!("front-peel layer depth {i}"),
                 res,
-                wgpu::TextureFormat::Depth32Float,
+                wgpu::TextureFormat::R32Uint,
             )
             .1
         });
@@ -143,41 +193,63 @@ impl FrontPeel {
             targets.color_format,
         )
         .1;
-        let candidates = ledger.create_buffer(
-            device,
-            &wgpu::BufferDescriptor {
-                label: Some("front-peel candidates"),
-                size: res.pixel_count() as u64 * 4,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            },
-        );
         let fs = wgpu::ShaderStages::FRAGMENT;
+        let uint_texture = |binding| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: fs,
+            ty: wgpu::BindingType::Texture {
+                sample_type: wgpu::TextureSampleType::Uint,
+                view_dimension: wgpu::TextureViewDimension::D2,
+                multisampled: false,
+            },
+            count: None,
+        };
         let group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("front-peel"),
             entries: &[
                 gpu::uniform_entry(0, fs, false),
-                gpu::texture_entry(1, fs, true),
-                gpu::storage_entry(2, fs),
-                gpu::texture_entry(3, fs, true),
-                gpu::storage_entry(4, fs),
+                uint_texture(1),
+                uint_texture(3),
             ],
+        });
+        let groups = [0, 1].map(|j| {
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("front-peel"),
+                layout: &group_layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: params.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: wgpu::BindingResource::TextureView(&prev[j]),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 3,
+                        resource: wgpu::BindingResource::TextureView(&opaque_bits),
+                    },
+                ],
+            })
         });
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("front-peel"),
-            bind_group_layouts: &[
-                Some(ctx.scene_layout()),
-                Some(&group_layout),
-                Some(&control.pass_layout),
-            ],
+            bind_group_layouts: &[Some(ctx.scene_layout()), Some(&group_layout)],
             immediate_size: 0,
         });
         let module = gpu::shader(ctx, "peel_front.wgsl", gpu::PEEL_FRONT)?;
-        let target = [Some(wgpu::ColorTargetState {
-            format: targets.color_format,
-            blend: None,
-            write_mask: wgpu::ColorWrites::ALL,
-        })];
+        let layer_targets = [
+            Some(wgpu::ColorTargetState {
+                format: targets.color_format,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            }),
+            Some(wgpu::ColorTargetState {
+                format: wgpu::TextureFormat::R32Uint,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            }),
+        ];
         let nearer = if reverse_z {
             wgpu::CompareFunction::Greater
         } else {
@@ -186,31 +258,51 @@ impl FrontPeel {
         let flag = |b: bool| if b { 1.0 } else { 0.0 };
         let test_first = self.options.test_before_shading;
         let layer_pipelines = [false, true].map(|first| {
-            [false, true].map(|count| {
-                gpu::scene_pipelines(
-                    ctx,
-                    &PipelineDesc {
-                        label: "front-peel layer",
-                        module: &module,
-                        layout: &layout,
-                        fragment_entry: "fs_layer",
-                        targets: &target,
-                        depth: Some(wgpu::DepthStencilState {
-                            format: wgpu::TextureFormat::Depth32Float,
-                            depth_write_enabled: Some(true),
-                            depth_compare: Some(nearer),
-                            stencil: Default::default(),
-                            bias: Default::default(),
-                        }),
-                        constants: &[
-                            ("FIRST_LAYER", flag(first)),
-                            ("COUNT_CANDIDATES", flag(count)),
-                            ("TEST_FIRST", flag(test_first)),
-                        ],
-                    },
-                )
-            })
+            gpu::scene_pipelines(
+                ctx,
+                &PipelineDesc {
+                    label: "front-peel layer",
+                    module: &module,
+                    layout: &layout,
+                    fragment_entry: "fs_layer",
+                    targets: &layer_targets,
+                    depth: Some(wgpu::DepthStencilState {
+                        format: wgpu::TextureFormat::Depth32Float,
+                        depth_write_enabled: Some(true),
+                        depth_compare: Some(nearer),
+                        stencil: Default::default(),
+                        bias: Default::default(),
+                    }),
+                    constants: &[
+                        ("FIRST_LAYER", flag(first)),
+                        ("TEST_FIRST", flag(test_first)),
+                    ],
+                },
+            )
         });
+        let opaque_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("front-peel opaque depth bits"),
+            bind_group_layouts: &[Some(ctx.scene_layout())],
+            immediate_size: 0,
+        });
+        let opaque_pipelines = gpu::scene_pipelines(
+            ctx,
+            &PipelineDesc {
+                label: "front-peel opaque depth bits",
+                module: &module,
+                layout: &opaque_layout,
+                fragment_entry: "fs_opaque_bits",
+                targets: &[layer_targets[1].clone()],
+                depth: Some(wgpu::DepthStencilState {
+                    format: wgpu::TextureFormat::Depth32Float,
+                    depth_write_enabled: Some(false),
+                    depth_compare: Some(wgpu::CompareFunction::Equal),
+                    stencil: Default::default(),
+                    bias: Default::default(),
+                }),
+                constants: &[],
+            },
+        );
         let composite_module = gpu::shader(ctx, "peel_composite.wgsl", gpu::PEEL_COMPOSITE)?;
         let composite_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("peel composite"),
@@ -257,8 +349,8 @@ impl FrontPeel {
         let front_pipeline = fullscreen("fs_front", gpu::FRONT_OVER);
         let (count_layout, count_pipeline) = control.count_pipeline(
             ctx,
-            "cs_count_candidates",
-            gpu::storage_entry(4, wgpu::ShaderStages::COMPUTE),
+            "cs_count_layer",
+            gpu::texture_entry(3, wgpu::ShaderStages::COMPUTE, false),
         );
         self.gpu = Some(Resources {
             key,
@@ -267,10 +359,12 @@ impl FrontPeel {
             params,
             params_scene: None,
             depth,
+            opaque_bits,
+            opaque_pipelines,
+            prev,
             layer,
             accum,
-            candidates,
-            group_layout,
+            groups,
             layer_pipelines,
             under_group,
             final_group,
@@ -282,51 +376,66 @@ impl FrontPeel {
         Ok(())
     }
 
-    /// Records layer pass `k` (0-based), its under-composite and its gate.
-    #[allow(
-        clippy::too_many_arguments,
-        reason = "one frame's state, passed explicitly"
-    )]
+    /// Records layer pass `k` (0-based): opaque depth copy, the layer, then (peel) its
+    /// under-composite and gate.
     fn layer_pass(
         &self,
         ctx: &Context,
         scene: &GpuScene,
-        groups: &[wgpu::BindGroup; 2],
         timer: &mut GpuTimer,
         k: u32,
-        count: bool,
+        role: PassRole,
         gated: bool,
     ) -> Result<(), GpuError> {
         let g = self.gpu.as_ref().expect("resources built");
         let list = self.list.as_ref().expect("draw list built");
-        let ts = timer.pass(&format!("layer {}", k + 1));
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
-        if count {
-            encoder.clear_buffer(&g.candidates, 0, None);
-        }
+        let ts = timer.pass(&match role {
+            PassRole::Peel => format!("layer {}", k + 1),
+            PassRole::Detect => "detect".to_owned(),
+        });
+        // The far plane's f32 bits (exact in f64): no later fragment is "behind" it.
+        let far = f64::from(scene.scene.camera.far_depth().to_bits());
         {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("front-peel layer"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &g.layer,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        // Alpha −1 marks "no fragment" for the composite.
-                        load: wgpu::LoadOp::Clear(wgpu::Color {
-                            r: 0.0,
-                            g: 0.0,
-                            b: 0.0,
-                            a: -1.0,
-                        }),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
+                color_attachments: &[
+                    Some(wgpu::RenderPassColorAttachment {
+                        view: &g.layer,
+                        depth_slice: None,
+                        resolve_target: None,
+                        ops: wgpu::Operations {
+                            // Alpha −1 marks "no fragment" for the composite and the count.
+                            load: wgpu::LoadOp::Clear(wgpu::Color {
+                                r: 0.0,
+                                g: 0.0,
+                                b: 0.0,
+                                a: -1.0,
+                            }),
+                            store: wgpu::StoreOp::Store,
+                        },
+                    }),
+                    Some(wgpu::RenderPassColorAttachment {
+                        view: &g.prev[(k % 2) as usize],
+                        depth_slice: None,
+                        resolve_target: None,
+                        ops: wgpu::Operations {
+                            // Far: no later fragment is "behind" a pixel without a layer.
+                            load: wgpu::LoadOp::Clear(wgpu::Color {
+                                r: far,
+                                g: far,
+                                b: far,
+                                a: far,
+                            }),
+                            store: wgpu::StoreOp::Store,
+                        },
+                    }),
+                ],
                 depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &g.depth[(k % 2) as usize],
+                    view: &g.depth,
                     depth_ops: Some(wgpu::Operations {
                         load: wgpu::LoadOp::Clear(scene.scene.camera.far_depth()),
-                        store: wgpu::StoreOp::Store,
+                        store: wgpu::StoreOp::Discard,
                     }),
                     stencil_ops: None,
                 }),
@@ -335,28 +444,33 @@ impl FrontPeel {
                 multiview_mask: None,
             });
             scene.bind(&mut pass);
-            pass.set_bind_group(1, &groups[((k + 1) % 2) as usize], &[]);
-            pass.set_bind_group(2, &g.control.pass_group, &[g.control.offset(k)]);
-            let pipelines = &g.layer_pipelines[usize::from(k == 0)][usize::from(count)];
-            list.draw(&mut pass, scene, pipelines, gated);
+            pass.set_bind_group(1, &g.groups[((k + 1) % 2) as usize], &[]);
+            list.draw(
+                &mut pass,
+                scene,
+                &g.layer_pipelines[usize::from(k == 0)],
+                gated,
+            );
         }
-        let ts = timer.pass(&format!("under {}", k + 1));
-        {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("front-peel under"),
-                color_attachments: &[load_attachment(&g.accum)],
-                depth_stencil_attachment: None,
-                timestamp_writes: ts.writes(),
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            pass.set_pipeline(&g.under_pipeline);
-            pass.set_bind_group(0, &g.under_group, &[]);
-            pass.set_bind_group(1, &g.control.pass_group, &[g.control.offset(k)]);
-            pass.draw(0..3, 0..1);
-        }
-        if gated {
-            g.control.gate(&mut encoder, list, k);
+        if role == PassRole::Peel {
+            let ts = timer.pass(&format!("under {}", k + 1));
+            {
+                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some("front-peel under"),
+                    color_attachments: &[load_attachment(&g.accum)],
+                    depth_stencil_attachment: None,
+                    timestamp_writes: ts.writes(),
+                    occlusion_query_set: None,
+                    multiview_mask: None,
+                });
+                pass.set_pipeline(&g.under_pipeline);
+                pass.set_bind_group(0, &g.under_group, &[]);
+                pass.set_bind_group(1, &g.control.pass_group, &[g.control.offset(k)]);
+                pass.draw(0..3, 0..1);
+            }
+            if gated {
+                g.control.gate(&mut encoder, list, k);
+            }
         }
         timer.submit(ctx, encoder)
     }
@@ -389,10 +503,13 @@ impl Technique for FrontPeel {
         self.config
             .as_ref()
             .map_err(|e| Unsupported::new(e.to_string()))?;
-        if caps.max_storage_buffers_per_shader_stage < 3 {
+        if caps.max_storage_buffers_per_shader_stage < 2 {
             return Err(Unsupported::new(
-                "the adapter has fewer than 3 storage buffers per fragment shader (materials, peel counters, candidates)",
+                "the adapter has fewer than 2 storage buffers per fragment shader (materials, peel counters)",
             ));
+        }
+        if caps.max_color_attachments < 2 {
+            return Err(Unsupported::new("front peeling needs 2 colour attachments"));
         }
         Ok(())
     }
@@ -408,13 +525,6 @@ impl Technique for FrontPeel {
             .config
             .clone()
             .map_err(|e| Unsupported::new(e.to_string()))?;
-        // `Caps` does not say which backend it describes, so this check lives here.
-        if ctx.wgpu_adapter_info().backend == wgpu::Backend::Gl {
-            return Err(Unsupported::new(
-                "front-peel reads depth textures in the fragment shader, which wgpu's GL backend cannot translate (textureLoad from depth textures is not supported in GLSL)",
-            )
-            .into());
-        }
         self.resources(ctx, targets, scene.scene.camera.reverse_z)?;
         if self.list.as_ref().is_none_or(|l| l.scene_id != scene.id) {
             self.list_ledger.clear();
@@ -432,36 +542,8 @@ impl Technique for FrontPeel {
         }
         let g = self.gpu.as_ref().expect("resources built");
         let list = self.list.as_ref().expect("draw list built");
-        // Group 1 names the opaque depth of these targets, so it is built per frame.
-        let groups = [0, 1].map(|j| {
-            ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("front-peel"),
-                layout: &g.group_layout,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: g.params.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 1,
-                        resource: wgpu::BindingResource::TextureView(&g.depth[j]),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 2,
-                        resource: g.control.counters.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 3,
-                        resource: wgpu::BindingResource::TextureView(&targets.depth_view),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 4,
-                        resource: g.candidates.as_entire_binding(),
-                    },
-                ],
-            })
-        });
         let max = config.layers.budget(MAX_FRONT_LAYERS);
+        let gated = self.options.termination == Termination::GpuGated;
         let mut report = PeelReport::default();
 
         list.reset(ctx);
@@ -488,64 +570,92 @@ impl Technique for FrontPeel {
             occlusion_query_set: None,
             multiview_mask: None,
         });
-        ctx.queue.submit([encoder.finish()]);
+        let far_bits = f64::from(scene.scene.camera.far_depth().to_bits());
+        let ts = timer.pass("opaque depth bits");
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("front-peel opaque depth bits"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &g.opaque_bits,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color {
+                            r: far_bits,
+                            g: far_bits,
+                            b: far_bits,
+                            a: far_bits,
+                        }),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &targets.depth_view,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Load,
+                        store: wgpu::StoreOp::Store,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: ts.writes(),
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            scene.bind(&mut pass);
+            for i in scene.opaque_draws() {
+                scene.draw(&mut pass, &g.opaque_pipelines, i);
+            }
+        }
+        timer.submit(ctx, encoder)?;
 
         let mut recorded = 0u32;
-        let counters: Counters;
-        match self.options.termination {
-            Termination::CpuReadbackPerPass => loop {
-                self.layer_pass(
-                    ctx,
-                    scene,
-                    &groups,
-                    timer,
-                    recorded,
-                    recorded + 1 == max,
-                    false,
-                )?;
+        let mut counters: Option<Counters> = None;
+        match (self.options.termination, config.layers) {
+            (Termination::CpuReadbackPerPass, _) => loop {
+                self.layer_pass(ctx, scene, timer, recorded, PassRole::Peel, false)?;
                 recorded += 1;
                 let c = g.control.read(ctx)?;
                 report.readbacks += 1;
-                if recorded == max || !c.left(recorded - 1) {
-                    counters = c;
+                let more = recorded < max && c.left(recorded - 1);
+                counters = Some(c);
+                if !more {
                     break;
                 }
             },
-            Termination::GpuGated => {
-                let mut end = match config.layers {
-                    PassCount::Fixed(n) => n.min(max),
-                    PassCount::Auto => self.budget.first(scene.id, 8, max),
-                };
+            (Termination::GpuGated, PassCount::Fixed(_)) => {
+                while recorded < max {
+                    self.layer_pass(ctx, scene, timer, recorded, PassRole::Peel, true)?;
+                    recorded += 1;
+                }
+            }
+            (Termination::GpuGated, PassCount::Auto) => {
+                let mut end = self.budget.first(scene.id, 8, max);
                 loop {
                     while recorded < end {
-                        self.layer_pass(
-                            ctx,
-                            scene,
-                            &groups,
-                            timer,
-                            recorded,
-                            recorded + 1 == end,
-                            true,
-                        )?;
+                        self.layer_pass(ctx, scene, timer, recorded, PassRole::Peel, true)?;
                         recorded += 1;
                     }
                     let c = g.control.read(ctx)?;
                     report.readbacks += 1;
-                    if config.layers == PassCount::Auto && c.left(recorded - 1) && recorded < max {
-                        end = (recorded + gpu::CHUNK).min(max);
-                        continue;
+                    let more = c.left(recorded - 1) && recorded < max;
+                    counters = Some(c);
+                    if !more {
+                        break;
                     }
-                    counters = c;
-                    break;
+                    end = (recorded + gpu::CHUNK).min(max);
                 }
             }
         }
-        report.passes_recorded = recorded;
-        let finished = !counters.left(recorded - 1);
-
+        // Known from the flags: the last pass found no layer, so nothing was cut off.
+        let finished = counters.as_ref().is_some_and(|c| !c.left(recorded - 1));
+        let detect = !finished;
         let ts = timer.pass("front composite");
+        if detect {
+            // Gated like a peel pass: skipped on the GPU when the last pass found no layer.
+            self.layer_pass(ctx, scene, timer, recorded, PassRole::Detect, gated)?;
+        }
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
-        if !finished {
+        if detect {
             let count_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("front-peel count"),
                 layout: &g.count_layout,
@@ -559,8 +669,8 @@ impl Technique for FrontPeel {
                         resource: list.grid.as_entire_binding(),
                     },
                     wgpu::BindGroupEntry {
-                        binding: 4,
-                        resource: g.candidates.as_entire_binding(),
+                        binding: 3,
+                        resource: wgpu::BindingResource::TextureView(&g.layer),
                     },
                 ],
             });
@@ -588,26 +698,30 @@ impl Technique for FrontPeel {
             pass.draw(0..3, 0..1);
         }
         timer.submit(ctx, encoder)?;
-        let dropped = if finished {
-            0
-        } else {
-            report.readbacks += 1;
-            g.control.read(ctx)?.dropped()
+        let counters = match counters {
+            Some(c) if finished => c,
+            _ => {
+                report.readbacks += 1;
+                g.control.read(ctx)?
+            }
         };
 
-        // Layer pass k > 0 rasterized only if pass k − 1 found a layer.
-        let run = 1 + (1..recorded).filter(|&k| counters.left(k - 1)).count() as u32;
-        report.passes_run = run;
+        // Pass k > 0 (the detection pass included) rasterized only if layer k − 1 exists.
+        let total = recorded + u32::from(detect);
+        let run = 1 + (1..total).filter(|&k| counters.left(k - 1)).count() as u32;
+        report.passes_recorded = total;
+        // The opaque-depth pass rasterizes (opaque) scene geometry too.
+        report.passes_run = run + 1;
         report.peeled_per_pass = (0..recorded).map(|k| counters.peeled(k)).collect();
-        report.dropped_pixels = dropped;
+        report.dropped_pixels = if finished { 0 } else { counters.dropped() };
         if config.layers == PassCount::Auto {
-            self.budget.remember(scene.id, run);
+            self.budget.remember(scene.id, recorded.min(run));
         }
         let stats = RenderStats {
-            geometry_passes: run,
+            geometry_passes: run + 1,
             cpu_ms: 0.0,
             layers_peeled: report.peeled_per_pass.iter().map(|&n| u64::from(n)).sum(),
-            pixels_with_dropped_layers: u64::from(dropped),
+            pixels_with_dropped_layers: u64::from(report.dropped_pixels),
         };
         self.report = report;
         Ok(stats)
