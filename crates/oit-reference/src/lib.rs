@@ -18,7 +18,8 @@
 //! back (equal depth: the higher `(draw.id, triangle index)` is in front, which is what
 //! blending in natural draw order gives) and composited in f64 with
 //! [`composite_front_to_back`]. Because the tie-break uses the stable draw ids, the result is
-//! bit-identical for any permutation of the draw list.
+//! bit-identical for any permutation of the draw list (given unique ids, which the loader
+//! guarantees; draws sharing an id are ranked by their position in the list).
 //!
 //! **Guard band and overflow bound.** Clipping against `|x| <= G·w` with
 //! `G = 2^21 / width` (and likewise for y) keeps every window coordinate within 2^20 pixels of
