@@ -1,11 +1,13 @@
-// Averaging of `spp` stochastic frames (oit-stochastic): frame k's colour is added to the
-// running f32 sum of frames 0..k (ping-pong between two Rgba32Float textures, no blending
-// needed), and the last frame writes sum / spp into the final colour target.
+// Averaging of `spp` stochastic frames (oit-stochastic). Frame k is combined with the result
+// of frames 0..k (ping-pong between two textures, no blending needed): out = previous · a +
+// frame · b. With Rgba32Float: a running sum (a = b = 1) and the last frame writes sum / spp
+// into the final colour target. Where Rgba32Float cannot be rendered: a running mean in
+// Rgba16Float (a = k/(k+1), b = 1/(k+1)).
 
 struct Accumulate {
-    // 1 while summing; 1/spp for the last frame.
-    scale: f32,
-    // 0 for the first frame (no previous sum to read).
+    previous_weight: f32,
+    frame_weight: f32,
+    // 0 for the first frame (no previous result to read).
     has_previous: u32,
 }
 
@@ -24,9 +26,9 @@ fn vs_fullscreen(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> 
 @fragment
 fn fs_accumulate(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
     let p = vec2<i32>(position.xy);
-    var sum = textureLoad(frame_color, p, 0);
+    var out = textureLoad(frame_color, p, 0) * accumulate.frame_weight;
     if accumulate.has_previous != 0u {
-        sum = textureLoad(previous_sum, p, 0) + sum;
+        out = textureLoad(previous_sum, p, 0) * accumulate.previous_weight + out;
     }
-    return sum * accumulate.scale;
+    return out;
 }

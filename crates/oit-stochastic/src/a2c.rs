@@ -23,8 +23,6 @@ use oit_scene::Resolution;
 
 /// WGSL of the alpha-to-coverage pass.
 pub const A2C_WGSL: &str = include_str!("../../../shaders/stochastic_a2c.wgsl");
-/// WGSL of the pass that copies the opaque pass into the multisampled targets.
-pub const SEED_MSAA_WGSL: &str = include_str!("../../../shaders/stochastic_seed_msaa.wgsl");
 
 /// The `a2c` technique.
 #[derive(Debug)]
@@ -39,8 +37,7 @@ struct Resources {
     key: (wgpu::TextureFormat, bool, Resolution),
     color_view: wgpu::TextureView,
     depth_view: wgpu::TextureView,
-    seed_layout: wgpu::BindGroupLayout,
-    seed: wgpu::RenderPipeline,
+    seed: gpu::SeedPass,
     a2c: PipelinePair,
 }
 
@@ -154,38 +151,7 @@ impl AlphaToCoverage {
             mask: !0,
             alpha_to_coverage_enabled: false,
         };
-        let seed_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("a2c seed"),
-            entries: &[gpu::float_texture_entry(0), gpu::float_texture_entry(1)],
-        });
-        let seed_module = gpu::shader(ctx, "stochastic_seed_msaa.wgsl", SEED_MSAA_WGSL)?;
-        let seed_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("a2c seed"),
-            bind_group_layouts: &[Some(&seed_layout)],
-            immediate_size: 0,
-        });
-        let seed = gpu::fullscreen_pipeline(
-            ctx,
-            gpu::FullscreenDesc {
-                label: "a2c seed",
-                layout: &seed_pipeline_layout,
-                module: &seed_module,
-                fragment_entry: "fs_seed",
-                color: wgpu::ColorTargetState {
-                    format: targets.color_format,
-                    blend: None,
-                    write_mask: wgpu::ColorWrites::ALL,
-                },
-                depth: Some(wgpu::DepthStencilState {
-                    format: wgpu::TextureFormat::Depth32Float,
-                    depth_write_enabled: Some(true),
-                    depth_compare: Some(wgpu::CompareFunction::Always),
-                    stencil: Default::default(),
-                    bias: Default::default(),
-                }),
-                multisample,
-            },
-        );
+        let seed = gpu::SeedPass::new(ctx, targets.color_format, multisample)?;
         let module = gpu::shader(ctx, "stochastic_a2c.wgsl", A2C_WGSL)?;
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("a2c"),
@@ -217,7 +183,6 @@ impl AlphaToCoverage {
             key,
             color_view: color.create_view(&Default::default()),
             depth_view: depth.create_view(&Default::default()),
-            seed_layout,
             seed,
             a2c,
         });
@@ -278,20 +243,7 @@ impl Technique for AlphaToCoverage {
         })?;
         self.prepare(ctx, scene, targets, config.samples)?;
         let r = self.gpu.as_ref().expect("resources prepared above");
-        let seed_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("a2c seed"),
-            layout: &r.seed_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: wgpu::BindingResource::TextureView(&targets.color_view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::TextureView(&targets.depth_view),
-                },
-            ],
-        });
+        let seed_group = r.seed.bind_group(ctx, targets);
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         let ts = timer.pass("a2c seed msaa");
         {
@@ -318,9 +270,7 @@ impl Technique for AlphaToCoverage {
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
-            pass.set_pipeline(&r.seed);
-            pass.set_bind_group(0, &seed_group, &[]);
-            pass.draw(0..3, 0..1);
+            r.seed.draw(&mut pass, &seed_group);
         }
         let ts = timer.pass("a2c");
         {

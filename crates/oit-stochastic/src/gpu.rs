@@ -190,3 +190,86 @@ pub(crate) fn shader(
 ) -> Result<wgpu::ShaderModule, GpuError> {
     ctx.shader(name, source)
 }
+
+/// WGSL of the fullscreen pass that copies the opaque pass's colour and depth into other
+/// targets (the multisampled ones of `a2c`, the per-frame ones of `stochastic:spp=N`).
+pub const SEED_WGSL: &str = include_str!("../../../shaders/stochastic_seed.wgsl");
+
+/// A fullscreen pass writing the opaque colour and depth (read from the final targets) into
+/// other targets. A draw rather than `copy_texture_to_texture`: wgpu's GL backend leaves a
+/// depth copy undone without an error.
+#[derive(Debug)]
+pub(crate) struct SeedPass {
+    layout: wgpu::BindGroupLayout,
+    pipeline: wgpu::RenderPipeline,
+}
+
+impl SeedPass {
+    pub fn new(
+        ctx: &Context,
+        color_format: wgpu::TextureFormat,
+        multisample: wgpu::MultisampleState,
+    ) -> Result<Self, GpuError> {
+        let device = &ctx.device;
+        // Depth32Float is bound as an unfilterable float texture (WebGPU allows it): GLSL has
+        // no texelFetch of depth (shadow) textures.
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("stochastic seed"),
+            entries: &[float_texture_entry(0), float_texture_entry(1)],
+        });
+        let module = shader(ctx, "stochastic_seed.wgsl", SEED_WGSL)?;
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("stochastic seed"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = fullscreen_pipeline(
+            ctx,
+            FullscreenDesc {
+                label: "stochastic seed",
+                layout: &pipeline_layout,
+                module: &module,
+                fragment_entry: "fs_seed",
+                color: wgpu::ColorTargetState {
+                    format: color_format,
+                    blend: None,
+                    write_mask: wgpu::ColorWrites::ALL,
+                },
+                depth: Some(wgpu::DepthStencilState {
+                    format: wgpu::TextureFormat::Depth32Float,
+                    depth_write_enabled: Some(true),
+                    depth_compare: Some(wgpu::CompareFunction::Always),
+                    stencil: Default::default(),
+                    bias: Default::default(),
+                }),
+                multisample,
+            },
+        );
+        Ok(SeedPass { layout, pipeline })
+    }
+
+    /// The bind group reading `targets` (made per frame: targets are the caller's).
+    pub fn bind_group(&self, ctx: &Context, targets: &oit_gpu::Targets) -> wgpu::BindGroup {
+        ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("stochastic seed"),
+            layout: &self.layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::TextureView(&targets.color_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(&targets.depth_view),
+                },
+            ],
+        })
+    }
+
+    /// Draws the copy into the pass's attachments (which must be those it was built for).
+    pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, bind_group: &wgpu::BindGroup) {
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, bind_group, &[]);
+        pass.draw(0..3, 0..1);
+    }
+}

@@ -18,9 +18,12 @@ pub const ACCUMULATE_WGSL: &str = include_str!("../../../shaders/stochastic_accu
 /// Bytes of `struct Dither` in stochastic_dither.wgsl.
 const DITHER_UNIFORM_BYTES: u64 = 32;
 /// Bytes of `struct Accumulate` in stochastic_accumulate.wgsl.
-const ACCUMULATE_UNIFORM_BYTES: u64 = 8;
+const ACCUMULATE_UNIFORM_BYTES: u64 = 12;
 /// Format of the running sum of frames: f32, so 128 frames add without visible rounding.
 const SUM_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+/// Fallback where Rgba32Float cannot be rendered to (e.g. the GL backend): a running mean in
+/// half floats (a sum would lose precision as it grows; the mean stays in the colour range).
+const HALF_SUM_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 
 /// The `stochastic` technique.
 #[derive(Debug)]
@@ -28,6 +31,8 @@ pub struct Stochastic {
     config: Result<StochasticConfig, ConfigError>,
     gpu: Option<Resources>,
     ledger: MemoryLedger,
+    /// Use the half-float running mean even where Rgba32Float is renderable.
+    force_half_sums: bool,
 }
 
 /// Everything allocated for one (colour format, depth direction, resolution).
@@ -43,9 +48,9 @@ struct Resources {
 /// Only for `spp > 1`: where each frame renders and where frames are summed.
 #[derive(Debug)]
 struct FrameResources {
-    color: wgpu::Texture,
+    /// Fills each frame's targets with the opaque pass.
+    seed: gpu::SeedPass,
     color_view: wgpu::TextureView,
-    depth: wgpu::Texture,
     depth_view: wgpu::TextureView,
     sum_views: [wgpu::TextureView; 2],
     /// `bind_groups[p]` reads the frame and sum `1 − p` (the sum of the previous frames).
@@ -61,6 +66,7 @@ impl Stochastic {
             config: Ok(config),
             gpu: None,
             ledger: MemoryLedger::new(),
+            force_half_sums: false,
         }
     }
 
@@ -71,6 +77,24 @@ impl Stochastic {
             config: StochasticConfig::from_spec(spec),
             gpu: None,
             ledger: MemoryLedger::new(),
+            force_half_sums: false,
+        }
+    }
+
+    /// Averages frames as a running mean in Rgba16Float (what adapters that cannot render
+    /// Rgba32Float get automatically) instead of an f32 sum: to compare the two paths.
+    pub fn with_half_float_sums(mut self) -> Self {
+        self.force_half_sums = true;
+        self.gpu = None;
+        self
+    }
+
+    /// The format frames are averaged in for `spp > 1` on this adapter.
+    pub fn sum_format(&self, caps: &Caps) -> wgpu::TextureFormat {
+        if self.force_half_sums || caps.require_target(SUM_FORMAT, false).is_err() {
+            HALF_SUM_FORMAT
+        } else {
+            SUM_FORMAT
         }
     }
 
@@ -140,6 +164,7 @@ impl Stochastic {
         }
         self.gpu = None;
         self.ledger.clear();
+        let sum_format = self.sum_format(&ctx.caps);
         let device = &ctx.device;
         let ledger = &mut self.ledger;
 
@@ -231,7 +256,9 @@ impl Stochastic {
             },
         );
         let frames = if config.spp > 1 {
-            Some(Self::frame_resources(ctx, ledger, targets, config.spp)?)
+            Some(Self::frame_resources(
+                ctx, ledger, targets, config.spp, sum_format,
+            )?)
         } else {
             None
         };
@@ -250,9 +277,9 @@ impl Stochastic {
         ledger: &mut MemoryLedger,
         targets: &Targets,
         spp: u32,
+        sum_format: wgpu::TextureFormat,
     ) -> Result<FrameResources, GpuError> {
         let device = &ctx.device;
-        ctx.caps.require_target(SUM_FORMAT, false)?;
         let size = wgpu::Extent3d {
             width: targets.resolution.width,
             height: targets.resolution.height,
@@ -278,25 +305,25 @@ impl Stochastic {
             ledger,
             "stochastic frame colour",
             targets.color_format,
-            U::COPY_DST | U::RENDER_ATTACHMENT | U::TEXTURE_BINDING,
+            U::RENDER_ATTACHMENT | U::TEXTURE_BINDING,
         );
         let depth = texture(
             ledger,
             "stochastic frame depth",
             wgpu::TextureFormat::Depth32Float,
-            U::COPY_DST | U::RENDER_ATTACHMENT,
+            U::RENDER_ATTACHMENT,
         );
         let sums = [
             texture(
                 ledger,
                 "stochastic sum a",
-                SUM_FORMAT,
+                sum_format,
                 U::RENDER_ATTACHMENT | U::TEXTURE_BINDING,
             ),
             texture(
                 ledger,
                 "stochastic sum b",
-                SUM_FORMAT,
+                sum_format,
                 U::RENDER_ATTACHMENT | U::TEXTURE_BINDING,
             ),
         ];
@@ -305,7 +332,7 @@ impl Stochastic {
             device,
             &wgpu::BufferDescriptor {
                 label: Some("stochastic accumulate parameters"),
-                size: accumulate_stride * 3,
+                size: accumulate_stride * u64::from(spp),
                 usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             },
@@ -376,22 +403,32 @@ impl Stochastic {
                 },
             )
         };
-        // Entries: first frame (no previous sum), middle frames, last frame (sum ÷ spp).
-        let mut data = vec![0u8; (accumulate_stride * 3) as usize];
+        // One entry per frame k: out = previous · a + frame · b.
+        // f32: a running sum (a = b = 1), the last frame scales it by 1/spp.
+        // f16: a running mean, a = k/(k+1), b = 1/(k+1), so values stay in the colour range.
         let stride = accumulate_stride as usize;
-        let entries: [(f32, u32); 3] = [(1.0, 0), (1.0, 1), (1.0 / spp as f32, 1)];
-        for (i, (scale, has_previous)) in entries.into_iter().enumerate() {
-            data[i * stride..i * stride + 4].copy_from_slice(&scale.to_le_bytes());
-            data[i * stride + 4..i * stride + 8].copy_from_slice(&has_previous.to_le_bytes());
+        let mut data = vec![0u8; stride * spp as usize];
+        for k in 0..spp {
+            let (a, b) = if sum_format == SUM_FORMAT {
+                if k + 1 == spp {
+                    (1.0 / spp as f32, 1.0 / spp as f32)
+                } else {
+                    (1.0, 1.0)
+                }
+            } else {
+                (k as f32 / (k + 1) as f32, 1.0 / (k + 1) as f32)
+            };
+            let words: [u32; 3] = [a.to_bits(), b.to_bits(), u32::from(k > 0)];
+            let at = k as usize * stride;
+            data[at..at + 12].copy_from_slice(bytemuck::cast_slice(&words));
         }
         ctx.queue.write_buffer(&uniform, 0, &data);
         let depth_view = depth.create_view(&Default::default());
         Ok(FrameResources {
-            to_sum: pipeline(SUM_FORMAT),
+            to_sum: pipeline(sum_format),
             to_final: pipeline(targets.color_format),
-            color,
+            seed: gpu::SeedPass::new(ctx, targets.color_format, Default::default())?,
             color_view,
-            depth,
             depth_view,
             sum_views,
             bind_groups,
@@ -429,7 +466,7 @@ impl Technique for Stochastic {
             ));
         }
         if config.spp > 1 {
-            caps.require_target(SUM_FORMAT, false)?;
+            caps.require_target(HALF_SUM_FORMAT, false)?;
         }
         Ok(())
     }
@@ -452,7 +489,18 @@ impl Technique for Stochastic {
                          name: &str,
                          color: &wgpu::TextureView,
                          depth: &wgpu::TextureView,
-                         frame: u32| {
+                         frame: u32,
+                         seed: Option<(&gpu::SeedPass, &wgpu::BindGroup)>| {
+            // Per-frame targets are cleared and then filled with the opaque pass by the seed
+            // draw; the final targets already hold it.
+            let load_color = match seed {
+                Some(_) => wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                None => wgpu::LoadOp::Load,
+            };
+            let load_depth = match seed {
+                Some(_) => wgpu::LoadOp::Clear(scene.scene.camera.far_depth()),
+                None => wgpu::LoadOp::Load,
+            };
             let ts = timer.pass(name);
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some(name),
@@ -460,17 +508,20 @@ impl Technique for Stochastic {
                     view: color,
                     depth_slice: None,
                     resolve_target: None,
-                    ops: load_store(wgpu::LoadOp::Load),
+                    ops: load_store(load_color),
                 })],
                 depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                     view: depth,
-                    depth_ops: Some(load_store(wgpu::LoadOp::Load)),
+                    depth_ops: Some(load_store(load_depth)),
                     stencil_ops: None,
                 }),
                 timestamp_writes: ts.writes(),
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
+            if let Some((seed, group)) = seed {
+                seed.draw(&mut pass, group);
+            }
             scene.bind(&mut pass);
             let offset = (r.dither_stride * u64::from(frame)) as u32;
             pass.set_bind_group(1, &r.dither_bind_group, &[offset]);
@@ -492,23 +543,14 @@ impl Technique for Stochastic {
                 &targets.color_view,
                 &targets.depth_view,
                 0,
+                None,
             );
             timer.submit(ctx, encoder)?;
             return Ok(stats);
         };
+        let seed_group = f.seed.bind_group(ctx, targets);
         for k in 0..config.spp {
             let mut encoder = ctx.device.create_command_encoder(&Default::default());
-            // Every frame starts from the opaque pass.
-            encoder.copy_texture_to_texture(
-                targets.color.as_image_copy(),
-                f.color.as_image_copy(),
-                targets.color.size(),
-            );
-            encoder.copy_texture_to_texture(
-                targets.depth.as_image_copy(),
-                f.depth.as_image_copy(),
-                targets.depth.size(),
-            );
             draw_pass(
                 &mut encoder,
                 timer,
@@ -516,14 +558,16 @@ impl Technique for Stochastic {
                 &f.color_view,
                 &f.depth_view,
                 k,
+                Some((&f.seed, &seed_group)),
             );
             let last = k + 1 == config.spp;
             let parity = (k % 2) as usize;
-            let (target, pipeline, entry) = if last {
-                (&targets.color_view, &f.to_final, 2)
+            let (target, pipeline) = if last {
+                (&targets.color_view, &f.to_final)
             } else {
-                (&f.sum_views[parity], &f.to_sum, u64::from(k > 0))
+                (&f.sum_views[parity], &f.to_sum)
             };
+            let entry = u64::from(k);
             let name = format!("accumulate frame {k}");
             let ts = timer.pass(&name);
             {

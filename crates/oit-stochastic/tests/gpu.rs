@@ -452,10 +452,10 @@ fn memory_is_counted_exactly() {
         ("stochastic:pattern=blue", stride(32) + 4096 * 4),
         ("stochastic:pattern=bayer4", stride(32) + 16 * 4),
         ("stochastic:pattern=white", stride(32) + 16),
-        // + frame colour (Rgba16Float) and depth, two Rgba32Float sums, 3 accumulate entries.
+        // + frame colour (Rgba16Float) and depth, two Rgba32Float sums, 16 accumulate entries.
         (
             "stochastic:pattern=hashed,spp=16",
-            16 * stride(32) + 16 + px * (8 + 4 + 16 + 16) + 3 * stride(8),
+            16 * stride(32) + 16 + px * (8 + 4 + 16 + 16) + 16 * stride(12),
         ),
         // MSAA colour (Rgba16Float) and depth, 4 samples.
         ("a2c:samples=4", px * 4 * (8 + 4)),
@@ -561,4 +561,91 @@ fn rgba32float_target_agrees_with_rgba16float() {
         .flat_map(|(a, b)| (0..3).map(move |c| (a[c] - b[c]).abs()))
         .fold(0.0f32, f32::max);
     assert!(max < 2e-3, "max difference {max}");
+}
+
+/// The half-float running mean (what adapters without renderable Rgba32Float get) agrees with
+/// the f32 sum up to half rounding, and has the same error against the reference.
+#[test]
+fn half_float_running_mean_agrees_with_f32_sum() {
+    let Some(ctx) = context_or_skip("half_float_running_mean_agrees_with_f32_sum") else {
+        return;
+    };
+    let scene = scene_named("intersecting-quads", RES);
+    let reference = oit_reference::render(&scene, &Default::default());
+    let mut bench = Bench::new(&ctx, &scene);
+    let spec = TechniqueSpec::parse(
+        "stochastic:pattern=blue,spp=16",
+        &oit_stochastic::techniques(),
+    )
+    .expect("spec");
+    let mut full = oit_stochastic::Stochastic::from_spec(&spec);
+    let mut half = oit_stochastic::Stochastic::from_spec(&spec).with_half_float_sums();
+    assert_eq!(half.sum_format(&ctx.caps), wgpu::TextureFormat::Rgba16Float);
+    let a = bench.render_with(&mut full);
+    let b = bench.render_with(&mut half);
+    let max = a
+        .pixels
+        .iter()
+        .zip(&b.pixels)
+        .flat_map(|(p, q)| (0..3).map(move |c| (p[c] - q[c]).abs()))
+        .fold(0.0f32, f32::max);
+    let (ea, eb) = (
+        rmse(&a, &reference.image, |_| true),
+        rmse(&b, &reference.image, |_| true),
+    );
+    println!(
+        "spp=16 f32 sum: rmse {ea:.5}; f16 running mean: rmse {eb:.5}; max difference {max:.5}"
+    );
+    assert!(max < 4e-3, "max difference {max}");
+    assert!((ea - eb).abs() < 0.01 * ea, "{ea} vs {eb}");
+    let px = RES.pixel_count() as u64;
+    assert_eq!(
+        full.memory_bytes() - half.memory_bytes(),
+        px * 2 * 8,
+        "two Rgba32Float sums become two Rgba16Float means"
+    );
+}
+
+/// The GL backend (where it exists) converges like the default one: wgpu's GL backend once
+/// left the per-frame depth copy undone, and every frame after the first showed only the
+/// opaque pass. Compared by error against the reference, since rasterizers may differ.
+#[test]
+fn gl_backend_matches_the_default_backend() {
+    let Some(ctx) = context_or_skip("gl_backend_matches_the_default_backend") else {
+        return;
+    };
+    let gl = match Context::new(&oit_gpu::ContextOptions {
+        backend: oit_gpu::Backend::Gl,
+        adapter: None,
+    }) {
+        Ok(gl) => gl,
+        Err(e) => {
+            eprintln!("skipped gl_backend_matches_the_default_backend: no GL adapter: {e}");
+            return;
+        }
+    };
+    let scene = scene_named("sorted-quads", RES);
+    let reference = oit_reference::render(&scene, &Default::default());
+    let mut report = String::new();
+    for spec in [
+        "stochastic:pattern=blue",
+        "stochastic:pattern=white,spp=8",
+        "stochastic:pattern=hashed,spp=8",
+        "a2c:samples=4",
+    ] {
+        let e = |c: &Context| {
+            rmse(
+                &Bench::new(c, &scene).render(spec),
+                &reference.image,
+                |_| true,
+            )
+        };
+        let (default, on_gl) = (e(&ctx), e(&gl));
+        report += &format!("{spec}: default {default:.5}, gl {on_gl:.5}\n");
+        assert!(
+            (default - on_gl).abs() < 0.05 * default,
+            "{spec}: default {default} vs gl {on_gl}\n{report}"
+        );
+    }
+    println!("{report}");
 }

@@ -1,5 +1,8 @@
-// Copies the single-sample opaque colour and depth into every sample of multisampled targets
-// (oit-stochastic `a2c:`): the fragment runs once per pixel and writes all covered samples.
+// Copies the opaque pass's colour and depth into other targets with a fullscreen triangle
+// (oit-stochastic): into every sample of the multisampled targets of `a2c:` (the fragment runs
+// once per pixel and writes all covered samples), and into the per-frame targets of
+// `stochastic:spp=N`. A draw rather than copy_texture_to_texture, which does not copy depth on
+// the GL backend.
 
 @group(0) @binding(0) var opaque_color: texture_2d<f32>;
 // Depth32Float bound as an unfilterable float texture (WebGPU allows it): GLSL, for the GL
