@@ -2,7 +2,7 @@
 //!
 //! Usage inside a technique, for every pass:
 //!
-//! ```ignore
+//! ```text
 //! let ts = timer.pass("blend");
 //! let mut enc = ctx.device.create_command_encoder(&Default::default());
 //! { let pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor { timestamp_writes: ts.writes(), .. }); … }
