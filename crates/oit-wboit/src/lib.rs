@@ -81,6 +81,8 @@ mod tests {
             t.spec().to_string(),
             "wboit:accum=rgba32f,reveal=r8,weight=eq7"
         );
+        let defaults = TechniqueSpec::parse("wboit", &registry).unwrap();
+        assert_eq!(Config::from_spec(&defaults), Config::DEFAULT);
         let t = TechniqueSpec::build("weighted-average", &registry).unwrap();
         assert_eq!(t.spec().to_string(), "weighted-average");
         let e = TechniqueSpec::parse("wboit:weight=eq11", &registry).unwrap_err();

@@ -120,8 +120,8 @@ impl Config {
     /// every adapter), `r16f` (keeps α = 1/512 layers that R8 drops).
     pub const DEFAULT: Config = Config::Weighted {
         weight: Weight::Range,
-        accum: AccumFormat::Rgba16f,
-        reveal: RevealFormat::R16f,
+        accum: tail::DEFAULT_ACCUM,
+        reveal: tail::DEFAULT_REVEAL,
     };
 
     pub fn spec(&self) -> TechniqueSpec {
@@ -154,21 +154,19 @@ impl Config {
         if spec.name == "weighted-average" {
             return Config::Average;
         }
-        let Config::Weighted {
-            weight: w0,
-            accum: a0,
-            reveal: r0,
-        } = Config::DEFAULT
-        else {
-            unreachable!("the default is weighted")
-        };
         Config::Weighted {
-            weight: spec.get("weight").and_then(Weight::parse).unwrap_or(w0),
-            accum: spec.get("accum").and_then(AccumFormat::parse).unwrap_or(a0),
+            weight: spec
+                .get("weight")
+                .and_then(Weight::parse)
+                .unwrap_or(Weight::Range),
+            accum: spec
+                .get("accum")
+                .and_then(AccumFormat::parse)
+                .unwrap_or(tail::DEFAULT_ACCUM),
             reveal: spec
                 .get("reveal")
                 .and_then(RevealFormat::parse)
-                .unwrap_or(r0),
+                .unwrap_or(tail::DEFAULT_REVEAL),
         }
     }
 

@@ -640,3 +640,33 @@ fn guards_fire_exactly_on_their_cases() {
     assert_eq!(g.reveal_lost, 1, "{g}");
     assert_eq!(g.opaque, 2, "{g}");
 }
+
+/// alpha-099-stack (32 layers of α = 0.99 at view distance ≈ 5): eq9 sits at its 3e3 cap, so
+/// Σ α·w ≈ 32 · 0.99 · 2.9e3 overflows fp16 on every pixel (the anchors predict overflow after
+/// 22 such layers); the guarded output stays finite and rgba32f does not overflow.
+#[test]
+fn deep_alpha_stack_overflows_fp16_with_eq9() {
+    let Some(ctx) = context_or_skip("deep_alpha_stack_overflows_fp16_with_eq9") else {
+        return;
+    };
+    let scene = scene_named("alpha-099-stack", RES);
+    let reference = oit_reference::render(&scene, &Default::default());
+    let eq9 = |accum| weighted(Weight::Eq9, accum, RevealFormat::R16f);
+    let (img16, g16) = render_once(&ctx, eq9(AccumFormat::Rgba16f), &scene);
+    println!(
+        "alpha-099-stack eq9 rgba16f: rmse {:.4} [{g16}]",
+        rmse(&img16, &reference.image)
+    );
+    assert_eq!(g16.accum_overflow, g16.covered, "{g16}");
+    assert_eq!(g16.covered as usize, RES.pixel_count());
+    assert_eq!(nonfinite_pixels(&img16), 0);
+    if ctx.caps.float32_blendable {
+        let (img32, g32) = render_once(&ctx, eq9(AccumFormat::Rgba32f), &scene);
+        println!(
+            "alpha-099-stack eq9 rgba32f: rmse {:.4} [{g32}]",
+            rmse(&img32, &reference.image)
+        );
+        assert_eq!(g32.accum_overflow, 0, "{g32}");
+        assert!(rmse(&img32, &reference.image) <= rmse(&img16, &reference.image));
+    }
+}
