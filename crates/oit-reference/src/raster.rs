@@ -116,6 +116,9 @@ pub(crate) struct TileRect {
 #[derive(Debug, Clone, Copy)]
 struct Edges {
     e: [i64; 3],
+    /// Pixel centre in window coordinates, for the float attribute weights.
+    px: f64,
+    py: f64,
 }
 
 /// Walks the pixels of `tri`'s bounding box inside `tile` and calls `f(pixel_in_tile, edges)`
@@ -170,7 +173,14 @@ fn raster_triangle(tri: &SetupTriangle, tile: TileRect, mut f: impl FnMut(usize,
         let base = (y - tile.y0) as usize * tile_w;
         for x in x0..=x1 {
             if e[0] >= bias[0] && e[1] >= bias[1] && e[2] >= bias[2] {
-                f(base + (x - tile.x0) as usize, Edges { e });
+                f(
+                    base + (x - tile.x0) as usize,
+                    Edges {
+                        e,
+                        px: x as f64 + 0.5,
+                        py: y as f64 + 0.5,
+                    },
+                );
             }
             e[0] += step_x[0];
             e[1] += step_x[1];
@@ -185,15 +195,30 @@ fn raster_triangle(tri: &SetupTriangle, tile: TileRect, mut f: impl FnMut(usize,
 /// Screen-linear window depth and perspective-correct colour at a covered pixel.
 #[inline(always)]
 fn interpolate(tri: &SetupTriangle, edges: Edges) -> (f32, Shaded) {
-    // Barycentrics from the exact integer edge functions. Vertex depths are f32 and the f64
-    // error here is far below half an f32 ulp, so a constant-depth triangle gets exactly its
-    // depth back: coplanar ties stay ties.
-    let inv = tri.inv_area2;
-    let l = [
-        edges.e[0] as f64 * inv,
-        edges.e[1] as f64 * inv,
-        edges.e[2] as f64 * inv,
-    ];
+    // Coverage comes from the snapped integer edge functions; the attribute weights come from
+    // the *unsnapped* f32 window positions, as lavapipe interpolates (measured: a mask cutoff
+    // decided on snapped weights differed from the GPU on one `foliage-cards` pixel). The f64
+    // error is far below half an f32 ulp, so a constant-depth triangle gets exactly its depth
+    // back and coplanar ties stay ties. Degenerate float triangles fall back to snapped weights.
+    let l = if tri.inv_farea2 != 0.0 {
+        let e = |i: usize| {
+            let (a, b) = ((i + 1) % 3, (i + 2) % 3);
+            (tri.fx[b] - tri.fx[a]) * (edges.py - tri.fy[a])
+                - (tri.fy[b] - tri.fy[a]) * (edges.px - tri.fx[a])
+        };
+        [
+            e(0) * tri.inv_farea2,
+            e(1) * tri.inv_farea2,
+            e(2) * tri.inv_farea2,
+        ]
+    } else {
+        let inv = tri.inv_area2;
+        [
+            edges.e[0] as f64 * inv,
+            edges.e[1] as f64 * inv,
+            edges.e[2] as f64 * inv,
+        ]
+    };
     let z = l[0] * f64::from(tri.z[0]) + l[1] * f64::from(tri.z[1]) + l[2] * f64::from(tri.z[2]);
     // The viewport depth range is [0, 1]; the GPU clamps fragment depth to it.
     // `+ 0.0` turns −0.0 into +0.0 so both get one sort key.

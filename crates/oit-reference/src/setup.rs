@@ -39,6 +39,11 @@ pub(crate) struct SetupTriangle {
     /// 1 / (twice the signed area in sub-pixel units², > 0 after normalisation): barycentrics
     /// then cost a multiply per fragment.
     pub inv_area2: f64,
+    /// Unsnapped f32 window positions (as f64) that attributes are interpolated from.
+    pub fx: [f64; 3],
+    pub fy: [f64; 3],
+    /// 1 / (twice the signed float area in pixels²), or 0 when that area is 0.
+    pub inv_farea2: f64,
     /// Inclusive pixel bounding box (min x, min y, max x, max y), clamped to the viewport.
     pub bbox: [u32; 4],
     /// Window depth per vertex (z_clip / w_clip, f32 as the GPU computes it).
@@ -158,6 +163,8 @@ fn clip_polygon(tri: [ClipVertex; 3], guard: [f32; 2]) -> Polygon {
 struct WindowVertex {
     x: i64,
     y: i64,
+    xf: f32,
+    yf: f32,
     z: f32,
     inv_w: f64,
     color: [f32; 4],
@@ -182,6 +189,8 @@ fn to_window(v: ClipVertex, width: u32, height: u32) -> Option<WindowVertex> {
     Some(WindowVertex {
         x: snap(xf),
         y: snap(yf),
+        xf,
+        yf,
         z: zd,
         inv_w: 1.0 / f64::from(p.w),
         color: v.color,
@@ -248,6 +257,8 @@ pub(crate) fn setup_triangle(
     let mut win = [WindowVertex {
         x: 0,
         y: 0,
+        xf: 0.0,
+        yf: 0.0,
         z: 0.0,
         inv_w: 0.0,
         color: [0.0; 4],
@@ -303,6 +314,13 @@ pub(crate) fn setup_triangle(
             x: [a.x, b.x, c.x],
             y: [a.y, b.y, c.y],
             inv_area2: 1.0 / area as f64,
+            fx: [a.xf as f64, b.xf as f64, c.xf as f64],
+            fy: [a.yf as f64, b.yf as f64, c.yf as f64],
+            inv_farea2: {
+                let fa = (b.xf as f64 - a.xf as f64) * (c.yf as f64 - a.yf as f64)
+                    - (b.yf as f64 - a.yf as f64) * (c.xf as f64 - a.xf as f64);
+                if fa != 0.0 { 1.0 / fa } else { 0.0 }
+            },
             bbox: [x0, y0, x1, y1],
             z: [a.z, b.z, c.z],
             inv_w: [a.inv_w, b.inv_w, c.inv_w],
