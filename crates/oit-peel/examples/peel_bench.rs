@@ -5,7 +5,8 @@
 //! `cargo run -p oit-peel --example peel_bench -- [SCENE] [SIZE] [FRAMES]`
 //! (defaults: many-layers-64 128 7). After one warm-up frame each, the configurations render
 //! in interleaved rounds (one frame of each per round), so load from other processes on a
-//! shared machine hits them alike; times are medians over the rounds.
+//! shared machine hits them alike. Times are minima over the rounds (the least disturbed run of
+//! CPU-bound lavapipe work), medians in brackets.
 
 use oit_gpu::{ColorFormat, Context, ContextOptions, GpuScene, GpuTimer, Targets, Technique};
 use oit_peel::{
@@ -31,6 +32,10 @@ struct Run {
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+}
+
+fn min(v: &[f64]) -> f64 {
+    v.iter().copied().fold(f64::INFINITY, f64::min)
 }
 
 impl Run {
@@ -221,63 +226,89 @@ fn main() -> anyhow::Result<()> {
         }
     }
     println!(
-        "{:58} {:>9} {:>9} {:>6} {:>8}",
-        "technique", "gpu ms", "wall ms", "geom", "B/px"
+        "{:58} {:>21} {:>21} {:>5} {:>6}",
+        "technique", "gpu ms min [median]", "wall ms min [median]", "geom", "B/px"
     );
     for r in &runs {
         println!(
-            "{:58} {:9.3} {:9.3} {:6} {:8.1}",
+            "{:58} {:9.3} [{:9.3}] {:9.3} [{:9.3}] {:5} {:6.1}",
             r.label,
+            min(&r.gpu_ms),
             median(r.gpu_ms.clone()),
+            min(&r.wall_ms),
             median(r.wall_ms.clone()),
             r.geometry_passes,
             r.technique.memory_bytes() as f64 / pixels
         );
     }
     let get = |label: &str| runs.iter().find(|r| r.label == label).expect("measured");
-    let ms = |label: &str| median(get(label).gpu_ms.clone());
-    let wall = |label: &str| median(get(label).wall_ms.clone());
-    let (u, f, d) = (
-        ms("unsorted"),
-        ms("front-peel:layers=auto"),
-        ms("dual-peel:passes=auto,depth=rg32f"),
-    );
+    // Ratios are taken within a round (same load), then the median over rounds.
+    let ratio = |a: &str, b: &str, wall: bool| {
+        let (x, y) = (get(a), get(b));
+        let (xs, ys) = if wall {
+            (&x.wall_ms, &y.wall_ms)
+        } else {
+            (&x.gpu_ms, &y.gpu_ms)
+        };
+        median(xs.iter().zip(ys).map(|(p, q)| p / q).collect())
+    };
     let lf = f64::from(l);
-    println!(
-        "\nper peeled layer (gpu ms / L): front {:.4} ms = {:.3}x unsorted, dual {:.4} ms = {:.3}x unsorted; dual/front = {:.3}",
-        f / lf,
-        f / lf / u,
-        d / lf,
-        d / lf / u,
-        d / f
+    let (front, dual32) = (
+        "front-peel:layers=auto",
+        "dual-peel:passes=auto,depth=rg32f",
     );
+    println!("\nmedian over rounds of same-round ratios (gpu time unless noted):");
+    println!(
+        "  per peeled layer: front {:.3}x unsorted, dual {:.3}x unsorted; dual / front = {:.3}",
+        ratio(front, "unsorted", false) / lf,
+        ratio(dual32, "unsorted", false) / lf,
+        ratio(dual32, front, false)
+    );
+    for r in &runs[1..] {
+        let base = if r.label.starts_with("front") {
+            front
+        } else {
+            dual32
+        };
+        if r.label != base {
+            println!(
+                "  {:58} {:.3}x {base} (wall {:.3}x)",
+                r.label,
+                ratio(r.label, base, false),
+                ratio(r.label, base, true)
+            );
+        }
+    }
     for r in &runs {
         let kinds: Vec<String> = r
             .kinds
             .iter()
             .map(|(k, v)| format!("{k} {:.3}", median(v.clone())))
             .collect();
-        println!("  {}: {}", r.label, kinds.join(", "));
+        println!("  {} (median ms): {}", r.label, kinds.join(", "));
     }
     println!(
         "\nround trip (copy, submit, map, wait) on an idle queue: {:.3} ms median",
         round_trip(&ctx)
     );
     for (gated, looped) in [
+        (front, "front-peel:layers=auto (CPU readback per pass)"),
         (
-            "front-peel:layers=auto",
-            "front-peel:layers=auto (CPU readback per pass)",
-        ),
-        (
-            "dual-peel:passes=auto,depth=rg32f",
+            dual32,
             "dual-peel:passes=auto,depth=rg32f (CPU readback per pass)",
         ),
     ] {
-        let (a, b) = (wall(gated), wall(looped));
+        let (x, y) = (get(gated), get(looped));
+        let diff = median(
+            y.wall_ms
+                .iter()
+                .zip(&x.wall_ms)
+                .map(|(b, a)| b - a)
+                .collect(),
+        );
         println!(
-            "stall: {looped}: wall {b:.3} ms vs gated {a:.3} ms ({:+.3} ms, {:+.3} ms per pass)",
-            b - a,
-            (b - a) / f64::from(get(looped).geometry_passes)
+            "stall: {looped}: wall minus gated wall, same round, median {diff:+.3} ms ({:+.3} ms per pass)",
+            diff / f64::from(y.geometry_passes)
         );
     }
     Ok(())

@@ -432,7 +432,7 @@ impl Control {
         pass.dispatch_workgroups((list.draws.len() as u32).div_ceil(64).max(1), 1, 1);
     }
 
-    /// A count pipeline of peel_gate.wgsl (`cs_count_range` or `cs_count_candidates`) with the
+    /// A count pipeline of peel_gate.wgsl (`cs_count_range` or `cs_count_layer`) with the
     /// layout its bindings need.
     pub fn count_pipeline(
         &self,

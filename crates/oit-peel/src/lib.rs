@@ -11,9 +11,11 @@
 //!
 //! Termination is GPU-driven: every transparent draw is an indirect draw, and a one-workgroup
 //! compute pass after each peel pass copies "this pass left something for the next" (an atomic
-//! flag the fragment shader sets) into the instance count of the next pass's draws. A frame
+//! flag a shader of the pass sets) into the instance count of the next pass's draws. A frame
 //! records as many passes as the previous frame needed and reads the counters back once at the
 //! end (for the stats); only when that budget was too small does it record more.
+//!
+//! See README.md for the measurements (lavapipe) and the depth-range encoding table.
 
 mod config;
 mod dual;
