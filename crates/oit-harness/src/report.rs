@@ -17,6 +17,7 @@ pub fn markdown(results: &Results) -> String {
          draw order and reversed draw order.\n",
         a.name, a.backend, a.device_type, a.driver
     );
+    out.push_str(&summary_markdown(results));
     for (scene, runs) in by_scene(results) {
         let res = runs[0].resolution;
         let _ = writeln!(out, "## {scene} ({}x{})\n", res[0], res[1]);
@@ -78,6 +79,60 @@ pub fn terminal_table(results: &Results) -> String {
             let _ = writeln!(out, "  {}", line(row));
         }
     }
+    out
+}
+
+/// One row per technique over every scene it ran on: the answer to "which technique, for this
+/// suite, at what cost?" before the per-scene detail.
+pub fn summary_markdown(results: &Results) -> String {
+    let mut techniques: Vec<(&str, Vec<&Run>)> = Vec::new();
+    for run in results.runs.iter().filter(|r| r.status == RunStatus::Ok) {
+        match techniques.iter_mut().find(|(t, _)| *t == run.technique) {
+            Some((_, runs)) => runs.push(run),
+            None => techniques.push((&run.technique, vec![run])),
+        }
+    }
+    let mut out = String::new();
+    let _ = writeln!(out, "## Summary over the suite\n");
+    let _ = writeln!(
+        out,
+        "Per technique: scenes run, median of the per-scene cost × unsorted, mean FLIP, mean RMSE, \
+         scenes within max error 4e-3 of the reference (\"exact\"), largest order dependence.\n"
+    );
+    let _ = writeln!(
+        out,
+        "| technique | scenes | median cost × unsorted | mean FLIP | mean RMSE | exact scenes | max order dep. |"
+    );
+    let _ = writeln!(out, "|---|---:|---:|---:|---:|---:|---:|");
+    for (technique, runs) in techniques {
+        let mut costs: Vec<f64> = runs.iter().filter_map(|r| r.cost_vs_unsorted).collect();
+        costs.sort_by(f64::total_cmp);
+        let median_cost = match costs.len() {
+            0 => "–".to_owned(),
+            n if n % 2 == 1 => format!("{:.2}", costs[n / 2]),
+            n => format!("{:.2}", 0.5 * (costs[n / 2 - 1] + costs[n / 2])),
+        };
+        let errors: Vec<_> = runs.iter().filter_map(|r| r.error).collect();
+        let n = errors.len().max(1) as f64;
+        let flip = errors.iter().map(|e| e.flip_mean).sum::<f64>() / n;
+        let rmse = errors.iter().map(|e| e.rmse).sum::<f64>() / n;
+        let exact = errors
+            .iter()
+            .filter(|e| e.max_abs <= 4e-3 && e.nonfinite == 0)
+            .count();
+        let order = runs
+            .iter()
+            .filter_map(|r| r.order_dependence)
+            .fold(0.0, f64::max);
+        let _ = writeln!(
+            out,
+            "| {technique} | {} | {median_cost} | {flip:.4} | {} | {exact} | {} |",
+            runs.len(),
+            sci(rmse),
+            sci(order)
+        );
+    }
+    let _ = writeln!(out);
     out
 }
 
@@ -150,6 +205,66 @@ pub fn sci(v: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    use crate::results::{AdapterJson, Results, Run, RunStatus};
+
+    fn run(scene: &str, technique: &str, cost: f64, max_abs: f64, flip: f64) -> Run {
+        let mut r = Run::not_rendered(
+            scene,
+            "f.json",
+            technique,
+            [4, 4],
+            RunStatus::Ok,
+            String::new(),
+        );
+        r.reason = None;
+        r.cost_vs_unsorted = Some(cost);
+        r.order_dependence = Some(max_abs / 2.0);
+        r.error = Some(oit_metrics::Errors {
+            rmse: max_abs / 2.0,
+            psnr: 0.0,
+            mean_abs: 0.0,
+            max_abs,
+            over_1_255: 0.0,
+            over_1_64: 0.0,
+            flip_mean: flip,
+            nonfinite: 0,
+        });
+        r
+    }
+
+    #[test]
+    fn summary_aggregates_per_technique_over_scenes() {
+        let adapter = AdapterJson {
+            name: "a".into(),
+            backend: "b".into(),
+            device_type: "c".into(),
+            driver: "d".into(),
+        };
+        let mut skipped = run("s3", "t", 9.0, 9.0, 9.0);
+        skipped.status = RunStatus::Skipped;
+        let results = Results {
+            schema: crate::results::SCHEMA.into(),
+            adapter,
+            runs: vec![
+                run("s1", "t", 1.0, 1e-3, 0.1),
+                run("s2", "t", 3.0, 0.5, 0.3),
+                run("s4", "t", 2.0, 4e-3, 0.2),
+                skipped,
+                run("s1", "u", 1.0, 0.2, 0.5),
+            ],
+        };
+        let text = summary_markdown(&results);
+        // t: 3 ok scenes, median cost 2, mean FLIP 0.2, 2 exact (1e-3 and exactly 4e-3), max order 0.25.
+        assert!(
+            text.contains("| t | 3 | 2.00 | 0.2000 | 0.0842 | 2 | 0.2500 |"),
+            "{text}"
+        );
+        assert!(
+            text.contains("| u | 1 | 1.00 | 0.5000 | 0.1000 | 0 | 0.1000 |"),
+            "{text}"
+        );
+    }
 
     #[test]
     fn sci_formats_small_large_and_zero() {
