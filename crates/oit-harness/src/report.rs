@@ -18,6 +18,16 @@ pub fn markdown(results: &Results) -> String {
         a.name, a.backend, a.device_type, a.driver
     );
     out.push_str(&summary_markdown(results));
+    out.push_str(&matrix_markdown(
+        results,
+        "Mean FLIP per scene and technique",
+        |r| r.error.map(|e| e.flip_mean),
+    ));
+    out.push_str(&matrix_markdown(
+        results,
+        "RMSE per scene and technique",
+        |r| r.error.map(|e| e.rmse),
+    ));
     for (scene, runs) in by_scene(results) {
         let res = runs[0].resolution;
         let _ = writeln!(out, "## {scene} ({}x{})\n", res[0], res[1]);
@@ -133,6 +143,59 @@ pub fn summary_markdown(results: &Results) -> String {
         );
     }
     let _ = writeln!(out);
+    out
+}
+
+/// A scene × technique matrix of one number per ok run (e.g. mean FLIP), with a suite-mean
+/// row: the shape in which a parameter sweep (say, WBOIT weights) is easiest to read.
+pub fn matrix_markdown(
+    results: &Results,
+    title: &str,
+    metric: impl Fn(&Run) -> Option<f64>,
+) -> String {
+    let mut techniques: Vec<&str> = Vec::new();
+    for run in &results.runs {
+        if !techniques.contains(&run.technique.as_str()) {
+            techniques.push(&run.technique);
+        }
+    }
+    let mut out = String::new();
+    let _ = writeln!(out, "## {title}\n");
+    let _ = writeln!(out, "| scene | {} |", techniques.join(" | "));
+    let _ = writeln!(out, "|---|{}", "---:|".repeat(techniques.len()));
+    let mut sums = vec![(0.0, 0usize); techniques.len()];
+    for (scene, runs) in by_scene(results) {
+        let cells: Vec<String> = techniques
+            .iter()
+            .zip(&mut sums)
+            .map(|(t, sum)| {
+                let value = runs
+                    .iter()
+                    .find(|r| r.technique == *t && r.status == RunStatus::Ok)
+                    .and_then(|r| metric(r));
+                match value {
+                    Some(v) => {
+                        sum.0 += v;
+                        sum.1 += 1;
+                        sci(v)
+                    }
+                    None => "–".to_owned(),
+                }
+            })
+            .collect();
+        let _ = writeln!(out, "| {scene} | {} |", cells.join(" | "));
+    }
+    let means: Vec<String> = sums
+        .iter()
+        .map(|&(s, n)| {
+            if n == 0 {
+                "–".to_owned()
+            } else {
+                format!("**{}**", sci(s / n as f64))
+            }
+        })
+        .collect();
+    let _ = writeln!(out, "| **mean** | {} |\n", means.join(" | "));
     out
 }
 
@@ -262,6 +325,33 @@ mod tests {
         );
         assert!(
             text.contains("| u | 1 | 1.00 | 0.5000 | 0.1000 | 0 | 0.1000 |"),
+            "{text}"
+        );
+    }
+
+    #[test]
+    fn matrix_has_one_cell_per_scene_and_technique_and_a_mean_row() {
+        let adapter = AdapterJson {
+            name: "a".into(),
+            backend: "b".into(),
+            device_type: "c".into(),
+            driver: "d".into(),
+        };
+        let results = Results {
+            schema: crate::results::SCHEMA.into(),
+            adapter,
+            runs: vec![
+                run("s1", "t", 1.0, 0.0, 0.25),
+                run("s1", "u", 1.0, 0.0, 0.5),
+                run("s2", "t", 1.0, 0.0, 0.75),
+            ],
+        };
+        let text = matrix_markdown(&results, "FLIP", |r| r.error.map(|e| e.flip_mean));
+        assert!(text.contains("| scene | t | u |"), "{text}");
+        assert!(text.contains("| s1 | 0.2500 | 0.5000 |"), "{text}");
+        assert!(text.contains("| s2 | 0.7500 | – |"), "{text}");
+        assert!(
+            text.contains("| **mean** | **0.5000** | **0.5000** |"),
             "{text}"
         );
     }
