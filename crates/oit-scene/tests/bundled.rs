@@ -370,6 +370,12 @@ fn hdr_emissive_spans_10_to_1000_with_low_alpha() {
         assert!((0.05..=0.3).contains(&alpha_of(s, i)));
     }
     assert!(s.background.iter().all(|c| *c <= 0.01));
+    // Close to the camera: every vertex at a view distance below 0.29, where the paper's eq7
+    // weight sits at its 3e3 cap (the WBOIT fp16 overflow case), yet well past the near plane.
+    for v in &s.vertices {
+        let z = s.camera.clip(Vec3::from(v.position)).w;
+        assert!(z > 10.0 * s.camera.near && z < 0.29, "view distance {z}");
+    }
 }
 
 #[test]

@@ -4,7 +4,7 @@
 
 use oit_gpu::testing::context_or_skip;
 use oit_gpu::{ColorFormat, Context, GpuScene, GpuTimer, Targets, read_color, render_frame};
-use oit_scene::{Camera, LinearImage, Resolution, Scene};
+use oit_scene::{LinearImage, Resolution, Scene};
 use oit_wboit::tail::{AccumFormat, RevealFormat};
 use oit_wboit::{Config, GuardCounts, Wboit, Weight};
 use std::path::Path;
@@ -351,28 +351,37 @@ fn faint_haze_needs_more_than_r8_revealage() {
     assert!(e16 < haze / 4.0, "r16f keeps the haze: {e16} vs {haze}");
 }
 
-/// hdr-emissive with its geometry in other units (scaled by 1/20, so view distances of about
-/// 0.25 where eq7 sits at its 3e3 cap) and α raised ×3: rgba16f accumulation with eq7
-/// overflows (counted by the guard), the guarded output is finite, and rgba32f has lower
-/// error. The bundled scene at its own scale does not overflow with any weight (its α² ·
-/// colour · w stays below 65504); that is asserted too, so the difference is on record.
+/// hdr-emissive as bundled (emissive layers at view distances 0.14–0.25, where eq7 sits at its
+/// 3e3 cap, so one layer of colour c and opacity α adds c·α·(α·3e3) to the accumulation):
+/// rgba16f accumulation with eq7 overflows (counted by the guard and checked against the raw
+/// sums), the guarded output is finite, and rgba32f has lower error.
 #[test]
 fn hdr_emissive_overflows_fp16_and_the_guards_hold() {
     let Some(ctx) = context_or_skip("hdr_emissive_overflows_fp16_and_the_guards_hold") else {
         return;
     };
     let scene = scene_named("hdr-emissive", RES);
+    // Every transparent vertex is where eq7 is capped, so the overflow is eq7's cap, not the
+    // geometry's luck.
+    let range = oit_wboit::RangeParams {
+        z_near: scene.camera.near,
+        z_far: scene.camera.far,
+        fall: 1.0,
+    };
+    for d in &scene.draws {
+        assert!(scene.material_of(d).mode.is_transparent());
+        for v in &scene.vertices[d.vertex_range()] {
+            let z = scene.camera.clip(v.position.into()).w;
+            assert_eq!(
+                Weight::Eq7.eval(z, 0.5, 1.0, &range),
+                3e3,
+                "view distance {z}"
+            );
+        }
+    }
+    let reference = oit_reference::render(&scene, &Default::default());
     let eq7 = |accum| weighted(Weight::Eq7, accum, RevealFormat::R16f);
-    let (_, g) = render_once(&ctx, eq7(AccumFormat::Rgba16f), &scene);
-    println!("hdr-emissive (bundled) eq7 rgba16f: [{g}]");
-    assert_eq!(
-        g.accum_overflow, 0,
-        "bundled hdr-emissive stays inside fp16 with eq7"
-    );
-
-    let stress = in_other_units(&hdr_alpha_times_3(&scene), 1.0 / 20.0);
-    let reference = oit_reference::render(&stress, &Default::default());
-    let gpu = GpuScene::upload(&ctx, &stress).expect("upload");
+    let gpu = GpuScene::upload(&ctx, &scene).expect("upload");
     let targets = Targets::new(&ctx, RES, ColorFormat::Rgba16Float).expect("targets");
     let mut technique = Wboit::new(eq7(AccumFormat::Rgba16f));
     let (img16, g16) = render(&ctx, &mut technique, &gpu, &targets);
@@ -385,25 +394,29 @@ fn hdr_emissive_overflows_fp16_and_the_guards_hold() {
         .filter(|p| p.iter().any(|&c| !c.is_finite() || c >= 65504.0))
         .count();
     println!(
-        "hdr stress eq7 rgba16f: {overflowed} pixels with an overflowed accumulation channel before the guards"
+        "hdr-emissive eq7 rgba16f: {overflowed} pixels with an overflowed accumulation channel before the guards"
     );
     assert_eq!(overflowed, g16.accum_overflow as usize);
     let e16 = oit_metrics::compare(&img16, &reference.image).expect("same size");
     println!(
-        "hdr stress eq7 rgba16f: rmse {:.3} flip {:.4} [{g16}]",
+        "hdr-emissive eq7 rgba16f: rmse {:.3} flip {:.5} [{g16}]",
         e16.rmse, e16.flip_mean
     );
     assert!(g16.accum_overflow > 0, "fp16 accumulation overflows: {g16}");
     assert_eq!(nonfinite_pixels(&img16), 0);
     assert_eq!(e16.nonfinite, 0);
     if ctx.caps.float32_blendable {
-        let (img32, g32) = render_once(&ctx, eq7(AccumFormat::Rgba32f), &stress);
+        let (img32, g32) = render_once(&ctx, eq7(AccumFormat::Rgba32f), &scene);
         let e32 = oit_metrics::compare(&img32, &reference.image).expect("same size");
         println!(
-            "hdr stress eq7 rgba32f: rmse {:.3} flip {:.4} [{g32}]",
+            "hdr-emissive eq7 rgba32f: rmse {:.3} flip {:.5} [{g32}]",
             e32.rmse, e32.flip_mean
         );
         assert_eq!(g32.accum_overflow, 0);
+        assert_eq!(nonfinite_pixels(&img32), 0);
+        // Judged by RMSE: mean FLIP works on the Reinhard-tone-mapped sRGB8 images, where every
+        // radiance above ~60 lands in the top three codes, so the ~10 % lost by the clipped sums
+        // in the overflowed pixels moves FLIP by about nothing; it is printed, not compared.
         assert!(
             e32.rmse < e16.rmse,
             "rgba32f {} vs rgba16f {}",
@@ -413,40 +426,6 @@ fn hdr_emissive_overflows_fp16_and_the_guards_hold() {
     } else {
         println!("rgba32f skipped: no FLOAT32_BLENDABLE on this adapter");
     }
-}
-
-fn hdr_alpha_times_3(scene: &Scene) -> Scene {
-    let mut s = scene.clone();
-    for m in &mut s.materials {
-        if m.mode.is_transparent() {
-            m.alpha = (m.alpha * 3.0).min(1.0);
-        }
-    }
-    s
-}
-
-/// The same scene with every length multiplied by `k` (the image is unchanged up to rounding).
-fn in_other_units(scene: &Scene, k: f32) -> Scene {
-    let mut s = scene.clone();
-    for v in &mut s.vertices {
-        v.position = v.position.map(|p| p * k);
-    }
-    for d in &mut s.draws {
-        d.bounds_center *= k;
-        d.bounds_radius *= k;
-    }
-    let c = &scene.camera;
-    s.camera = Camera::new(
-        c.eye * k,
-        c.target * k,
-        c.up,
-        c.projection,
-        c.near * k,
-        c.far * k,
-        c.reverse_z,
-        scene.resolution.aspect(),
-    );
-    s
 }
 
 /// The composite is the shared tail: the default `AccumTargets` are rgba16f + r16f, 10 bytes
