@@ -180,3 +180,62 @@ fn unknown_option_is_rejected_before_any_gpu_work() {
         .to_string();
     assert!(err.contains("bogus"), "{err}");
 }
+
+#[test]
+fn a_technique_the_adapter_cannot_run_is_skipped_with_its_reason_and_the_rest_run() {
+    // llvmpipe's GL adapter cannot blend into Rg32Float: `dual-peel:depth=rg32f` must be
+    // recorded as skipped, with the reason, while the other techniques still run.
+    let options = oit_gpu::ContextOptions {
+        backend: oit_gpu::Backend::Gl,
+        adapter: None,
+    };
+    let ctx = match oit_gpu::Context::new(&options) {
+        Ok(ctx) => ctx,
+        Err(e) => {
+            println!("skipped: no GL adapter here (install libegl-mesa0 libgl1-mesa-dri): {e}");
+            return;
+        }
+    };
+    if ctx
+        .caps
+        .format(oit_gpu::wgpu::TextureFormat::Rg32Float)
+        .blendable
+    {
+        println!("skipped: this GL adapter can blend Rg32Float, nothing to skip");
+        return;
+    }
+    let out = temp_dir("skip");
+    let scenes = load_scenes(&[scenes_dir().join("enderton.json")]).unwrap();
+    let specs = resolve_specs(&[
+        "dual-peel:depth=rg32f".to_string(),
+        "sorted-object".to_string(),
+    ])
+    .unwrap();
+    let options = CompareOptions {
+        resolution: Some(Resolution {
+            width: 32,
+            height: 32,
+        }),
+        frames: 1,
+        warmup: 0,
+        out_dir: out.clone(),
+        cache_dir: Some(out.join("cache")),
+        context: options,
+    };
+    let results = compare(&ctx, &scenes, &specs, &options, &|_| {}).unwrap();
+    assert_eq!(results.runs.len(), 2);
+    let skipped = &results.runs[0];
+    assert_eq!(skipped.status, RunStatus::Skipped, "{skipped:?}");
+    let reason = skipped.reason.as_deref().unwrap_or("");
+    assert!(
+        reason.contains("Rg32Float") || reason.contains("rg32f"),
+        "{reason}"
+    );
+    assert!(skipped.error.is_none() && skipped.gpu_ms.is_none());
+    assert_eq!(results.runs[1].status, RunStatus::Ok);
+    assert!(results.runs[1].error.unwrap().max_abs < 2e-3);
+    // The skip is in the written results too.
+    let on_disk = Results::read(&out.join("results.json")).unwrap();
+    assert_eq!(on_disk.runs[0].status, RunStatus::Skipped);
+    let _ = std::fs::remove_dir_all(&out);
+}
