@@ -134,6 +134,5 @@ pub fn count_fragments(ctx: &Context, scene: &GpuScene) -> Result<Vec<u32>, GpuE
     }
     encoder.copy_buffer_to_buffer(&counts, 0, &readback, 0, pixels * 4);
     ctx.queue.submit([encoder.finish()]);
-    let bytes = crate::targets::map_read(ctx, &readback, "fragment counts")?;
-    Ok(bytemuck::cast_slice::<u8, u32>(&bytes).to_vec())
+    crate::readback::read_buffer_u32(ctx, &readback, "fragment counts")
 }

@@ -4,7 +4,8 @@
 //!   the [`Caps`] a technique reads to say "unsupported here because …".
 //! - [`GpuScene`]: the [`oit_scene::Scene`] uploaded once; shared pipeline builder.
 //! - [`Targets`] and [`read_color`]: the final colour (`Rgba16Float` or `Rgba32Float`) and
-//!   `Depth32Float` depth, and readback to [`oit_scene::LinearImage`].
+//!   `Depth32Float` depth, and readback to [`oit_scene::LinearImage`]; [`read_buffer`] and
+//!   [`read_texture`] for any other result a technique or test reads back.
 //! - [`render_frame`]: the shared opaque pass followed by one [`Technique`].
 //! - [`GpuTimer`]: per-pass GPU time from timestamp queries, or wall-clock when the adapter has
 //!   none (and the result says which).
@@ -17,6 +18,7 @@ mod count;
 mod error;
 mod frame;
 pub mod memory;
+mod readback;
 mod scene;
 pub mod shaders;
 mod spec;
@@ -30,6 +32,7 @@ pub use count::count_fragments;
 pub use error::{GpuError, Unsupported};
 pub use frame::{FrameResult, opaque_pass, render_frame};
 pub use memory::MemoryLedger;
+pub use readback::{read_buffer, read_buffer_u32, read_texture};
 pub use scene::{
     CullRule, GpuScene, MATERIAL_STRIDE, PREMULTIPLIED_OVER, ScenePipelineDesc, ScenePipelines,
     VERTEX_STRIDE, scene_pipeline, vertex_layout,

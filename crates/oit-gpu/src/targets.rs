@@ -107,72 +107,6 @@ impl Targets {
     }
 }
 
-/// Reads a texture's bytes back tightly packed (row padding to 256 bytes removed).
-pub(crate) fn read_texture(
-    ctx: &Context,
-    texture: &wgpu::Texture,
-    bytes_per_pixel: u32,
-    what: &str,
-) -> Result<Vec<u8>, GpuError> {
-    let (w, h) = (texture.width(), texture.height());
-    let row = w * bytes_per_pixel;
-    let padded =
-        row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
-    let buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("readback"),
-        size: u64::from(padded) * u64::from(h),
-        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-        mapped_at_creation: false,
-    });
-    let mut encoder = ctx.device.create_command_encoder(&Default::default());
-    encoder.copy_texture_to_buffer(
-        texture.as_image_copy(),
-        wgpu::TexelCopyBufferInfo {
-            buffer: &buffer,
-            layout: wgpu::TexelCopyBufferLayout {
-                offset: 0,
-                bytes_per_row: Some(padded),
-                rows_per_image: Some(h),
-            },
-        },
-        texture.size(),
-    );
-    ctx.queue.submit([encoder.finish()]);
-    let data = map_read(ctx, &buffer, what)?;
-    let mut out = Vec::with_capacity((row * h) as usize);
-    for y in 0..h as usize {
-        let start = y * padded as usize;
-        out.extend_from_slice(&data[start..start + row as usize]);
-    }
-    Ok(out)
-}
-
-/// Maps a MAP_READ buffer, waits, and copies its contents out.
-pub(crate) fn map_read(
-    ctx: &Context,
-    buffer: &wgpu::Buffer,
-    what: &str,
-) -> Result<Vec<u8>, GpuError> {
-    let (tx, rx) = std::sync::mpsc::channel();
-    buffer.map_async(wgpu::MapMode::Read, .., move |r| {
-        let _ = tx.send(r);
-    });
-    ctx.wait()?;
-    let fail = |message: String| GpuError::Readback {
-        what: what.to_owned(),
-        message,
-    };
-    rx.recv()
-        .map_err(|e| fail(e.to_string()))?
-        .map_err(|e| fail(e.to_string()))?;
-    let data = buffer
-        .get_mapped_range(..)
-        .map_err(|e| fail(e.to_string()))?
-        .to_vec();
-    buffer.unmap();
-    Ok(data)
-}
-
 /// Reads the final colour as linear RGBA f32, top-left origin.
 pub fn read_color(ctx: &Context, targets: &Targets) -> Result<LinearImage, GpuError> {
     let bpp = match targets.color_format {
@@ -184,7 +118,7 @@ pub fn read_color(ctx: &Context, targets: &Targets) -> Result<LinearImage, GpuEr
             )));
         }
     };
-    let bytes = read_texture(ctx, &targets.color, bpp, "final colour")?;
+    let bytes = crate::readback::read_texture(ctx, &targets.color, bpp, "final colour")?;
     let pixels = if bpp == 8 {
         bytes
             .chunks_exact(8)

@@ -248,7 +248,7 @@ impl GpuTimer {
                     enc.resolve_query_set(&q.set, 0..n * 2, &q.resolve, 0);
                     enc.copy_buffer_to_buffer(&q.resolve, 0, &q.readback, 0, u64::from(n) * 16);
                     ctx.queue.submit([enc.finish()]);
-                    let bytes = crate::targets::map_read(ctx, &q.readback, "timestamps")?;
+                    let bytes = crate::readback::read_buffer(ctx, &q.readback, "timestamps")?;
                     let ticks: Vec<u64> = bytes
                         .chunks_exact(8)
                         .take(n as usize * 2)

@@ -462,26 +462,7 @@ impl Control {
             u64::from(COUNTER_WORDS) * 4,
         );
         ctx.queue.submit([encoder.finish()]);
-        let (tx, rx) = std::sync::mpsc::channel();
-        self.readback.map_async(wgpu::MapMode::Read, .., move |r| {
-            let _ = tx.send(r);
-        });
-        ctx.wait()?;
-        let fail = |message: String| GpuError::Readback {
-            what: "peel counters".to_owned(),
-            message,
-        };
-        rx.recv()
-            .map_err(|e| fail(e.to_string()))?
-            .map_err(|e| fail(e.to_string()))?;
-        let words: Vec<u32> = {
-            let view = self
-                .readback
-                .get_mapped_range(..)
-                .map_err(|e| fail(e.to_string()))?;
-            bytemuck::cast_slice::<u8, u32>(&view).to_vec()
-        };
-        self.readback.unmap();
+        let words = oit_gpu::read_buffer_u32(ctx, &self.readback, "peel counters")?;
         Ok(Counters { words })
     }
 }

@@ -445,29 +445,7 @@ impl AccumTargets {
 
     /// The guard counts of the last [`composite`] over these targets (waits for the GPU).
     pub fn guard_counts(&self, ctx: &Context) -> Result<GuardCounts, GpuError> {
-        let (tx, rx) = std::sync::mpsc::channel();
-        self.guards_readback
-            .map_async(wgpu::MapMode::Read, .., move |r| {
-                let _ = tx.send(r);
-            });
-        ctx.wait()?;
-        let fail = |message: String| GpuError::Readback {
-            what: "wboit guard counters".to_owned(),
-            message,
-        };
-        rx.recv()
-            .map_err(|e| fail(e.to_string()))?
-            .map_err(|e| fail(e.to_string()))?;
-        let words: Vec<u32> = {
-            let data = self
-                .guards_readback
-                .get_mapped_range(..)
-                .map_err(|e| fail(e.to_string()))?;
-            data.chunks_exact(4)
-                .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-                .collect()
-        };
-        self.guards_readback.unmap();
+        let words = oit_gpu::read_buffer_u32(ctx, &self.guards_readback, "wboit guard counters")?;
         Ok(GuardCounts::from_slots(&words))
     }
 
