@@ -182,6 +182,15 @@ fn run(command: Command) -> Result<()> {
     }
 }
 
+/// Every GPU command names the adapter first: timings mean nothing without it.
+fn print_adapter(ctx: &oit_gpu::Context) {
+    let info = ctx.adapter_info();
+    eprintln!(
+        "adapter: {} ({}, {}, {} {})",
+        info.name, info.backend, info.device_type, info.driver, info.driver_info
+    );
+}
+
 fn load_scene(path: &Path, resolution: Option<Resolution>) -> Result<Scene> {
     let scene = oit_scene::load(path)?;
     Ok(match resolution {
@@ -276,6 +285,7 @@ fn render(
 ) -> Result<()> {
     let scene = load_scene(scene_path, resolution)?;
     let ctx = oit_harness::open_context(&gpu.options())?;
+    print_adapter(&ctx);
     let spec = oit_harness::parse_spec(spec)?;
     let output = output.unwrap_or_else(|| {
         PathBuf::from(format!(
@@ -318,11 +328,7 @@ fn compare(
         );
     }
     let ctx = oit_harness::open_context(&options.context)?;
-    let info = ctx.adapter_info();
-    eprintln!(
-        "adapter: {} ({}, {}, {})",
-        info.name, info.backend, info.device_type, info.driver
-    );
+    print_adapter(&ctx);
     let specs = oit_harness::resolve_specs(specs)?;
     let bar = progress_bar((scenes.len() * specs.len()) as u64, "compare");
     let results = oit_harness::compare(&ctx, &scenes, &specs, options, &|msg: &str| {
