@@ -9,15 +9,18 @@
 //! - [`render_frame`]: the shared opaque pass followed by one [`Technique`].
 //! - [`GpuTimer`]: per-pass GPU time from timestamp queries, or wall-clock when the adapter has
 //!   none (and the result says which).
+//! - [`blend`] states and [`fullscreen_pipeline`]: what composites and copies share.
 //! - [`memory`]: exact byte counts of what a technique allocates.
 //! - [`TechniqueSpec`]: `name[:key=value,…]` parsing against a registry, canonical strings.
 //! - [`count_fragments`]: the rasterization conformance pass.
 
+pub mod blend;
 mod context;
 mod count;
 mod error;
 mod frame;
 pub mod memory;
+mod pipeline;
 mod readback;
 mod scene;
 pub mod shaders;
@@ -27,15 +30,17 @@ mod technique;
 pub mod testing;
 mod timer;
 
+pub use blend::PREMULTIPLIED_OVER;
 pub use context::{AdapterSummary, Backend, Caps, Context, ContextOptions, FormatCaps};
 pub use count::count_fragments;
 pub use error::{GpuError, Unsupported};
 pub use frame::{FrameResult, opaque_pass, render_frame};
 pub use memory::MemoryLedger;
+pub use pipeline::{FullscreenDesc, fullscreen_pipeline};
 pub use readback::{read_buffer, read_buffer_u32, read_texture};
 pub use scene::{
-    CullRule, GpuScene, MATERIAL_STRIDE, PREMULTIPLIED_OVER, ScenePipelineDesc, ScenePipelines,
-    VERTEX_STRIDE, scene_pipeline, vertex_layout,
+    CullRule, GpuScene, MATERIAL_STRIDE, ScenePipelineDesc, ScenePipelines, VERTEX_STRIDE,
+    scene_pipeline, vertex_layout,
 };
 pub use spec::{Allowed, ParamInfo, SpecError, TechniqueInfo, TechniqueSpec};
 pub use targets::{ColorFormat, Targets, f16_to_f32, read_color};

@@ -358,17 +358,3 @@ pub fn scene_pipeline(
             cache: None,
         })
 }
-
-/// Premultiplied OVER: `dst = src + (1 − src.a) · dst` on colour and alpha.
-pub const PREMULTIPLIED_OVER: wgpu::BlendState = wgpu::BlendState {
-    color: wgpu::BlendComponent {
-        src_factor: wgpu::BlendFactor::One,
-        dst_factor: wgpu::BlendFactor::OneMinusSrcAlpha,
-        operation: wgpu::BlendOperation::Add,
-    },
-    alpha: wgpu::BlendComponent {
-        src_factor: wgpu::BlendFactor::One,
-        dst_factor: wgpu::BlendFactor::OneMinusSrcAlpha,
-        operation: wgpu::BlendOperation::Add,
-    },
-};

@@ -15,6 +15,7 @@ use crate::error::PeelError;
 use crate::gpu::{
     self, Budget, Control, Counters, DrawList, Options, PeelReport, PipelineDesc, Termination,
 };
+use oit_gpu::blend;
 use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, PREMULTIPLIED_OVER, RenderStats,
@@ -197,14 +198,14 @@ impl DualPeel {
         let constants = key_constants(config, range_format, self.options.test_before_shading);
         let range_target = Some(wgpu::ColorTargetState {
             format: range_format,
-            blend: Some(gpu::MAX_BLEND),
+            blend: Some(blend::MAX),
             write_mask: wgpu::ColorWrites::ALL,
         });
         let peel_targets = [
             range_target.clone(),
             Some(wgpu::ColorTargetState {
                 format: targets.color_format,
-                blend: Some(gpu::UNDER),
+                blend: Some(blend::PREMULTIPLIED_UNDER),
                 write_mask: wgpu::ColorWrites::ALL,
             }),
             Some(wgpu::ColorTargetState {
@@ -280,15 +281,20 @@ impl DualPeel {
                 bind_group_layouts: &[Some(&composite_layout), Some(&control.pass_layout)],
                 immediate_size: 0,
             });
-        let front_pipeline = gpu::fullscreen_pipeline(
+        let front_pipeline = oit_gpu::fullscreen_pipeline(
             ctx,
-            &composite_module,
-            &composite_pipeline_layout,
-            "fs_front",
-            wgpu::ColorTargetState {
-                format: targets.color_format,
-                blend: Some(gpu::FRONT_OVER),
-                write_mask: wgpu::ColorWrites::ALL,
+            &oit_gpu::FullscreenDesc {
+                label: "fs_front",
+                layout: &composite_pipeline_layout,
+                module: &composite_module,
+                fragment_entry: "fs_front",
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: targets.color_format,
+                    blend: Some(blend::TRANSMITTANCE_OVER),
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+                depth: None,
+                multisample: Default::default(),
             },
         );
         let (count_layout, count_pipeline) = control.count_pipeline(

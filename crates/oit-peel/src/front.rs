@@ -21,6 +21,7 @@ use crate::error::PeelError;
 use crate::gpu::{
     self, Budget, Control, Counters, DrawList, Options, PeelReport, PipelineDesc, Termination,
 };
+use oit_gpu::blend;
 use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, RenderStats, ScenePipelines,
@@ -333,20 +334,25 @@ impl FrontPeel {
                 immediate_size: 0,
             });
         let fullscreen = |entry: &str, blend: wgpu::BlendState| {
-            gpu::fullscreen_pipeline(
+            oit_gpu::fullscreen_pipeline(
                 ctx,
-                &composite_module,
-                &composite_pipeline_layout,
-                entry,
-                wgpu::ColorTargetState {
-                    format: targets.color_format,
-                    blend: Some(blend),
-                    write_mask: wgpu::ColorWrites::ALL,
+                &oit_gpu::FullscreenDesc {
+                    label: entry,
+                    layout: &composite_pipeline_layout,
+                    module: &composite_module,
+                    fragment_entry: entry,
+                    targets: &[Some(wgpu::ColorTargetState {
+                        format: targets.color_format,
+                        blend: Some(blend),
+                        write_mask: wgpu::ColorWrites::ALL,
+                    })],
+                    depth: None,
+                    multisample: Default::default(),
                 },
             )
         };
-        let under_pipeline = fullscreen("fs_under", gpu::UNDER);
-        let front_pipeline = fullscreen("fs_front", gpu::FRONT_OVER);
+        let under_pipeline = fullscreen("fs_under", blend::PREMULTIPLIED_UNDER);
+        let front_pipeline = fullscreen("fs_front", blend::TRANSMITTANCE_OVER);
         let (count_layout, count_pipeline) = control.count_pipeline(
             ctx,
             "cs_count_layer",

@@ -77,42 +77,6 @@ fn scene_pipeline(
         })
 }
 
-/// A fullscreen-triangle pass (no vertex buffers, no culling) of a module with `vs_fullscreen`.
-pub(crate) struct FullscreenDesc<'a> {
-    pub label: &'a str,
-    pub layout: &'a wgpu::PipelineLayout,
-    pub module: &'a wgpu::ShaderModule,
-    pub fragment_entry: &'a str,
-    pub color: wgpu::ColorTargetState,
-    pub depth: Option<wgpu::DepthStencilState>,
-    pub multisample: wgpu::MultisampleState,
-}
-
-pub(crate) fn fullscreen_pipeline(ctx: &Context, desc: FullscreenDesc<'_>) -> wgpu::RenderPipeline {
-    ctx.device
-        .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some(desc.label),
-            layout: Some(desc.layout),
-            vertex: wgpu::VertexState {
-                module: desc.module,
-                entry_point: Some("vs_fullscreen"),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
-            primitive: Default::default(),
-            depth_stencil: desc.depth,
-            multisample: desc.multisample,
-            fragment: Some(wgpu::FragmentState {
-                module: desc.module,
-                entry_point: Some(desc.fragment_entry),
-                compilation_options: Default::default(),
-                targets: &[Some(desc.color)],
-            }),
-            multiview_mask: None,
-            cache: None,
-        })
-}
-
 /// The scene's transparent draws in REVERSE draw order: with a strictly-nearer depth test the
 /// first survivor at a depth keeps it, so among exactly coplanar survivors the later draw wins,
 /// which is the reference's tie rule.
@@ -223,18 +187,18 @@ impl SeedPass {
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let pipeline = fullscreen_pipeline(
+        let pipeline = oit_gpu::fullscreen_pipeline(
             ctx,
-            FullscreenDesc {
+            &oit_gpu::FullscreenDesc {
                 label: "stochastic seed",
                 layout: &pipeline_layout,
                 module: &module,
                 fragment_entry: "fs_seed",
-                color: wgpu::ColorTargetState {
+                targets: &[Some(wgpu::ColorTargetState {
                     format: color_format,
                     blend: None,
                     write_mask: wgpu::ColorWrites::ALL,
-                },
+                })],
                 depth: Some(wgpu::DepthStencilState {
                     format: wgpu::TextureFormat::Depth32Float,
                     depth_write_enabled: Some(true),

@@ -386,18 +386,18 @@ impl Stochastic {
             immediate_size: 0,
         });
         let pipeline = |format| {
-            gpu::fullscreen_pipeline(
+            oit_gpu::fullscreen_pipeline(
                 ctx,
-                gpu::FullscreenDesc {
+                &oit_gpu::FullscreenDesc {
                     label: "stochastic accumulate",
                     layout: &pipeline_layout,
                     module: &module,
                     fragment_entry: "fs_accumulate",
-                    color: wgpu::ColorTargetState {
+                    targets: &[Some(wgpu::ColorTargetState {
                         format,
                         blend: None,
                         write_mask: wgpu::ColorWrites::ALL,
-                    },
+                    })],
                     depth: None,
                     multisample: Default::default(),
                 },

@@ -14,6 +14,7 @@
 
 use crate::guards::{GUARD_SLOTS, GuardCounts};
 use crate::range::RangeParams;
+use oit_gpu::blend;
 use oit_gpu::wgpu;
 use oit_gpu::{Context, GpuError, GpuTimer, MemoryLedger, Targets, Unsupported};
 use oit_scene::{Camera, Projection, Resolution, Scene};
@@ -374,34 +375,19 @@ impl AccumTargets {
     /// (one, one), location 1 multiplicative revealage (zero, one-minus-src) or, for the
     /// weighted average, an additive count.
     pub fn color_targets(&self) -> [Option<wgpu::ColorTargetState>; 2] {
-        let add = wgpu::BlendComponent {
-            src_factor: wgpu::BlendFactor::One,
-            dst_factor: wgpu::BlendFactor::One,
-            operation: wgpu::BlendOperation::Add,
-        };
         let reveal = match self.mode {
-            CompositeMode::Weighted => wgpu::BlendComponent {
-                src_factor: wgpu::BlendFactor::Zero,
-                dst_factor: wgpu::BlendFactor::OneMinusSrc,
-                operation: wgpu::BlendOperation::Add,
-            },
-            CompositeMode::Average => add,
+            CompositeMode::Weighted => blend::MULTIPLY_ONE_MINUS_SRC,
+            CompositeMode::Average => blend::ADDITIVE,
         };
         [
             Some(wgpu::ColorTargetState {
                 format: self.accum_format.texture_format(),
-                blend: Some(wgpu::BlendState {
-                    color: add,
-                    alpha: add,
-                }),
+                blend: Some(blend::ADDITIVE),
                 write_mask: wgpu::ColorWrites::ALL,
             }),
             Some(wgpu::ColorTargetState {
                 format: self.reveal_format.texture_format(),
-                blend: Some(wgpu::BlendState {
-                    color: reveal,
-                    alpha: reveal,
-                }),
+                blend: Some(reveal),
                 write_mask: wgpu::ColorWrites::ALL,
             }),
         ]
@@ -467,33 +453,22 @@ impl AccumTargets {
                 bind_group_layouts: &[Some(&self.layout)],
                 immediate_size: 0,
             });
-        let pipeline = ctx
-            .device
-            .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some("wboit composite"),
-                layout: Some(&layout),
-                vertex: wgpu::VertexState {
-                    module: &module,
-                    entry_point: Some("vs_fullscreen"),
-                    compilation_options: Default::default(),
-                    buffers: &[],
-                },
-                primitive: Default::default(),
-                depth_stencil: None,
+        let pipeline = oit_gpu::fullscreen_pipeline(
+            ctx,
+            &oit_gpu::FullscreenDesc {
+                label: "wboit composite",
+                layout: &layout,
+                module: &module,
+                fragment_entry: "fs_composite",
+                targets: &[Some(wgpu::ColorTargetState {
+                    format,
+                    blend: Some(blend::TRANSMITTANCE_OVER),
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+                depth: None,
                 multisample: Default::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &module,
-                    entry_point: Some("fs_composite"),
-                    compilation_options: Default::default(),
-                    targets: &[Some(wgpu::ColorTargetState {
-                        format,
-                        blend: Some(COMPOSITE_BLEND),
-                        write_mask: wgpu::ColorWrites::ALL,
-                    })],
-                }),
-                multiview_mask: None,
-                cache: None,
-            });
+            },
+        );
         *cache = Some(CompositePipeline {
             format,
             pipeline: pipeline.clone(),
@@ -501,21 +476,6 @@ impl AccumTargets {
         pipeline
     }
 }
-
-/// `dst = src + dst · src.a` on colour (the shader outputs (avg · (1 − T), T)); the target's
-/// alpha is kept.
-const COMPOSITE_BLEND: wgpu::BlendState = wgpu::BlendState {
-    color: wgpu::BlendComponent {
-        src_factor: wgpu::BlendFactor::One,
-        dst_factor: wgpu::BlendFactor::SrcAlpha,
-        operation: wgpu::BlendOperation::Add,
-    },
-    alpha: wgpu::BlendComponent {
-        src_factor: wgpu::BlendFactor::Zero,
-        dst_factor: wgpu::BlendFactor::One,
-        operation: wgpu::BlendOperation::Add,
-    },
-};
 
 /// Largest average colour the composite writes into a final target of `format`: half of fp16's
 /// maximum, so `avg · (1 − T) + dst · T` cannot overflow for any dst ≤ 32752.
