@@ -161,7 +161,14 @@ pub fn matrix_markdown(
     }
     let mut out = String::new();
     let _ = writeln!(out, "## {title}\n");
-    let _ = writeln!(out, "| scene | {} |", techniques.join(" | "));
+    let labels = short_labels(&techniques);
+    if labels.iter().zip(&techniques).any(|(l, t)| l != t) {
+        let _ = writeln!(
+            out,
+            "Columns name only the parameters that differ between columns.\n"
+        );
+    }
+    let _ = writeln!(out, "| scene | {} |", labels.join(" | "));
     let _ = writeln!(out, "|---|{}", "---:|".repeat(techniques.len()));
     let mut sums = vec![(0.0, 0usize); techniques.len()];
     for (scene, runs) in by_scene(results) {
@@ -197,6 +204,43 @@ pub fn matrix_markdown(
         .collect();
     let _ = writeln!(out, "| **mean** | {} |\n", means.join(" | "));
     out
+}
+
+/// Column labels for canonical specs: `key=value` pairs shared by every column of the same
+/// technique (when it has several columns) are dropped, so a weight sweep reads `weight=eq7`, not the whole spec. A column left
+/// with nothing keeps its technique name.
+pub fn short_labels(specs: &[&str]) -> Vec<String> {
+    let split = |s: &str| -> (String, Vec<String>) {
+        match s.split_once(':') {
+            Some((n, p)) => (n.to_owned(), p.split(',').map(str::to_owned).collect()),
+            None => (s.to_owned(), Vec::new()),
+        }
+    };
+    let parsed: Vec<(String, Vec<String>)> = specs.iter().map(|s| split(s)).collect();
+    let same_name = parsed.windows(2).all(|w| w[0].0 == w[1].0);
+    parsed
+        .iter()
+        .map(|(name, params)| {
+            let kept: Vec<&String> = params
+                .iter()
+                .filter(|p| {
+                    let family = parsed.iter().filter(|(n, _)| n == name);
+                    family.clone().count() < 2
+                        || !family.clone().all(|(_, other)| other.contains(p))
+                })
+                .collect();
+            let kept = kept
+                .iter()
+                .map(|s| s.as_str())
+                .collect::<Vec<_>>()
+                .join(",");
+            match (same_name && parsed.len() > 1, kept.is_empty()) {
+                (_, true) => name.clone(),
+                (true, false) => kept,
+                (false, false) => format!("{name}:{kept}"),
+            }
+        })
+        .collect()
 }
 
 fn by_scene(results: &Results) -> Vec<(String, Vec<&Run>)> {
@@ -354,6 +398,27 @@ mod tests {
             text.contains("| **mean** | **0.5000** | **0.5000** |"),
             "{text}"
         );
+    }
+
+    #[test]
+    fn short_labels_keep_only_what_differs() {
+        assert_eq!(
+            short_labels(&[
+                "wboit:accum=a,weight=eq7",
+                "wboit:accum=a,weight=eq8",
+                "weighted-average"
+            ]),
+            ["wboit:weight=eq7", "wboit:weight=eq8", "weighted-average"]
+        );
+        assert_eq!(
+            short_labels(&["s:spp=1,x=y", "s:spp=4,x=y"]),
+            ["spp=1", "spp=4"]
+        );
+        assert_eq!(
+            short_labels(&["unsorted", "wboit:w=1"]),
+            ["unsorted", "wboit:w=1"]
+        );
+        assert_eq!(short_labels(&["wboit:w=1"]), ["wboit:w=1"]);
     }
 
     #[test]
