@@ -2,7 +2,7 @@
 
 use crate::context::Context;
 use crate::error::GpuError;
-use crate::scene::{GpuScene, ScenePipelineDesc};
+use crate::scene::{GpuScene, ScenePipelineDesc, ScenePipelines, depth_test};
 
 /// Counts per pixel (row-major, top-left origin) every fragment of every draw, opaque and
 /// transparent, that survives face culling and the mask cutoff, with no depth test: the GPU
@@ -43,16 +43,10 @@ pub fn count_fragments(ctx: &Context, scene: &GpuScene) -> Result<Vec<u32>, GpuE
         immediate_size: 0,
     });
     let desc = ScenePipelineDesc {
-        label: "count fragments",
-        module: &module,
-        fragment_entry: "fs_count",
-        color: None,
-        depth_write: false,
-        depth_compare: wgpu::CompareFunction::Always,
-        cull: crate::CullRule::ByMaterial,
+        depth: Some(depth_test(wgpu::CompareFunction::Always, false)),
+        ..ScenePipelineDesc::new("count fragments", &module, "fs_count")
     };
-    let culled = crate::scene::scene_pipeline(ctx, &desc, &layout, Some(wgpu::Face::Back));
-    let unculled = crate::scene::scene_pipeline(ctx, &desc, &layout, None);
+    let pipelines = ScenePipelines::with_layout(ctx, &desc, &layout);
 
     use wgpu::util::DeviceExt;
     let size = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -127,8 +121,7 @@ pub fn count_fragments(ctx: &Context, scene: &GpuScene) -> Result<Vec<u32>, GpuE
             if d.vertex_count == 0 {
                 continue;
             }
-            let double = scene.scene.material_of(d).double_sided;
-            pass.set_pipeline(if double { &unculled } else { &culled });
+            pass.set_pipeline(pipelines.for_material(scene.scene.material_of(d)));
             pass.draw(d.first_vertex..d.first_vertex + d.vertex_count, 0..1);
         }
     }

@@ -232,17 +232,13 @@ impl GpuScene {
         let p = ScenePipelines::new(
             ctx,
             &ScenePipelineDesc {
-                label: "opaque",
-                module: &module,
-                fragment_entry: "fs_opaque",
-                color: Some(wgpu::ColorTargetState {
+                targets: &[Some(wgpu::ColorTargetState {
                     format,
                     blend: None,
                     write_mask: wgpu::ColorWrites::ALL,
-                }),
-                depth_write: true,
-                depth_compare: self.depth_nearer(),
-                cull: CullRule::ByMaterial,
+                })],
+                depth: Some(depth_test(self.depth_nearer(), true)),
+                ..ScenePipelineDesc::new("opaque", &module, "fs_opaque")
             },
         );
         cache.insert(key, p.clone());
@@ -260,18 +256,56 @@ pub enum CullRule {
     Fixed(Option<wgpu::Face>),
 }
 
-/// Everything that differs between scene pipelines.
-#[derive(Debug)]
+/// Everything that differs between scene pipelines (passes that draw [`GpuScene::vertices`]
+/// with [`vertex_layout`]). Start from [`ScenePipelineDesc::new`] and set what the pass needs.
+#[derive(Debug, Clone)]
 pub struct ScenePipelineDesc<'a> {
     pub label: &'a str,
-    /// A module built from a pass file that includes common.wgsl (its `vs_main` is used).
+    /// A module built from a pass file that includes common.wgsl.
     pub module: &'a wgpu::ShaderModule,
+    /// `vs_main` of common.wgsl, or a pass's own vertex stage over the same vertex layout.
+    pub vertex_entry: &'a str,
     pub fragment_entry: &'a str,
-    /// `None` for depth-only passes.
-    pub color: Option<wgpu::ColorTargetState>,
-    pub depth_write: bool,
-    pub depth_compare: wgpu::CompareFunction,
+    /// Colour targets by location; empty for depth-only passes.
+    pub targets: &'a [Option<wgpu::ColorTargetState>],
+    /// `None` for passes without a depth attachment; [`depth_test`] for the usual one.
+    pub depth: Option<wgpu::DepthStencilState>,
+    /// Pipeline override constants of the fragment stage (the vertex stage keeps the
+    /// overrides' defaults).
+    pub constants: &'a [(&'a str, f64)],
+    /// Must match the attachments' sample count (and may enable alpha-to-coverage).
+    pub multisample: wgpu::MultisampleState,
     pub cull: CullRule,
+}
+
+impl<'a> ScenePipelineDesc<'a> {
+    /// `vs_main`, no colour targets, no depth attachment, no constants, single sampled, culled
+    /// by material.
+    pub fn new(label: &'a str, module: &'a wgpu::ShaderModule, fragment_entry: &'a str) -> Self {
+        ScenePipelineDesc {
+            label,
+            module,
+            vertex_entry: "vs_main",
+            fragment_entry,
+            targets: &[],
+            depth: None,
+            constants: &[],
+            multisample: wgpu::MultisampleState::default(),
+            cull: CullRule::ByMaterial,
+        }
+    }
+}
+
+/// A test against the `Depth32Float` depth attachment every scene pass uses: `compare`, with
+/// or without writing depth.
+pub fn depth_test(compare: wgpu::CompareFunction, write: bool) -> wgpu::DepthStencilState {
+    wgpu::DepthStencilState {
+        format: wgpu::TextureFormat::Depth32Float,
+        depth_write_enabled: Some(write),
+        depth_compare: Some(compare),
+        stencil: Default::default(),
+        bias: Default::default(),
+    }
 }
 
 /// A pipeline pair: one for single-sided and one for double-sided materials.
@@ -282,6 +316,7 @@ pub struct ScenePipelines {
 }
 
 impl ScenePipelines {
+    /// The pair with a layout of group 0 ([`Context::scene_layout`]) alone.
     pub fn new(ctx: &Context, desc: &ScenePipelineDesc<'_>) -> Self {
         let layout = ctx
             .device
@@ -290,7 +325,17 @@ impl ScenePipelines {
                 bind_group_layouts: &[Some(ctx.scene_layout())],
                 immediate_size: 0,
             });
-        let make = |cull: Option<wgpu::Face>| scene_pipeline(ctx, desc, &layout, cull);
+        Self::with_layout(ctx, desc, &layout)
+    }
+
+    /// The pair with the caller's layout (techniques with extra bind groups), whose group 0
+    /// is [`Context::scene_layout`].
+    pub fn with_layout(
+        ctx: &Context,
+        desc: &ScenePipelineDesc<'_>,
+        layout: &wgpu::PipelineLayout,
+    ) -> Self {
+        let make = |cull: Option<wgpu::Face>| scene_pipeline(ctx, desc, layout, cull);
         match desc.cull {
             CullRule::ByMaterial => ScenePipelines {
                 single_sided: make(Some(wgpu::Face::Back)),
@@ -315,22 +360,21 @@ impl ScenePipelines {
     }
 }
 
-/// Builds one scene pipeline with an explicit layout (techniques with extra bind groups pass
-/// their own layout whose group 0 is [`Context::scene_layout`]).
+/// Builds one scene pipeline with an explicit layout and face culling (`desc.cull` is not
+/// consulted; [`ScenePipelines`] applies it).
 pub fn scene_pipeline(
     ctx: &Context,
     desc: &ScenePipelineDesc<'_>,
     layout: &wgpu::PipelineLayout,
     cull: Option<wgpu::Face>,
 ) -> wgpu::RenderPipeline {
-    let targets = [desc.color.clone()];
     ctx.device
         .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some(desc.label),
             layout: Some(layout),
             vertex: wgpu::VertexState {
                 module: desc.module,
-                entry_point: Some("vs_main"),
+                entry_point: Some(desc.vertex_entry),
                 compilation_options: Default::default(),
                 buffers: &[Some(vertex_layout())],
             },
@@ -340,19 +384,16 @@ pub fn scene_pipeline(
                 cull_mode: cull,
                 ..Default::default()
             },
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: wgpu::TextureFormat::Depth32Float,
-                depth_write_enabled: Some(desc.depth_write),
-                depth_compare: Some(desc.depth_compare),
-                stencil: Default::default(),
-                bias: Default::default(),
-            }),
-            multisample: Default::default(),
+            depth_stencil: desc.depth.clone(),
+            multisample: desc.multisample,
             fragment: Some(wgpu::FragmentState {
                 module: desc.module,
                 entry_point: Some(desc.fragment_entry),
-                compilation_options: Default::default(),
-                targets: if desc.color.is_some() { &targets } else { &[] },
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants: desc.constants,
+                    ..Default::default()
+                },
+                targets: desc.targets,
             }),
             multiview_mask: None,
             cache: None,

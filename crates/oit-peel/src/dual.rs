@@ -12,14 +12,12 @@ use crate::MAX_DUAL_PASSES;
 use crate::config::{DualPeelConfig, PassCount, Tail};
 use crate::encoding::KeyParams;
 use crate::error::PeelError;
-use crate::gpu::{
-    self, Budget, Control, Counters, DrawList, Options, PeelReport, PipelineDesc, Termination,
-};
+use crate::gpu::{self, Budget, Control, Counters, DrawList, Options, PeelReport, Termination};
 use oit_gpu::blend;
 use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, PREMULTIPLIED_OVER, RenderStats,
-    ScenePipelines, Targets, Technique, TechniqueSpec, Unsupported,
+    ScenePipelineDesc, ScenePipelines, Targets, Technique, TechniqueSpec, Unsupported, depth_test,
 };
 use oit_scene::Resolution;
 use oit_wboit::tail as wboit;
@@ -221,40 +219,33 @@ impl DualPeel {
         };
         // Index 0: standard depth (LESS), 1: reverse-Z (GREATER): strictly nearer than opaque.
         let init = [wgpu::CompareFunction::Less, wgpu::CompareFunction::Greater].map(|nearer| {
-            gpu::scene_pipelines(
+            ScenePipelines::with_layout(
                 ctx,
-                &PipelineDesc {
-                    label: "dual-peel init",
-                    module: &module,
-                    layout: &layout,
-                    fragment_entry: if self.options.depth_only_init {
-                        "fs_init"
-                    } else {
-                        "fs_peel"
-                    },
+                &ScenePipelineDesc {
                     targets: init_targets,
-                    depth: Some(wgpu::DepthStencilState {
-                        format: wgpu::TextureFormat::Depth32Float,
-                        depth_write_enabled: Some(false),
-                        depth_compare: Some(nearer),
-                        stencil: Default::default(),
-                        bias: Default::default(),
-                    }),
+                    depth: Some(depth_test(nearer, false)),
                     constants: &constants,
+                    ..ScenePipelineDesc::new(
+                        "dual-peel init",
+                        &module,
+                        if self.options.depth_only_init {
+                            "fs_init"
+                        } else {
+                            "fs_peel"
+                        },
+                    )
                 },
+                &layout,
             )
         });
-        let peel = gpu::scene_pipelines(
+        let peel = ScenePipelines::with_layout(
             ctx,
-            &PipelineDesc {
-                label: "dual-peel peel",
-                module: &module,
-                layout: &layout,
-                fragment_entry: "fs_peel",
+            &ScenePipelineDesc {
                 targets: &peel_targets,
-                depth: None,
                 constants: &constants,
+                ..ScenePipelineDesc::new("dual-peel peel", &module, "fs_peel")
             },
+            &layout,
         );
         let composite_module = gpu::shader(ctx, "peel_composite.wgsl", gpu::PEEL_COMPOSITE)?;
         let composite_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -752,17 +743,14 @@ impl DualPeel {
         let mut constants = key_constants(config, range_format, true);
         constants.retain(|(k, _)| *k != "TEST_FIRST");
         constants.extend(wboit::pipeline_constants(&scene.scene));
-        let pipelines = gpu::scene_pipelines(
+        let pipelines = ScenePipelines::with_layout(
             ctx,
-            &PipelineDesc {
-                label: "dual-peel wboit tail",
-                module: &module,
-                layout: &layout,
-                fragment_entry: "fs_tail",
+            &ScenePipelineDesc {
                 targets: &accum.color_targets(),
-                depth: None,
                 constants: &constants,
+                ..ScenePipelineDesc::new("dual-peel wboit tail", &module, "fs_tail")
             },
+            &layout,
         );
         Ok(TailPass {
             scene_id: scene.id,

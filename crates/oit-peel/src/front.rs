@@ -18,14 +18,12 @@ use crate::MAX_FRONT_LAYERS;
 use crate::config::{FrontPeelConfig, PassCount};
 use crate::encoding::KeyParams;
 use crate::error::PeelError;
-use crate::gpu::{
-    self, Budget, Control, Counters, DrawList, Options, PeelReport, PipelineDesc, Termination,
-};
+use crate::gpu::{self, Budget, Control, Counters, DrawList, Options, PeelReport, Termination};
 use oit_gpu::blend;
 use oit_gpu::wgpu;
 use oit_gpu::{
-    Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, RenderStats, ScenePipelines,
-    Targets, Technique, TechniqueSpec, Unsupported,
+    Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, RenderStats, ScenePipelineDesc,
+    ScenePipelines, Targets, Technique, TechniqueSpec, Unsupported, depth_test,
 };
 use oit_scene::Resolution;
 
@@ -259,26 +257,18 @@ impl FrontPeel {
         let flag = |b: bool| if b { 1.0 } else { 0.0 };
         let test_first = self.options.test_before_shading;
         let layer_pipelines = [false, true].map(|first| {
-            gpu::scene_pipelines(
+            ScenePipelines::with_layout(
                 ctx,
-                &PipelineDesc {
-                    label: "front-peel layer",
-                    module: &module,
-                    layout: &layout,
-                    fragment_entry: "fs_layer",
+                &ScenePipelineDesc {
                     targets: &layer_targets,
-                    depth: Some(wgpu::DepthStencilState {
-                        format: wgpu::TextureFormat::Depth32Float,
-                        depth_write_enabled: Some(true),
-                        depth_compare: Some(nearer),
-                        stencil: Default::default(),
-                        bias: Default::default(),
-                    }),
+                    depth: Some(depth_test(nearer, true)),
                     constants: &[
                         ("FIRST_LAYER", flag(first)),
                         ("TEST_FIRST", flag(test_first)),
                     ],
+                    ..ScenePipelineDesc::new("front-peel layer", &module, "fs_layer")
                 },
+                &layout,
             )
         });
         let opaque_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -286,23 +276,14 @@ impl FrontPeel {
             bind_group_layouts: &[Some(ctx.scene_layout())],
             immediate_size: 0,
         });
-        let opaque_pipelines = gpu::scene_pipelines(
+        let opaque_pipelines = ScenePipelines::with_layout(
             ctx,
-            &PipelineDesc {
-                label: "front-peel opaque depth bits",
-                module: &module,
-                layout: &opaque_layout,
-                fragment_entry: "fs_opaque_bits",
+            &ScenePipelineDesc {
                 targets: &[layer_targets[1].clone()],
-                depth: Some(wgpu::DepthStencilState {
-                    format: wgpu::TextureFormat::Depth32Float,
-                    depth_write_enabled: Some(false),
-                    depth_compare: Some(wgpu::CompareFunction::Equal),
-                    stencil: Default::default(),
-                    bias: Default::default(),
-                }),
-                constants: &[],
+                depth: Some(depth_test(wgpu::CompareFunction::Equal, false)),
+                ..ScenePipelineDesc::new("front-peel opaque depth bits", &module, "fs_opaque_bits")
             },
+            &opaque_layout,
         );
         let composite_module = gpu::shader(ctx, "peel_composite.wgsl", gpu::PEEL_COMPOSITE)?;
         let composite_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {

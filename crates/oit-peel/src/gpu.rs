@@ -93,64 +93,6 @@ pub(crate) fn shader(
         }))
 }
 
-/// A scene pipeline with any number of colour targets and override constants (oit-gpu's
-/// `scene_pipeline` takes one target and no constants).
-pub(crate) struct PipelineDesc<'a> {
-    pub label: &'a str,
-    pub module: &'a wgpu::ShaderModule,
-    pub layout: &'a wgpu::PipelineLayout,
-    pub fragment_entry: &'a str,
-    pub targets: &'a [Option<wgpu::ColorTargetState>],
-    pub depth: Option<wgpu::DepthStencilState>,
-    pub constants: &'a [(&'a str, f64)],
-}
-
-fn pipeline(
-    ctx: &Context,
-    desc: &PipelineDesc<'_>,
-    cull: Option<wgpu::Face>,
-) -> wgpu::RenderPipeline {
-    let options = wgpu::PipelineCompilationOptions {
-        constants: desc.constants,
-        zero_initialize_workgroup_memory: true,
-    };
-    ctx.device
-        .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some(desc.label),
-            layout: Some(desc.layout),
-            vertex: wgpu::VertexState {
-                module: desc.module,
-                entry_point: Some("vs_main"),
-                compilation_options: Default::default(),
-                buffers: &[Some(oit_gpu::vertex_layout())],
-            },
-            primitive: wgpu::PrimitiveState {
-                topology: wgpu::PrimitiveTopology::TriangleList,
-                front_face: wgpu::FrontFace::Ccw,
-                cull_mode: cull,
-                ..Default::default()
-            },
-            depth_stencil: desc.depth.clone(),
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: desc.module,
-                entry_point: Some(desc.fragment_entry),
-                compilation_options: options,
-                targets: desc.targets,
-            }),
-            multiview_mask: None,
-            cache: None,
-        })
-}
-
-/// Single-sided (back faces culled) and double-sided variants.
-pub(crate) fn scene_pipelines(ctx: &Context, desc: &PipelineDesc<'_>) -> ScenePipelines {
-    ScenePipelines {
-        single_sided: pipeline(ctx, desc, Some(wgpu::Face::Back)),
-        double_sided: pipeline(ctx, desc, None),
-    }
-}
-
 pub(crate) fn uniform_entry(
     binding: u32,
     visibility: wgpu::ShaderStages,

@@ -6,6 +6,7 @@ use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, CullRule, GpuError, GpuScene, GpuTimer, MemoryLedger, PREMULTIPLIED_OVER,
     RenderStats, ScenePipelineDesc, ScenePipelines, Targets, Technique, TechniqueSpec, Unsupported,
+    depth_test,
 };
 use std::collections::BTreeMap;
 use std::time::Instant;
@@ -117,28 +118,25 @@ impl Blended {
             return Ok(());
         }
         let module = ctx.shader("blend.wgsl", oit_gpu::shaders::BLEND)?;
-        let color = Some(wgpu::ColorTargetState {
+        let color = [Some(wgpu::ColorTargetState {
             format,
             blend: Some(PREMULTIPLIED_OVER),
             write_mask: wgpu::ColorWrites::ALL,
-        });
+        })];
         let nearer = scene.depth_nearer();
         let make = |label: &str,
                     entry: &str,
-                    color: Option<wgpu::ColorTargetState>,
+                    targets: &[Option<wgpu::ColorTargetState>],
                     write: bool,
                     cmp,
                     cull| {
             ScenePipelines::new(
                 ctx,
                 &ScenePipelineDesc {
-                    label,
-                    module: &module,
-                    fragment_entry: entry,
-                    color,
-                    depth_write: write,
-                    depth_compare: cmp,
+                    targets,
+                    depth: Some(depth_test(cmp, write)),
                     cull,
+                    ..ScenePipelineDesc::new(label, &module, entry)
                 },
             )
         };
@@ -148,7 +146,7 @@ impl Blended {
             blend: make(
                 "blend",
                 "fs_blend",
-                color.clone(),
+                &color,
                 false,
                 nearer,
                 CullRule::ByMaterial,
@@ -157,7 +155,7 @@ impl Blended {
                 make(
                     "blend unculled",
                     "fs_blend",
-                    color.clone(),
+                    &color,
                     false,
                     nearer,
                     CullRule::Fixed(None),
@@ -167,7 +165,7 @@ impl Blended {
                 make(
                     "transparent depth",
                     "fs_depth_only",
-                    None,
+                    &[],
                     true,
                     nearer,
                     CullRule::ByMaterial,
@@ -177,7 +175,7 @@ impl Blended {
                 make(
                     "blend equal",
                     "fs_blend",
-                    color.clone(),
+                    &color,
                     false,
                     wgpu::CompareFunction::Equal,
                     CullRule::ByMaterial,
@@ -187,7 +185,7 @@ impl Blended {
                 make(
                     "blend back faces",
                     "fs_blend",
-                    color.clone(),
+                    &color,
                     false,
                     nearer,
                     CullRule::Fixed(Some(wgpu::Face::Front)),
@@ -197,7 +195,7 @@ impl Blended {
                 make(
                     "blend front faces",
                     "fs_blend",
-                    color.clone(),
+                    &color,
                     false,
                     nearer,
                     CullRule::Fixed(Some(wgpu::Face::Back)),

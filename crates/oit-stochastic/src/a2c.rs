@@ -13,11 +13,11 @@
 //! edges come from the single-sample pass and stay aliased exactly as in the reference.
 
 use crate::config::{A2cConfig, ConfigError};
-use crate::gpu::{self, PipelineDesc, PipelinePair};
+use crate::gpu;
 use oit_gpu::wgpu;
 use oit_gpu::{
-    Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, RenderStats, Targets, Technique,
-    TechniqueSpec, Unsupported,
+    Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, RenderStats, ScenePipelineDesc,
+    ScenePipelines, Targets, Technique, TechniqueSpec, Unsupported,
 };
 use oit_scene::Resolution;
 
@@ -38,7 +38,7 @@ struct Resources {
     color_view: wgpu::TextureView,
     depth_view: wgpu::TextureView,
     seed: gpu::SeedPass,
-    a2c: PipelinePair,
+    a2c: ScenePipelines,
 }
 
 /// Whether `format` can be multisampled `samples`× (and resolved, for colour) on this device.
@@ -158,26 +158,22 @@ impl AlphaToCoverage {
             bind_group_layouts: &[Some(ctx.scene_layout())],
             immediate_size: 0,
         });
-        let a2c = PipelinePair::new(
+        let a2c = ScenePipelines::with_layout(
             ctx,
-            &PipelineDesc {
-                label: "a2c",
-                layout: &layout,
-                module: &module,
-                vertex_entry: "vs_main",
-                fragment_entry: "fs_a2c",
-                color: wgpu::ColorTargetState {
+            &ScenePipelineDesc {
+                targets: &[Some(wgpu::ColorTargetState {
                     format: targets.color_format,
                     blend: None,
                     write_mask: wgpu::ColorWrites::ALL,
-                },
-                depth_write: true,
-                depth_compare: scene.depth_nearer(),
+                })],
+                depth: Some(oit_gpu::depth_test(scene.depth_nearer(), true)),
                 multisample: wgpu::MultisampleState {
                     alpha_to_coverage_enabled: true,
                     ..multisample
                 },
+                ..ScenePipelineDesc::new("a2c", &module, "fs_a2c")
             },
+            &layout,
         );
         self.gpu = Some(Resources {
             key,

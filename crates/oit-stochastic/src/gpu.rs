@@ -1,81 +1,8 @@
-//! Pipeline and resource helpers shared by the two techniques.
-//!
-//! `oit_gpu::scene_pipeline` fixes the vertex entry (`vs_main`) and single sampling; the
-//! dither pass needs its own vertex stage (world position, draw id, triangle seed) and a2c
-//! needs multisampling, so this is the same builder with those two knobs. (Candidate to move
-//! into oit-gpu as fields of `ScenePipelineDesc`.)
+//! Resource helpers shared by the two techniques: draw order and instance ids, bind group
+//! entries, and the seed pass.
 
 use oit_gpu::wgpu;
-use oit_gpu::{Context, GpuError, GpuScene, vertex_layout};
-
-pub(crate) struct PipelineDesc<'a> {
-    pub label: &'a str,
-    pub layout: &'a wgpu::PipelineLayout,
-    pub module: &'a wgpu::ShaderModule,
-    pub vertex_entry: &'a str,
-    pub fragment_entry: &'a str,
-    pub color: wgpu::ColorTargetState,
-    pub depth_write: bool,
-    pub depth_compare: wgpu::CompareFunction,
-    pub multisample: wgpu::MultisampleState,
-}
-
-/// Single-sided (back faces culled) and double-sided pipelines of one scene pass.
-#[derive(Debug, Clone)]
-pub(crate) struct PipelinePair {
-    pub single_sided: wgpu::RenderPipeline,
-    pub double_sided: wgpu::RenderPipeline,
-}
-
-impl PipelinePair {
-    pub fn new(ctx: &Context, desc: &PipelineDesc<'_>) -> Self {
-        let make = |cull| scene_pipeline(ctx, desc, cull);
-        PipelinePair {
-            single_sided: make(Some(wgpu::Face::Back)),
-            double_sided: make(None),
-        }
-    }
-}
-
-fn scene_pipeline(
-    ctx: &Context,
-    desc: &PipelineDesc<'_>,
-    cull: Option<wgpu::Face>,
-) -> wgpu::RenderPipeline {
-    ctx.device
-        .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some(desc.label),
-            layout: Some(desc.layout),
-            vertex: wgpu::VertexState {
-                module: desc.module,
-                entry_point: Some(desc.vertex_entry),
-                compilation_options: Default::default(),
-                buffers: &[Some(vertex_layout())],
-            },
-            primitive: wgpu::PrimitiveState {
-                topology: wgpu::PrimitiveTopology::TriangleList,
-                front_face: wgpu::FrontFace::Ccw,
-                cull_mode: cull,
-                ..Default::default()
-            },
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: wgpu::TextureFormat::Depth32Float,
-                depth_write_enabled: Some(desc.depth_write),
-                depth_compare: Some(desc.depth_compare),
-                stencil: Default::default(),
-                bias: Default::default(),
-            }),
-            multisample: desc.multisample,
-            fragment: Some(wgpu::FragmentState {
-                module: desc.module,
-                entry_point: Some(desc.fragment_entry),
-                compilation_options: Default::default(),
-                targets: &[Some(desc.color.clone())],
-            }),
-            multiview_mask: None,
-            cache: None,
-        })
-}
+use oit_gpu::{Context, GpuError, GpuScene, ScenePipelines};
 
 /// The scene's transparent draws in REVERSE draw order: with a strictly-nearer depth test the
 /// first survivor at a depth keeps it, so among exactly coplanar survivors the later draw wins,
@@ -90,19 +17,14 @@ pub(crate) fn reversed_transparent_draws(scene: &GpuScene) -> Vec<usize> {
 pub(crate) fn draw_with_id(
     pass: &mut wgpu::RenderPass<'_>,
     scene: &GpuScene,
-    pipelines: &PipelinePair,
+    pipelines: &ScenePipelines,
     index: usize,
 ) {
     let d = &scene.scene.draws[index];
     if d.vertex_count == 0 {
         return;
     }
-    let pipeline = if scene.scene.material_of(d).double_sided {
-        &pipelines.double_sided
-    } else {
-        &pipelines.single_sided
-    };
-    pass.set_pipeline(pipeline);
+    pass.set_pipeline(pipelines.for_material(scene.scene.material_of(d)));
     pass.draw(
         d.first_vertex..d.first_vertex + d.vertex_count,
         d.id..d.id + 1,
@@ -199,13 +121,7 @@ impl SeedPass {
                     blend: None,
                     write_mask: wgpu::ColorWrites::ALL,
                 })],
-                depth: Some(wgpu::DepthStencilState {
-                    format: wgpu::TextureFormat::Depth32Float,
-                    depth_write_enabled: Some(true),
-                    depth_compare: Some(wgpu::CompareFunction::Always),
-                    stencil: Default::default(),
-                    bias: Default::default(),
-                }),
+                depth: Some(oit_gpu::depth_test(wgpu::CompareFunction::Always, true)),
                 multisample,
             },
         );

@@ -1,12 +1,12 @@
 //! `stochastic:pattern=…,seed=…,spp=N`: dithered alpha testing, optionally averaged over frames.
 
 use crate::config::{ConfigError, Pattern, Seed, StochasticConfig};
-use crate::gpu::{self, PipelineDesc, PipelinePair};
+use crate::gpu;
 use crate::pattern;
 use oit_gpu::wgpu;
 use oit_gpu::{
-    Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, RenderStats, Targets, Technique,
-    TechniqueSpec, Unsupported,
+    Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, RenderStats, ScenePipelineDesc,
+    ScenePipelines, Targets, Technique, TechniqueSpec, Unsupported,
 };
 use oit_scene::Resolution;
 
@@ -39,7 +39,7 @@ pub struct Stochastic {
 #[derive(Debug)]
 struct Resources {
     key: (wgpu::TextureFormat, bool, Resolution),
-    dither: PipelinePair,
+    dither: ScenePipelines,
     dither_bind_group: wgpu::BindGroup,
     dither_stride: u64,
     frames: Option<FrameResources>,
@@ -237,23 +237,19 @@ impl Stochastic {
             bind_group_layouts: &[Some(ctx.scene_layout()), Some(&dither_layout)],
             immediate_size: 0,
         });
-        let dither = PipelinePair::new(
+        let dither = ScenePipelines::with_layout(
             ctx,
-            &PipelineDesc {
-                label: "stochastic dither",
-                layout: &layout,
-                module: &module,
+            &ScenePipelineDesc {
                 vertex_entry: "vs_stochastic",
-                fragment_entry: "fs_stochastic",
-                color: wgpu::ColorTargetState {
+                targets: &[Some(wgpu::ColorTargetState {
                     format: targets.color_format,
                     blend: None,
                     write_mask: wgpu::ColorWrites::ALL,
-                },
-                depth_write: true,
-                depth_compare: scene.depth_nearer(),
-                multisample: Default::default(),
+                })],
+                depth: Some(oit_gpu::depth_test(scene.depth_nearer(), true)),
+                ..ScenePipelineDesc::new("stochastic dither", &module, "fs_stochastic")
             },
+            &layout,
         );
         let frames = if config.spp > 1 {
             Some(Self::frame_resources(

@@ -7,8 +7,8 @@
 use anyhow::{Result, bail};
 use oit_gpu::wgpu;
 use oit_gpu::{
-    Caps, ColorFormat, Context, CullRule, GpuError, GpuScene, GpuTimer, PREMULTIPLIED_OVER,
-    RenderStats, ScenePipelineDesc, ScenePipelines, Targets, Technique, TechniqueSpec, Unsupported,
+    Caps, ColorFormat, Context, GpuError, GpuScene, GpuTimer, PREMULTIPLIED_OVER, RenderStats,
+    ScenePipelineDesc, ScenePipelines, Targets, Technique, TechniqueSpec, Unsupported, depth_test,
     render_frame,
 };
 use oit_scene::Resolution;
@@ -45,17 +45,13 @@ impl Technique for Unsorted {
             let p = ScenePipelines::new(
                 ctx,
                 &ScenePipelineDesc {
-                    label: "unsorted",
-                    module: &module,
-                    fragment_entry: "fs_blend",
-                    color: Some(wgpu::ColorTargetState {
+                    targets: &[Some(wgpu::ColorTargetState {
                         format: targets.color_format,
                         blend: Some(PREMULTIPLIED_OVER),
                         write_mask: wgpu::ColorWrites::ALL,
-                    }),
-                    depth_write: false,
-                    depth_compare: scene.depth_nearer(),
-                    cull: CullRule::ByMaterial,
+                    })],
+                    depth: Some(depth_test(scene.depth_nearer(), false)),
+                    ..ScenePipelineDesc::new("unsorted", &module, "fs_blend")
                 },
             );
             self.pipelines = Some((key.0, key.1, p));

@@ -6,8 +6,8 @@ use crate::range::RangeParams;
 use crate::tail::{self, AccumFormat, AccumTargets, CompositeMode, RevealFormat, view_depth_terms};
 use oit_gpu::wgpu;
 use oit_gpu::{
-    Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, RenderStats, Targets, Technique,
-    TechniqueSpec, Unsupported,
+    Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, RenderStats, ScenePipelineDesc,
+    ScenePipelines, Targets, Technique, TechniqueSpec, Unsupported, depth_test,
 };
 
 /// The accumulation pass (shaders/wboit_accum.wgsl; includes common.wgsl and the tail).
@@ -185,8 +185,7 @@ impl Config {
 #[derive(Debug)]
 struct Pipelines {
     reverse_z: bool,
-    single_sided: wgpu::RenderPipeline,
-    double_sided: wgpu::RenderPipeline,
+    scene: ScenePipelines,
 }
 
 /// Weighted blended OIT or the weighted average.
@@ -317,73 +316,24 @@ impl Wboit {
                 Config::Weighted { .. } => "fs_wboit",
                 Config::Average => "fs_average",
             };
-            let targets = accum.color_targets();
-            let make = |cull| {
-                accumulation_pipeline(
-                    ctx,
-                    &module,
-                    entry,
-                    &pipeline_layout,
-                    &targets,
-                    scene.depth_nearer(),
-                    cull,
-                )
-            };
+            // The shared vertex stage of common.wgsl, depth tested strictly nearer than the
+            // opaque depth, no depth writes.
+            let pipelines = ScenePipelines::with_layout(
+                ctx,
+                &ScenePipelineDesc {
+                    targets: &accum.color_targets(),
+                    depth: Some(depth_test(scene.depth_nearer(), false)),
+                    ..ScenePipelineDesc::new("wboit accumulate", &module, entry)
+                },
+                &pipeline_layout,
+            );
             self.pipelines = Some(Pipelines {
                 reverse_z,
-                single_sided: make(Some(wgpu::Face::Back)),
-                double_sided: make(None),
+                scene: pipelines,
             });
         }
         Ok(())
     }
-}
-
-/// A scene pipeline with two colour targets (oit-gpu's `scene_pipeline` takes one): the shared
-/// vertex stage of common.wgsl, depth tested strictly nearer than the opaque depth, no depth
-/// writes.
-fn accumulation_pipeline(
-    ctx: &Context,
-    module: &wgpu::ShaderModule,
-    entry: &str,
-    layout: &wgpu::PipelineLayout,
-    targets: &[Option<wgpu::ColorTargetState>],
-    depth_compare: wgpu::CompareFunction,
-    cull: Option<wgpu::Face>,
-) -> wgpu::RenderPipeline {
-    ctx.device
-        .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("wboit accumulate"),
-            layout: Some(layout),
-            vertex: wgpu::VertexState {
-                module,
-                entry_point: Some("vs_main"),
-                compilation_options: Default::default(),
-                buffers: &[Some(oit_gpu::vertex_layout())],
-            },
-            primitive: wgpu::PrimitiveState {
-                topology: wgpu::PrimitiveTopology::TriangleList,
-                front_face: wgpu::FrontFace::Ccw,
-                cull_mode: cull,
-                ..Default::default()
-            },
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: wgpu::TextureFormat::Depth32Float,
-                depth_write_enabled: Some(false),
-                depth_compare: Some(depth_compare),
-                stencil: Default::default(),
-                bias: Default::default(),
-            }),
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                targets,
-            }),
-            multiview_mask: None,
-            cache: None,
-        })
 }
 
 impl Technique for Wboit {
@@ -448,17 +398,7 @@ impl Technique for Wboit {
             scene.bind(&mut pass);
             pass.set_bind_group(1, group, &[]);
             for i in scene.transparent_draws() {
-                let d = &s.draws[i];
-                if d.vertex_count == 0 {
-                    continue;
-                }
-                let p = if s.material_of(d).double_sided {
-                    &pipelines.double_sided
-                } else {
-                    &pipelines.single_sided
-                };
-                pass.set_pipeline(p);
-                pass.draw(d.first_vertex..d.first_vertex + d.vertex_count, 0..1);
+                scene.draw(&mut pass, &pipelines.scene, i);
             }
         }
         timer.submit(ctx, encoder)?;
