@@ -77,8 +77,19 @@ enum Command {
         /// Where computed references are cached (keyed by scene content and resolution).
         #[arg(long)]
         cache: Option<PathBuf>,
+        /// Error axis of the plots and Pareto fronts.
+        #[arg(long, default_value = "flip", value_parser = ["flip", "rmse"])]
+        metric: String,
         #[command(flatten)]
         gpu: GpuArgs,
+    },
+    /// Rebuild results.md, the plots and the static HTML report of DIR from its results.json.
+    Report {
+        /// A directory written by `oit compare`.
+        dir: PathBuf,
+        /// Error axis of the plots and Pareto fronts.
+        #[arg(long, default_value = "flip", value_parser = ["flip", "rmse"])]
+        metric: String,
     },
 }
 
@@ -167,6 +178,7 @@ fn run(command: Command) -> Result<()> {
             frames,
             warmup,
             cache,
+            metric,
             gpu,
         } => {
             let options = oit_harness::CompareOptions {
@@ -177,7 +189,13 @@ fn run(command: Command) -> Result<()> {
                 cache_dir: cache,
                 context: gpu.options(),
             };
-            compare(&scenes, &techniques, &options)
+            compare(&scenes, &techniques, &options, parse_metric(&metric))
+        }
+        Command::Report { dir, metric } => {
+            let results = oit_harness::results::Results::read(&dir.join("results.json"))?;
+            let html = write_report(&dir, &results, parse_metric(&metric))?;
+            println!("wrote {}", html.display());
+            Ok(())
         }
     }
 }
@@ -311,10 +329,33 @@ fn render(
     Ok(())
 }
 
+fn parse_metric(name: &str) -> oit_report::Metric {
+    if name == "rmse" {
+        oit_report::Metric::Rmse
+    } else {
+        oit_report::Metric::Flip
+    }
+}
+
+/// Everything a person reads after a comparison: results.md with the Pareto fronts, the plots
+/// (SVG and PNG) and the static HTML report. Returns the HTML file.
+fn write_report(
+    dir: &Path,
+    results: &oit_harness::results::Results,
+    metric: oit_report::Metric,
+) -> Result<PathBuf> {
+    let mut markdown = oit_harness::report::markdown(results);
+    markdown.push_str(&oit_report::pareto_markdown(results, metric));
+    oit_metrics::write_atomic_bytes(&dir.join("results.md"), markdown.as_bytes())?;
+    oit_report::write_plots(results, &dir.join("plots"), metric)?;
+    Ok(oit_report::write_html_report(dir)?)
+}
+
 fn compare(
     paths: &[PathBuf],
     specs: &[String],
     options: &oit_harness::CompareOptions,
+    metric: oit_report::Metric,
 ) -> Result<()> {
     let scenes = oit_harness::load_scenes(paths)?;
     if scenes.is_empty() {
@@ -337,6 +378,12 @@ fn compare(
     })?;
     bar.finish_and_clear();
     print!("{}", oit_harness::report::terminal_table(&results));
-    println!("\nwrote {}", options.out_dir.join("results.json").display());
+    let html = write_report(&options.out_dir, &results, metric)?;
+    println!(
+        "\nwrote {}, {} and {}",
+        options.out_dir.join("results.json").display(),
+        options.out_dir.join("results.md").display(),
+        html.display()
+    );
     Ok(())
 }
