@@ -188,3 +188,75 @@ fn render_writes_an_image_close_to_the_reference() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn compare_writes_the_report_and_report_rebuilds_it() {
+    if oit_gpu::testing::context_or_skip("cli compare").is_none() {
+        return;
+    }
+    let dir = temp_dir("compare");
+    let out = oit()
+        .args([
+            "compare",
+            "scenes/enderton.json",
+            "--resolution",
+            "32x32",
+            "--frames",
+            "1",
+            "--warmup",
+            "0",
+        ])
+        .args([
+            "--technique",
+            "unsorted",
+            "--technique",
+            "sorted-object",
+            "--out",
+        ])
+        .arg(&dir)
+        .arg("--cache")
+        .arg(dir.join("cache"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.contains("enderton") && stdout.contains("sorted-object"),
+        "{stdout}"
+    );
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("adapter: "),
+        "the adapter is named first"
+    );
+    let md = std::fs::read_to_string(dir.join("results.md")).unwrap();
+    assert!(
+        md.contains("## Summary over the suite") && md.contains("## Pareto fronts"),
+        "{md}"
+    );
+    assert!(dir.join("report.html").is_file());
+    assert!(dir.join("plots/enderton-flip-cost.svg").is_file());
+    // `oit report` rebuilds from results.json alone, here with the other metric.
+    std::fs::remove_file(dir.join("report.html")).unwrap();
+    let out = oit()
+        .arg("report")
+        .arg(&dir)
+        .args(["--metric", "rmse"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(dir.join("report.html").is_file());
+    assert!(
+        std::fs::read_to_string(dir.join("results.md"))
+            .unwrap()
+            .contains("RMSE")
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
