@@ -119,6 +119,10 @@ pub const PROBED_FORMATS: [TextureFormat; 9] = [
 /// Capabilities of the device, as a technique's `check` reads them.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Caps {
+    /// The graphics API the device runs on (`vulkan`, `gl`, …): some limits are the backend's,
+    /// not the adapter's (see [`Caps::depth_copies`], [`Caps::depth_texture_loads`]).
+    #[serde(serialize_with = "serialize_backend")]
+    pub backend: wgpu::Backend,
     /// `FLOAT32_BLENDABLE`: blending into R32Float/Rg32Float/Rgba32Float targets.
     pub float32_blendable: bool,
     /// `TIMESTAMP_QUERY` at pass boundaries.
@@ -145,6 +149,7 @@ impl Caps {
             .map(|&f| (format!("{f:?}"), format_caps(adapter, features, f)))
             .collect();
         Caps {
+            backend: adapter.get_info().backend,
             float32_blendable: features.contains(Features::FLOAT32_BLENDABLE),
             timestamps: features.contains(Features::TIMESTAMP_QUERY),
             timestamps_inside_encoders: features
@@ -161,6 +166,27 @@ impl Caps {
             max_storage_buffer_binding_size: limits.max_storage_buffer_binding_size,
             formats,
         }
+    }
+
+    /// wgpu's GL backend (OpenGL / GLES through EGL).
+    pub fn is_gl(&self) -> bool {
+        self.backend == wgpu::Backend::Gl
+    }
+
+    /// Whether `Depth32Float` textures can be copied. On wgpu 30's GL backend a texture to
+    /// texture copy is recorded and left undone without an error, and a texture to buffer copy
+    /// is a validation error (no `DEPTH_TEXTURE_AND_BUFFER_COPIES` downlevel flag); a technique
+    /// that needs the opaque depth elsewhere draws it (a full-screen pass reading the depth as
+    /// a float texture) or reports itself unsupported here.
+    pub fn depth_copies(&self) -> bool {
+        !self.is_gl()
+    }
+
+    /// Whether shaders may `textureLoad` from depth textures (`texture_depth_2d`). naga cannot
+    /// translate that to GLSL (no `texelFetch` of shadow samplers), so on GL a depth texture
+    /// must be bound as an unfilterable float texture instead.
+    pub fn depth_texture_loads(&self) -> bool {
+        !self.is_gl()
     }
 
     /// Capabilities of `format`, or all-false for a format that was not probed.
@@ -198,6 +224,10 @@ impl Caps {
         }
         Ok(())
     }
+}
+
+fn serialize_backend<S: serde::Serializer>(b: &wgpu::Backend, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(b.to_str())
 }
 
 /// R32Float, Rg32Float and Rgba32Float: blending into them needs `FLOAT32_BLENDABLE`.

@@ -9,13 +9,22 @@ use crate::error::GpuError;
 /// 256 bytes removed, `bytes_per_pixel` per texel, row-major, top-left origin. Waits for the
 /// GPU. `what` names the texture in the error.
 ///
-/// Not for depth formats on GL: wgpu's GL backend leaves depth copies undone without an error.
+/// Depth formats where [`Caps::depth_copies`](crate::Caps::depth_copies) is false (GL) are
+/// refused with [`Unsupported`](crate::Unsupported) rather than left to a wgpu validation panic.
 pub fn read_texture(
     ctx: &Context,
     texture: &wgpu::Texture,
     bytes_per_pixel: u32,
     what: &str,
 ) -> Result<Vec<u8>, GpuError> {
+    if texture.format().is_depth_stencil_format() && !ctx.caps.depth_copies() {
+        return Err(crate::Unsupported::new(format!(
+            "{what}: the {} backend cannot copy {:?} textures",
+            ctx.caps.backend.to_str(),
+            texture.format()
+        ))
+        .into());
+    }
     let (w, h) = (texture.width(), texture.height());
     let row = w * bytes_per_pixel;
     let padded =

@@ -76,6 +76,8 @@ fn context_reports_adapter_and_caps() {
         "{}",
         info.backend
     );
+    assert_eq!(ctx.caps.backend.to_str(), info.backend);
+    assert_eq!(ctx.caps.is_gl(), info.backend == "gl");
     // Every adapter renders and blends into the default target (WebGPU guarantees it).
     let rgba16 = ctx.caps.format(wgpu::TextureFormat::Rgba16Float);
     assert!(rgba16.renderable && rgba16.blendable, "{rgba16:?}");
@@ -115,6 +117,7 @@ fn gl_adapter_caps() {
         serde_json::to_string(&ctx.caps).unwrap_or_default()
     );
     assert_eq!(info.backend, "gl");
+    assert!(ctx.caps.is_gl() && !ctx.caps.depth_copies() && !ctx.caps.depth_texture_loads());
     if info.name.to_lowercase().contains("llvmpipe") {
         // Mesa's llvmpipe GL driver does not render RG32F; Caps must say so.
         let rg32 = ctx.caps.format(wgpu::TextureFormat::Rg32Float);
@@ -336,4 +339,109 @@ fn fragment_counts_match_the_reference_on_every_bundled_scene() {
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// Clears a Depth32Float texture to 0.25 and reads it back through a depth-to-buffer copy
+/// (`oit_gpu::read_texture`).
+fn read_cleared_depth(ctx: &Context) -> Result<Vec<u8>, GpuError> {
+    let depth = ctx.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("depth copy probe"),
+        size: wgpu::Extent3d {
+            width: 64,
+            height: 8,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: wgpu::TextureFormat::Depth32Float,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    });
+    let view = depth.create_view(&Default::default());
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some("clear depth"),
+        color_attachments: &[],
+        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+            view: &view,
+            depth_ops: Some(wgpu::Operations {
+                load: wgpu::LoadOp::Clear(0.25),
+                store: wgpu::StoreOp::Store,
+            }),
+            stencil_ops: None,
+        }),
+        timestamp_writes: None,
+        occlusion_query_set: None,
+        multiview_mask: None,
+    });
+    ctx.queue.submit([encoder.finish()]);
+    oit_gpu::read_texture(ctx, &depth, 4, "depth copy probe")
+}
+
+/// Where `Caps::depth_copies` holds, a depth readback delivers exactly the cleared depth;
+/// where it does not (GL), wgpu's own downlevel flags agree and `read_texture` refuses with a
+/// reason instead of a wgpu validation panic.
+#[test]
+fn caps_depth_copies_match_the_backend() {
+    let check = |ctx: &Context| {
+        let downlevel = ctx.adapter.get_downlevel_capabilities().flags;
+        let buffer_copies =
+            downlevel.contains(wgpu::DownlevelFlags::DEPTH_TEXTURE_AND_BUFFER_COPIES);
+        if ctx.caps.depth_copies() {
+            assert!(buffer_copies, "{:?}", ctx.caps.backend);
+            let bytes = read_cleared_depth(ctx).expect("depth readback");
+            assert_eq!(bytes.len(), 64 * 8 * 4);
+            for b in bytes.chunks_exact(4) {
+                assert_eq!(f32::from_le_bytes([b[0], b[1], b[2], b[3]]), 0.25);
+            }
+        } else {
+            assert!(ctx.caps.is_gl() && !buffer_copies, "{:?}", ctx.caps.backend);
+            let e = read_cleared_depth(ctx).expect_err("GL depth readback");
+            assert!(e.to_string().contains("Depth32Float"), "{e}");
+        }
+    };
+    if let Some(ctx) = context_or_skip("caps_depth_copies_match_the_backend") {
+        check(&ctx);
+    }
+    match Context::new(&ContextOptions {
+        backend: Backend::Gl,
+        adapter: None,
+    }) {
+        Ok(gl) => check(&gl),
+        Err(e) => println!("GL part skipped: no GL adapter here: {e}"),
+    }
+}
+
+/// `read_buffer_u32` returns exactly the words copied into a `MAP_READ` buffer, and the
+/// buffer can be mapped again for the next frame.
+#[test]
+fn buffer_readback_round_trips() {
+    let Some(ctx) = context_or_skip("buffer_readback_round_trips") else {
+        return;
+    };
+    use wgpu::util::DeviceExt;
+    let words: Vec<u32> = (0..37u32).map(|i| i.wrapping_mul(2_654_435_761)).collect();
+    let src = ctx
+        .device
+        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("readback source"),
+            contents: bytemuck::cast_slice(&words),
+            usage: wgpu::BufferUsages::COPY_SRC,
+        });
+    let dst = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("readback"),
+        size: src.size(),
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    for _ in 0..2 {
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        encoder.copy_buffer_to_buffer(&src, 0, &dst, 0, src.size());
+        ctx.queue.submit([encoder.finish()]);
+        assert_eq!(
+            oit_gpu::read_buffer_u32(&ctx, &dst, "test").expect("read"),
+            words
+        );
+    }
 }
