@@ -100,21 +100,17 @@ pub fn count_fragments(ctx: &Context, scene: &GpuScene) -> Result<Vec<u32>, GpuE
     let depth_view = depth.create_view(&Default::default());
     let mut encoder = device.create_command_encoder(&Default::default());
     {
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("count fragments"),
-            color_attachments: &[],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: &depth_view,
-                depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(0.0),
-                    store: wgpu::StoreOp::Discard,
-                }),
-                stencil_ops: None,
-            }),
-            timestamp_writes: None,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
+        let mut pass = crate::pass::begin(
+            &mut encoder,
+            "count fragments",
+            &[],
+            crate::pass::depth(
+                &depth_view,
+                wgpu::LoadOp::Clear(0.0),
+                wgpu::StoreOp::Discard,
+            ),
+            None,
+        );
         scene.bind(&mut pass);
         pass.set_bind_group(1, &target_group, &[]);
         for d in &scene.scene.draws {

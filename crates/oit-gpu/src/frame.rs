@@ -50,29 +50,20 @@ pub fn opaque_pass(
     let ts = timer.pass("opaque");
     let mut encoder = ctx.device.create_command_encoder(&Default::default());
     {
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("opaque"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: &targets.color_view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a: 1.0 }),
-                    store: wgpu::StoreOp::Store,
-                },
-            })],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: &targets.depth_view,
-                depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(scene.scene.camera.far_depth()),
-                    store: wgpu::StoreOp::Store,
-                }),
-                stencil_ops: None,
-            }),
-            timestamp_writes: ts.writes(),
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
+        let mut pass = crate::pass::begin(
+            &mut encoder,
+            "opaque",
+            &[crate::pass::color(
+                &targets.color_view,
+                wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a: 1.0 }),
+            )],
+            crate::pass::depth(
+                &targets.depth_view,
+                wgpu::LoadOp::Clear(scene.scene.camera.far_depth()),
+                wgpu::StoreOp::Store,
+            ),
+            ts.writes(),
+        );
         scene.bind(&mut pass);
         for i in scene.opaque_draws() {
             scene.draw(&mut pass, &pipelines, i);

@@ -10,6 +10,7 @@
 //! - [`GpuTimer`]: per-pass GPU time from timestamp queries, or wall-clock when the adapter has
 //!   none (and the result says which).
 //! - [`blend`] states and [`fullscreen_pipeline`]: what composites and copies share.
+//! - [`pass`]: attachments and render-pass boilerplate.
 //! - [`memory`]: exact byte counts of what a technique allocates.
 //! - [`TechniqueSpec`]: `name[:key=value,…]` parsing against a registry, canonical strings.
 //! - [`count_fragments`]: the rasterization conformance pass.
@@ -20,6 +21,7 @@ mod count;
 mod error;
 mod frame;
 pub mod memory;
+pub mod pass;
 mod pipeline;
 mod readback;
 mod scene;

@@ -14,6 +14,7 @@ use crate::encoding::KeyParams;
 use crate::error::PeelError;
 use crate::gpu::{self, Budget, Control, Counters, DrawList, Options, PeelReport, Termination};
 use oit_gpu::blend;
+use oit_gpu::pass;
 use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, PREMULTIPLIED_OVER, RenderStats,
@@ -334,56 +335,15 @@ fn key_constants(
     ]
 }
 
-fn clear_attachment(
-    view: &wgpu::TextureView,
-    value: f64,
-) -> Option<wgpu::RenderPassColorAttachment<'_>> {
-    Some(wgpu::RenderPassColorAttachment {
-        view,
-        depth_slice: None,
-        resolve_target: None,
-        ops: wgpu::Operations {
-            load: wgpu::LoadOp::Clear(wgpu::Color {
-                r: value,
-                g: value,
-                b: value,
-                a: value,
-            }),
-            store: wgpu::StoreOp::Store,
-        },
-    })
-}
-
-fn load_attachment(view: &wgpu::TextureView) -> Option<wgpu::RenderPassColorAttachment<'_>> {
-    Some(wgpu::RenderPassColorAttachment {
-        view,
-        depth_slice: None,
-        resolve_target: None,
-        ops: wgpu::Operations {
-            load: wgpu::LoadOp::Load,
-            store: wgpu::StoreOp::Store,
-        },
-    })
-}
-
 /// Clears `view` to `color` with an otherwise empty render pass.
 fn clear_pass(encoder: &mut wgpu::CommandEncoder, view: &wgpu::TextureView, color: wgpu::Color) {
-    let _ = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-        label: Some("peel clear"),
-        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-            view,
-            depth_slice: None,
-            resolve_target: None,
-            ops: wgpu::Operations {
-                load: wgpu::LoadOp::Clear(color),
-                store: wgpu::StoreOp::Store,
-            },
-        })],
-        depth_stencil_attachment: None,
-        timestamp_writes: None,
-        occlusion_query_set: None,
-        multiview_mask: None,
-    });
+    let _ = pass::begin(
+        encoder,
+        "peel clear",
+        &[pass::color(view, wgpu::LoadOp::Clear(color))],
+        None,
+        None,
+    );
 }
 
 impl DualPeel {
@@ -402,18 +362,20 @@ impl DualPeel {
         let ts = timer.pass(&format!("peel {k}"));
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("dual-peel peel"),
-                color_attachments: &[
-                    clear_attachment(&g.range[(k % 2) as usize], EMPTY),
-                    load_attachment(&g.front),
-                    load_attachment(&targets.color_view),
+            let mut pass = pass::begin(
+                &mut encoder,
+                "dual-peel peel",
+                &[
+                    pass::color(
+                        &g.range[(k % 2) as usize],
+                        wgpu::LoadOp::Clear(pass::splat(EMPTY)),
+                    ),
+                    pass::color(&g.front, wgpu::LoadOp::Load),
+                    pass::color(&targets.color_view, wgpu::LoadOp::Load),
                 ],
-                depth_stencil_attachment: None,
-                timestamp_writes: ts.writes(),
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+                None,
+                ts.writes(),
+            );
             scene.bind(&mut pass);
             pass.set_bind_group(1, &g.groups[((k + 1) % 2) as usize], &[]);
             pass.set_bind_group(2, &g.control.pass_group, &[g.control.offset(k)]);
@@ -529,29 +491,25 @@ impl Technique for DualPeel {
         {
             let naive = g.whole_group.as_ref();
             let attachments = [
-                clear_attachment(&g.range[0], EMPTY),
-                load_attachment(&g.front),
-                load_attachment(&targets.color_view),
+                pass::color(&g.range[0], wgpu::LoadOp::Clear(pass::splat(EMPTY))),
+                pass::color(&g.front, wgpu::LoadOp::Load),
+                pass::color(&targets.color_view, wgpu::LoadOp::Load),
             ];
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("dual-peel init"),
-                color_attachments: if naive.is_some() {
+            let mut pass = pass::begin(
+                &mut encoder,
+                "dual-peel init",
+                if naive.is_some() {
                     &attachments[..]
                 } else {
                     &attachments[..1]
                 },
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &targets.depth_view,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Load,
-                        store: wgpu::StoreOp::Store,
-                    }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: ts.writes(),
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+                pass::depth(
+                    &targets.depth_view,
+                    wgpu::LoadOp::Load,
+                    wgpu::StoreOp::Store,
+                ),
+                ts.writes(),
+            );
             scene.bind(&mut pass);
             pass.set_bind_group(1, naive.unwrap_or(&g.groups[1]), &[]);
             pass.set_bind_group(2, &g.control.pass_group, &[g.control.offset(0)]);
@@ -618,14 +576,13 @@ impl Technique for DualPeel {
             let mut encoder = ctx.device.create_command_encoder(&Default::default());
             {
                 let [a0, a1] = tail.accum.attachments(true);
-                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                    label: Some("dual-peel wboit tail"),
-                    color_attachments: &[a0, a1],
-                    depth_stencil_attachment: None,
-                    timestamp_writes: ts.writes(),
-                    occlusion_query_set: None,
-                    multiview_mask: None,
-                });
+                let mut pass = pass::begin(
+                    &mut encoder,
+                    "dual-peel wboit tail",
+                    &[a0, a1],
+                    None,
+                    ts.writes(),
+                );
                 scene.bind(&mut pass);
                 pass.set_bind_group(1, &g.groups[last], &[]);
                 pass.set_bind_group(2, &g.control.pass_group, &[g.control.offset(recorded)]);
@@ -668,14 +625,13 @@ impl Technique for DualPeel {
             pass.dispatch_workgroups(res.width.div_ceil(8), res.height.div_ceil(8), 1);
         }
         {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("dual-peel front composite"),
-                color_attachments: &[load_attachment(&targets.color_view)],
-                depth_stencil_attachment: None,
-                timestamp_writes: ts.writes(),
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            let mut pass = pass::begin(
+                &mut encoder,
+                "dual-peel front composite",
+                &[pass::color(&targets.color_view, wgpu::LoadOp::Load)],
+                None,
+                ts.writes(),
+            );
             pass.set_pipeline(&g.front_pipeline);
             pass.set_bind_group(0, &g.composite_group, &[]);
             pass.set_bind_group(1, &g.control.pass_group, &[0]);

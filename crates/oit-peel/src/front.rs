@@ -20,6 +20,7 @@ use crate::encoding::KeyParams;
 use crate::error::PeelError;
 use crate::gpu::{self, Budget, Control, Counters, DrawList, Options, PeelReport, Termination};
 use oit_gpu::blend;
+use oit_gpu::pass;
 use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, RenderStats, ScenePipelineDesc,
@@ -384,9 +385,10 @@ impl FrontPeel {
         // The far plane's f32 bits (exact in f64): no later fragment is "behind" it.
         let far = f64::from(scene.scene.camera.far_depth().to_bits());
         {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("front-peel layer"),
-                color_attachments: &[
+            let mut pass = pass::begin(
+                &mut encoder,
+                "front-peel layer",
+                &[
                     Some(wgpu::RenderPassColorAttachment {
                         view: &g.layer,
                         depth_slice: None,
@@ -418,18 +420,13 @@ impl FrontPeel {
                         },
                     }),
                 ],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &g.depth,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(scene.scene.camera.far_depth()),
-                        store: wgpu::StoreOp::Discard,
-                    }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: ts.writes(),
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+                pass::depth(
+                    &g.depth,
+                    wgpu::LoadOp::Clear(scene.scene.camera.far_depth()),
+                    wgpu::StoreOp::Discard,
+                ),
+                ts.writes(),
+            );
             scene.bind(&mut pass);
             pass.set_bind_group(1, &g.groups[((k + 1) % 2) as usize], &[]);
             list.draw(
@@ -442,14 +439,13 @@ impl FrontPeel {
         if role == PassRole::Peel {
             let ts = timer.pass(&format!("under {}", k + 1));
             {
-                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                    label: Some("front-peel under"),
-                    color_attachments: &[load_attachment(&g.accum)],
-                    depth_stencil_attachment: None,
-                    timestamp_writes: ts.writes(),
-                    occlusion_query_set: None,
-                    multiview_mask: None,
-                });
+                let mut pass = pass::begin(
+                    &mut encoder,
+                    "front-peel under",
+                    &[pass::color(&g.accum, wgpu::LoadOp::Load)],
+                    None,
+                    ts.writes(),
+                );
                 pass.set_pipeline(&g.under_pipeline);
                 pass.set_bind_group(0, &g.under_group, &[]);
                 pass.set_bind_group(1, &g.control.pass_group, &[g.control.offset(k)]);
@@ -461,18 +457,6 @@ impl FrontPeel {
         }
         timer.submit(ctx, encoder)
     }
-}
-
-fn load_attachment(view: &wgpu::TextureView) -> Option<wgpu::RenderPassColorAttachment<'_>> {
-    Some(wgpu::RenderPassColorAttachment {
-        view,
-        depth_slice: None,
-        resolve_target: None,
-        ops: wgpu::Operations {
-            load: wgpu::LoadOp::Load,
-            store: wgpu::StoreOp::Store,
-        },
-    })
 }
 
 impl Technique for FrontPeel {
@@ -536,58 +520,43 @@ impl Technique for FrontPeel {
         list.reset(ctx);
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         g.control.clear(&mut encoder);
-        let _ = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("front-peel clear"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: &g.accum,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(wgpu::Color {
-                        r: 0.0,
-                        g: 0.0,
-                        b: 0.0,
-                        a: 1.0,
-                    }),
-                    store: wgpu::StoreOp::Store,
-                },
-            })],
-            depth_stencil_attachment: None,
-            timestamp_writes: None,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
+        let _ = pass::begin(
+            &mut encoder,
+            "front-peel clear",
+            &[pass::color(
+                &g.accum,
+                wgpu::LoadOp::Clear(wgpu::Color {
+                    r: 0.0,
+                    g: 0.0,
+                    b: 0.0,
+                    a: 1.0,
+                }),
+            )],
+            None,
+            None,
+        );
         let far_bits = f64::from(scene.scene.camera.far_depth().to_bits());
         let ts = timer.pass("opaque depth bits");
         {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("front-peel opaque depth bits"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &g.opaque_bits,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color {
-                            r: far_bits,
-                            g: far_bits,
-                            b: far_bits,
-                            a: far_bits,
-                        }),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &targets.depth_view,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Load,
-                        store: wgpu::StoreOp::Store,
+            let mut pass = pass::begin(
+                &mut encoder,
+                "front-peel opaque depth bits",
+                &[pass::color(
+                    &g.opaque_bits,
+                    wgpu::LoadOp::Clear(wgpu::Color {
+                        r: far_bits,
+                        g: far_bits,
+                        b: far_bits,
+                        a: far_bits,
                     }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: ts.writes(),
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+                )],
+                pass::depth(
+                    &targets.depth_view,
+                    wgpu::LoadOp::Load,
+                    wgpu::StoreOp::Store,
+                ),
+                ts.writes(),
+            );
             scene.bind(&mut pass);
             for i in scene.opaque_draws() {
                 scene.draw(&mut pass, &g.opaque_pipelines, i);
@@ -671,14 +640,13 @@ impl Technique for FrontPeel {
             pass.dispatch_workgroups(res.width.div_ceil(8), res.height.div_ceil(8), 1);
         }
         {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("front-peel composite"),
-                color_attachments: &[load_attachment(&targets.color_view)],
-                depth_stencil_attachment: None,
-                timestamp_writes: ts.writes(),
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            let mut pass = pass::begin(
+                &mut encoder,
+                "front-peel composite",
+                &[pass::color(&targets.color_view, wgpu::LoadOp::Load)],
+                None,
+                ts.writes(),
+            );
             pass.set_pipeline(&g.front_pipeline);
             pass.set_bind_group(0, &g.final_group, &[]);
             pass.set_bind_group(1, &g.control.pass_group, &[0]);

@@ -2,6 +2,7 @@
 //! the blend state and the pass structure, and differ only in which draws go in which order.
 
 use crate::sort::{DepthSorter, centroid, object_order};
+use oit_gpu::pass;
 use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, CullRule, GpuError, GpuScene, GpuTimer, MemoryLedger, PREMULTIPLIED_OVER,
@@ -252,27 +253,13 @@ impl Blended {
     }
 }
 
-fn color_attachment(targets: &Targets) -> wgpu::RenderPassColorAttachment<'_> {
-    wgpu::RenderPassColorAttachment {
-        view: &targets.color_view,
-        depth_slice: None,
-        resolve_target: None,
-        ops: wgpu::Operations {
-            load: wgpu::LoadOp::Load,
-            store: wgpu::StoreOp::Store,
-        },
-    }
-}
-
-fn depth_attachment(targets: &Targets) -> wgpu::RenderPassDepthStencilAttachment<'_> {
-    wgpu::RenderPassDepthStencilAttachment {
-        view: &targets.depth_view,
-        depth_ops: Some(wgpu::Operations {
-            load: wgpu::LoadOp::Load,
-            store: wgpu::StoreOp::Store,
-        }),
-        stencil_ops: None,
-    }
+/// The opaque pass's depth, tested against (and, in the prepass, written).
+fn load_depth(targets: &Targets) -> Option<wgpu::RenderPassDepthStencilAttachment<'_>> {
+    pass::depth(
+        &targets.depth_view,
+        wgpu::LoadOp::Load,
+        wgpu::StoreOp::Store,
+    )
 }
 
 impl Technique for Blended {
@@ -342,14 +329,13 @@ impl Technique for Blended {
             stats.geometry_passes = 2;
             let ts = timer.pass("transparent depth prepass");
             {
-                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                    label: Some("transparent depth prepass"),
-                    color_attachments: &[],
-                    depth_stencil_attachment: Some(depth_attachment(targets)),
-                    timestamp_writes: ts.writes(),
-                    occlusion_query_set: None,
-                    multiview_mask: None,
-                });
+                let mut pass = pass::begin(
+                    &mut encoder,
+                    "transparent depth prepass",
+                    &[],
+                    load_depth(targets),
+                    ts.writes(),
+                );
                 scene.bind(&mut pass);
                 let depth_only = p.depth_only.as_ref().expect("prepass pipelines");
                 for &i in &order {
@@ -364,14 +350,13 @@ impl Technique for Blended {
             _ => "blend",
         });
         {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some(self.kind.name()),
-                color_attachments: &[Some(color_attachment(targets))],
-                depth_stencil_attachment: Some(depth_attachment(targets)),
-                timestamp_writes: ts.writes(),
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            let mut pass = pass::begin(
+                &mut encoder,
+                self.kind.name(),
+                &[pass::color(&targets.color_view, wgpu::LoadOp::Load)],
+                load_depth(targets),
+                ts.writes(),
+            );
             scene.bind(&mut pass);
             match self.kind {
                 Kind::Unsorted | Kind::SortedObject => {

@@ -14,6 +14,7 @@
 
 use crate::config::{A2cConfig, ConfigError};
 use crate::gpu;
+use oit_gpu::pass;
 use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, RenderStats, ScenePipelineDesc,
@@ -243,36 +244,28 @@ impl Technique for AlphaToCoverage {
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         let ts = timer.pass("a2c seed msaa");
         {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("a2c seed msaa"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &r.color_view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &r.depth_view,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(scene.scene.camera.far_depth()),
-                        store: wgpu::StoreOp::Store,
-                    }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: ts.writes(),
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            let mut pass = pass::begin(
+                &mut encoder,
+                "a2c seed msaa",
+                &[pass::color(
+                    &r.color_view,
+                    wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                )],
+                pass::depth(
+                    &r.depth_view,
+                    wgpu::LoadOp::Clear(scene.scene.camera.far_depth()),
+                    wgpu::StoreOp::Store,
+                ),
+                ts.writes(),
+            );
             r.seed.draw(&mut pass, &seed_group);
         }
         let ts = timer.pass("a2c");
         {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("a2c"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            let mut pass = pass::begin(
+                &mut encoder,
+                "a2c",
+                &[Some(wgpu::RenderPassColorAttachment {
                     view: &r.color_view,
                     depth_slice: None,
                     resolve_target: Some(&targets.color_view),
@@ -281,18 +274,9 @@ impl Technique for AlphaToCoverage {
                         store: wgpu::StoreOp::Discard,
                     },
                 })],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &r.depth_view,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Load,
-                        store: wgpu::StoreOp::Discard,
-                    }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: ts.writes(),
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+                pass::depth(&r.depth_view, wgpu::LoadOp::Load, wgpu::StoreOp::Discard),
+                ts.writes(),
+            );
             scene.bind(&mut pass);
             for i in gpu::reversed_transparent_draws(scene) {
                 gpu::draw_with_id(&mut pass, scene, &r.a2c, i);

@@ -3,6 +3,7 @@
 use crate::config::{ConfigError, Pattern, Seed, StochasticConfig};
 use crate::gpu;
 use crate::pattern;
+use oit_gpu::pass;
 use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, RenderStats, ScenePipelineDesc,
@@ -567,19 +568,18 @@ impl Technique for Stochastic {
             let name = format!("accumulate frame {k}");
             let ts = timer.pass(&name);
             {
-                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                    label: Some(&name),
-                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                let mut pass = pass::begin(
+                    &mut encoder,
+                    &name,
+                    &[Some(wgpu::RenderPassColorAttachment {
                         view: target,
                         depth_slice: None,
                         resolve_target: None,
                         ops: load_store(wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT)),
                     })],
-                    depth_stencil_attachment: None,
-                    timestamp_writes: ts.writes(),
-                    occlusion_query_set: None,
-                    multiview_mask: None,
-                });
+                    None,
+                    ts.writes(),
+                );
                 pass.set_pipeline(pipeline);
                 let offset = (f.accumulate_stride * entry) as u32;
                 pass.set_bind_group(0, &f.bind_groups[parity], &[offset]);

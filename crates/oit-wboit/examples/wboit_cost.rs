@@ -5,6 +5,7 @@
 //! timestamp queries where the adapter has them, else wall-clock.
 
 use anyhow::{Result, bail};
+use oit_gpu::pass;
 use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, ColorFormat, Context, GpuError, GpuScene, GpuTimer, PREMULTIPLIED_OVER, RenderStats,
@@ -60,29 +61,17 @@ impl Technique for Unsorted {
         let ts = timer.pass("blend");
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("unsorted"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &targets.color_view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Load,
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &targets.depth_view,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Load,
-                        store: wgpu::StoreOp::Store,
-                    }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: ts.writes(),
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            let mut pass = pass::begin(
+                &mut encoder,
+                "unsorted",
+                &[pass::color(&targets.color_view, wgpu::LoadOp::Load)],
+                pass::depth(
+                    &targets.depth_view,
+                    wgpu::LoadOp::Load,
+                    wgpu::StoreOp::Store,
+                ),
+                ts.writes(),
+            );
             scene.bind(&mut pass);
             for i in scene.transparent_draws() {
                 scene.draw(&mut pass, pipelines, i);

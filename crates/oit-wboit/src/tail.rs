@@ -15,6 +15,7 @@
 use crate::guards::{GUARD_SLOTS, GuardCounts};
 use crate::range::RangeParams;
 use oit_gpu::blend;
+use oit_gpu::pass;
 use oit_gpu::wgpu;
 use oit_gpu::{Context, GpuError, GpuTimer, MemoryLedger, Targets, Unsupported};
 use oit_scene::{Camera, Projection, Resolution, Scene};
@@ -400,32 +401,16 @@ impl AccumTargets {
             CompositeMode::Weighted => 1.0,
             CompositeMode::Average => 0.0,
         };
-        let ops = |value: f64| wgpu::Operations {
-            load: if clear {
-                wgpu::LoadOp::Clear(wgpu::Color {
-                    r: value,
-                    g: value,
-                    b: value,
-                    a: value,
-                })
+        let load = |value: f64| {
+            if clear {
+                wgpu::LoadOp::Clear(pass::splat(value))
             } else {
                 wgpu::LoadOp::Load
-            },
-            store: wgpu::StoreOp::Store,
+            }
         };
         [
-            Some(wgpu::RenderPassColorAttachment {
-                view: &self.accum_view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: ops(0.0),
-            }),
-            Some(wgpu::RenderPassColorAttachment {
-                view: &self.reveal_view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: ops(reveal_clear),
-            }),
+            pass::color(&self.accum_view, load(0.0)),
+            pass::color(&self.reveal_view, load(reveal_clear)),
         ]
     }
 
@@ -514,22 +499,13 @@ pub fn composite(
     let mut encoder = ctx.device.create_command_encoder(&Default::default());
     encoder.clear_buffer(&accum.guards, 0, None);
     {
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("wboit composite"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: &targets.color_view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Load,
-                    store: wgpu::StoreOp::Store,
-                },
-            })],
-            depth_stencil_attachment: None,
-            timestamp_writes: ts.writes(),
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
+        let mut pass = pass::begin(
+            &mut encoder,
+            "wboit composite",
+            &[pass::color(&targets.color_view, wgpu::LoadOp::Load)],
+            None,
+            ts.writes(),
+        );
         pass.set_pipeline(&pipeline);
         pass.set_bind_group(0, &accum.bind_group, &[]);
         pass.draw(0..3, 0..1);

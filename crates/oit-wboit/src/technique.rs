@@ -4,6 +4,7 @@
 use crate::guards::GuardCounts;
 use crate::range::RangeParams;
 use crate::tail::{self, AccumFormat, AccumTargets, CompositeMode, RevealFormat, view_depth_terms};
+use oit_gpu::pass;
 use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, RenderStats, ScenePipelineDesc,
@@ -380,21 +381,17 @@ impl Technique for Wboit {
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         {
             let attachments = accum.attachments(true);
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("wboit accumulate"),
-                color_attachments: &attachments,
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &targets.depth_view,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Load,
-                        store: wgpu::StoreOp::Store,
-                    }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: ts.writes(),
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            let mut pass = pass::begin(
+                &mut encoder,
+                "wboit accumulate",
+                &attachments,
+                pass::depth(
+                    &targets.depth_view,
+                    wgpu::LoadOp::Load,
+                    wgpu::StoreOp::Store,
+                ),
+                ts.writes(),
+            );
             scene.bind(&mut pass);
             pass.set_bind_group(1, group, &[]);
             for i in scene.transparent_draws() {
