@@ -15,26 +15,8 @@ pub fn count_fragments(ctx: &Context, scene: &GpuScene) -> Result<Vec<u32>, GpuE
     let target_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("count target"),
         entries: &[
-            wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: wgpu::ShaderStages::FRAGMENT,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Uniform,
-                    has_dynamic_offset: false,
-                    min_binding_size: None,
-                },
-                count: None,
-            },
-            wgpu::BindGroupLayoutEntry {
-                binding: 1,
-                visibility: wgpu::ShaderStages::FRAGMENT,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Storage { read_only: false },
-                    has_dynamic_offset: false,
-                    min_binding_size: None,
-                },
-                count: None,
-            },
+            crate::bind::uniform(0, wgpu::ShaderStages::FRAGMENT),
+            crate::bind::storage(1, wgpu::ShaderStages::FRAGMENT, false),
         ],
     });
     let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {

@@ -10,11 +10,13 @@
 //! - [`GpuTimer`]: per-pass GPU time from timestamp queries, or wall-clock when the adapter has
 //!   none (and the result says which).
 //! - [`blend`] states and [`fullscreen_pipeline`]: what composites and copies share.
+//! - [`bind`]: bind group layout entries.
 //! - [`pass`]: attachments and render-pass boilerplate.
 //! - [`memory`]: exact byte counts of what a technique allocates.
 //! - [`TechniqueSpec`]: `name[:key=value,…]` parsing against a registry, canonical strings.
 //! - [`count_fragments`]: the rasterization conformance pass.
 
+pub mod bind;
 pub mod blend;
 mod context;
 mod count;

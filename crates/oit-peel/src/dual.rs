@@ -13,6 +13,7 @@ use crate::config::{DualPeelConfig, PassCount, Tail};
 use crate::encoding::KeyParams;
 use crate::error::PeelError;
 use crate::gpu::{self, Budget, Control, Counters, DrawList, Options, PeelReport, Termination};
+use oit_gpu::bind;
 use oit_gpu::blend;
 use oit_gpu::pass;
 use oit_gpu::wgpu;
@@ -157,9 +158,9 @@ impl DualPeel {
         let group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("dual-peel"),
             entries: &[
-                gpu::uniform_entry(0, fs, false),
-                gpu::texture_entry(1, fs, false),
-                gpu::storage_entry(2, fs),
+                bind::uniform(0, fs),
+                bind::float_texture(1, fs),
+                bind::storage(2, fs, false),
             ],
         });
         let group = |view: &wgpu::TextureView| {
@@ -251,7 +252,7 @@ impl DualPeel {
         let composite_module = gpu::shader(ctx, "peel_composite.wgsl", gpu::PEEL_COMPOSITE)?;
         let composite_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("peel composite"),
-            entries: &[gpu::texture_entry(0, fs, false), gpu::storage_entry(1, fs)],
+            entries: &[bind::float_texture(0, fs), bind::storage(1, fs, false)],
         });
         let composite_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("dual-peel front composite"),
@@ -292,7 +293,7 @@ impl DualPeel {
         let (count_layout, count_pipeline) = control.count_pipeline(
             ctx,
             "cs_count_range",
-            gpu::texture_entry(3, wgpu::ShaderStages::COMPUTE, false),
+            bind::float_texture(3, wgpu::ShaderStages::COMPUTE),
         );
         self.gpu = Some(Resources {
             key,

@@ -19,6 +19,7 @@ use crate::config::{FrontPeelConfig, PassCount};
 use crate::encoding::KeyParams;
 use crate::error::PeelError;
 use crate::gpu::{self, Budget, Control, Counters, DrawList, Options, PeelReport, Termination};
+use oit_gpu::bind;
 use oit_gpu::blend;
 use oit_gpu::pass;
 use oit_gpu::wgpu;
@@ -194,23 +195,10 @@ impl FrontPeel {
         )
         .1;
         let fs = wgpu::ShaderStages::FRAGMENT;
-        let uint_texture = |binding| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: fs,
-            ty: wgpu::BindingType::Texture {
-                sample_type: wgpu::TextureSampleType::Uint,
-                view_dimension: wgpu::TextureViewDimension::D2,
-                multisampled: false,
-            },
-            count: None,
-        };
+        let uint_texture = |binding| bind::texture(binding, fs, wgpu::TextureSampleType::Uint);
         let group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("front-peel"),
-            entries: &[
-                gpu::uniform_entry(0, fs, false),
-                uint_texture(1),
-                uint_texture(3),
-            ],
+            entries: &[bind::uniform(0, fs), uint_texture(1), uint_texture(3)],
         });
         let groups = [0, 1].map(|j| {
             device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -289,7 +277,7 @@ impl FrontPeel {
         let composite_module = gpu::shader(ctx, "peel_composite.wgsl", gpu::PEEL_COMPOSITE)?;
         let composite_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("peel composite"),
-            entries: &[gpu::texture_entry(0, fs, false), gpu::storage_entry(1, fs)],
+            entries: &[bind::float_texture(0, fs), bind::storage(1, fs, false)],
         });
         let composite_group = |view: &wgpu::TextureView| {
             device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -338,7 +326,7 @@ impl FrontPeel {
         let (count_layout, count_pipeline) = control.count_pipeline(
             ctx,
             "cs_count_layer",
-            gpu::texture_entry(3, wgpu::ShaderStages::COMPUTE, false),
+            bind::float_texture(3, wgpu::ShaderStages::COMPUTE),
         );
         self.gpu = Some(Resources {
             key,

@@ -1,6 +1,7 @@
 //! GPU machinery shared by both peelers: shader composition, pipelines with several colour
 //! targets, the per-frame counters, the pass-index uniform, and the GPU-side termination gate.
 
+use oit_gpu::bind;
 use oit_gpu::wgpu;
 use oit_gpu::{Context, GpuError, GpuScene, MemoryLedger, ScenePipelines};
 
@@ -93,65 +94,6 @@ pub(crate) fn shader(
         }))
 }
 
-pub(crate) fn uniform_entry(
-    binding: u32,
-    visibility: wgpu::ShaderStages,
-    dynamic: bool,
-) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Uniform,
-            has_dynamic_offset: dynamic,
-            // The dynamic pass index is one 16-byte PassInfo; other uniforms are checked whole.
-            min_binding_size: if dynamic {
-                wgpu::BufferSize::new(16)
-            } else {
-                None
-            },
-        },
-        count: None,
-    }
-}
-
-pub(crate) fn storage_entry(
-    binding: u32,
-    visibility: wgpu::ShaderStages,
-) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only: false },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
-}
-
-pub(crate) fn texture_entry(
-    binding: u32,
-    visibility: wgpu::ShaderStages,
-    depth: bool,
-) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility,
-        ty: wgpu::BindingType::Texture {
-            sample_type: if depth {
-                wgpu::TextureSampleType::Depth
-            } else {
-                wgpu::TextureSampleType::Float { filterable: false }
-            },
-            view_dimension: wgpu::TextureViewDimension::D2,
-            multisampled: false,
-        },
-        count: None,
-    }
-}
-
 pub(crate) fn texture_2d(
     ctx: &Context,
     ledger: &mut MemoryLedger,
@@ -239,7 +181,7 @@ impl Control {
         let all = wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE;
         let pass_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("peel pass index"),
-            entries: &[uniform_entry(0, all, true)],
+            entries: &[bind::dynamic_uniform(0, all, 16)],
         });
         let pass_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("peel pass index"),
@@ -258,9 +200,9 @@ impl Control {
         let gate_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("peel gate"),
             entries: &[
-                storage_entry(0, cs),
-                storage_entry(1, cs),
-                uniform_entry(2, cs, false),
+                bind::storage(0, cs, false),
+                bind::storage(1, cs, false),
+                bind::uniform(2, cs),
             ],
         });
         let gate_pipeline =
@@ -313,7 +255,7 @@ impl Control {
             .device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some(entry),
-                entries: &[storage_entry(0, cs), uniform_entry(2, cs, false), extra],
+                entries: &[bind::storage(0, cs, false), bind::uniform(2, cs), extra],
             });
         let pipeline = compute_pipeline(ctx, &self.gate_module, &[&layout], entry);
         (layout, pipeline)

@@ -1,6 +1,7 @@
 //! Resource helpers shared by the two techniques: draw order and instance ids, bind group
 //! entries, and the seed pass.
 
+use oit_gpu::bind;
 use oit_gpu::wgpu;
 use oit_gpu::{Context, GpuError, GpuScene, ScenePipelines};
 
@@ -29,44 +30,6 @@ pub(crate) fn draw_with_id(
         d.first_vertex..d.first_vertex + d.vertex_count,
         d.id..d.id + 1,
     );
-}
-
-/// Texture layout entry for `textureLoad` of a float texture in the fragment stage.
-pub(crate) fn float_texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::FRAGMENT,
-        ty: wgpu::BindingType::Texture {
-            sample_type: wgpu::TextureSampleType::Float { filterable: false },
-            view_dimension: wgpu::TextureViewDimension::D2,
-            multisampled: false,
-        },
-        count: None,
-    }
-}
-
-/// Uniform entry with a dynamic offset (one entry per frame in one buffer).
-pub(crate) fn dynamic_uniform_entry(
-    binding: u32,
-    visibility: wgpu::ShaderStages,
-    size: u64,
-) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Uniform,
-            has_dynamic_offset: true,
-            min_binding_size: wgpu::BufferSize::new(size),
-        },
-        count: None,
-    }
-}
-
-/// `size` rounded up to the device's uniform offset alignment.
-pub(crate) fn uniform_stride(ctx: &Context, size: u64) -> u64 {
-    let align = u64::from(ctx.device.limits().min_uniform_buffer_offset_alignment).max(1);
-    size.div_ceil(align) * align
 }
 
 pub(crate) fn shader(
@@ -101,7 +64,10 @@ impl SeedPass {
         // no texelFetch of depth (shadow) textures.
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("stochastic seed"),
-            entries: &[float_texture_entry(0), float_texture_entry(1)],
+            entries: &[
+                bind::float_texture(0, wgpu::ShaderStages::FRAGMENT),
+                bind::float_texture(1, wgpu::ShaderStages::FRAGMENT),
+            ],
         });
         let module = shader(ctx, "stochastic_seed.wgsl", SEED_WGSL)?;
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {

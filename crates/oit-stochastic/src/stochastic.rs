@@ -3,6 +3,7 @@
 use crate::config::{ConfigError, Pattern, Seed, StochasticConfig};
 use crate::gpu;
 use crate::pattern;
+use oit_gpu::bind;
 use oit_gpu::pass;
 use oit_gpu::wgpu;
 use oit_gpu::{
@@ -173,11 +174,7 @@ impl Stochastic {
         let dither_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("stochastic dither"),
             entries: &[
-                gpu::dynamic_uniform_entry(
-                    0,
-                    wgpu::ShaderStages::VERTEX_FRAGMENT,
-                    DITHER_UNIFORM_BYTES,
-                ),
+                bind::dynamic_uniform(0, wgpu::ShaderStages::VERTEX_FRAGMENT, DITHER_UNIFORM_BYTES),
                 wgpu::BindGroupLayoutEntry {
                     binding: 1,
                     visibility: wgpu::ShaderStages::FRAGMENT,
@@ -190,7 +187,7 @@ impl Stochastic {
                 },
             ],
         });
-        let dither_stride = gpu::uniform_stride(ctx, DITHER_UNIFORM_BYTES);
+        let dither_stride = bind::uniform_stride(ctx, DITHER_UNIFORM_BYTES);
         let uniforms = Self::dither_uniforms(config, dither_stride);
         let dither_buffer = ledger.create_buffer(
             device,
@@ -324,7 +321,7 @@ impl Stochastic {
                 U::RENDER_ATTACHMENT | U::TEXTURE_BINDING,
             ),
         ];
-        let accumulate_stride = gpu::uniform_stride(ctx, ACCUMULATE_UNIFORM_BYTES);
+        let accumulate_stride = bind::uniform_stride(ctx, ACCUMULATE_UNIFORM_BYTES);
         let uniform = ledger.create_buffer(
             device,
             &wgpu::BufferDescriptor {
@@ -337,13 +334,9 @@ impl Stochastic {
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("stochastic accumulate"),
             entries: &[
-                gpu::float_texture_entry(0),
-                gpu::float_texture_entry(1),
-                gpu::dynamic_uniform_entry(
-                    2,
-                    wgpu::ShaderStages::FRAGMENT,
-                    ACCUMULATE_UNIFORM_BYTES,
-                ),
+                bind::float_texture(0, wgpu::ShaderStages::FRAGMENT),
+                bind::float_texture(1, wgpu::ShaderStages::FRAGMENT),
+                bind::dynamic_uniform(2, wgpu::ShaderStages::FRAGMENT, ACCUMULATE_UNIFORM_BYTES),
             ],
         });
         let color_view = color.create_view(&Default::default());

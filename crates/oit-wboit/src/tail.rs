@@ -14,6 +14,7 @@
 
 use crate::guards::{GUARD_SLOTS, GuardCounts};
 use crate::range::RangeParams;
+use oit_gpu::bind;
 use oit_gpu::blend;
 use oit_gpu::pass;
 use oit_gpu::wgpu;
@@ -280,43 +281,16 @@ impl AccumTargets {
         );
         let accum_view = accum.create_view(&Default::default());
         let reveal_view = reveal.create_view(&Default::default());
-        let texture_entry = |binding| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::FRAGMENT,
-            ty: wgpu::BindingType::Texture {
-                sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                view_dimension: wgpu::TextureViewDimension::D2,
-                multisampled: false,
-            },
-            count: None,
-        };
+        let fs = wgpu::ShaderStages::FRAGMENT;
         let layout = ctx
             .device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("wboit composite"),
                 entries: &[
-                    texture_entry(0),
-                    texture_entry(1),
-                    wgpu::BindGroupLayoutEntry {
-                        binding: 2,
-                        visibility: wgpu::ShaderStages::FRAGMENT,
-                        ty: wgpu::BindingType::Buffer {
-                            ty: wgpu::BufferBindingType::Uniform,
-                            has_dynamic_offset: false,
-                            min_binding_size: None,
-                        },
-                        count: None,
-                    },
-                    wgpu::BindGroupLayoutEntry {
-                        binding: 3,
-                        visibility: wgpu::ShaderStages::FRAGMENT,
-                        ty: wgpu::BindingType::Buffer {
-                            ty: wgpu::BufferBindingType::Storage { read_only: false },
-                            has_dynamic_offset: false,
-                            min_binding_size: None,
-                        },
-                        count: None,
-                    },
+                    bind::float_texture(0, fs),
+                    bind::float_texture(1, fs),
+                    bind::uniform(2, fs),
+                    bind::storage(3, fs, false),
                 ],
             });
         let bind_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {

@@ -260,16 +260,7 @@ impl Wboit {
                 .device
                 .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                     label: Some("wboit weight params"),
-                    entries: &[wgpu::BindGroupLayoutEntry {
-                        binding: 0,
-                        visibility: wgpu::ShaderStages::FRAGMENT,
-                        ty: wgpu::BindingType::Buffer {
-                            ty: wgpu::BufferBindingType::Uniform,
-                            has_dynamic_offset: false,
-                            min_binding_size: None,
-                        },
-                        count: None,
-                    }],
+                    entries: &[oit_gpu::bind::uniform(0, wgpu::ShaderStages::FRAGMENT)],
                 });
             let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("wboit weight params"),
