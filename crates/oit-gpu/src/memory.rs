@@ -77,6 +77,36 @@ impl MemoryLedger {
         device.create_buffer(desc)
     }
 
+    /// A one-mip 2D texture covering `resolution`: the shape of every per-pixel target a
+    /// technique allocates (`sample_count` 1 unless it is a multisampled attachment).
+    pub fn create_texture_2d(
+        &mut self,
+        device: &wgpu::Device,
+        label: &str,
+        resolution: oit_scene::Resolution,
+        format: wgpu::TextureFormat,
+        usage: wgpu::TextureUsages,
+        sample_count: u32,
+    ) -> wgpu::Texture {
+        self.create_texture(
+            device,
+            &wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d {
+                    width: resolution.width,
+                    height: resolution.height,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage,
+                view_formats: &[],
+            },
+        )
+    }
+
     /// Forget everything (call when the resources are dropped and recreated).
     pub fn clear(&mut self) {
         self.entries.clear();

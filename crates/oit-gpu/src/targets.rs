@@ -53,42 +53,27 @@ impl Targets {
             ))
             .into());
         }
-        let size = wgpu::Extent3d {
-            width: resolution.width,
-            height: resolution.height,
-            depth_or_array_layers: 1,
-        };
         let mut ledger = crate::MemoryLedger::new();
-        let color = ledger.create_texture(
+        let color = ledger.create_texture_2d(
             &ctx.device,
-            &wgpu::TextureDescriptor {
-                label: Some("final colour"),
-                size,
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: color_format,
-                usage: wgpu::TextureUsages::RENDER_ATTACHMENT
-                    | wgpu::TextureUsages::COPY_SRC
-                    | wgpu::TextureUsages::COPY_DST
-                    | wgpu::TextureUsages::TEXTURE_BINDING,
-                view_formats: &[],
-            },
+            "final colour",
+            resolution,
+            color_format,
+            wgpu::TextureUsages::RENDER_ATTACHMENT
+                | wgpu::TextureUsages::COPY_SRC
+                | wgpu::TextureUsages::COPY_DST
+                | wgpu::TextureUsages::TEXTURE_BINDING,
+            1,
         );
-        let depth = ledger.create_texture(
+        let depth = ledger.create_texture_2d(
             &ctx.device,
-            &wgpu::TextureDescriptor {
-                label: Some("depth"),
-                size,
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: wgpu::TextureFormat::Depth32Float,
-                usage: wgpu::TextureUsages::RENDER_ATTACHMENT
-                    | wgpu::TextureUsages::COPY_SRC
-                    | wgpu::TextureUsages::TEXTURE_BINDING,
-                view_formats: &[],
-            },
+            "depth",
+            resolution,
+            wgpu::TextureFormat::Depth32Float,
+            wgpu::TextureUsages::RENDER_ATTACHMENT
+                | wgpu::TextureUsages::COPY_SRC
+                | wgpu::TextureUsages::TEXTURE_BINDING,
+            1,
         );
         Ok(Targets {
             resolution,

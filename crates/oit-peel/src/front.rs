@@ -142,22 +142,13 @@ impl FrontPeel {
             },
         );
         let res = targets.resolution;
-        let depth_texture = ledger.create_texture(
+        let depth_texture = ledger.create_texture_2d(
             device,
-            &wgpu::TextureDescriptor {
-                label: Some("front-peel depth"),
-                size: wgpu::Extent3d {
-                    width: res.width,
-                    height: res.height,
-                    depth_or_array_layers: 1,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: wgpu::TextureFormat::Depth32Float,
-                usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
-                view_formats: &[],
-            },
+            "front-peel depth",
+            res,
+            wgpu::TextureFormat::Depth32Float,
+            wgpu::TextureUsages::RENDER_ATTACHMENT,
+            1,
         );
         let depth = depth_texture.create_view(&Default::default());
         let opaque_bits = gpu::texture_2d(

@@ -101,22 +101,13 @@ pub(crate) fn texture_2d(
     resolution: oit_scene::Resolution,
     format: wgpu::TextureFormat,
 ) -> (wgpu::Texture, wgpu::TextureView) {
-    let t = ledger.create_texture(
+    let t = ledger.create_texture_2d(
         &ctx.device,
-        &wgpu::TextureDescriptor {
-            label: Some(label),
-            size: wgpu::Extent3d {
-                width: resolution.width,
-                height: resolution.height,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
-            view_formats: &[],
-        },
+        label,
+        resolution,
+        format,
+        wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+        1,
     );
     let v = t.create_view(&Default::default());
     (t, v)

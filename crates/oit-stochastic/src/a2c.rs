@@ -125,24 +125,14 @@ impl AlphaToCoverage {
         self.gpu = None;
         self.ledger.clear();
         let device = &ctx.device;
-        let size = wgpu::Extent3d {
-            width: targets.resolution.width,
-            height: targets.resolution.height,
-            depth_or_array_layers: 1,
-        };
         let mut texture = |label, format| {
-            self.ledger.create_texture(
+            self.ledger.create_texture_2d(
                 device,
-                &wgpu::TextureDescriptor {
-                    label: Some(label),
-                    size,
-                    mip_level_count: 1,
-                    sample_count: samples,
-                    dimension: wgpu::TextureDimension::D2,
-                    format,
-                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
-                    view_formats: &[],
-                },
+                label,
+                targets.resolution,
+                format,
+                wgpu::TextureUsages::RENDER_ATTACHMENT,
+                samples,
             )
         };
         let color = texture("a2c msaa colour", targets.color_format);

@@ -274,25 +274,8 @@ impl Stochastic {
         sum_format: wgpu::TextureFormat,
     ) -> Result<FrameResources, GpuError> {
         let device = &ctx.device;
-        let size = wgpu::Extent3d {
-            width: targets.resolution.width,
-            height: targets.resolution.height,
-            depth_or_array_layers: 1,
-        };
         let texture = |ledger: &mut MemoryLedger, label, format, usage| {
-            ledger.create_texture(
-                device,
-                &wgpu::TextureDescriptor {
-                    label: Some(label),
-                    size,
-                    mip_level_count: 1,
-                    sample_count: 1,
-                    dimension: wgpu::TextureDimension::D2,
-                    format,
-                    usage,
-                    view_formats: &[],
-                },
-            )
+            ledger.create_texture_2d(device, label, targets.resolution, format, usage, 1)
         };
         use wgpu::TextureUsages as U;
         let color = texture(

@@ -223,28 +223,18 @@ impl AccumTargets {
             ))
             .into());
         }
-        let size = wgpu::Extent3d {
-            width: resolution.width,
-            height: resolution.height,
-            depth_or_array_layers: 1,
-        };
         let mut ledger = MemoryLedger::new();
         let mut texture = |label, format| {
-            ledger.create_texture(
+            ledger.create_texture_2d(
                 &ctx.device,
-                &wgpu::TextureDescriptor {
-                    label: Some(label),
-                    size,
-                    mip_level_count: 1,
-                    sample_count: 1,
-                    dimension: wgpu::TextureDimension::D2,
-                    format,
-                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT
-                        | wgpu::TextureUsages::TEXTURE_BINDING
-                        | wgpu::TextureUsages::COPY_SRC
-                        | wgpu::TextureUsages::COPY_DST,
-                    view_formats: &[],
-                },
+                label,
+                resolution,
+                format,
+                wgpu::TextureUsages::RENDER_ATTACHMENT
+                    | wgpu::TextureUsages::TEXTURE_BINDING
+                    | wgpu::TextureUsages::COPY_SRC
+                    | wgpu::TextureUsages::COPY_DST,
+                1,
             )
         };
         let accum = texture("wboit accumulation", accum_format.texture_format());
