@@ -199,6 +199,21 @@ impl Caps {
             .unwrap_or_default()
     }
 
+    /// `Ok` when per-pixel textures of `resolution` can be created (1 ..= the 2D texture
+    /// limit on each side), otherwise the reason.
+    pub fn require_resolution(
+        &self,
+        resolution: oit_scene::Resolution,
+    ) -> Result<(), crate::Unsupported> {
+        let max = self.max_texture_dimension_2d;
+        if resolution.width > max || resolution.height > max || resolution.pixel_count() == 0 {
+            return Err(crate::Unsupported::new(format!(
+                "resolution {resolution} is outside 1..={max} pixels per side"
+            )));
+        }
+        Ok(())
+    }
+
     /// `Ok` when `format` can be rendered to (and blended into, if `blend`), otherwise the
     /// reason, ready for a technique's `check`.
     pub fn require_target(

@@ -1,7 +1,7 @@
 //! The final colour and depth targets, and readback of the colour.
 
 use crate::context::Context;
-use crate::error::{GpuError, Unsupported};
+use crate::error::GpuError;
 use oit_scene::{LinearImage, Resolution};
 
 /// Format of the final colour target.
@@ -46,13 +46,7 @@ impl Targets {
     ) -> Result<Targets, GpuError> {
         let color_format = format.texture_format();
         ctx.caps.require_target(color_format, true)?;
-        let max = ctx.caps.max_texture_dimension_2d;
-        if resolution.width > max || resolution.height > max || resolution.pixel_count() == 0 {
-            return Err(Unsupported::new(format!(
-                "resolution {resolution} is outside 1..={max} pixels per side"
-            ))
-            .into());
-        }
+        ctx.caps.require_resolution(resolution)?;
         let mut ledger = crate::MemoryLedger::new();
         let color = ledger.create_texture_2d(
             &ctx.device,

@@ -93,6 +93,13 @@ fn context_reports_adapter_and_caps() {
         ctx.caps.float32_blendable && rgba32.renderable
     );
     assert!(ctx.caps.max_texture_dimension_2d >= 2048);
+    let max = ctx.caps.max_texture_dimension_2d;
+    let res = |width, height| Resolution { width, height };
+    assert!(ctx.caps.require_resolution(res(max, 1)).is_ok());
+    for bad in [res(max + 1, 1), res(1, max + 1), res(0, 16)] {
+        let e = ctx.caps.require_resolution(bad).unwrap_err();
+        assert!(e.to_string().contains(&format!("outside 1..={max}")), "{e}");
+    }
 }
 
 #[test]

@@ -216,13 +216,7 @@ impl AccumTargets {
         reveal_format: RevealFormat,
     ) -> Result<Self, GpuError> {
         check_formats(&ctx.caps, accum_format, reveal_format)?;
-        let max = ctx.caps.max_texture_dimension_2d;
-        if resolution.width > max || resolution.height > max || resolution.pixel_count() == 0 {
-            return Err(Unsupported::new(format!(
-                "resolution {resolution} is outside 1..={max} pixels per side"
-            ))
-            .into());
-        }
+        ctx.caps.require_resolution(resolution)?;
         let mut ledger = MemoryLedger::new();
         let mut texture = |label, format| {
             ledger.create_texture_2d(
