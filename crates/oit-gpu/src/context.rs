@@ -430,7 +430,26 @@ impl Context {
     /// Creates a shader module from a pass file, resolving `#include` lines against the
     /// shared modules (see [`crate::shaders`]).
     pub fn shader(&self, name: &str, source: &str) -> Result<wgpu::ShaderModule, GpuError> {
-        let code = crate::shaders::compose_shared(source).map_err(|e| GpuError::Shader {
+        self.shader_with(name, source, &[])
+    }
+
+    /// [`Context::shader`] with a technique's own modules: `#include "NAME"` resolves to the
+    /// source paired with `NAME` in `modules` first, then to the shared modules.
+    pub fn shader_with(
+        &self,
+        name: &str,
+        source: &str,
+        modules: &[(&str, &str)],
+    ) -> Result<wgpu::ShaderModule, GpuError> {
+        let resolve = |n: &str| {
+            modules
+                .iter()
+                .find(|(m, _)| *m == n)
+                .map(|(_, s)| *s)
+                .or_else(|| crate::shaders::shared_module(n))
+                .map(str::to_owned)
+        };
+        let code = crate::shaders::compose(source, &resolve).map_err(|e| GpuError::Shader {
             shader: name.to_owned(),
             message: e.to_string(),
         })?;

@@ -452,3 +452,21 @@ fn buffer_readback_round_trips() {
         );
     }
 }
+
+/// `shader_with` resolves a technique's own module before the shared ones, and an unknown
+/// include is an error naming the shader and the module.
+#[test]
+fn shader_with_resolves_technique_modules() {
+    let Some(ctx) = context_or_skip("shader_with_resolves_technique_modules") else {
+        return;
+    };
+    let source = "#include \"mine.wgsl\"\n@fragment fn fs() -> @location(0) vec4<f32> { return vec4<f32>(MINE); }";
+    ctx.shader_with(
+        "probe.wgsl",
+        source,
+        &[("mine.wgsl", "const MINE: f32 = 0.5;")],
+    )
+    .expect("composed and created");
+    let e = ctx.shader("probe.wgsl", source).unwrap_err().to_string();
+    assert!(e.contains("probe.wgsl") && e.contains("mine.wgsl"), "{e}");
+}

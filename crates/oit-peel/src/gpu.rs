@@ -71,27 +71,21 @@ pub struct PeelReport {
     pub dropped_pixels: u32,
 }
 
-/// Expands `#include` lines against oit-gpu's shared modules and this crate's.
+/// A module of this crate's WGSL: `#include` resolves peel_common.wgsl, oit-wboit's tail and
+/// oit-gpu's shared modules.
 pub(crate) fn shader(
     ctx: &Context,
     name: &str,
     source: &str,
 ) -> Result<wgpu::ShaderModule, GpuError> {
-    let code = oit_gpu::shaders::compose(source, &|n| match n {
-        "peel_common.wgsl" => Some(PEEL_COMMON.to_owned()),
-        "wboit_tail.wgsl" => Some(oit_wboit::tail::WGSL.to_owned()),
-        other => oit_gpu::shaders::shared_module(other).map(str::to_owned),
-    })
-    .map_err(|e| GpuError::Shader {
-        shader: name.to_owned(),
-        message: e.to_string(),
-    })?;
-    Ok(ctx
-        .device
-        .create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some(name),
-            source: wgpu::ShaderSource::Wgsl(code.into()),
-        }))
+    ctx.shader_with(
+        name,
+        source,
+        &[
+            ("peel_common.wgsl", PEEL_COMMON),
+            ("wboit_tail.wgsl", oit_wboit::tail::WGSL),
+        ],
+    )
 }
 
 pub(crate) fn texture_2d(

@@ -143,7 +143,7 @@ impl AlphaToCoverage {
             alpha_to_coverage_enabled: false,
         };
         let seed = gpu::SeedPass::new(ctx, targets.color_format, multisample)?;
-        let module = gpu::shader(ctx, "stochastic_a2c.wgsl", A2C_WGSL)?;
+        let module = ctx.shader("stochastic_a2c.wgsl", A2C_WGSL)?;
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("a2c"),
             bind_group_layouts: &[Some(ctx.scene_layout())],

@@ -32,14 +32,6 @@ pub(crate) fn draw_with_id(
     );
 }
 
-pub(crate) fn shader(
-    ctx: &Context,
-    name: &str,
-    source: &str,
-) -> Result<wgpu::ShaderModule, GpuError> {
-    ctx.shader(name, source)
-}
-
 /// WGSL of the fullscreen pass that copies the opaque pass's colour and depth into other
 /// targets (the multisampled ones of `a2c`, the per-frame ones of `stochastic:spp=N`).
 pub const SEED_WGSL: &str = include_str!("../../../shaders/stochastic_seed.wgsl");
@@ -69,7 +61,7 @@ impl SeedPass {
                 bind::float_texture(1, wgpu::ShaderStages::FRAGMENT),
             ],
         });
-        let module = shader(ctx, "stochastic_seed.wgsl", SEED_WGSL)?;
+        let module = ctx.shader("stochastic_seed.wgsl", SEED_WGSL)?;
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("stochastic seed"),
             bind_group_layouts: &[Some(&layout)],

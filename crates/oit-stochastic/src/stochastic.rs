@@ -229,7 +229,7 @@ impl Stochastic {
                 },
             ],
         });
-        let module = gpu::shader(ctx, "stochastic_dither.wgsl", DITHER_WGSL)?;
+        let module = ctx.shader("stochastic_dither.wgsl", DITHER_WGSL)?;
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("stochastic dither"),
             bind_group_layouts: &[Some(ctx.scene_layout()), Some(&dither_layout)],
@@ -352,7 +352,7 @@ impl Stochastic {
             })
         };
         let bind_groups = [bind_group(&sum_views[1]), bind_group(&sum_views[0])];
-        let module = gpu::shader(ctx, "stochastic_accumulate.wgsl", ACCUMULATE_WGSL)?;
+        let module = ctx.shader("stochastic_accumulate.wgsl", ACCUMULATE_WGSL)?;
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("stochastic accumulate"),
             bind_group_layouts: &[Some(&layout)],

@@ -283,20 +283,11 @@ impl Wboit {
                 .as_ref()
                 .expect("accumulation targets built above");
             let (_, layout, _) = self.params.as_ref().expect("params built above");
-            let code = oit_gpu::shaders::compose(ACCUM_WGSL, &|name| match name {
-                "wboit_tail.wgsl" => Some(tail::WGSL.to_owned()),
-                other => oit_gpu::shaders::shared_module(other).map(str::to_owned),
-            })
-            .map_err(|e| GpuError::Shader {
-                shader: "wboit_accum.wgsl".to_owned(),
-                message: e.to_string(),
-            })?;
-            let module = ctx
-                .device
-                .create_shader_module(wgpu::ShaderModuleDescriptor {
-                    label: Some("wboit_accum.wgsl"),
-                    source: wgpu::ShaderSource::Wgsl(code.into()),
-                });
+            let module = ctx.shader_with(
+                "wboit_accum.wgsl",
+                ACCUM_WGSL,
+                &[("wboit_tail.wgsl", tail::WGSL)],
+            )?;
             let pipeline_layout =
                 ctx.device
                     .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
