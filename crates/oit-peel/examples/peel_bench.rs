@@ -95,11 +95,10 @@ fn round_trip(ctx: &Context) -> f64 {
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         encoder.copy_buffer_to_buffer(&src, 0, &dst, 0, size);
         ctx.queue.submit([encoder.finish()]);
-        dst.map_async(wgpu::MapMode::Read, .., |_| {});
-        if ctx.wait().is_err() {
+        // The same map, wait and copy-out the peel counters' readback does.
+        if oit_gpu::read_buffer(ctx, &dst, "round trip readback").is_err() {
             return f64::NAN;
         }
-        dst.unmap();
         times.push(start.elapsed().as_secs_f64() * 1e3);
     }
     median(times)
