@@ -45,6 +45,18 @@ pub fn storage(
     )
 }
 
+/// `entry` (a buffer entry) with a minimum binding size, so a too-small buffer is rejected
+/// when the bind group is created rather than at draw time. Other entries are returned as is.
+pub fn min_size(mut entry: wgpu::BindGroupLayoutEntry, size: u64) -> wgpu::BindGroupLayoutEntry {
+    if let wgpu::BindingType::Buffer {
+        min_binding_size, ..
+    } = &mut entry.ty
+    {
+        *min_binding_size = wgpu::BufferSize::new(size);
+    }
+    entry
+}
+
 fn buffer(
     binding: u32,
     visibility: wgpu::ShaderStages,
@@ -97,4 +109,30 @@ pub fn float_texture(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::Bind
 pub fn uniform_stride(ctx: &Context, size: u64) -> u64 {
     let align = u64::from(ctx.device.limits().min_uniform_buffer_offset_alignment).max(1);
     size.div_ceil(align) * align
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn min_size_sets_buffers_and_leaves_textures() {
+        let fs = wgpu::ShaderStages::FRAGMENT;
+        let sized = min_size(storage(3, fs, true), 48);
+        assert_eq!(sized.binding, 3);
+        assert!(matches!(
+            sized.ty,
+            wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only: true },
+                has_dynamic_offset: false,
+                min_binding_size: Some(s),
+            } if s.get() == 48
+        ));
+        let texture = float_texture(0, fs);
+        assert_eq!(min_size(texture, 48), texture);
+        assert!(matches!(
+            dynamic_uniform(1, fs, 16).ty,
+            wgpu::BindingType::Buffer { has_dynamic_offset: true, min_binding_size: Some(s), .. } if s.get() == 16
+        ));
+    }
 }

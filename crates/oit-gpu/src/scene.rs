@@ -1,5 +1,6 @@
 //! The scene on the GPU and the one pipeline builder every scene pass uses.
 
+use crate::bind;
 use crate::context::Context;
 use crate::error::GpuError;
 use oit_scene::{AlphaMode, Material, Scene};
@@ -33,26 +34,12 @@ pub(crate) fn create_scene_layout(device: &wgpu::Device) -> wgpu::BindGroupLayou
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("scene"),
         entries: &[
-            wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Uniform,
-                    has_dynamic_offset: false,
-                    min_binding_size: wgpu::BufferSize::new(64),
-                },
-                count: None,
-            },
-            wgpu::BindGroupLayoutEntry {
-                binding: 1,
-                visibility: wgpu::ShaderStages::FRAGMENT,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Storage { read_only: true },
-                    has_dynamic_offset: false,
-                    min_binding_size: wgpu::BufferSize::new(MATERIAL_STRIDE as u64),
-                },
-                count: None,
-            },
+            // The camera's view-projection matrix, one material at least.
+            bind::min_size(bind::uniform(0, wgpu::ShaderStages::VERTEX_FRAGMENT), 64),
+            bind::min_size(
+                bind::storage(1, wgpu::ShaderStages::FRAGMENT, true),
+                MATERIAL_STRIDE as u64,
+            ),
         ],
     })
 }

@@ -175,16 +175,7 @@ impl Stochastic {
             label: Some("stochastic dither"),
             entries: &[
                 bind::dynamic_uniform(0, wgpu::ShaderStages::VERTEX_FRAGMENT, DITHER_UNIFORM_BYTES),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 1,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Storage { read_only: true },
-                        has_dynamic_offset: false,
-                        min_binding_size: wgpu::BufferSize::new(4),
-                    },
-                    count: None,
-                },
+                bind::min_size(bind::storage(1, wgpu::ShaderStages::FRAGMENT, true), 4),
             ],
         });
         let dither_stride = bind::uniform_stride(ctx, DITHER_UNIFORM_BYTES);
