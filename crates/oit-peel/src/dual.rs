@@ -142,15 +142,8 @@ impl DualPeel {
             )
             .1
         });
-        // Same format as the final colour: the front layers end up there at that precision.
-        let front = gpu::texture_2d(
-            ctx,
-            &mut ledger,
-            "dual-peel front",
-            res,
-            targets.color_format,
-        )
-        .1;
+        let accum_format = gpu::accumulator_format(ctx, targets.color_format);
+        let front = gpu::texture_2d(ctx, &mut ledger, "dual-peel front", res, accum_format).1;
         let whole = (!self.options.depth_only_init).then(|| {
             gpu::texture_2d(ctx, &mut ledger, "dual-peel whole range", res, range_format).1
         });
@@ -204,7 +197,7 @@ impl DualPeel {
         let peel_targets = [
             range_target.clone(),
             Some(wgpu::ColorTargetState {
-                format: targets.color_format,
+                format: accum_format,
                 blend: Some(blend::PREMULTIPLIED_UNDER),
                 write_mask: wgpu::ColorWrites::ALL,
             }),

@@ -169,20 +169,14 @@ impl FrontPeel {
             )
             .1
         });
-        let layer = gpu::texture_2d(
-            ctx,
-            &mut ledger,
-            "front-peel layer",
-            res,
-            targets.color_format,
-        )
-        .1;
+        let accum_format = gpu::accumulator_format(ctx, targets.color_format);
+        let layer = gpu::texture_2d(ctx, &mut ledger, "front-peel layer", res, accum_format).1;
         let accum = gpu::texture_2d(
             ctx,
             &mut ledger,
             "front-peel accumulator",
             res,
-            targets.color_format,
+            accum_format,
         )
         .1;
         let fs = wgpu::ShaderStages::FRAGMENT;
@@ -219,7 +213,7 @@ impl FrontPeel {
         let module = gpu::shader(ctx, "peel_front.wgsl", gpu::PEEL_FRONT)?;
         let layer_targets = [
             Some(wgpu::ColorTargetState {
-                format: targets.color_format,
+                format: accum_format,
                 blend: None,
                 write_mask: wgpu::ColorWrites::ALL,
             }),
@@ -294,7 +288,7 @@ impl FrontPeel {
                 bind_group_layouts: &[Some(&composite_layout), Some(&control.pass_layout)],
                 immediate_size: 0,
             });
-        let fullscreen = |entry: &str, blend: wgpu::BlendState| {
+        let fullscreen = |entry: &str, format: wgpu::TextureFormat, blend: wgpu::BlendState| {
             oit_gpu::fullscreen_pipeline(
                 ctx,
                 &oit_gpu::FullscreenDesc {
@@ -303,7 +297,7 @@ impl FrontPeel {
                     module: &composite_module,
                     fragment_entry: entry,
                     targets: &[Some(wgpu::ColorTargetState {
-                        format: targets.color_format,
+                        format,
                         blend: Some(blend),
                         write_mask: wgpu::ColorWrites::ALL,
                     })],
@@ -312,8 +306,9 @@ impl FrontPeel {
                 },
             )
         };
-        let under_pipeline = fullscreen("fs_under", blend::PREMULTIPLIED_UNDER);
-        let front_pipeline = fullscreen("fs_front", blend::TRANSMITTANCE_OVER);
+        let under_pipeline = fullscreen("fs_under", accum_format, blend::PREMULTIPLIED_UNDER);
+        let front_pipeline =
+            fullscreen("fs_front", targets.color_format, blend::TRANSMITTANCE_OVER);
         let (count_layout, count_pipeline) = control.count_pipeline(
             ctx,
             "cs_count_layer",

@@ -88,6 +88,24 @@ pub(crate) fn shader(
     )
 }
 
+/// Format of the front-to-back (under) accumulator and of a peeled layer: Rgba32Float where the
+/// adapter can render and blend it, else the final colour's format. Why: under-blending
+/// multiplies the transmittance into the accumulator once per layer, so an f16 accumulator
+/// compounds its rounding over the layers (measured on many-layers-64 at 128² with the default
+/// Rgba16Float target: RMSE 4.2e-3 for exact peeling, against 5.2e-4 for sorted OVER blending,
+/// which rounds each layer into the target only once).
+pub(crate) fn accumulator_format(
+    ctx: &Context,
+    final_format: wgpu::TextureFormat,
+) -> wgpu::TextureFormat {
+    let f32_caps = ctx.caps.format(wgpu::TextureFormat::Rgba32Float);
+    if f32_caps.renderable && f32_caps.blendable {
+        wgpu::TextureFormat::Rgba32Float
+    } else {
+        final_format
+    }
+}
+
 pub(crate) fn texture_2d(
     ctx: &Context,
     ledger: &mut MemoryLedger,
