@@ -1,0 +1,50 @@
+//! oit-report: the speed-versus-error picture of a `results.json`.
+//!
+//! - [`pareto_front`]: which (cost, error) points no other point beats on both axes.
+//! - [`pareto_members`] / [`pareto_markdown`]: the front per scene, for `results.md`.
+//! - [`write_plots`]: per scene, error against GPU cost relative to `unsorted` and error against
+//!   bytes per pixel, as SVG and PNG. Text is rendered by plotters' pure-Rust `ab_glyph` path
+//!   with a bundled DejaVu Sans, so no system font library (fontconfig, freetype) is needed.
+//! - [`write_html_report`]: a static `report.html` (no server, no network, no external files
+//!   other than the run's own images) with tables, images side by side, and the plots.
+
+mod html;
+mod pareto;
+mod plot;
+
+use std::path::{Path, PathBuf};
+
+pub use html::{REPORT_FILE, write_html_report};
+pub use pareto::{pareto_front, pareto_markdown, pareto_members, scene_front};
+pub use plot::{
+    Metric, PLOT_SIZE, PlotData, PlotKind, PlotPoint, family, plot_data, render_png, render_svg,
+    style_colour, write_plots,
+};
+
+/// Errors of report generation. Each names the file or plot it concerns.
+#[derive(Debug, thiserror::Error)]
+pub enum ReportError {
+    #[error("{}: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// `results.json` could not be read or is not schema `oit-lab/results/v1`.
+    #[error(transparent)]
+    Results(#[from] oit_harness::HarnessError),
+    /// plotters failed while drawing a plot (the message is plotters' own).
+    #[error("plot {plot}: {message}")]
+    Plot { plot: String, message: String },
+    #[error(transparent)]
+    Metrics(#[from] oit_metrics::MetricsError),
+}
+
+impl ReportError {
+    fn io(path: &Path, source: std::io::Error) -> Self {
+        ReportError::Io {
+            path: path.to_path_buf(),
+            source,
+        }
+    }
+}

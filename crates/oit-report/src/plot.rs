@@ -1,0 +1,730 @@
+//! Speed-versus-error plots. [`plot_data`] decides what is drawn (every point, sweep line and
+//! front member, with the reason for anything left out); [`render_svg`] and [`render_png`] only
+//! draw a [`PlotData`], so a test of the data is a test of the picture.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+use oit_harness::results::{Results, Run, RunStatus};
+use plotters::coord::Shift;
+use plotters::coord::ranged1d::{AsRangedCoord, Ranged, ValueFormatter};
+use plotters::element::{Drawable, PointCollection};
+use plotters::prelude::*;
+use plotters_backend::{BackendCoord, DrawingErrorKind};
+
+use crate::ReportError;
+use crate::pareto::pareto_front;
+
+/// Plot size in pixels (SVG user units and PNG pixels).
+pub const PLOT_SIZE: (u32, u32) = (900, 600);
+
+/// DejaVu Sans 2.37 (Bitstream Vera licence, `fonts/LICENSE-DejaVu.txt`), registered with
+/// plotters' pure-Rust `ab_glyph` text path so that no system font library is needed.
+static FONT: &[u8] = include_bytes!("../fonts/DejaVuSans.ttf");
+const FONT_FAMILY: &str = "sans-serif";
+
+fn register_font() -> Result<(), ReportError> {
+    static REGISTERED: OnceLock<bool> = OnceLock::new();
+    let ok = *REGISTERED.get_or_init(|| {
+        plotters::style::register_font(FONT_FAMILY, FontStyle::Normal, FONT).is_ok()
+    });
+    if ok {
+        Ok(())
+    } else {
+        Err(ReportError::Plot {
+            plot: "font".into(),
+            message: "bundled DejaVuSans.ttf did not parse".into(),
+        })
+    }
+}
+
+/// The error axis.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Metric {
+    /// Mean ꟻLIP of the tone-mapped images (`error.flip_mean`), in [0, 1].
+    Flip,
+    /// Root mean squared error on linear RGB (`error.rmse`).
+    Rmse,
+}
+
+impl Metric {
+    pub fn of(self, e: &oit_metrics::Errors) -> f64 {
+        match self {
+            Metric::Flip => e.flip_mean,
+            Metric::Rmse => e.rmse,
+        }
+    }
+
+    /// Short name for file names.
+    pub fn key(self) -> &'static str {
+        match self {
+            Metric::Flip => "flip",
+            Metric::Rmse => "rmse",
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Metric::Flip => "mean FLIP",
+            Metric::Rmse => "RMSE",
+        }
+    }
+
+    /// Axis label with its unit.
+    pub fn axis_label(self) -> &'static str {
+        match self {
+            Metric::Flip => "mean FLIP error (0-1, unitless; log scale)",
+            Metric::Rmse => "RMSE (linear RGB, 1 = full scale; log scale)",
+        }
+    }
+}
+
+/// Which plot of a scene.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PlotKind {
+    /// Error against `cost_vs_unsorted` (median GPU time over `unsorted`'s), both log.
+    CostError,
+    /// Error (log) against `bytes_per_pixel` (linear: `unsorted` allocates nothing, 0 B/px).
+    BytesError,
+}
+
+/// One drawn marker.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlotPoint {
+    pub technique: String,
+    pub family: String,
+    /// Index of the marker style (shape and colour) in the results' family order.
+    pub style: usize,
+    pub x: f64,
+    /// The true error.
+    pub y: f64,
+    /// Where the marker is drawn: `y`, or [`PlotData::zero_y`] when the error is exactly 0 (a
+    /// log axis has no 0).
+    pub y_drawn: f64,
+}
+
+/// Everything one plot shows.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlotData {
+    pub scene: String,
+    pub kind: PlotKind,
+    pub metric: Metric,
+    pub title: String,
+    pub x_label: String,
+    pub y_label: String,
+    /// One per drawn ok run, in run order.
+    pub points: Vec<PlotPoint>,
+    /// Sweeps: indices into `points` joined by a line, in parameter order.
+    pub sweeps: Vec<Vec<usize>>,
+    /// Indices into `points` on this plot's Pareto front (its own x against error).
+    pub front: Vec<usize>,
+    /// Where error 0 is drawn, when some run has it.
+    pub zero_y: Option<f64>,
+    /// Ok runs that could not be drawn, with the reason (e.g. no `cost_vs_unsorted`).
+    pub omitted: Vec<(String, String)>,
+    /// Family names by style index, for the legend.
+    pub families: Vec<String>,
+    /// File name without extension.
+    pub stem: String,
+}
+
+/// Technique family: the name before `:` (`dual-peel:passes=5` → `dual-peel`).
+pub fn family(technique: &str) -> &str {
+    technique
+        .split_once(':')
+        .map_or(technique, |(name, _)| name)
+}
+
+fn params(technique: &str) -> Vec<(&str, &str)> {
+    technique
+        .split_once(':')
+        .map(|(_, rest)| {
+            rest.split(',')
+                .filter_map(|kv| kv.split_once('='))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// Parameter order: numbers numerically and before words, words alphabetically.
+fn compare_values(a: &str, b: &str) -> std::cmp::Ordering {
+    match (a.parse::<f64>(), b.parse::<f64>()) {
+        (Ok(x), Ok(y)) => x.total_cmp(&y),
+        (Ok(_), Err(_)) => std::cmp::Ordering::Less,
+        (Err(_), Ok(_)) => std::cmp::Ordering::Greater,
+        (Err(_), Err(_)) => a.cmp(b),
+    }
+}
+
+/// Runs grouped by scene, scenes in order of first appearance.
+pub(crate) fn runs_by_scene(results: &Results) -> Vec<(String, Vec<&Run>)> {
+    let mut out: Vec<(String, Vec<&Run>)> = Vec::new();
+    for run in &results.runs {
+        match out.iter_mut().find(|(s, _)| *s == run.scene) {
+            Some((_, v)) => v.push(run),
+            None => out.push((run.scene.clone(), vec![run])),
+        }
+    }
+    out
+}
+
+/// Families in order of first appearance across all scenes, so a family keeps its marker from
+/// one scene's plot to the next.
+fn family_order(results: &Results) -> Vec<String> {
+    let mut out: Vec<String> = Vec::new();
+    for run in &results.runs {
+        let f = family(&run.technique);
+        if !out.iter().any(|g| g == f) {
+            out.push(f.to_owned());
+        }
+    }
+    out
+}
+
+/// Sweep lines among `points`: for every parameter `k` whose value varies within a family,
+/// the points that agree on every other parameter, joined in order of `k` (lines of two or
+/// more points only). A one-parameter sweep is one line; a two-parameter grid is drawn as its
+/// rows and columns.
+fn sweeps(points: &[PlotPoint]) -> Vec<Vec<usize>> {
+    let mut by_family: BTreeMap<&str, Vec<usize>> = BTreeMap::new();
+    for (i, p) in points.iter().enumerate() {
+        by_family.entry(&p.family).or_default().push(i);
+    }
+    let mut lines = Vec::new();
+    for members in by_family.values() {
+        let parsed: Vec<Vec<(&str, &str)>> = members
+            .iter()
+            .map(|&i| params(&points[i].technique))
+            .collect();
+        let mut keys: Vec<&str> = parsed.iter().flatten().map(|(k, _)| *k).collect();
+        keys.sort_unstable();
+        keys.dedup();
+        let value = |p: &[(&str, &'static str)], k: &str| {
+            p.iter().find(|(kk, _)| *kk == k).map(|(_, v)| *v)
+        };
+        let _ = value;
+        for &k in &keys {
+            let get =
+                |m: usize, key: &str| parsed[m].iter().find(|(kk, _)| *kk == key).map(|(_, v)| *v);
+            let distinct = {
+                let mut v: Vec<Option<&str>> = (0..members.len()).map(|m| get(m, k)).collect();
+                v.sort_unstable();
+                v.dedup();
+                v.len()
+            };
+            if distinct < 2 {
+                continue;
+            }
+            // Group by the values of every other key.
+            let mut groups: BTreeMap<Vec<Option<&str>>, Vec<usize>> = BTreeMap::new();
+            for m in 0..members.len() {
+                let rest: Vec<Option<&str>> = keys
+                    .iter()
+                    .filter(|&&o| o != k)
+                    .map(|&o| get(m, o))
+                    .collect();
+                groups.entry(rest).or_default().push(m);
+            }
+            for mut group in groups.into_values() {
+                if group.len() < 2 {
+                    continue;
+                }
+                group.sort_by(|&a, &b| {
+                    compare_values(get(a, k).unwrap_or(""), get(b, k).unwrap_or(""))
+                });
+                lines.push(group.into_iter().map(|m| members[m]).collect());
+            }
+        }
+    }
+    lines
+}
+
+/// What every plot of every scene shows. Per scene: [`PlotKind::CostError`] then
+/// [`PlotKind::BytesError`].
+pub fn plot_data(results: &Results, metric: Metric) -> Vec<PlotData> {
+    let families = family_order(results);
+    let mut out = Vec::new();
+    for (scene, runs) in runs_by_scene(results) {
+        let ok: Vec<&Run> = runs
+            .iter()
+            .copied()
+            .filter(|r| r.status == RunStatus::Ok)
+            .collect();
+        let res = ok.first().or(runs.first()).map_or([0, 0], |r| r.resolution);
+        let timing = ok
+            .iter()
+            .filter_map(|r| r.gpu_ms.as_ref().map(|g| g.source.as_str()))
+            .next()
+            .unwrap_or("no timing");
+        for kind in [PlotKind::CostError, PlotKind::BytesError] {
+            let mut points = Vec::new();
+            let mut omitted = Vec::new();
+            for run in &ok {
+                let x = match kind {
+                    PlotKind::CostError => run.cost_vs_unsorted,
+                    PlotKind::BytesError => run.bytes_per_pixel,
+                };
+                let y = run.error.as_ref().map(|e| metric.of(e));
+                let what = match kind {
+                    PlotKind::CostError => "cost_vs_unsorted",
+                    PlotKind::BytesError => "bytes_per_pixel",
+                };
+                match (x, y) {
+                    (Some(x), Some(y))
+                        if x.is_finite() && y.is_finite() && y >= 0.0 && valid_x(kind, x) =>
+                    {
+                        let f = family(&run.technique);
+                        points.push(PlotPoint {
+                            technique: run.technique.clone(),
+                            family: f.to_owned(),
+                            style: families.iter().position(|g| g == f).unwrap_or(0),
+                            x,
+                            y,
+                            y_drawn: y,
+                        })
+                    }
+                    (None, _) => omitted.push((run.technique.clone(), format!("no {what}"))),
+                    (_, None) => omitted.push((run.technique.clone(), "no error".to_owned())),
+                    (Some(x), Some(y)) => omitted.push((
+                        run.technique.clone(),
+                        format!("{what} {x} or {} {y} cannot be drawn", metric.name()),
+                    )),
+                }
+            }
+            // A log axis has no 0: exact runs sit at a quarter of the smallest nonzero error.
+            let zero_y = points.iter().any(|p| p.y == 0.0).then(|| {
+                let min_pos = points
+                    .iter()
+                    .map(|p| p.y)
+                    .filter(|&y| y > 0.0)
+                    .fold(f64::INFINITY, f64::min);
+                if min_pos.is_finite() {
+                    min_pos / 4.0
+                } else {
+                    1e-6
+                }
+            });
+            if let Some(z) = zero_y {
+                for p in points.iter_mut().filter(|p| p.y == 0.0) {
+                    p.y_drawn = z;
+                }
+            }
+            let front = pareto_front(&points.iter().map(|p| (p.x, p.y)).collect::<Vec<_>>());
+            let (title, x_label, suffix) = match kind {
+                PlotKind::CostError => (
+                    format!(
+                        "{scene} ({}x{}): {} vs GPU cost, {timing}",
+                        res[0],
+                        res[1],
+                        metric.name()
+                    ),
+                    "GPU time relative to unsorted (median frame ms / unsorted's; log scale)"
+                        .to_owned(),
+                    "cost",
+                ),
+                PlotKind::BytesError => (
+                    format!(
+                        "{scene} ({}x{}): {} vs memory",
+                        res[0],
+                        res[1],
+                        metric.name()
+                    ),
+                    "technique memory (bytes per pixel)".to_owned(),
+                    "bytes",
+                ),
+            };
+            let sweeps = sweeps(&points);
+            out.push(PlotData {
+                scene: scene.clone(),
+                kind,
+                metric,
+                title,
+                x_label,
+                y_label: metric.axis_label().to_owned(),
+                sweeps,
+                front,
+                zero_y,
+                omitted,
+                families: families.clone(),
+                stem: format!(
+                    "{}-{}-{suffix}",
+                    oit_harness::file_stem(&scene),
+                    metric.key()
+                ),
+                points,
+            });
+        }
+    }
+    out
+}
+
+fn valid_x(kind: PlotKind, x: f64) -> bool {
+    match kind {
+        PlotKind::CostError => x > 0.0,
+        PlotKind::BytesError => x >= 0.0,
+    }
+}
+
+/// Writes every plot of every scene as `STEM.svg` and `STEM.png` into `out_dir` (created if
+/// missing), atomically. Returns the files in [`plot_data`] order, SVG before PNG.
+pub fn write_plots(
+    results: &Results,
+    out_dir: &Path,
+    metric: Metric,
+) -> Result<Vec<PathBuf>, ReportError> {
+    std::fs::create_dir_all(out_dir).map_err(|e| ReportError::io(out_dir, e))?;
+    let mut files = Vec::new();
+    for plot in plot_data(results, metric) {
+        let svg = out_dir.join(format!("{}.svg", plot.stem));
+        oit_metrics::write_atomic_bytes(&svg, render_svg(&plot)?.as_bytes())?;
+        files.push(svg);
+        let png = out_dir.join(format!("{}.png", plot.stem));
+        oit_metrics::write_atomic_bytes(&png, &render_png(&plot)?)?;
+        files.push(png);
+    }
+    Ok(files)
+}
+
+/// The plot as an SVG document.
+pub fn render_svg(plot: &PlotData) -> Result<String, ReportError> {
+    register_font()?;
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, PLOT_SIZE).into_drawing_area();
+        draw(&root, plot).map_err(|message| ReportError::Plot {
+            plot: plot.stem.clone(),
+            message,
+        })?;
+    }
+    Ok(svg)
+}
+
+/// The plot as PNG bytes (RGB8).
+pub fn render_png(plot: &PlotData) -> Result<Vec<u8>, ReportError> {
+    register_font()?;
+    let (w, h) = PLOT_SIZE;
+    let mut rgb = vec![0u8; (w * h * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut rgb, PLOT_SIZE).into_drawing_area();
+        draw(&root, plot).map_err(|message| ReportError::Plot {
+            plot: plot.stem.clone(),
+            message,
+        })?;
+    }
+    let image = image::RgbImage::from_raw(w, h, rgb).ok_or_else(|| ReportError::Plot {
+        plot: plot.stem.clone(),
+        message: "bitmap buffer has the wrong size".into(),
+    })?;
+    let mut png = Vec::new();
+    image
+        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .map_err(|e| ReportError::Plot {
+            plot: plot.stem.clone(),
+            message: format!("PNG encoding: {e}"),
+        })?;
+    Ok(png)
+}
+
+/// Ten colours distinguishable on white (Tableau 10).
+const PALETTE: [RGBColor; 10] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+    RGBColor(188, 189, 34),
+    RGBColor(23, 190, 207),
+];
+
+/// Colour of marker style `style`.
+pub fn style_colour(style: usize) -> (u8, u8, u8) {
+    let c = PALETTE[style % PALETTE.len()];
+    (c.0, c.1, c.2)
+}
+
+/// A data marker of style `style`: circle, square, triangle or diamond (with ten colours and
+/// four shapes the first twenty families all look different). Its own element, because
+/// plotters' boxed `DynElement` only works with `'static` backends.
+struct Marker<C> {
+    at: C,
+    style: usize,
+}
+
+impl<'a, C> PointCollection<'a, C> for &'a Marker<C> {
+    type Point = &'a C;
+    type IntoIter = std::iter::Once<&'a C>;
+    fn point_iter(self) -> Self::IntoIter {
+        std::iter::once(&self.at)
+    }
+}
+
+impl<C, DB: DrawingBackend> Drawable<DB> for Marker<C> {
+    fn draw<I: Iterator<Item = BackendCoord>>(
+        &self,
+        mut pos: I,
+        backend: &mut DB,
+        _: (u32, u32),
+    ) -> Result<(), DrawingErrorKind<DB::ErrorType>> {
+        const R: i32 = 5;
+        let Some((x, y)) = pos.next() else {
+            return Ok(());
+        };
+        let colour = PALETTE[self.style % PALETTE.len()].filled();
+        match self.style % 4 {
+            0 => backend.draw_circle((x, y), R as u32, &colour, true),
+            1 => backend.draw_rect(
+                (x - R + 1, y - R + 1),
+                (x + R - 1, y + R - 1),
+                &colour,
+                true,
+            ),
+            2 => backend.fill_polygon(
+                [(x, y - R - 1), (x + R + 1, y + R), (x - R - 1, y + R)],
+                &colour,
+            ),
+            _ => backend.fill_polygon(
+                [
+                    (x, y - R - 1),
+                    (x + R + 1, y),
+                    (x, y + R + 1),
+                    (x - R - 1, y),
+                ],
+                &colour,
+            ),
+        }
+    }
+}
+
+fn draw<'a, DB: DrawingBackend + 'a>(
+    root: &'a DrawingArea<DB, Shift>,
+    plot: &PlotData,
+) -> Result<(), String> {
+    let err = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    root.fill(&WHITE).map_err(err)?;
+    let ys = plot.points.iter().map(|p| p.y_drawn);
+    let (y_lo, y_hi) = log_range(ys, 1e-4, 1.0);
+    match plot.kind {
+        PlotKind::CostError => {
+            let (x_lo, x_hi) = log_range(plot.points.iter().map(|p| p.x), 0.5, 2.0);
+            draw_chart(
+                root,
+                plot,
+                (x_lo..x_hi).log_scale(),
+                (y_lo..y_hi).log_scale(),
+            )
+        }
+        PlotKind::BytesError => {
+            let x_max = plot.points.iter().map(|p| p.x).fold(0.0, f64::max);
+            let x_hi = if x_max > 0.0 { x_max * 1.1 } else { 1.0 };
+            draw_chart(root, plot, -0.02 * x_hi..x_hi, (y_lo..y_hi).log_scale())
+        }
+    }
+}
+
+/// A log range around the positive values with some margin, or `[lo, hi]` when there are none.
+fn log_range(values: impl Iterator<Item = f64>, lo: f64, hi: f64) -> (f64, f64) {
+    let (min, max) = values
+        .filter(|v| *v > 0.0 && v.is_finite())
+        .fold((f64::INFINITY, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
+    if !min.is_finite() {
+        return (lo, hi);
+    }
+    // At least a factor of 4 in view, so single points do not sit on a degenerate axis.
+    let (min, max) = if max / min < 4.0 {
+        let mid = (min * max).sqrt();
+        (mid / 2.0, mid * 2.0)
+    } else {
+        (min, max)
+    };
+    (min / 1.5, max * 1.5)
+}
+
+fn draw_chart<'a, DB, X, Y>(
+    root: &'a DrawingArea<DB, Shift>,
+    plot: &PlotData,
+    x: X,
+    y: Y,
+) -> Result<(), String>
+where
+    DB: DrawingBackend + 'a,
+    X: AsRangedCoord<Value = f64>,
+    Y: AsRangedCoord<Value = f64>,
+    X::CoordDescType: Ranged<ValueType = f64> + ValueFormatter<f64>,
+    Y::CoordDescType: Ranged<ValueType = f64> + ValueFormatter<f64>,
+{
+    let err = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    let mut chart = ChartBuilder::on(root)
+        .caption(&plot.title, (FONT_FAMILY, 20))
+        .margin(12)
+        .x_label_area_size(50)
+        .y_label_area_size(80)
+        .build_cartesian_2d(x, y)
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_desc(plot.x_label.as_str())
+        .y_desc(plot.y_label.as_str())
+        .axis_desc_style((FONT_FAMILY, 15))
+        .label_style((FONT_FAMILY, 12))
+        .light_line_style(WHITE)
+        .bold_line_style(BLACK.mix(0.12))
+        .x_label_formatter(&|v| short_number(*v))
+        .y_label_formatter(&|v| short_number(*v))
+        .draw()
+        .map_err(err)?;
+
+    // Pareto front: the staircase of what is attainable, and a ring around each member.
+    let mut front: Vec<&PlotPoint> = plot.front.iter().map(|&i| &plot.points[i]).collect();
+    front.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
+    let mut stairs = Vec::new();
+    for (i, p) in front.iter().enumerate() {
+        if i > 0 {
+            stairs.push((p.x, front[i - 1].y_drawn));
+        }
+        stairs.push((p.x, p.y_drawn));
+    }
+    let grey = RGBColor(90, 90, 90);
+    chart
+        .draw_series(LineSeries::new(stairs, grey.mix(0.5).stroke_width(3)))
+        .map_err(err)?
+        .label("Pareto front")
+        .legend(move |(x, y)| {
+            PathElement::new(vec![(x - 8, y), (x + 8, y)], grey.mix(0.5).stroke_width(3))
+        });
+    chart
+        .draw_series(
+            front
+                .iter()
+                .map(|p| Circle::new((p.x, p.y_drawn), 10, BLACK.stroke_width(1))),
+        )
+        .map_err(err)?;
+
+    for sweep in &plot.sweeps {
+        let colour = PALETTE[plot.points[sweep[0]].style % PALETTE.len()];
+        let line = sweep
+            .iter()
+            .map(|&i| (plot.points[i].x, plot.points[i].y_drawn));
+        chart
+            .draw_series(LineSeries::new(line, colour.stroke_width(2)))
+            .map_err(err)?;
+    }
+
+    // Markers, one series per family so the legend has one entry per family.
+    let mut styles: Vec<usize> = plot.points.iter().map(|p| p.style).collect();
+    styles.sort_unstable();
+    styles.dedup();
+    for style in styles {
+        let name = plot.families.get(style).cloned().unwrap_or_default();
+        chart
+            .draw_series(
+                plot.points
+                    .iter()
+                    .filter(|p| p.style == style)
+                    .map(|p| Marker {
+                        at: (p.x, p.y_drawn),
+                        style,
+                    }),
+            )
+            .map_err(err)?
+            .label(name)
+            .legend(move |at| Marker { at, style });
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font((FONT_FAMILY, 13))
+        .draw()
+        .map_err(err)?;
+    if let Some(z) = plot.zero_y {
+        root.draw(&Text::new(
+            format!("error 0 (exact) is drawn at {}", short_number(z)),
+            (100, 40),
+            (FONT_FAMILY, 12).into_font(),
+        ))
+        .map_err(err)?;
+    }
+    root.present().map_err(err)?;
+    Ok(())
+}
+
+/// Tick labels: plain for ordinary magnitudes, scientific for tiny or huge ones.
+fn short_number(v: f64) -> String {
+    let a = v.abs();
+    if a == 0.0 {
+        "0".into()
+    } else if !(1e-3..1e5).contains(&a) {
+        format!("{v:.0e}")
+    } else if a >= 100.0 {
+        format!("{v:.0}")
+    } else if a >= 1.0 {
+        format!("{v:.2}")
+            .trim_end_matches('0')
+            .trim_end_matches('.')
+            .to_owned()
+    } else {
+        let s = format!("{v:.4}");
+        s.trim_end_matches('0').trim_end_matches('.').to_owned()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn point(technique: &str) -> PlotPoint {
+        PlotPoint {
+            technique: technique.into(),
+            family: family(technique).into(),
+            style: 0,
+            x: 1.0,
+            y: 1.0,
+            y_drawn: 1.0,
+        }
+    }
+
+    #[test]
+    fn family_is_the_name_before_the_colon() {
+        assert_eq!(family("dual-peel:passes=5,tail=wboit"), "dual-peel");
+        assert_eq!(family("unsorted"), "unsorted");
+    }
+
+    #[test]
+    fn one_parameter_sweep_is_joined_in_numeric_order() {
+        let pts: Vec<PlotPoint> = ["s:spp=16", "s:spp=4", "other", "s:spp=64", "s:spp=1"]
+            .map(point)
+            .into();
+        // spp 1, 4, 16, 64 → indices 4, 1, 0, 3 (lexicographic order would put 16 before 4).
+        assert_eq!(sweeps(&pts), vec![vec![4, 1, 0, 3]]);
+    }
+
+    #[test]
+    fn two_parameter_grid_gives_rows_and_columns_and_words_after_numbers() {
+        let pts: Vec<PlotPoint> = [
+            "d:passes=2,tail=drop",
+            "d:passes=1,tail=wboit",
+            "d:passes=auto,tail=drop",
+            "d:passes=1,tail=drop",
+        ]
+        .map(point)
+        .into();
+        let lines = sweeps(&pts);
+        // Along `passes` with tail=drop: 1, 2, auto. With tail=wboit only one point: no line.
+        // Along `tail` with passes=1: drop then wboit.
+        assert_eq!(lines, vec![vec![3, 0, 2], vec![3, 1]]);
+    }
+
+    #[test]
+    fn short_numbers() {
+        assert_eq!(short_number(0.0), "0");
+        assert_eq!(short_number(2.5), "2.5");
+        assert_eq!(short_number(0.0125), "0.0125");
+        assert_eq!(short_number(1e-5), "1e-5");
+        assert_eq!(short_number(300.0), "300");
+    }
+}

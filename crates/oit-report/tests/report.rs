@@ -1,0 +1,477 @@
+//! Plots and the HTML report of a small hand-made results directory: every ok run is drawn,
+//! axes are labelled, the Pareto front is the one worked out by hand, and the page renders in
+//! headless Chromium with every image decoded.
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use oit_harness::results::{AdapterJson, GpuMs, Outputs, Results, Run, RunStatus, SCHEMA};
+use oit_report::{
+    Metric, PlotKind, pareto_markdown, pareto_members, plot_data, render_png, render_svg,
+};
+
+/// (technique, cost × unsorted, mean FLIP, bytes/px, RMSE)
+type Row = (&'static str, f64, f64, f64, f64);
+
+/// Scene `alpha`. By hand, on cost against FLIP: spp=1 is beaten by unsorted (cheaper, lower
+/// error); spp=16 and passes=4 by sorted-triangle (cheaper and exact); spp=4 and passes=2 tie
+/// exactly and both stay. Front: unsorted, sorted-object, spp=4, passes=2, sorted-triangle.
+const ALPHA: [Row; 8] = [
+    ("unsorted", 1.0, 0.20, 0.0, 0.10),
+    ("sorted-object", 1.1, 0.15, 0.0, 0.08),
+    ("sorted-triangle", 3.0, 0.0, 8.0, 0.0),
+    ("stochastic:spp=1", 1.5, 0.30, 4.0, 0.20),
+    ("stochastic:spp=16", 4.0, 0.05, 64.0, 0.02),
+    ("stochastic:spp=4", 2.0, 0.10, 16.0, 0.05),
+    ("dual-peel:passes=2,tail=drop", 2.0, 0.10, 24.0, 0.06),
+    ("dual-peel:passes=4,tail=drop", 5.0, 0.0, 40.0, 0.0),
+];
+
+/// Scene `beta` (no reference.png on disk): sorted-object costs more for the same error.
+const BETA: [Row; 3] = [
+    ("unsorted", 1.0, 0.10, 0.0, 0.05),
+    ("sorted-object", 1.2, 0.10, 0.0, 0.05),
+    ("sorted-triangle", 2.0, 0.05, 8.0, 0.01),
+];
+
+fn ok_run(scene: &str, row: Row) -> Run {
+    let (technique, cost, flip, bpp, rmse) = row;
+    let stem = oit_harness::file_stem(technique);
+    let mut run = Run::not_rendered(
+        scene,
+        &format!("scenes/{scene}.json"),
+        technique,
+        [4, 4],
+        RunStatus::Ok,
+        String::new(),
+    );
+    run.reason = None;
+    run.gpu_ms = Some(GpuMs {
+        median: cost * 0.5,
+        min: cost * 0.45,
+        max: cost * 0.6,
+        frames: 20,
+        source: "timestamp".into(),
+    });
+    run.cost_vs_unsorted = Some(cost);
+    run.bytes_per_pixel = Some(bpp);
+    run.memory_bytes = Some((bpp * 16.0) as u64);
+    run.error = Some(oit_metrics::Errors {
+        rmse,
+        psnr: if rmse > 0.0 {
+            -20.0 * rmse.log10()
+        } else {
+            200.0
+        },
+        mean_abs: rmse,
+        max_abs: rmse * 3.0,
+        over_1_255: 0.0,
+        over_1_64: 0.0,
+        flip_mean: flip,
+        nonfinite: 0,
+    });
+    run.order_dependence = Some(0.0);
+    run.outputs = Some(Outputs {
+        exr: format!("{scene}/{stem}.exr"),
+        render_png: format!("{scene}/{stem}.png"),
+        diff_png: format!("{scene}/{stem}-diff.png"),
+    });
+    run
+}
+
+fn results() -> Results {
+    let mut runs: Vec<Run> = ALPHA.iter().map(|&r| ok_run("alpha", r)).collect();
+    runs.push(Run::not_rendered(
+        "alpha",
+        "scenes/alpha.json",
+        "wboit",
+        [4, 4],
+        RunStatus::Skipped,
+        "no <float32> blending".into(),
+    ));
+    runs.push(Run::not_rendered(
+        "alpha",
+        "scenes/alpha.json",
+        "a2c:samples=4",
+        [4, 4],
+        RunStatus::Failed,
+        "device lost".into(),
+    ));
+    runs.extend(BETA.iter().map(|&r| ok_run("beta", r)));
+    Results {
+        schema: SCHEMA.into(),
+        adapter: AdapterJson {
+            name: "test adapter".into(),
+            backend: "vulkan".into(),
+            device_type: "cpu".into(),
+            driver: "none".into(),
+        },
+        runs,
+    }
+}
+
+fn ok_count(results: &Results, scene: &str) -> usize {
+    results
+        .runs
+        .iter()
+        .filter(|r| r.scene == scene && r.status == RunStatus::Ok)
+        .count()
+}
+
+/// A fresh directory under the system temp dir, removed when dropped.
+struct TempDir(PathBuf);
+
+impl TempDir {
+    fn new(name: &str) -> TempDir {
+        let dir = std::env::temp_dir().join(format!("oit-report-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        TempDir(dir)
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+fn write_png(path: &Path, rgb: [u8; 3]) {
+    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+    image::RgbImage::from_pixel(4, 4, image::Rgb(rgb))
+        .save(path)
+        .unwrap();
+}
+
+/// A results directory as `oit compare` leaves it: results.json, every run's PNGs, and a
+/// reference for `alpha` only.
+fn results_dir(name: &str) -> TempDir {
+    let dir = TempDir::new(name);
+    let results = results();
+    std::fs::write(
+        dir.0.join("results.json"),
+        serde_json::to_vec_pretty(&results).unwrap(),
+    )
+    .unwrap();
+    for run in &results.runs {
+        if let Some(o) = &run.outputs {
+            write_png(&dir.0.join(&o.render_png), [200, 100, 50]);
+            write_png(&dir.0.join(&o.diff_png), [0, 0, 0]);
+        }
+    }
+    write_png(&dir.0.join("alpha/reference.png"), [200, 100, 60]);
+    dir
+}
+
+const PALETTE_HEX: [&str; 5] = ["#1F77B4", "#FF7F0E", "#2CA02C", "#D62728", "#9467BD"];
+
+/// Filled marker elements (circle, rect, polygon) of one colour in an SVG.
+fn markers_of_colour(svg: &str, hex: &str) -> usize {
+    svg.split('<')
+        .filter(|el| {
+            el.starts_with("circle") || el.starts_with("rect") || el.starts_with("polygon")
+        })
+        .filter(|el| el.to_ascii_uppercase().contains(&format!("FILL=\"{hex}\"")))
+        .count()
+}
+
+#[test]
+fn every_plot_has_one_point_per_ok_run_and_labelled_axes() {
+    let results = results();
+    for metric in [Metric::Flip, Metric::Rmse] {
+        let plots = plot_data(&results, metric);
+        assert_eq!(plots.len(), 4, "two scenes × two plots");
+        for plot in &plots {
+            let expected = ok_count(&results, &plot.scene);
+            assert_eq!(plot.points.len(), expected, "{}", plot.stem);
+            assert!(plot.omitted.is_empty(), "{:?}", plot.omitted);
+
+            let svg = render_svg(plot).unwrap();
+            // Families appear in run order: unsorted, sorted-object, sorted-triangle,
+            // stochastic, dual-peel. Each family's colour: its points plus one legend marker.
+            let mut drawn = 0;
+            for (style, hex) in PALETTE_HEX.iter().enumerate() {
+                let n = plot.points.iter().filter(|p| p.style == style).count();
+                let in_svg = markers_of_colour(&svg, hex);
+                assert_eq!(
+                    in_svg,
+                    if n > 0 { n + 1 } else { 0 },
+                    "{} style {style}",
+                    plot.stem
+                );
+                drawn += in_svg.saturating_sub(1);
+            }
+            assert_eq!(drawn, expected, "{}", plot.stem);
+
+            let x_unit = match plot.kind {
+                PlotKind::CostError => "GPU time relative to unsorted",
+                PlotKind::BytesError => "bytes per pixel",
+            };
+            assert!(svg.contains(x_unit), "{}: x axis label missing", plot.stem);
+            let y_unit = match metric {
+                Metric::Flip => "mean FLIP error (0-1, unitless; log scale)",
+                Metric::Rmse => "RMSE (linear RGB, 1 = full scale; log scale)",
+            };
+            assert!(svg.contains(y_unit), "{}: y axis label missing", plot.stem);
+
+            // The PNG is the same drawing: every family colour appears as exact pixels.
+            let png = image::load_from_memory(&render_png(plot).unwrap())
+                .unwrap()
+                .to_rgb8();
+            assert_eq!(png.dimensions(), oit_report::PLOT_SIZE);
+            for (style, hex) in PALETTE_HEX.iter().enumerate().take(5) {
+                if plot.points.iter().any(|p| p.style == style) {
+                    let rgb = [0, 1, 2]
+                        .map(|i| u8::from_str_radix(&hex[1 + 2 * i..3 + 2 * i], 16).unwrap());
+                    assert!(
+                        png.pixels().any(|p| p.0 == rgb),
+                        "{} PNG lacks colour {hex}",
+                        plot.stem
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn sweeps_join_one_family_in_parameter_order_and_zero_error_is_drawn() {
+    let plots = plot_data(&results(), Metric::Flip);
+    let alpha = &plots[0];
+    assert_eq!(alpha.kind, PlotKind::CostError);
+    let names: Vec<Vec<&str>> = alpha
+        .sweeps
+        .iter()
+        .map(|s| {
+            s.iter()
+                .map(|&i| alpha.points[i].technique.as_str())
+                .collect()
+        })
+        .collect();
+    assert_eq!(
+        names,
+        vec![
+            vec![
+                "dual-peel:passes=2,tail=drop",
+                "dual-peel:passes=4,tail=drop"
+            ],
+            vec!["stochastic:spp=1", "stochastic:spp=4", "stochastic:spp=16"],
+        ]
+    );
+    // Exact runs (FLIP 0) sit at a quarter of the smallest nonzero FLIP, 0.05.
+    assert_eq!(alpha.zero_y, Some(0.0125));
+    let exact: Vec<f64> = alpha
+        .points
+        .iter()
+        .filter(|p| p.y == 0.0)
+        .map(|p| p.y_drawn)
+        .collect();
+    assert_eq!(exact, vec![0.0125, 0.0125]);
+}
+
+#[test]
+fn pareto_members_are_the_hand_computed_fronts() {
+    let results = results();
+    let expected: BTreeSet<(String, String)> = [
+        ("alpha", "unsorted"),
+        ("alpha", "sorted-object"),
+        ("alpha", "stochastic:spp=4"),
+        ("alpha", "dual-peel:passes=2,tail=drop"),
+        ("alpha", "sorted-triangle"),
+        ("beta", "unsorted"),
+        ("beta", "sorted-triangle"),
+    ]
+    .iter()
+    .map(|(s, t)| (s.to_string(), t.to_string()))
+    .collect();
+    assert_eq!(pareto_members(&results, Metric::Flip), expected);
+
+    // On RMSE the alpha tie breaks: passes=2 (0.06) is beaten by spp=4 (0.05) at equal cost.
+    let rmse = pareto_members(&results, Metric::Rmse);
+    assert!(rmse.contains(&("alpha".into(), "stochastic:spp=4".into())));
+    assert!(!rmse.contains(&("alpha".into(), "dual-peel:passes=2,tail=drop".into())));
+
+    let md = pareto_markdown(&results, Metric::Flip);
+    let alpha = md.split("### beta").next().unwrap();
+    let order: Vec<&str> = alpha.lines().filter(|l| l.starts_with("| `")).collect();
+    assert_eq!(
+        order,
+        vec![
+            "| `unsorted` | 1.000 | 0.20000 |",
+            "| `sorted-object` | 1.100 | 0.15000 |",
+            "| `stochastic:spp=4` | 2.000 | 0.10000 |",
+            "| `dual-peel:passes=2,tail=drop` | 2.000 | 0.10000 |",
+            "| `sorted-triangle` | 3.000 | 0.00000 |",
+        ]
+    );
+}
+
+#[test]
+fn write_plots_writes_svg_and_png_per_plot() {
+    let dir = TempDir::new("plots");
+    let files = oit_report::write_plots(&results(), &dir.0.join("plots"), Metric::Flip).unwrap();
+    let names: Vec<String> = files
+        .iter()
+        .map(|f| f.file_name().unwrap().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(
+        names,
+        [
+            "alpha-flip-cost.svg",
+            "alpha-flip-cost.png",
+            "alpha-flip-bytes.svg",
+            "alpha-flip-bytes.png",
+            "beta-flip-cost.svg",
+            "beta-flip-cost.png",
+            "beta-flip-bytes.svg",
+            "beta-flip-bytes.png"
+        ]
+    );
+    for f in &files {
+        assert!(
+            std::fs::metadata(f).unwrap().len() > 1000,
+            "{}",
+            f.display()
+        );
+    }
+}
+
+#[test]
+fn missing_or_foreign_results_are_errors_naming_the_file() {
+    let dir = TempDir::new("bad");
+    let err = oit_report::write_html_report(&dir.0)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("results.json"), "{err}");
+    std::fs::write(dir.0.join("results.json"), r#"{"schema":"other/v9","adapter":{"name":"","backend":"","device_type":"","driver":""},"runs":[]}"#).unwrap();
+    let err = oit_report::write_html_report(&dir.0)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("results.json") && err.contains("other/v9"),
+        "{err}"
+    );
+}
+
+/// Images the page shows: 2 plots per scene, render + reference + diff per ok alpha run,
+/// render + diff per ok beta run (beta has no reference.png: a note instead).
+const EXPECTED_IMAGES: usize = 2 * 2 + 3 * ALPHA.len() + 2 * BETA.len();
+
+#[test]
+fn report_page_lists_every_run_and_notes_missing_images() {
+    let dir = results_dir("page");
+    let page = oit_report::write_html_report(&dir.0).unwrap();
+    assert_eq!(page, dir.0.join("report.html"));
+    let html = std::fs::read_to_string(&page).unwrap();
+    assert_eq!(html.matches("<img ").count(), EXPECTED_IMAGES);
+    assert_eq!(
+        html.matches("reference not found (beta/reference.png)")
+            .count(),
+        BETA.len()
+    );
+    assert!(html.contains("skipped: no &lt;float32&gt; blending"));
+    assert!(html.contains("failed: device lost"));
+    // Pareto members are bold (class "front"): 5 in alpha, 2 in beta.
+    assert_eq!(html.matches("<tr class=\"front\">").count(), 7);
+    // Nothing is fetched from elsewhere.
+    for needle in ["http://", "https://", "src=\"/", "//cdn"] {
+        assert!(!html.contains(needle), "page refers to {needle}");
+    }
+    for f in ["plots/alpha-flip-cost.svg", "plots/beta-rmse-bytes.png"] {
+        assert!(dir.0.join(f).is_file(), "{f}");
+    }
+}
+
+const BROWSER: &str = "/usr/bin/chromium";
+const REQUIRE_BROWSER_ENV: &str = "OIT_REQUIRE_BROWSER";
+
+/// `chromium --headless --dump-dom` of the page; `None` (with a message) when Chromium is not
+/// installed, unless OIT_REQUIRE_BROWSER=1.
+fn dump_dom(page: &Path, profile: &Path) -> Option<String> {
+    if !Path::new(BROWSER).exists() {
+        if std::env::var(REQUIRE_BROWSER_ENV).is_ok_and(|v| v == "1") {
+            panic!("{REQUIRE_BROWSER_ENV}=1 but {BROWSER} is missing (apt-get install chromium)");
+        }
+        eprintln!(
+            "skipped report_renders_in_headless_chromium: {BROWSER} not found (apt-get install chromium)"
+        );
+        return None;
+    }
+    let mut child = Command::new(BROWSER)
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-quic",
+            "--no-first-run",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--virtual-time-budget=10000",
+        ])
+        .arg(format!("--user-data-dir={}", profile.display()))
+        .arg("--dump-dom")
+        .arg(format!("file://{}", page.display()))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap_or_else(|e| panic!("{BROWSER}: {e}"));
+    let start = Instant::now();
+    loop {
+        if child.try_wait().unwrap().is_some() {
+            break;
+        }
+        if start.elapsed() > Duration::from_secs(120) {
+            let _ = child.kill();
+            panic!("{BROWSER} did not finish within 120 s");
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let out = child.wait_with_output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "{BROWSER} failed: {}\n{}",
+        out.status,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    Some(stdout)
+}
+
+fn body_attribute<'d>(dom: &'d str, name: &str) -> Option<&'d str> {
+    let body = &dom[dom.find("<body")?..];
+    let tag = &body[..body.find('>')?];
+    let start = tag.find(&format!("{name}=\""))? + name.len() + 2;
+    Some(&tag[start..start + tag[start..].find('"')?])
+}
+
+#[test]
+fn report_renders_in_headless_chromium() {
+    let dir = results_dir("chromium");
+    let page = oit_report::write_html_report(&dir.0).unwrap();
+    let profile = dir.0.join("chromium-profile");
+    let Some(dom) = dump_dom(&page, &profile) else {
+        return;
+    };
+    let images = body_attribute(&dom, "data-images-ok")
+        .unwrap_or_else(|| panic!("no load check in DOM:\n{dom}"));
+    assert_eq!(images, format!("{EXPECTED_IMAGES}/{EXPECTED_IMAGES}"));
+    assert_eq!(body_attribute(&dom, "data-errors"), Some(""));
+
+    // The check itself must be able to fail: a broken image is counted and reported.
+    let html = std::fs::read_to_string(&page).unwrap();
+    std::fs::remove_file(dir.0.join("alpha/unsorted.png")).unwrap();
+    std::fs::write(dir.0.join("broken.html"), &html).unwrap();
+    let dom = dump_dom(&dir.0.join("broken.html"), &profile).unwrap();
+    assert_eq!(
+        body_attribute(&dom, "data-images-ok"),
+        Some(format!("{}/{EXPECTED_IMAGES}", EXPECTED_IMAGES - 1).as_str())
+    );
+    assert!(
+        body_attribute(&dom, "data-errors")
+            .unwrap()
+            .contains("alpha/unsorted.png")
+    );
+}
