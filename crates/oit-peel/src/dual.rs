@@ -591,32 +591,15 @@ impl Technique for DualPeel {
         let ts = timer.pass("front composite");
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         if !finished {
-            let count_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("dual-peel count"),
-                layout: &g.count_layout,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: g.control.counters.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 2,
-                        resource: list.grid.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 3,
-                        resource: wgpu::BindingResource::TextureView(&g.range[last]),
-                    },
-                ],
-            });
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("dual-peel dropped count"),
-                timestamp_writes: None,
-            });
-            pass.set_pipeline(&g.count_pipeline);
-            pass.set_bind_group(0, &count_group, &[]);
-            let res = targets.resolution;
-            pass.dispatch_workgroups(res.width.div_ceil(8), res.height.div_ceil(8), 1);
+            g.control.dispatch_count(
+                ctx,
+                &mut encoder,
+                "dual-peel dropped count",
+                (&g.count_layout, &g.count_pipeline),
+                &list.grid,
+                &g.range[last],
+                targets.resolution,
+            );
         }
         {
             let mut pass = pass::begin(

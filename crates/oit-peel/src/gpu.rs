@@ -264,6 +264,51 @@ impl Control {
         (layout, pipeline)
     }
 
+    /// Records the compute pass that counts the pixels a budget-limited frame left layers on
+    /// (`pixels_with_dropped_layers`): `count` is a pipeline from [`Control::count_pipeline`],
+    /// `texture` what its entry point reads (the last range, or the detection pass's layer).
+    #[allow(clippy::too_many_arguments)] // each is a distinct GPU resource of the pass
+    pub fn dispatch_count(
+        &self,
+        ctx: &Context,
+        encoder: &mut wgpu::CommandEncoder,
+        label: &str,
+        count: (&wgpu::BindGroupLayout, &wgpu::ComputePipeline),
+        grid: &wgpu::Buffer,
+        texture: &wgpu::TextureView,
+        resolution: oit_scene::Resolution,
+    ) {
+        let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some(label),
+            layout: count.0,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: self.counters.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: grid.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: wgpu::BindingResource::TextureView(texture),
+                },
+            ],
+        });
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(label),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(count.1);
+        pass.set_bind_group(0, &group, &[]);
+        pass.dispatch_workgroups(
+            resolution.width.div_ceil(8),
+            resolution.height.div_ceil(8),
+            1,
+        );
+    }
+
     /// Copies the counters back (waits for the GPU).
     pub fn read(&self, ctx: &Context) -> Result<Counters, GpuError> {
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
