@@ -37,14 +37,17 @@ const SEED_OBJECT: u32 = 1u;
 
 struct StochasticOut {
     @invariant @builtin(position) clip: vec4<f32>,
+    // The fields of `VertexOut` (common.wgsl), which an entry-point struct cannot nest.
     @location(0) color: vec4<f32>,
-    @location(1) @interpolate(flat) material: u32,
+    @location(1) @interpolate(flat) base_alpha: vec4<f32>,
+    @location(2) @interpolate(flat) cutoff_intensity: vec2<f32>,
+    @location(3) @interpolate(flat) flags: u32,
     // World position: the scene's vertices are already in world space and every instance is its
     // own draw, so this is the stable per-surface coordinate hashed alpha needs (object space
     // up to a rigid transform per object).
-    @location(2) world: vec3<f32>,
+    @location(4) world: vec3<f32>,
     // Pattern seed: 0, the draw id's hash, or the hash of the draw id and triangle.
-    @location(3) @interpolate(flat) seed: u32,
+    @location(5) @interpolate(flat) seed: u32,
 }
 
 // PCG hash (Jarzynski & Olano 2020, "Hash Functions for GPU Rendering").
@@ -82,10 +85,13 @@ fn vs_stochastic(
     @builtin(vertex_index) vertex: u32,
     @builtin(instance_index) draw_id: u32,
 ) -> StochasticOut {
+    let base = scene_vertex(v);
     var out: StochasticOut;
-    out.clip = camera.view_proj * vec4<f32>(v.position, 1.0);
-    out.color = v.color;
-    out.material = v.material;
+    out.clip = base.clip;
+    out.color = base.color;
+    out.base_alpha = base.base_alpha;
+    out.cutoff_intensity = base.cutoff_intensity;
+    out.flags = base.flags;
     out.world = v.position;
     let object_seed = pcg(draw_id + 1u);
     if dither.seed_mode == SEED_NONE {
@@ -163,7 +169,9 @@ fn fs_stochastic(v: StochasticOut, @builtin(front_facing) front_facing: bool) ->
     var base: VertexOut;
     base.clip = v.clip;
     base.color = v.color;
-    base.material = v.material;
+    base.base_alpha = v.base_alpha;
+    base.cutoff_intensity = v.cutoff_intensity;
+    base.flags = v.flags;
     let s = shade(base, front_facing);
     if !s.keep {
         discard;

@@ -2,7 +2,9 @@
 //! `oit_benches::gpu_time`: values are GPU milliseconds per frame (timestamp queries), or
 //! wall-clock milliseconds where the adapter has none; the group name and the units say which.
 //!
-//! One frame is what `oit compare` times: the shared opaque pass plus the technique. Scenes are
+//! One frame is what `oit compare` times: the shared opaque pass plus the technique. The
+//! `floor` group times the same frame with one vertex-colour blended pass instead of a technique
+//! (`oit_gpu::Floor`): divide by it to see how far a technique is from the adapter's limit. Scenes are
 //! small (128x128) so that `cargo bench -p oit-benches --bench techniques -- --quick` finishes in
 //! minutes on lavapipe; pass `OIT_BENCH_SIZE=512` for a larger frame.
 
@@ -11,7 +13,9 @@ use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion};
 use oit_benches::gpu_time::{GpuClock, GpuTime};
-use oit_gpu::{ColorFormat, Context, GpuScene, GpuTimer, Targets, TechniqueSpec, render_frame};
+use oit_gpu::{
+    ColorFormat, Context, GpuScene, GpuTimer, Targets, Technique, TechniqueSpec, render_frame,
+};
 use oit_scene::{Resolution, Scene};
 
 /// Scenes with opposite loads: 64 full-screen layers (fill and depth complexity) and
@@ -30,21 +34,38 @@ fn scene(name: &str, size: u32) -> Scene {
         })
 }
 
+/// Builds a fresh technique per scene.
+type Builder = Box<dyn Fn() -> Box<dyn Technique>>;
+
 fn techniques(c: &mut Criterion<GpuTime>, ctx: &Context, clock: &GpuClock, size: u32) {
     let registry = oit_harness::registry();
     let specs = oit_harness::resolve_specs(&[]).unwrap_or_else(|e| panic!("{e}"));
     let scenes: Vec<Scene> = SCENES.iter().map(|name| scene(name, size)).collect();
+    // The floor first: one vertex-colour blended pass, the least any technique can spend.
+    let mut families: Vec<(String, Builder)> = vec![(
+        oit_gpu::FLOOR_NAME.to_owned(),
+        Box::new(|| Box::new(oit_gpu::Floor::new())),
+    )];
     for spec in specs {
-        let group_name = format!("{} [{}]", spec.name, clock.source().name());
+        let registry = registry.clone();
+        let canonical = spec.canonical();
+        families.push((
+            spec.name.clone(),
+            Box::new(move || {
+                TechniqueSpec::build(&canonical, &registry).unwrap_or_else(|e| panic!("{e}"))
+            }),
+        ));
+    }
+    for (family, build) in &families {
+        let group_name = format!("{family} [{}]", clock.source().name());
         let mut group = c.benchmark_group(group_name);
         group
             .sample_size(10)
             .warm_up_time(Duration::from_millis(300))
             .measurement_time(Duration::from_secs(2));
         for scene in &scenes {
-            let canonical = spec.canonical();
-            let mut technique =
-                TechniqueSpec::build(&canonical, &registry).unwrap_or_else(|e| panic!("{e}"));
+            let mut technique = build();
+            let canonical = technique.spec().canonical();
             if let Err(unsupported) = technique.check(&ctx.caps) {
                 eprintln!(
                     "skipped {canonical} on {}: {}",

@@ -15,12 +15,14 @@
 //! - [`memory`]: exact byte counts of what a technique allocates.
 //! - [`TechniqueSpec`]: `name[:key=value,…]` parsing against a registry, canonical strings.
 //! - [`count_fragments`]: the rasterization conformance pass.
+//! - [`Floor`]: one blended pass with the cheapest fragment work, the yardstick of every cost.
 
 pub mod bind;
 pub mod blend;
 mod context;
 mod count;
 mod error;
+mod floor;
 mod frame;
 pub mod memory;
 pub mod pass;
@@ -38,6 +40,7 @@ pub use blend::PREMULTIPLIED_OVER;
 pub use context::{AdapterSummary, Backend, Caps, Context, ContextOptions, FormatCaps};
 pub use count::count_fragments;
 pub use error::{GpuError, Unsupported};
+pub use floor::{FLOOR_NAME, Floor};
 pub use frame::{FrameResult, opaque_pass, render_frame};
 pub use memory::MemoryLedger;
 pub use pipeline::{FullscreenDesc, fullscreen_pipeline};

@@ -34,10 +34,11 @@ pub(crate) fn create_scene_layout(device: &wgpu::Device) -> wgpu::BindGroupLayou
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("scene"),
         entries: &[
-            // The camera's view-projection matrix, one material at least.
+            // The camera's view-projection matrix, one material at least. The vertex stage reads
+            // the material table and passes the draw's material on as flat varyings.
             bind::min_size(bind::uniform(0, wgpu::ShaderStages::VERTEX_FRAGMENT), 64),
             bind::min_size(
-                bind::storage(1, wgpu::ShaderStages::FRAGMENT, true),
+                bind::storage(1, wgpu::ShaderStages::VERTEX, true),
                 MATERIAL_STRIDE as u64,
             ),
         ],

@@ -25,6 +25,8 @@ pub const OPAQUE: &str = include_str!("../../../shaders/opaque.wgsl");
 /// (`fs_depth_only`), shared by the blended baselines.
 pub const BLEND: &str = include_str!("../../../shaders/blend.wgsl");
 pub const COUNT_FRAGMENTS: &str = include_str!("../../../shaders/count_fragments.wgsl");
+/// The floor pass: vertex colour, premultiplied OVER ([`crate::Floor`]).
+pub const FLOOR: &str = include_str!("../../../shaders/floor.wgsl");
 
 /// A shared module's source by file name.
 pub fn shared_module(name: &str) -> Option<&'static str> {

@@ -77,6 +77,7 @@ fn embedded_modules_match_disk() {
         ("opaque.wgsl", oit_gpu::shaders::OPAQUE),
         ("blend.wgsl", oit_gpu::shaders::BLEND),
         ("count_fragments.wgsl", oit_gpu::shaders::COUNT_FRAGMENTS),
+        ("floor.wgsl", oit_gpu::shaders::FLOOR),
     ] {
         let disk = std::fs::read_to_string(dir.join(name)).expect("pass file on disk");
         assert_eq!(disk, embedded, "{name}");

@@ -12,8 +12,9 @@ pub fn markdown(results: &Results) -> String {
     let _ = writeln!(
         out,
         "Adapter: **{}** ({}, {}, {}). GPU ms are medians over the timed frames; \
-         cost is relative to `unsorted` on the same scene in this run; errors are against the \
-         exact CPU reference on linear RGB; order dep. is the largest difference between \
+         cost × unsorted is relative to `unsorted` on the same scene in this run, cost × floor \
+         to the scene's floor (one blended pass over its transparent draws with vertex colour \
+         only: the least any technique can spend); errors are against the exact CPU reference on linear RGB; order dep. is the largest difference between \
          draw order and reversed draw order.\n",
         a.name, a.backend, a.device_type, a.driver
     );
@@ -31,11 +32,18 @@ pub fn markdown(results: &Results) -> String {
     for (scene, runs) in by_scene(results) {
         let res = runs[0].resolution;
         let _ = writeln!(out, "## {scene} ({}x{})\n", res[0], res[1]);
+        if let Some(f) = results.floors.iter().find(|f| f.scene == scene) {
+            let _ = writeln!(
+                out,
+                "Floor (opaque pass + one vertex-colour blended pass): {:.3} GPU ms.\n",
+                f.gpu_ms.median
+            );
+        }
         let _ = writeln!(
             out,
-            "| technique | GPU ms | cost × unsorted | bytes/px | RMSE | max error | FLIP | order dep. |"
+            "| technique | GPU ms | cost × unsorted | cost × floor | bytes/px | RMSE | max error | FLIP | order dep. |"
         );
-        let _ = writeln!(out, "|---|---:|---:|---:|---:|---:|---:|---:|");
+        let _ = writeln!(out, "|---|---:|---:|---:|---:|---:|---:|---:|---:|");
         for r in runs {
             let cells = row_cells(r);
             let _ = writeln!(out, "| {} |", cells.join(" | "));
@@ -47,10 +55,11 @@ pub fn markdown(results: &Results) -> String {
 
 /// Fixed-width table for the terminal.
 pub fn terminal_table(results: &Results) -> String {
-    const HEAD: [&str; 8] = [
+    const HEAD: [&str; 9] = [
         "technique",
         "GPU ms",
         "× unsorted",
+        "× floor",
         "B/px",
         "RMSE",
         "max err",
@@ -106,22 +115,18 @@ pub fn summary_markdown(results: &Results) -> String {
     let _ = writeln!(out, "## Summary over the suite\n");
     let _ = writeln!(
         out,
-        "Per technique: scenes run, median of the per-scene cost × unsorted, mean FLIP, mean RMSE, \
-         scenes within max error 4e-3 of the reference (\"exact\"), largest order dependence.\n"
+        "Per technique: scenes run, median of the per-scene cost × unsorted and cost × floor, \
+         mean FLIP, mean RMSE, scenes within max error 4e-3 of the reference (\"exact\"), largest \
+         order dependence.\n"
     );
     let _ = writeln!(
         out,
-        "| technique | scenes | median cost × unsorted | mean FLIP | mean RMSE | exact scenes | max order dep. |"
+        "| technique | scenes | median cost × unsorted | median cost × floor | mean FLIP | mean RMSE | exact scenes | max order dep. |"
     );
-    let _ = writeln!(out, "|---|---:|---:|---:|---:|---:|---:|");
+    let _ = writeln!(out, "|---|---:|---:|---:|---:|---:|---:|---:|");
     for (technique, runs) in techniques {
-        let mut costs: Vec<f64> = runs.iter().filter_map(|r| r.cost_vs_unsorted).collect();
-        costs.sort_by(f64::total_cmp);
-        let median_cost = match costs.len() {
-            0 => "–".to_owned(),
-            n if n % 2 == 1 => format!("{:.2}", costs[n / 2]),
-            n => format!("{:.2}", 0.5 * (costs[n / 2 - 1] + costs[n / 2])),
-        };
+        let median_cost = median_cell(runs.iter().filter_map(|r| r.cost_vs_unsorted).collect());
+        let median_floor = median_cell(runs.iter().filter_map(|r| r.cost_vs_floor).collect());
         let errors: Vec<_> = runs.iter().filter_map(|r| r.error).collect();
         let n = errors.len().max(1) as f64;
         let flip = errors.iter().map(|e| e.flip_mean).sum::<f64>() / n;
@@ -136,7 +141,7 @@ pub fn summary_markdown(results: &Results) -> String {
             .fold(0.0, f64::max);
         let _ = writeln!(
             out,
-            "| {technique} | {} | {median_cost} | {flip:.4} | {} | {exact} | {} |",
+            "| {technique} | {} | {median_cost} | {median_floor} | {flip:.4} | {} | {exact} | {} |",
             runs.len(),
             sci(rmse),
             sci(order)
@@ -144,6 +149,16 @@ pub fn summary_markdown(results: &Results) -> String {
     }
     let _ = writeln!(out);
     out
+}
+
+/// The median of `values` with two decimals, or `–` when there are none.
+fn median_cell(mut values: Vec<f64>) -> String {
+    values.sort_by(f64::total_cmp);
+    match values.len() {
+        0 => "–".to_owned(),
+        n if n % 2 == 1 => format!("{:.2}", values[n / 2]),
+        n => format!("{:.2}", 0.5 * (values[n / 2 - 1] + values[n / 2])),
+    }
 }
 
 /// A scene × technique matrix of one number per ok run (e.g. mean FLIP), with a suite-mean
@@ -265,7 +280,7 @@ fn row_cells(r: &Run) -> Vec<String> {
             r.technique.clone(),
             format!("{status}: {}", r.reason.as_deref().unwrap_or("")),
         ];
-        cells.resize(8, String::new());
+        cells.resize(9, String::new());
         return cells;
     }
     let gpu = r
@@ -280,10 +295,7 @@ fn row_cells(r: &Run) -> Vec<String> {
             format!("{:.3}{flag}", g.median)
         })
         .unwrap_or_default();
-    let cost = r
-        .cost_vs_unsorted
-        .map(|c| format!("{c:.2}"))
-        .unwrap_or_else(|| "–".into());
+    let ratio = |c: Option<f64>| c.map(|c| format!("{c:.2}")).unwrap_or_else(|| "–".into());
     let bpp = r
         .bytes_per_pixel
         .map(|b| format!("{b:.1}"))
@@ -293,7 +305,17 @@ fn row_cells(r: &Run) -> Vec<String> {
         None => Default::default(),
     };
     let od = r.order_dependence.map(sci).unwrap_or_default();
-    vec![r.technique.clone(), gpu, cost, bpp, rmse, max, flip, od]
+    vec![
+        r.technique.clone(),
+        gpu,
+        ratio(r.cost_vs_unsorted),
+        ratio(r.cost_vs_floor),
+        bpp,
+        rmse,
+        max,
+        flip,
+        od,
+    ]
 }
 
 /// Compact scientific notation that keeps small errors readable (`3.1e-4`) and zero exact (`0`).
@@ -326,6 +348,7 @@ mod tests {
         );
         r.reason = None;
         r.cost_vs_unsorted = Some(cost);
+        r.cost_vs_floor = Some(cost * 2.0);
         r.order_dependence = Some(max_abs / 2.0);
         r.error = Some(oit_metrics::Errors {
             rmse: max_abs / 2.0,
@@ -360,15 +383,16 @@ mod tests {
                 skipped,
                 run("s1", "u", 1.0, 0.2, 0.5),
             ],
+            floors: Vec::new(),
         };
         let text = summary_markdown(&results);
         // t: 3 ok scenes, median cost 2, mean FLIP 0.2, 2 exact (1e-3 and exactly 4e-3), max order 0.25.
         assert!(
-            text.contains("| t | 3 | 2.00 | 0.2000 | 0.0842 | 2 | 0.2500 |"),
+            text.contains("| t | 3 | 2.00 | 4.00 | 0.2000 | 0.0842 | 2 | 0.2500 |"),
             "{text}"
         );
         assert!(
-            text.contains("| u | 1 | 1.00 | 0.5000 | 0.1000 | 0 | 0.1000 |"),
+            text.contains("| u | 1 | 1.00 | 2.00 | 0.5000 | 0.1000 | 0 | 0.1000 |"),
             "{text}"
         );
     }
@@ -389,6 +413,7 @@ mod tests {
                 run("s1", "u", 1.0, 0.0, 0.5),
                 run("s2", "t", 1.0, 0.0, 0.75),
             ],
+            floors: Vec::new(),
         };
         let text = matrix_markdown(&results, "FLIP", |r| r.error.map(|e| e.flip_mean));
         assert!(text.contains("| scene | t | u |"), "{text}");

@@ -12,6 +12,22 @@ pub struct Results {
     pub schema: String,
     pub adapter: AdapterJson,
     pub runs: Vec<Run>,
+    /// Per scene, the floor: one blended pass over its transparent draws with the cheapest
+    /// fragment work (see [`oit_gpu::Floor`]), timed like a run.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub floors: Vec<FloorJson>,
+}
+
+/// The floor of one scene in this run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FloorJson {
+    pub scene: String,
+    pub resolution: [u32; 2],
+    /// The whole frame (opaque pass + floor pass), like every run's `gpu_ms`.
+    pub gpu_ms: GpuMs,
+    /// Per-pass medians (`opaque`, `floor`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub passes: Vec<PassMs>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -87,6 +103,10 @@ pub struct Run {
     /// Median GPU time divided by `unsorted`'s on the same scene in the same run.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cost_vs_unsorted: Option<f64>,
+    /// Median GPU time divided by the scene's floor (`floors`) in the same run: how far the
+    /// technique is from one blended pass with the cheapest fragment work.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cost_vs_floor: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub error: Option<oit_metrics::Errors>,
     /// Largest per-channel absolute difference between the render in draw order and the render
@@ -122,6 +142,7 @@ impl Run {
             memory_bytes: None,
             bytes_per_pixel: None,
             cost_vs_unsorted: None,
+            cost_vs_floor: None,
             error: None,
             order_dependence: None,
             stats: None,

@@ -9,7 +9,9 @@ use oit_gpu::{
 };
 use oit_scene::{LinearImage, Resolution, Scene};
 
-use crate::results::{AdapterJson, GpuMs, Outputs, PassMs, Results, Run, RunStatus, SCHEMA, Stats};
+use crate::results::{
+    AdapterJson, FloorJson, GpuMs, Outputs, PassMs, Results, Run, RunStatus, SCHEMA, Stats,
+};
 use crate::{HarnessError, SceneEntry, at_resolution, file_stem, registry};
 
 /// How `compare` runs.
@@ -101,6 +103,7 @@ pub fn compare(
                 .to_owned(),
         },
         runs: Vec::new(),
+        floors: Vec::new(),
     };
     for entry in scenes {
         let scene = at_resolution(&entry.scene, options.resolution);
@@ -155,9 +158,40 @@ pub fn compare(
                 .ok()
                 .map(|(ms, _, _)| ms.median)
         });
+        let floor = time_floor(ctx, &scene, &forward, &targets, options)?;
+        fill_floor_costs(&mut results.runs[first_run..], floor.gpu_ms.median);
+        results.floors.push(floor);
     }
     write_outputs(out, &results)?;
     Ok(results)
+}
+
+/// Times the scene's floor ([`oit_gpu::Floor`]) with the same frames and warm-up as a run.
+fn time_floor(
+    ctx: &Context,
+    scene: &Scene,
+    forward: &GpuScene,
+    targets: &Targets,
+    options: &CompareOptions,
+) -> Result<FloorJson, HarnessError> {
+    let mut floor = oit_gpu::Floor::new();
+    let (gpu_ms, passes, _) = time_frames(ctx, forward, &mut floor, targets, options)?;
+    Ok(FloorJson {
+        scene: scene.name.clone(),
+        resolution: res(scene),
+        gpu_ms,
+        passes,
+    })
+}
+
+/// Divides every ok run's median GPU time by the scene's floor.
+fn fill_floor_costs(runs: &mut [Run], floor_ms: f64) {
+    if floor_ms <= 0.0 {
+        return;
+    }
+    for run in runs.iter_mut().filter(|r| r.status == RunStatus::Ok) {
+        run.cost_vs_floor = run.gpu_ms.as_ref().map(|g| g.median / floor_ms);
+    }
 }
 
 fn res(scene: &Scene) -> [u32; 2] {
@@ -233,6 +267,7 @@ fn run_one(
         memory_bytes: Some(memory_bytes),
         bytes_per_pixel: Some(memory_bytes as f64 / scene.resolution.pixel_count() as f64),
         cost_vs_unsorted: None,
+        cost_vs_floor: None,
         error: Some(error),
         order_dependence: Some(order_dependence),
         stats: Some(Stats {

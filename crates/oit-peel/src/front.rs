@@ -448,9 +448,9 @@ impl Technique for FrontPeel {
         self.config
             .as_ref()
             .map_err(|e| Unsupported::new(e.to_string()))?;
-        if caps.max_storage_buffers_per_shader_stage < 2 {
+        if caps.max_storage_buffers_per_shader_stage == 0 {
             return Err(Unsupported::new(
-                "the adapter has fewer than 2 storage buffers per fragment shader (materials, peel counters)",
+                "the adapter has no storage buffers per shader stage (materials in the vertex stage, peel counters in the fragment stage)",
             ));
         }
         if caps.max_color_attachments < 2 {

@@ -396,7 +396,7 @@ fn gl_backend_falls_back_to_rg16f() {
         Ok(oit_gpu::wgpu::TextureFormat::Rg16Float)
     );
     if let Err(e) = auto.check(&ctx.caps) {
-        // Adapters without fragment storage buffers cannot run any scene pass of this project.
+        // Adapters without storage buffers cannot run any scene pass of this project.
         eprintln!("GL adapter cannot run dual-peel at all: {e}");
         return;
     }

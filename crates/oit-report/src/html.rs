@@ -202,7 +202,7 @@ fn scene_section(
 
     out.push_str(
         "<table>\n<tr><th>technique</th><th>GPU ms median</th><th>min–max (frames, source)</th>\
-         <th>cost × unsorted</th><th>bytes/px</th><th>RMSE</th><th>PSNR dB</th><th>mean FLIP</th>\
+         <th>cost × unsorted</th><th>cost × floor</th><th>bytes/px</th><th>RMSE</th><th>PSNR dB</th><th>mean FLIP</th>\
          <th>max error</th><th>order dep.</th></tr>\n",
     );
     for run in runs {
@@ -221,7 +221,7 @@ fn scene_section(
             };
             let _ = writeln!(
                 out,
-                "<td class=\"note\" colspan=\"9\">{status}: {}</td></tr>",
+                "<td class=\"note\" colspan=\"10\">{status}: {}</td></tr>",
                 esc(run.reason.as_deref().unwrap_or("no reason recorded"))
             );
             continue;
@@ -244,8 +244,9 @@ fn scene_section(
         let _ = writeln!(
             out,
             "<td>{median}</td><td>{spread}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>\
-             <td>{}</td><td>{}</td></tr>",
+             <td>{}</td><td>{}</td><td>{}</td></tr>",
             opt(run.cost_vs_unsorted, |v| format!("{v:.2}")),
+            opt(run.cost_vs_floor, |v| format!("{v:.2}")),
             opt(run.bytes_per_pixel, |v| format!("{v:.1}")),
             opt(e.map(|e| e.rmse), oit_harness::report::sci),
             opt(e.map(|e| e.psnr), |v| format!("{v:.1}")),

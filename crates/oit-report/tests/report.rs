@@ -109,6 +109,7 @@ fn results() -> Results {
             driver: "none".into(),
         },
         runs,
+        floors: Vec::new(),
     }
 }
 

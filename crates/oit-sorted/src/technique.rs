@@ -271,10 +271,10 @@ impl Technique for Blended {
     }
 
     fn check(&self, caps: &Caps) -> Result<(), Unsupported> {
-        // The material table is a storage buffer read by the fragment stage.
+        // The material table is a storage buffer read by the vertex stage.
         if caps.max_storage_buffers_per_shader_stage == 0 {
             return Err(Unsupported::new(
-                "the adapter has no storage buffers in fragment shaders",
+                "the adapter has no storage buffers in vertex shaders (scene materials)",
             ));
         }
         Ok(())

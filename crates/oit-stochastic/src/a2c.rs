@@ -200,7 +200,7 @@ impl Technique for AlphaToCoverage {
             .map_err(|e| Unsupported::new(format!("the spec is invalid: {e}")))?;
         if caps.max_storage_buffers_per_shader_stage == 0 {
             return Err(Unsupported::new(
-                "the adapter has no storage buffers in fragment shaders",
+                "the adapter has no storage buffers in vertex shaders (scene materials)",
             ));
         }
         // Caps only records 4x; the exact test for the target's format runs in `render`.

@@ -426,7 +426,7 @@ impl Technique for Stochastic {
             .map_err(|e| Unsupported::new(format!("the spec is invalid: {e}")))?;
         if caps.max_storage_buffers_per_shader_stage == 0 {
             return Err(Unsupported::new(
-                "the adapter has no storage buffers in fragment shaders",
+                "the adapter has no storage buffers per shader stage (scene materials in the vertex stage, the threshold table in the fragment stage)",
             ));
         }
         if config.spp > 1 {

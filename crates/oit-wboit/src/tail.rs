@@ -157,7 +157,7 @@ pub fn check_formats(
         .map_err(|e| Unsupported::new(format!("reveal={}: {}", reveal.name(), e.reason)))?;
     if caps.max_storage_buffers_per_shader_stage == 0 {
         return Err(Unsupported::new(
-            "the adapter has no storage buffers in fragment shaders (scene materials, guard counters)",
+            "the adapter has no storage buffers per shader stage (scene materials in the vertex stage, guard counters in the fragment stage)",
         ));
     }
     if caps.max_color_attachments < 2 {
