@@ -470,3 +470,123 @@ fn shader_with_resolves_technique_modules() {
     let e = ctx.shader("probe.wgsl", source).unwrap_err().to_string();
     assert!(e.contains("probe.wgsl") && e.contains("mine.wgsl"), "{e}");
 }
+
+/// The floor draws what `unsorted` draws (same draws, order, depth test and face culling) with
+/// the material left out: on a scene whose transparent materials are neutral (colour 1, α 1,
+/// intensity 1, straight blend) the two images must be bit-identical, and with the real
+/// materials they must differ.
+#[test]
+fn floor_is_unsorted_without_materials() {
+    let Some(ctx) = context_or_skip("floor_is_unsorted_without_materials") else {
+        return;
+    };
+    for name in ["foliage-cards", "concave-self", "hdr-emissive"] {
+        let scene = scene_named(name);
+        let mut neutral = scene.clone();
+        for m in neutral
+            .materials
+            .iter_mut()
+            .filter(|m| m.mode.is_transparent())
+        {
+            *m = oit_scene::Material {
+                base_color: [1.0; 3],
+                alpha: 1.0,
+                mode: oit_scene::AlphaMode::Blend,
+                premultiplied: false,
+                intensity: 1.0,
+                ..*m
+            };
+        }
+        let render = |scene: &Scene, technique: &mut dyn Technique| {
+            let gpu = GpuScene::upload(&ctx, scene).expect("upload");
+            let targets = Targets::new(&ctx, RES, ColorFormat::Rgba32Float)
+                .or_else(|_| Targets::new(&ctx, RES, ColorFormat::Rgba16Float))
+                .expect("targets");
+            let mut timer = GpuTimer::new(&ctx);
+            let frame =
+                oit_gpu::render_frame(&ctx, &gpu, technique, &targets, &mut timer).expect("frame");
+            assert_eq!(frame.stats.geometry_passes, 1);
+            oit_gpu::read_color(&ctx, &targets)
+                .expect("readback")
+                .pixels
+        };
+        let floor = render(&scene, &mut oit_gpu::Floor::new());
+        let mut unsorted = NeutralUnsorted;
+        assert_eq!(
+            floor,
+            render(&neutral, &mut unsorted),
+            "{name}: floor differs from neutral-material blending"
+        );
+        let shaded = render(&scene, &mut unsorted);
+        assert_ne!(floor, shaded, "{name}: the materials should matter");
+    }
+}
+
+/// `unsorted`'s pass (draw order, `fs_blend`, strict depth test, culling by material), kept
+/// here because oit-gpu cannot depend on the technique crates.
+#[derive(Debug)]
+struct NeutralUnsorted;
+
+impl Technique for NeutralUnsorted {
+    fn spec(&self) -> TechniqueSpec {
+        TechniqueSpec {
+            name: "blend-in-draw-order".into(),
+            params: Default::default(),
+        }
+    }
+    fn check(&self, _: &Caps) -> Result<(), Unsupported> {
+        Ok(())
+    }
+    fn render(
+        &mut self,
+        ctx: &Context,
+        scene: &GpuScene,
+        targets: &Targets,
+        timer: &mut GpuTimer,
+    ) -> Result<RenderStats, GpuError> {
+        let module = ctx.shader("blend.wgsl", oit_gpu::shaders::BLEND)?;
+        let color = [Some(oit_gpu::wgpu::ColorTargetState {
+            format: targets.color_format,
+            blend: Some(oit_gpu::PREMULTIPLIED_OVER),
+            write_mask: oit_gpu::wgpu::ColorWrites::ALL,
+        })];
+        let pipelines = oit_gpu::ScenePipelines::new(
+            ctx,
+            &oit_gpu::ScenePipelineDesc {
+                targets: &color,
+                depth: Some(oit_gpu::depth_test(scene.depth_nearer(), false)),
+                ..oit_gpu::ScenePipelineDesc::new("blend", &module, "fs_blend")
+            },
+        );
+        let ts = timer.pass("blend");
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = oit_gpu::pass::begin(
+                &mut encoder,
+                "blend",
+                &[oit_gpu::pass::color(
+                    &targets.color_view,
+                    oit_gpu::wgpu::LoadOp::Load,
+                )],
+                oit_gpu::pass::depth(
+                    &targets.depth_view,
+                    oit_gpu::wgpu::LoadOp::Load,
+                    oit_gpu::wgpu::StoreOp::Store,
+                ),
+                ts.writes(),
+            );
+            scene.bind(&mut pass);
+            for i in scene.transparent_draws() {
+                scene.draw(&mut pass, &pipelines, i);
+            }
+        }
+        timer.submit(ctx, encoder)?;
+        Ok(RenderStats {
+            geometry_passes: 1,
+            ..Default::default()
+        })
+    }
+    fn memory_bytes(&self) -> u64 {
+        0
+    }
+}

@@ -97,6 +97,7 @@ fn compare_suite_writes_complete_results() {
             "memory_bytes",
             "order_dependence",
             "cost_vs_unsorted",
+            "cost_vs_floor",
             "bytes_per_pixel",
         ] {
             assert!(run[key].is_number(), "{key} in {run}");
@@ -130,6 +131,27 @@ fn compare_suite_writes_complete_results() {
         let dir = out.join(oit_harness::file_stem(&entry.scene.name));
         assert!(dir.join("reference.png").is_file() && dir.join("reference.exr").is_file());
     }
+    // One floor per scene, timed like a run (opaque pass + the floor pass), and every ok run's
+    // cost × floor is its median over that floor's.
+    let floors = json["floors"].as_array().unwrap();
+    assert_eq!(floors.len(), scenes.len());
+    for (floor, entry) in results.floors.iter().zip(&scenes) {
+        assert_eq!(floor.scene, entry.scene.name);
+        assert_eq!(floor.gpu_ms.frames, 2);
+        assert!(floor.gpu_ms.median > 0.0, "{floor:?}");
+        let names: Vec<&str> = floor.passes.iter().map(|p| p.name.as_str()).collect();
+        assert_eq!(names, ["opaque", "floor"]);
+        for r in results.runs.iter().filter(|r| r.scene == floor.scene) {
+            let expected = r.gpu_ms.as_ref().unwrap().median / floor.gpu_ms.median;
+            assert_eq!(r.cost_vs_floor, Some(expected), "{r:?}");
+        }
+    }
+    let md = std::fs::read_to_string(out.join("results.md")).unwrap();
+    assert!(md.contains("| median cost × floor |"), "{md}");
+    assert!(
+        md.contains("Floor (opaque pass + one vertex-colour blended pass)"),
+        "{md}"
+    );
 
     let run = |scene: &str, technique: &str| {
         results
