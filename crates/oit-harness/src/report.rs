@@ -41,9 +41,9 @@ pub fn markdown(results: &Results) -> String {
         }
         let _ = writeln!(
             out,
-            "| technique | GPU ms | cost × unsorted | cost × floor | bytes/px | RMSE | max error | FLIP | order dep. |"
+            "| technique | GPU ms | cost × unsorted | cost × floor | bytes/px | RMSE | max error | FLIP | order dep. | inexact |"
         );
-        let _ = writeln!(out, "|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+        let _ = writeln!(out, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---|");
         for r in runs {
             let cells = row_cells(r);
             let _ = writeln!(out, "| {} |", cells.join(" | "));
@@ -55,7 +55,7 @@ pub fn markdown(results: &Results) -> String {
 
 /// Fixed-width table for the terminal.
 pub fn terminal_table(results: &Results) -> String {
-    const HEAD: [&str; 9] = [
+    const HEAD: [&str; 10] = [
         "technique",
         "GPU ms",
         "× unsorted",
@@ -65,6 +65,7 @@ pub fn terminal_table(results: &Results) -> String {
         "max err",
         "FLIP",
         "order dep.",
+        "inexact",
     ];
     let mut out = String::new();
     for (scene, runs) in by_scene(results) {
@@ -83,7 +84,8 @@ pub fn terminal_table(results: &Results) -> String {
                 .enumerate()
                 .map(|(i, (c, w))| {
                     let pad = w - c.chars().count();
-                    if i == 0 {
+                    // Names and notes read left to right; numbers align on the right.
+                    if i == 0 || i == HEAD.len() - 1 {
                         format!("{c}{}", " ".repeat(pad))
                     } else {
                         format!("{}{c}", " ".repeat(pad))
@@ -117,13 +119,14 @@ pub fn summary_markdown(results: &Results) -> String {
         out,
         "Per technique: scenes run, median of the per-scene cost × unsorted and cost × floor, \
          mean FLIP, mean RMSE, scenes within max error 4e-3 of the reference (\"exact\"), largest \
-         order dependence.\n"
+         order dependence, and scenes whose run was inexact by the technique's own account \
+         (dropped layers: see the per-scene tables).\n"
     );
     let _ = writeln!(
         out,
-        "| technique | scenes | median cost × unsorted | median cost × floor | mean FLIP | mean RMSE | exact scenes | max order dep. |"
+        "| technique | scenes | median cost × unsorted | median cost × floor | mean FLIP | mean RMSE | exact scenes | max order dep. | inexact scenes |"
     );
-    let _ = writeln!(out, "|---|---:|---:|---:|---:|---:|---:|---:|");
+    let _ = writeln!(out, "|---|---:|---:|---:|---:|---:|---:|---:|---:|");
     for (technique, runs) in techniques {
         let median_cost = median_cell(runs.iter().filter_map(|r| r.cost_vs_unsorted).collect());
         let median_floor = median_cell(runs.iter().filter_map(|r| r.cost_vs_floor).collect());
@@ -141,10 +144,11 @@ pub fn summary_markdown(results: &Results) -> String {
             .fold(0.0, f64::max);
         let _ = writeln!(
             out,
-            "| {technique} | {} | {median_cost} | {median_floor} | {flip:.4} | {} | {exact} | {} |",
+            "| {technique} | {} | {median_cost} | {median_floor} | {flip:.4} | {} | {exact} | {} | {} |",
             runs.len(),
             sci(rmse),
-            sci(order)
+            sci(order),
+            runs.iter().filter(|r| !r.inexact.is_empty()).count()
         );
     }
     let _ = writeln!(out);
@@ -280,7 +284,7 @@ fn row_cells(r: &Run) -> Vec<String> {
             r.technique.clone(),
             format!("{status}: {}", r.reason.as_deref().unwrap_or("")),
         ];
-        cells.resize(9, String::new());
+        cells.resize(10, String::new());
         return cells;
     }
     let gpu = r
@@ -315,6 +319,7 @@ fn row_cells(r: &Run) -> Vec<String> {
         max,
         flip,
         od,
+        r.inexact.join("; "),
     ]
 }
 
@@ -388,11 +393,11 @@ mod tests {
         let text = summary_markdown(&results);
         // t: 3 ok scenes, median cost 2, mean FLIP 0.2, 2 exact (1e-3 and exactly 4e-3), max order 0.25.
         assert!(
-            text.contains("| t | 3 | 2.00 | 4.00 | 0.2000 | 0.0842 | 2 | 0.2500 |"),
+            text.contains("| t | 3 | 2.00 | 4.00 | 0.2000 | 0.0842 | 2 | 0.2500 | 0 |"),
             "{text}"
         );
         assert!(
-            text.contains("| u | 1 | 1.00 | 2.00 | 0.5000 | 0.1000 | 0 | 0.1000 |"),
+            text.contains("| u | 1 | 1.00 | 2.00 | 0.5000 | 0.1000 | 0 | 0.1000 | 0 |"),
             "{text}"
         );
     }

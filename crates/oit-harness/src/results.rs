@@ -115,8 +115,27 @@ pub struct Run {
     pub order_dependence: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stats: Option<Stats>,
+    /// Why this run's image is not the technique's exact answer, one short phrase each (e.g.
+    /// `dropped layers on 1234 px`); empty when nothing was cut. Reports show it next to the
+    /// numbers, never only in `stats`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub inexact: Vec<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub outputs: Option<Outputs>,
+}
+
+impl Stats {
+    /// The `inexact` phrases these statistics imply.
+    pub fn inexact(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        if self.pixels_with_dropped_layers > 0 {
+            out.push(format!(
+                "dropped layers on {} px",
+                self.pixels_with_dropped_layers
+            ));
+        }
+        out
+    }
 }
 
 impl Run {
@@ -146,6 +165,7 @@ impl Run {
             error: None,
             order_dependence: None,
             stats: None,
+            inexact: Vec::new(),
             outputs: None,
         }
     }

@@ -254,6 +254,11 @@ fn run_one(
     oit_metrics::write_png_srgb8(&out.join(&outputs.diff_png), &heat)?;
 
     let memory_bytes = technique.memory_bytes();
+    let stats = Stats {
+        geometry_passes: frame.geometry_passes,
+        layers_peeled: frame.layers_peeled,
+        pixels_with_dropped_layers: frame.pixels_with_dropped_layers,
+    };
     Ok(Run {
         scene: scene.name.clone(),
         scene_file: scene_file.to_owned(),
@@ -270,11 +275,8 @@ fn run_one(
         cost_vs_floor: None,
         error: Some(error),
         order_dependence: Some(order_dependence),
-        stats: Some(Stats {
-            geometry_passes: frame.geometry_passes,
-            layers_peeled: frame.layers_peeled,
-            pixels_with_dropped_layers: frame.pixels_with_dropped_layers,
-        }),
+        inexact: stats.inexact(),
+        stats: Some(stats),
         outputs: Some(outputs),
     })
 }

@@ -261,3 +261,48 @@ fn a_technique_the_adapter_cannot_run_is_skipped_with_its_reason_and_the_rest_ru
     assert_eq!(on_disk.runs[0].status, RunStatus::Skipped);
     let _ = std::fs::remove_dir_all(&out);
 }
+
+#[test]
+fn a_run_that_drops_layers_says_so_in_every_report() {
+    // Four peeled layers of 64: every pixel loses layers. That must be a flag of the run, in
+    // results.json, results.md and the terminal table, not only a statistic.
+    let Some(ctx) =
+        oit_gpu::testing::context_or_skip("a_run_that_drops_layers_says_so_in_every_report")
+    else {
+        return;
+    };
+    let out = temp_dir("inexact");
+    let scenes = load_scenes(&[scenes_dir().join("many-layers-64.json")]).unwrap();
+    let specs = resolve_specs(&[
+        "front-peel:layers=4".to_string(),
+        "front-peel:layers=auto".to_string(),
+    ])
+    .unwrap();
+    let options = CompareOptions {
+        resolution: Some(Resolution {
+            width: 32,
+            height: 32,
+        }),
+        frames: 1,
+        warmup: 0,
+        out_dir: out.clone(),
+        cache_dir: Some(out.join("cache")),
+        context: Default::default(),
+    };
+    let results = compare(&ctx, &scenes, &specs, &options, &|_| {}).unwrap();
+    let (cut, full) = (&results.runs[0], &results.runs[1]);
+    let dropped = cut.stats.as_ref().unwrap().pixels_with_dropped_layers;
+    assert_eq!(dropped, 32 * 32, "{cut:?}");
+    assert_eq!(cut.inexact, [format!("dropped layers on {dropped} px")]);
+    assert!(full.inexact.is_empty(), "{full:?}");
+    let json = std::fs::read_to_string(out.join("results.json")).unwrap();
+    assert!(
+        json.contains("\"inexact\": [\n        \"dropped layers on 1024 px\""),
+        "{json}"
+    );
+    let md = std::fs::read_to_string(out.join("results.md")).unwrap();
+    assert!(md.contains("| dropped layers on 1024 px |"), "{md}");
+    let table = oit_harness::report::terminal_table(&results);
+    assert!(table.contains("dropped layers on 1024 px"), "{table}");
+    let _ = std::fs::remove_dir_all(&out);
+}

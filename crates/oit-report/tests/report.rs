@@ -100,6 +100,7 @@ fn results() -> Results {
         "device lost".into(),
     ));
     runs.extend(BETA.iter().map(|&r| ok_run("beta", r)));
+    runs[0].inexact = vec!["dropped layers on 3 px".into()];
     Results {
         schema: SCHEMA.into(),
         adapter: AdapterJson {
@@ -374,6 +375,7 @@ fn report_page_lists_every_run_and_notes_missing_images() {
     );
     assert!(html.contains("skipped: no &lt;float32&gt; blending"));
     assert!(html.contains("failed: device lost"));
+    assert!(html.contains("<td class=\"note\">dropped layers on 3 px</td>"));
     // Pareto members are bold (class "front"): 5 in alpha, 2 in beta.
     assert_eq!(html.matches("<tr class=\"front\">").count(), 7);
     // Nothing is fetched from elsewhere.
