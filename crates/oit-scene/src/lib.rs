@@ -9,6 +9,7 @@ mod error;
 mod format;
 mod load;
 mod mesh;
+pub mod random;
 mod rng;
 mod scene;
 

@@ -1,0 +1,232 @@
+//! Seeded random scenes: content nobody placed by hand, for conformance and exactness tests.
+//!
+//! [`random_scene_json`] writes an ordinary scene file (so the loader, its validation and the
+//! flattening are exercised too) from a seed. Every scene mixes what makes rasterization and
+//! compositing hard on content the bundled suite never showed: triangle soups, camera-facing
+//! billboards, tilted and mutually intersecting planes, geometry crossing the near and far
+//! planes, standard-Z and reverse-Z, perspective and orthographic cameras (negative orthographic
+//! near included), non-square and odd resolutions, and mask cards whose cutoff contour runs
+//! through triangles. Not bundled: tests generate them (`cargo xtask conformance --scenes N`).
+
+use crate::rng::SplitMix64;
+use serde_json::{Value, json};
+
+/// What [`random_scene_json`] put in the scene, for test messages.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RandomSceneInfo {
+    pub seed: u64,
+    pub orthographic: bool,
+    pub reverse_z: bool,
+    pub resolution: [u32; 2],
+    /// Object kinds in file order (`soup`, `billboards`, `plane`, `card`, `crossing`, ...).
+    pub objects: Vec<&'static str>,
+}
+
+/// The JSON text of random scene `seed`, and what it contains. The same seed gives the same
+/// text in every version (the crate's own SplitMix64, fixed decimal printing).
+pub fn random_scene_json(seed: u64) -> (String, RandomSceneInfo) {
+    let mut r = SplitMix64::new(seed ^ 0x5eed_0f5c_e4e5);
+    // Odd and non-square sizes are the point; keep them small so hundreds run in seconds.
+    let width = 8 + (r.next_u64() % 90) as u32;
+    let height = 8 + (r.next_u64() % 90) as u32;
+    let orthographic = r.next_f32() < 0.3;
+    let reverse_z = r.next_f32() < 0.5;
+    let eye = [r.range(-1.5, 1.5), r.range(-1.5, 1.5), r.range(3.0, 6.0)];
+    let target = [r.range(-0.3, 0.3), r.range(-0.3, 0.3), r.range(-0.5, 0.5)];
+    let distance = ((eye[0] - target[0]).powi(2)
+        + (eye[1] - target[1]).powi(2)
+        + (eye[2] - target[2]).powi(2))
+    .sqrt();
+    // The near and far planes cut through the content on purpose (clipping), sometimes far
+    // away from it. An orthographic near may be zero or negative.
+    let (near, far) = if r.next_f32() < 0.5 {
+        (r.range(0.05, 0.5), distance + r.range(0.5, 20.0))
+    } else {
+        (
+            r.range(distance - 2.0, distance - 0.2).max(0.01),
+            distance + r.range(-0.3, 1.5),
+        )
+    };
+    let mut camera = json!({
+        "eye": eye, "target": target, "up": [r.range(-0.2, 0.2), 1.0, 0.0],
+        "near": round(near), "far": round(far.max(near + 0.1)),
+    });
+    if orthographic {
+        camera["orthographic"] = json!({"height": round(r.range(1.5, 4.0))});
+        if r.next_f32() < 0.4 {
+            camera["near"] = json!(round(-r.range(0.0, 3.0)));
+        }
+    } else {
+        camera["fov_y"] = json!(round(r.range(25.0, 80.0)));
+    }
+
+    let mut objects = Vec::new();
+    let mut kinds = Vec::new();
+    let count = 2 + (r.next_u64() % 6) as usize;
+    for _ in 0..count {
+        let (kind, object) = random_object(&mut r);
+        kinds.push(kind);
+        objects.push(object);
+    }
+    let scene = json!({
+        "name": format!("random-{seed}"),
+        "description": "seeded random conformance scene (oit_scene::random)",
+        "resolution": [width, height],
+        "camera": camera,
+        "background": [round(r.range(0.0, 0.3)), round(r.range(0.0, 0.3)), round(r.range(0.0, 0.3))],
+        "reverse_z": reverse_z,
+        "objects": objects,
+    });
+    let info = RandomSceneInfo {
+        seed,
+        orthographic,
+        reverse_z,
+        resolution: [width, height],
+        objects: kinds,
+    };
+    (
+        serde_json::to_string_pretty(&scene).expect("a JSON value serializes"),
+        info,
+    )
+}
+
+/// Six decimals: the file is what the loader reads, so the values must survive the round trip.
+fn round(x: f32) -> f64 {
+    (f64::from(x) * 1e6).round() / 1e6
+}
+
+fn rgb(r: &mut SplitMix64) -> [f64; 3] {
+    [
+        round(r.next_f32()),
+        round(r.next_f32()),
+        round(r.next_f32()),
+    ]
+}
+
+fn rotation(r: &mut SplitMix64) -> [f64; 3] {
+    [
+        round(r.range(-80.0, 80.0)),
+        round(r.range(-80.0, 80.0)),
+        round(r.range(-180.0, 180.0)),
+    ]
+}
+
+fn material(r: &mut SplitMix64) -> Value {
+    let mode = match r.next_u64() % 8 {
+        0 => "opaque",
+        1 => "mask",
+        2 => "mask-blend",
+        _ => "blend",
+    };
+    json!({
+        "base_color": rgb(r),
+        "alpha": round(r.range(0.05, 1.0)),
+        "mode": mode,
+        "cutoff": round(r.range(0.1, 0.9)),
+        "double_sided": r.next_f32() < 0.5,
+    })
+}
+
+fn random_object(r: &mut SplitMix64) -> (&'static str, Value) {
+    let bounds = json!({"min": [-1.5, -1.5, -1.5], "max": [1.5, 1.5, 1.5]});
+    match r.next_u64() % 6 {
+        0 => (
+            "soup",
+            json!({
+                "mesh": {"kind": "soup", "seed": r.next_u64() >> 11, "count": 1 + r.next_u64() % 60,
+                         "bounds": bounds, "size": round(r.range(0.05, 0.8))},
+                "material": material(r),
+            }),
+        ),
+        1 => (
+            "billboards",
+            json!({
+                "mesh": {"kind": "billboards", "seed": r.next_u64() >> 11, "count": 1 + r.next_u64() % 40,
+                         "bounds": bounds, "size": round(r.range(0.05, 0.6))},
+                "material": material(r),
+            }),
+        ),
+        2 => (
+            "plane",
+            json!({
+                "mesh": {"kind": "quad", "size": [round(r.range(0.5, 4.0)), round(r.range(0.5, 4.0))]},
+                "transform": {"translate": [round(r.range(-1.0, 1.0)), round(r.range(-1.0, 1.0)), round(r.range(-1.0, 1.0))],
+                              "rotate": rotation(r)},
+                "material": material(r),
+            }),
+        ),
+        3 => {
+            // A mask card: corner alphas on both sides of the cutoff, so the contour runs
+            // through both triangles.
+            let cutoff = round(r.range(0.2, 0.8));
+            let corner = [
+                round(r.range(0.0, 1.0)),
+                round(r.range(0.0, 1.0)),
+                round(r.range(0.0, 1.0)),
+                round(r.range(0.0, 1.0)),
+            ];
+            (
+                "card",
+                json!({
+                    "mesh": {"kind": "quad", "size": [round(r.range(0.5, 3.0)), round(r.range(0.5, 3.0))],
+                             "corner_alpha": corner},
+                    "transform": {"translate": [round(r.range(-1.0, 1.0)), round(r.range(-1.0, 1.0)), round(r.range(-1.0, 1.0))],
+                                  "rotate": rotation(r)},
+                    "material": {"base_color": rgb(r), "alpha": 1.0,
+                                 "mode": if r.next_f32() < 0.5 { "mask" } else { "mask-blend" },
+                                 "cutoff": cutoff, "double_sided": true},
+                }),
+            )
+        }
+        4 => (
+            // Long thin planes along the view axis: they cross the near and far planes.
+            "crossing",
+            json!({
+                "mesh": {"kind": "quad", "size": [round(r.range(0.3, 2.0)), round(r.range(20.0, 60.0))]},
+                "transform": {"translate": [round(r.range(-0.8, 0.8)), round(r.range(-0.8, 0.8)), 0.0],
+                              "rotate": [round(90.0 + r.range(-20.0, 20.0)), round(r.range(-30.0, 30.0)), 0.0]},
+                "material": material(r),
+            }),
+        ),
+        _ => (
+            // Layers turned away from the view: many depths per pixel, none coplanar.
+            "layers",
+            json!({
+                "mesh": {"kind": "layers", "count": 2 + r.next_u64() % 12, "spacing": round(r.range(0.02, 0.3)),
+                         "size": [round(r.range(1.0, 4.0)), round(r.range(1.0, 4.0))],
+                         "color_from": rgb(r), "color_to": rgb(r),
+                         "alpha_from": round(r.range(0.05, 1.0)), "alpha_to": round(r.range(0.05, 1.0))},
+                "transform": {"translate": [0.0, 0.0, round(r.range(-0.5, 0.5))], "rotate": rotation(r)},
+                "material": {"base_color": [1, 1, 1], "alpha": 1.0, "mode": "blend", "double_sided": true},
+            }),
+        ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_seed_loads_and_the_same_seed_gives_the_same_text() {
+        let mut kinds = std::collections::BTreeSet::new();
+        let (mut ortho, mut reverse) = (0, 0);
+        for seed in 0..300 {
+            let (text, info) = random_scene_json(seed);
+            assert_eq!(text, random_scene_json(seed).0);
+            let scene = crate::parse(&text, &format!("random-{seed}"))
+                .unwrap_or_else(|e| panic!("seed {seed}: {e}\n{text}"));
+            assert_eq!(
+                [scene.resolution.width, scene.resolution.height],
+                info.resolution
+            );
+            assert_eq!(scene.camera.reverse_z, info.reverse_z);
+            kinds.extend(info.objects.iter().copied());
+            ortho += usize::from(info.orthographic);
+            reverse += usize::from(info.reverse_z);
+        }
+        // Every kind of content and both conventions appear in a few hundred seeds.
+        assert_eq!(kinds.len(), 6, "{kinds:?}");
+        assert!((50..250).contains(&ortho) && (100..200).contains(&reverse));
+    }
+}
