@@ -1,6 +1,7 @@
 //! Per-triangle sorting, the CPU cost of `sorted-triangle`: 1 000 000 triangles with random
-//! centroids sorted back to front by view depth (u32 keys from the float bits, LSD radix sort of
-//! (key, index) pairs). A comparison sort of the same keys is the baseline it must beat.
+//! centroids sorted back to front by view depth (u32 keys from the float bits, then an LSD radix
+//! sort of (key, index) pairs in 8, 8 and 16-bit digits). A comparison sort of the same keys is
+//! the baseline it must beat.
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use glam::{Mat4, Vec3};

@@ -13,19 +13,37 @@ pub enum Pattern {
     Bayer4,
     /// 8×8 ordered dither (65 coverage levels).
     Bayer8,
+    /// 16×16 ordered dither (257 coverage levels).
+    Bayer16,
+    /// 32×32 ordered dither (1025 coverage levels).
+    Bayer32,
+    /// 64×64 ordered dither (4097 coverage levels).
+    Bayer64,
+    /// 128×128 ordered dither (16 385 coverage levels).
+    Bayer128,
+    /// 256×256 ordered dither (65 537 coverage levels).
+    Bayer256,
     /// Wyman & McGuire 2017 hashed alpha testing on the world position, with the CDF correction.
     Hashed,
 }
 
 impl Pattern {
-    pub const ALL: [Pattern; 5] = [
+    pub const ALL: [Pattern; 10] = [
         Pattern::White,
         Pattern::Blue,
         Pattern::Bayer4,
         Pattern::Bayer8,
+        Pattern::Bayer16,
+        Pattern::Bayer32,
+        Pattern::Bayer64,
+        Pattern::Bayer128,
+        Pattern::Bayer256,
         Pattern::Hashed,
     ];
-    pub const NAMES: &'static [&'static str] = &["white", "blue", "bayer4", "bayer8", "hashed"];
+    pub const NAMES: &'static [&'static str] = &[
+        "white", "blue", "bayer4", "bayer8", "bayer16", "bayer32", "bayer64", "bayer128",
+        "bayer256", "hashed",
+    ];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -33,19 +51,44 @@ impl Pattern {
             Pattern::Blue => "blue",
             Pattern::Bayer4 => "bayer4",
             Pattern::Bayer8 => "bayer8",
+            Pattern::Bayer16 => "bayer16",
+            Pattern::Bayer32 => "bayer32",
+            Pattern::Bayer64 => "bayer64",
+            Pattern::Bayer128 => "bayer128",
+            Pattern::Bayer256 => "bayer256",
             Pattern::Hashed => "hashed",
         }
     }
 
+    /// Side of the Bayer matrix (`None` for the other patterns).
+    pub fn bayer_side(self) -> Option<u32> {
+        match self {
+            Pattern::Bayer4 => Some(4),
+            Pattern::Bayer8 => Some(8),
+            Pattern::Bayer16 => Some(16),
+            Pattern::Bayer32 => Some(32),
+            Pattern::Bayer64 => Some(64),
+            Pattern::Bayer128 => Some(128),
+            Pattern::Bayer256 => Some(256),
+            Pattern::White | Pattern::Blue | Pattern::Hashed => None,
+        }
+    }
+
     /// Side of the threshold table a tiled pattern reads (`None` for procedural patterns).
-    /// Always a power of two: the shader wraps coordinates with a mask.
+    /// Always a power of two: the shader wraps coordinates with a mask. At most 2^16: the
+    /// seed shifts the tile by 16 bits in x and 16 in y.
     pub fn tile(self) -> Option<u32> {
         match self {
             Pattern::Blue => Some(crate::pattern::BLUE_NOISE_SIDE as u32),
-            Pattern::Bayer4 => Some(4),
-            Pattern::Bayer8 => Some(8),
             Pattern::White | Pattern::Hashed => None,
+            bayer => bayer.bayer_side(),
         }
+    }
+
+    /// Bytes of the f32 threshold table the dither pass binds as a storage buffer (a 16-byte
+    /// placeholder for procedural patterns, which read none).
+    pub fn table_bytes(self) -> u64 {
+        self.tile().map_or(16, |t| u64::from(t) * u64::from(t) * 4)
     }
 }
 
@@ -115,7 +158,7 @@ pub(crate) fn stochastic_params() -> Vec<ParamInfo> {
     vec![
         ParamInfo {
             key: "pattern",
-            description: "threshold pattern: white noise, 64x64 void-and-cluster blue noise, Bayer 4x4/8x8, or hashed alpha (Wyman & McGuire 2017)",
+            description: "threshold pattern: white noise, 64x64 void-and-cluster blue noise, Bayer 4x4 to 256x256, or hashed alpha (Wyman & McGuire 2017)",
             default: "blue",
             allowed: Allowed::Values(Pattern::NAMES),
         },

@@ -4,7 +4,7 @@
 //! order independent by construction (up to exact depth ties, see below) and exact only in
 //! expectation:
 //!
-//! - `stochastic:pattern=white|blue|bayer4|bayer8|hashed,seed=object|primitive|none,spp=N`: a
+//! - `stochastic:pattern=white|blue|bayer4|…|bayer256|hashed,seed=object|primitive|none,spp=N`: a
 //!   fragment survives when its α exceeds the pattern's threshold at that pixel ([`pattern`]
 //!   builds the Bayer and void-and-cluster tables on the CPU). `spp=N` averages N frames,
 //!   each with its own pattern shift, in f32; the error falls as N grows, which is the
@@ -73,8 +73,9 @@ mod tests {
         assert_eq!(t.spec().to_string(), "a2c:samples=4");
         let e = TechniqueSpec::parse("stochastic:pattern=pink", &reg).unwrap_err();
         assert!(
-            e.to_string()
-                .contains("white, blue, bayer4, bayer8, hashed"),
+            e.to_string().contains(
+                "white, blue, bayer4, bayer8, bayer16, bayer32, bayer64, bayer128, bayer256, hashed"
+            ),
             "{e}"
         );
         let e = TechniqueSpec::parse("stochastic:spp=129", &reg).unwrap_err();
@@ -101,8 +102,33 @@ mod tests {
         for p in Pattern::ALL {
             if let Some(t) = p.tile() {
                 assert!(t.is_power_of_two(), "{}: tile {t}", p.name());
+                // The seed shifts the tile by 16 bits in x and 16 in y.
+                assert!(t <= 1 << 16, "{}: tile {t}", p.name());
+            }
+            assert_eq!(Pattern::NAMES.iter().filter(|&&n| n == p.name()).count(), 1);
+            if let Some(side) = p.bayer_side() {
+                assert_eq!(p.name(), format!("bayer{side}"));
             }
         }
+        assert_eq!(Pattern::ALL.len(), Pattern::NAMES.len());
+    }
+
+    #[test]
+    fn every_pattern_parses_and_sizes_its_table() {
+        let reg = techniques();
+        for p in Pattern::ALL {
+            let spec =
+                TechniqueSpec::parse(&format!("stochastic:pattern={}", p.name()), &reg).unwrap();
+            let c = StochasticConfig::from_spec(&spec).unwrap();
+            assert_eq!(c.pattern, p);
+            assert_eq!(
+                stochastic::table_len(p) as u64 * 4,
+                p.table_bytes(),
+                "{}",
+                p.name()
+            );
+        }
+        assert_eq!(Pattern::Bayer256.table_bytes(), 256 * 1024);
     }
 
     #[test]

@@ -23,7 +23,8 @@ pub const GOLDEN: f64 = 0.618_033_988_749_894_9;
 pub const R2: [f64; 2] = [0.754_877_666_246_692_8, 0.569_840_290_998_053_3];
 
 /// The Bayer ordered-dither matrix of side `n` (a power of two, ≥ 1), row-major ranks
-/// `0..n²`, built by the recursion `B_2n = [[4B, 4B+2], [4B+3, 4B+1]]`.
+/// `0..n²`, built by the recursion `B_2n = [[4B, 4B+2], [4B+3, 4B+1]]`. The `bayerN`
+/// patterns use n = 4 to 256 (65 536 levels, a 256 KiB table of f32 thresholds).
 pub fn bayer(n: usize) -> Vec<u32> {
     assert!(
         n.is_power_of_two(),
@@ -238,6 +239,71 @@ mod tests {
         // Level 1/2 of any Bayer matrix is a checkerboard.
         for (i, &r) in b8.iter().enumerate() {
             assert_eq!(r < 32, (i % 8 + i / 8) % 2 == 0, "pixel {i}");
+        }
+    }
+
+    /// `B₂ = [[0, 2], [3, 1]]` at `(x, y)`, coordinates 0 or 1.
+    fn b2(x: usize, y: usize) -> u32 {
+        [[0, 2], [3, 1]][y][x]
+    }
+
+    #[test]
+    fn every_bayer_size_is_a_recursively_interleaved_permutation() {
+        for n in [2usize, 4, 8, 16, 32, 64, 128, 256] {
+            let b = bayer(n);
+            assert_eq!(b.len(), n * n);
+            // Every rank exactly once.
+            let mut seen = vec![false; n * n];
+            for &r in &b {
+                assert!(!seen[r as usize], "bayer{n}: rank {r} twice");
+                seen[r as usize] = true;
+            }
+            let k = n.trailing_zeros();
+            let h = n / 2;
+            let half = bayer(h);
+            for y in 0..n {
+                for x in 0..n {
+                    let r = b[y * n + x];
+                    // Closed form: bit i of (x, y) picks the B₂ entry of rank digit k−1−i
+                    // (base 4), so the finest pixel bits decide the coarsest levels.
+                    let closed: u32 = (0..k)
+                        .map(|i| b2(x >> i & 1, y >> i & 1) << (2 * (k - 1 - i)))
+                        .sum();
+                    assert_eq!(r, closed, "bayer{n} at ({x}, {y})");
+                    // With h = n/2, interleaving: Bₙ(x, y) = h²·B₂(x mod 2, y mod 2) +
+                    // B_h(⌊x/2⌋, ⌊y/2⌋), and quadrants: Bₙ(x, y) = 4·B_h(x mod h, y mod h) +
+                    // B₂(⌊x/h⌋, ⌊y/h⌋).
+                    let hh = (h * h) as u32;
+                    assert_eq!(r, hh * b2(x % 2, y % 2) + half[(y / 2) * h + x / 2]);
+                    assert_eq!(r, 4 * half[(y % h) * h + x % h] + b2(x / h, y / h));
+                }
+            }
+            // Every level 4^j of the ranks is a regular lattice: the pixels of rank < n²/4^j
+            // are spaced 2^j apart in x and y (the first quarter is every other pixel of every
+            // other row, and so on), which is what makes each level evenly spread.
+            for j in 1..=k {
+                let step = 1usize << j;
+                let count = (n * n) >> (2 * j);
+                let (x0, y0) = (0..n * n)
+                    .find(|&i| b[i] == 0)
+                    .map(|i| (i % n, i / n))
+                    .expect("rank 0");
+                for (i, &r) in b.iter().enumerate() {
+                    let on_lattice = (i % n) % step == x0 % step && (i / n) % step == y0 % step;
+                    assert_eq!(
+                        (r as usize) < count,
+                        on_lattice,
+                        "bayer{n} level 1/{}: pixel {i}",
+                        1usize << (2 * j)
+                    );
+                }
+            }
+            // The thresholds are distinct, centred and inside (0, 1).
+            let t = thresholds(&b);
+            for (&r, &v) in b.iter().zip(&t) {
+                assert_eq!(f64::from(v), (f64::from(r) + 0.5) / (n * n) as f64);
+                assert!(v > 0.0 && v < 1.0);
+            }
         }
     }
 

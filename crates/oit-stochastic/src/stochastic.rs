@@ -118,7 +118,14 @@ impl Stochastic {
             let words: [u32; 8] = [
                 match config.pattern {
                     Pattern::White => 0,
-                    Pattern::Blue | Pattern::Bayer4 | Pattern::Bayer8 => 1,
+                    Pattern::Blue
+                    | Pattern::Bayer4
+                    | Pattern::Bayer8
+                    | Pattern::Bayer16
+                    | Pattern::Bayer32
+                    | Pattern::Bayer64
+                    | Pattern::Bayer128
+                    | Pattern::Bayer256 => 1,
                     Pattern::Hashed => 2,
                 },
                 match config.seed {
@@ -140,12 +147,11 @@ impl Stochastic {
     }
 
     fn table(pattern: Pattern) -> Vec<f32> {
-        match pattern {
-            Pattern::Blue => pattern::thresholds(&pattern::blue_noise().0),
-            Pattern::Bayer4 => pattern::thresholds(&pattern::bayer(4)),
-            Pattern::Bayer8 => pattern::thresholds(&pattern::bayer(8)),
+        match (pattern, pattern.bayer_side()) {
+            (Pattern::Blue, _) => pattern::thresholds(&pattern::blue_noise().0),
+            (_, Some(side)) => pattern::thresholds(&pattern::bayer(side as usize)),
             // Procedural patterns read no table; the binding still needs a buffer.
-            Pattern::White | Pattern::Hashed => vec![0.0; 4],
+            _ => vec![0.0; 4],
         }
     }
 
@@ -408,6 +414,12 @@ fn load_store<T>(load: wgpu::LoadOp<T>) -> wgpu::Operations<T> {
     }
 }
 
+/// Entries of the threshold table `pattern` uploads (for the memory accounting test).
+#[cfg(test)]
+pub(crate) fn table_len(pattern: Pattern) -> usize {
+    Stochastic::table(pattern).len()
+}
+
 impl Technique for Stochastic {
     fn spec(&self) -> TechniqueSpec {
         match &self.config {
@@ -428,6 +440,14 @@ impl Technique for Stochastic {
             return Err(Unsupported::new(
                 "the adapter has no storage buffers per shader stage (scene materials in the vertex stage, the threshold table in the fragment stage)",
             ));
+        }
+        let table = config.pattern.table_bytes();
+        if table > caps.max_storage_buffer_binding_size {
+            return Err(Unsupported::new(format!(
+                "the {} threshold table is {table} bytes; the adapter binds storage buffers of at most {} bytes",
+                config.pattern.name(),
+                caps.max_storage_buffer_binding_size
+            )));
         }
         if config.spp > 1 {
             caps.require_target(HALF_SUM_FORMAT, false)?;

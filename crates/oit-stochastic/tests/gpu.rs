@@ -99,6 +99,7 @@ fn same_spec_gives_a_bit_identical_image() {
         "stochastic:pattern=blue,spp=4",
         "stochastic:pattern=bayer4",
         "stochastic:pattern=bayer8,seed=primitive",
+        "stochastic:pattern=bayer256,seed=primitive,spp=2",
         "stochastic:pattern=hashed,spp=3",
         "a2c:samples=4",
     ] {
@@ -252,6 +253,7 @@ fn correlated_layers_cover_half_and_seeds_fix_it() {
     for spec in [
         "stochastic:pattern=bayer4,seed=none",
         "stochastic:pattern=bayer8,seed=none",
+        "stochastic:pattern=bayer256,seed=none",
         "stochastic:pattern=blue,seed=none",
     ] {
         let (c, r) = cov(spec);
@@ -265,6 +267,8 @@ fn correlated_layers_cover_half_and_seeds_fix_it() {
     for spec in [
         "stochastic:pattern=bayer4,seed=object",
         "stochastic:pattern=bayer8,seed=object",
+        "stochastic:pattern=bayer64,seed=object",
+        "stochastic:pattern=bayer256,seed=object",
     ] {
         let (c, r) = cov(spec);
         assert!(
@@ -447,10 +451,11 @@ fn memory_is_counted_exactly() {
     let px = RES.pixel_count() as u64;
     let align = u64::from(ctx.device.limits().min_uniform_buffer_offset_alignment);
     let stride = |size: u64| size.div_ceil(align) * align;
-    let cases: [(&str, u64); 5] = [
+    let cases: [(&str, u64); 6] = [
         // Frame uniforms + 64x64 f32 thresholds.
         ("stochastic:pattern=blue", stride(32) + 4096 * 4),
         ("stochastic:pattern=bayer4", stride(32) + 16 * 4),
+        ("stochastic:pattern=bayer256", stride(32) + 65536 * 4),
         ("stochastic:pattern=white", stride(32) + 16),
         // + frame colour (Rgba16Float) and depth, two Rgba32Float sums, 16 accumulate entries.
         (
@@ -470,6 +475,14 @@ fn memory_is_counted_exactly() {
         bench.render_with(t.as_mut());
         assert_eq!(t.memory_bytes(), expected, "{spec}");
     }
+    // The threshold table must fit one storage buffer binding.
+    let mut caps = ctx.caps.clone();
+    caps.max_storage_buffer_binding_size = 65536 * 4 - 1;
+    let e = build("stochastic:pattern=bayer256")
+        .check(&caps)
+        .unwrap_err();
+    assert!(e.to_string().contains("262144 bytes"), "{e}");
+    build("stochastic:pattern=bayer128").check(&caps).unwrap();
 }
 
 /// One white quad of coverage `alpha` filling the screen over black.
