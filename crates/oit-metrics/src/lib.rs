@@ -73,13 +73,19 @@
 //! truncated file under the target name. EXR files ([`write_exr`]) hold one part per
 //! [`ExrLayer`] with linear f32 `R`, `G`, `B`, `A` and optional extra single-channel images.
 
+mod flip;
 mod heatmap;
 mod io;
 mod metrics;
+mod ssim;
 mod tonemap;
 
 use std::path::PathBuf;
 
+pub use flip::{
+    DEFAULT_PPD, Exposures, HdrFlip, aces, flip_hdr, flip_ldr, hdr_exposures, luminance,
+    mean as flip_map_mean, pixels_per_degree,
+};
 pub use heatmap::{error_color, heatmap, heatmap_legend};
 pub use io::{
     ChannelImage, ExrChannel, ExrLayer, read_exr_channel, read_exr_rgba, write_atomic,
@@ -87,6 +93,7 @@ pub use io::{
 };
 pub use metrics::{Errors, PSNR_CAP, THRESHOLD_SLACK, compare, diff_image};
 pub use oit_scene::LinearImage;
+pub use ssim::ssim;
 pub use tonemap::{NONFINITE_SRGB8, Srgb8Image, encode_srgb8, preview_srgb8, srgb_oetf, tone_map};
 
 /// Everything that can go wrong in this crate. File errors name the file.
