@@ -3,22 +3,7 @@
 //! constants and border rule of NVIDIA's reference implementation v1.6 (`FLIP.h`), so that the
 //! two agree to float rounding (the crate docs give the measured agreement).
 //!
-//! Pipeline of one LDR evaluation, both images at once:
-//!
-//! 1. linear RGB (clamped to [0, 1]) → CIE XYZ (D65) → YCxCz (opponent space, linear in XYZ);
-//! 2. the contrast-sensitivity filters, one Gaussian per achromatic / red-green channel and a sum of
-//!    two for blue-yellow, applied separably (the sum as two separated halves) at the viewing
-//!    distance's pixels per degree;
-//! 3. back to linear RGB, clamp to [0, 1], → CIELab, Hunt adjustment (`a, b ← 0.01·L·a, b`),
-//!    HyAB distance, raised to `qc = 0.7` and remapped so that `pc = 0.4` of the largest possible
-//!    distance (green vs blue) lands at `pt = 0.95`: the colour error `ec` in [0, 1];
-//! 4. on the achromatic channel scaled to [0, 1], first and second derivatives of a Gaussian of
-//!    standard deviation `0.5·0.082·ppd` pixels give edge and point strength; the feature error is
-//!    `ef = (max(|Δedge|, |Δpoint|)/√2)^qf`, `qf = 0.5`;
-//! 5. the ꟻLIP error is `ec^(1 − ef)`.
-//!
-//! Every filter reads outside the image as the nearest edge pixel (clamp to edge), as the
-//! reference implementation does.
+//! The steps are listed on [`flip_ldr`].
 
 use rayon::prelude::*;
 
@@ -562,6 +547,23 @@ where
 /// LDR-ꟻLIP error map (one value in [0, 1] per pixel, row-major) of `test` against `reference`,
 /// both linear RGB, `width·height` pixels each. Channels are clamped to [0, 1] first (NaN → 0),
 /// as the reference implementation does in LDR mode. `ppd`: see [`DEFAULT_PPD`].
+///
+/// Pipeline of one LDR evaluation, both images at once:
+///
+/// 1. linear RGB (clamped to [0, 1]) → CIE XYZ (D65) → YCxCz (opponent space, linear in XYZ);
+/// 2. the contrast-sensitivity filters, one Gaussian per achromatic / red-green channel and a sum of
+///    two for blue-yellow, applied separably (the sum as two separated halves) at the viewing
+///    distance's pixels per degree;
+/// 3. back to linear RGB, clamp to [0, 1], → CIELab, Hunt adjustment (`a, b ← 0.01·L·a, b`),
+///    HyAB distance, raised to `qc = 0.7` and remapped so that `pc = 0.4` of the largest possible
+///    distance (green vs blue) lands at `pt = 0.95`: the colour error `ec` in [0, 1];
+/// 4. on the achromatic channel scaled to [0, 1], first and second derivatives of a Gaussian of
+///    standard deviation `0.5·0.082·ppd` pixels give edge and point strength; the feature error is
+///    `ef = (max(|Δedge|, |Δpoint|)/√2)^qf`, `qf = 0.5`;
+/// 5. the ꟻLIP error is `ec^(1 − ef)`.
+///
+/// Every filter reads outside the image as the nearest edge pixel (clamp to edge), as the
+/// reference implementation does.
 ///
 /// Panics if a slice does not hold `width·height` pixels.
 pub fn flip_ldr(
