@@ -4,7 +4,9 @@ use oit_scene::LinearImage;
 use serde::{Deserialize, Serialize};
 
 use crate::MetricsError;
-use crate::tonemap::tone_map_pixel;
+use crate::flip::{self, DEFAULT_PPD, luminance};
+use crate::ssim::ssim;
+use crate::tonemap::{srgb_oetf, tone_map};
 
 /// PSNR reported for identical images (and for any RMSE below 1e-10): JSON has no infinity.
 pub const PSNR_CAP: f64 = 200.0;
@@ -14,8 +16,10 @@ pub const PSNR_CAP: f64 = 200.0;
 pub const THRESHOLD_SLACK: f64 = 1.0 / 1_048_576.0;
 
 /// Errors of a render against the reference on linear RGB. Field names are the `error` object
-/// of the `oit-lab/results/v1` schema; the crate docs define each one.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+/// of the `oit-lab/results/v1` schema; the crate docs define each one. Fields added after the
+/// first results were published carry `#[serde(default)]`, so older `results.json` files still
+/// parse (they read as `hdr = false`, no HDR-ꟻLIP, `relmse = 0`, `ssim = 0`).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct Errors {
     /// Root mean squared error over the RGB channels of finite pixels.
     pub rmse: f64,
@@ -29,10 +33,38 @@ pub struct Errors {
     pub over_1_255: f64,
     /// Fraction of all pixels whose max-channel error exceeds 1/64 (non-finite pixels count).
     pub over_1_64: f64,
-    /// Mean ꟻLIP error of the tone-mapped sRGB8 images, in [0, 1].
+    /// Mean LDR-ꟻLIP of the Reinhard tone-mapped images, unquantised (linear f32), in [0, 1].
     pub flip_mean: f64,
     /// Pixels with a NaN or infinite RGB channel (render or reference).
     pub nonfinite: u64,
+    /// The reference is HDR: some finite reference channel exceeds 1. Decides which ꟻLIP
+    /// [`Errors::headline_flip`] reports.
+    #[serde(default)]
+    pub hdr: bool,
+    /// Mean HDR-ꟻLIP (ACES tone map, exposures bracketed from the reference), in [0, 1];
+    /// computed only when [`Errors::hdr`] is set, `null` otherwise.
+    #[serde(default)]
+    pub hdr_flip_mean: Option<f64>,
+    /// Relative MSE: mean over the RGB channels of finite pixels of `(x − y)² / (y² + 0.01)`,
+    /// `y` the reference.
+    #[serde(default)]
+    pub relmse: f64,
+    /// Mean SSIM (Wang et al. 2004) of the tone-mapped, sRGB-encoded luminance, in [−1, 1]
+    /// (1 = identical).
+    #[serde(default)]
+    pub ssim: f64,
+}
+
+impl Errors {
+    /// The ꟻLIP number a report should show, and its name: HDR-ꟻLIP for an HDR reference
+    /// (`("HDR-FLIP", hdr_flip_mean)`), otherwise LDR-ꟻLIP after the fixed Reinhard tone map
+    /// (`("LDR-FLIP", flip_mean)`). Reports print the name next to the number.
+    pub fn headline_flip(&self) -> (f64, &'static str) {
+        match (self.hdr, self.hdr_flip_mean) {
+            (true, Some(v)) => (v, "HDR-FLIP"),
+            _ => (self.flip_mean, "LDR-FLIP"),
+        }
+    }
 }
 
 /// `pixels.len()` must be `width*height`: the fields are public, so a caller can break it.
@@ -95,7 +127,7 @@ pub fn compare(render: &LinearImage, reference: &LinearImage) -> Result<Errors, 
 
     let t255 = 1.0 / 255.0 + THRESHOLD_SLACK;
     let t64 = 1.0 / 64.0 + THRESHOLD_SLACK;
-    let (mut sum_sq, mut sum_abs, mut max_abs) = (0.0f64, 0.0f64, 0.0f64);
+    let (mut sum_sq, mut sum_abs, mut max_abs, mut sum_rel) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
     let (mut finite, mut nonfinite, mut over255, mut over64) = (0u64, 0u64, 0u64, 0u64);
     for (r, g) in render.pixels.iter().zip(&reference.pixels) {
         if !rgb_finite(r) || !rgb_finite(g) {
@@ -108,7 +140,9 @@ pub fn compare(render: &LinearImage, reference: &LinearImage) -> Result<Errors, 
         let mut pixel_max = 0.0f64;
         for c in 0..3 {
             let d = (f64::from(r[c]) - f64::from(g[c])).abs();
+            let y = f64::from(g[c]);
             sum_sq += d * d;
+            sum_rel += d * d / (y * y + 0.01);
             sum_abs += d;
             pixel_max = pixel_max.max(d);
         }
@@ -118,10 +152,14 @@ pub fn compare(render: &LinearImage, reference: &LinearImage) -> Result<Errors, 
     }
 
     let samples = (finite * 3) as f64;
-    let (rmse, mean_abs) = if finite == 0 {
-        (0.0, 0.0)
+    let (rmse, mean_abs, relmse) = if finite == 0 {
+        (0.0, 0.0, 0.0)
     } else {
-        ((sum_sq / samples).sqrt(), sum_abs / samples)
+        (
+            (sum_sq / samples).sqrt(),
+            sum_abs / samples,
+            sum_rel / samples,
+        )
     };
     let psnr = if rmse > 0.0 {
         (-20.0 * rmse.log10()).min(PSNR_CAP)
@@ -129,6 +167,7 @@ pub fn compare(render: &LinearImage, reference: &LinearImage) -> Result<Errors, 
         PSNR_CAP
     };
     let total = render.pixels.len() as f64;
+    let perceptual = Perceptual::measure(render, reference);
 
     Ok(Errors {
         rmse,
@@ -137,28 +176,77 @@ pub fn compare(render: &LinearImage, reference: &LinearImage) -> Result<Errors, 
         max_abs,
         over_1_255: over255 as f64 / total,
         over_1_64: over64 as f64 / total,
-        flip_mean: flip_mean(render, reference),
+        flip_mean: perceptual.flip_mean,
         nonfinite,
+        hdr: perceptual.hdr_flip_mean.is_some(),
+        hdr_flip_mean: perceptual.hdr_flip_mean,
+        relmse,
+        ssim: perceptual.ssim,
     })
 }
 
-/// Mean ꟻLIP of the two images after the fixed tone map. Sizes are checked by the caller.
-fn flip_mean(render: &LinearImage, reference: &LinearImage) -> f64 {
-    let to_flip = |image: &LinearImage| {
-        let bytes: Vec<u8> = image
-            .pixels
-            .iter()
-            .flat_map(|&p| tone_map_pixel(p))
-            .collect();
-        nv_flip::FlipImageRgb8::with_data(image.width, image.height, &bytes)
-    };
-    let map = nv_flip::flip(
-        to_flip(reference),
-        to_flip(render),
-        nv_flip::DEFAULT_PIXELS_PER_DEGREE,
-    );
-    let values = map.to_vec();
-    values.iter().map(|&v| f64::from(v)).sum::<f64>() / values.len() as f64
+/// True when some finite channel of the reference exceeds 1 (the scene is HDR).
+pub(crate) fn reference_is_hdr(reference: &LinearImage) -> bool {
+    reference
+        .pixels
+        .iter()
+        .filter(|p| rgb_finite(p))
+        .any(|p| p[..3].iter().any(|&c| c > 1.0))
+}
+
+/// Linear RGB after the fixed Reinhard tone map, unquantised; a pixel with a non-finite channel
+/// becomes cyan (0, 1, 1), the colour previews give it.
+fn tone_mapped(image: &LinearImage) -> Vec<[f32; 3]> {
+    image
+        .pixels
+        .iter()
+        .map(|p| {
+            if rgb_finite(p) {
+                [tone_map(p[0]), tone_map(p[1]), tone_map(p[2])]
+            } else {
+                [0.0, 1.0, 1.0]
+            }
+        })
+        .collect()
+}
+
+/// The metrics that model the eye: ꟻLIP, HDR-ꟻLIP and SSIM. Sizes are checked by the caller.
+struct Perceptual {
+    flip_mean: f64,
+    hdr_flip_mean: Option<f64>,
+    ssim: f64,
+}
+
+impl Perceptual {
+    fn measure(render: &LinearImage, reference: &LinearImage) -> Self {
+        let (w, h) = (render.width as usize, render.height as usize);
+        let tm_render = tone_mapped(render);
+        let tm_reference = tone_mapped(reference);
+        let flip_mean = flip::mean(&flip::flip_ldr(
+            &tm_reference,
+            &tm_render,
+            w,
+            h,
+            DEFAULT_PPD,
+        ));
+
+        let hdr_flip_mean = reference_is_hdr(reference).then(|| {
+            let rgb = |image: &LinearImage| -> Vec<[f32; 3]> {
+                image.pixels.iter().map(|p| [p[0], p[1], p[2]]).collect()
+            };
+            let map = flip::flip_hdr(&rgb(reference), &rgb(render), w, h, DEFAULT_PPD).map;
+            flip::mean(&map)
+        });
+
+        let luma =
+            |tm: &[[f32; 3]]| -> Vec<f32> { tm.iter().map(|&p| srgb_oetf(luminance(p))).collect() };
+        let ssim = ssim(&luma(&tm_render), &luma(&tm_reference), w, h);
+        Self {
+            flip_mean,
+            hdr_flip_mean,
+            ssim,
+        }
+    }
 }
 
 /// Per-channel `|render − reference|` of RGB, with alpha 1 so that viewers show it unmasked.

@@ -9,7 +9,7 @@ use crate::metrics::check_image;
 /// outside the heat map's warm ramp, so a non-finite pixel never reads as a large error.
 pub const NONFINITE_SRGB8: [u8; 3] = [0, 255, 255];
 
-/// An 8-bit sRGB image (no alpha), row-major from the top-left: previews, heat maps, FLIP input.
+/// An 8-bit sRGB image (no alpha), row-major from the top-left: previews and heat maps.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Srgb8Image {
     pub width: u32,
@@ -23,7 +23,7 @@ impl Srgb8Image {
         self.pixels[y as usize * self.width as usize + x as usize]
     }
 
-    /// Tightly packed RGB bytes, as PNG encoders and FLIP want them.
+    /// Tightly packed RGB bytes, as PNG encoders want them.
     pub fn as_bytes(&self) -> Vec<u8> {
         self.pixels.iter().flatten().copied().collect()
     }
@@ -79,7 +79,7 @@ pub(crate) fn tone_map_pixel(p: [f32; 4]) -> [u8; 3] {
     ]
 }
 
-/// The image as it is shown in PNG previews and fed to FLIP: [`tone_map`], [`srgb_oetf`],
+/// The image as it is shown in PNG previews: [`tone_map`], [`srgb_oetf`],
 /// 8-bit; pixels with a non-finite RGB channel become [`NONFINITE_SRGB8`]. Alpha is ignored.
 pub fn preview_srgb8(image: &LinearImage) -> Result<Srgb8Image, MetricsError> {
     check_image(image, "preview")?;

@@ -45,7 +45,12 @@ fn identical_images_have_zero_error() {
             over_1_255: 0.0,
             over_1_64: 0.0,
             flip_mean: 0.0,
-            nonfinite: 0
+            nonfinite: 0,
+            // The pattern's blue channel reaches 4: an HDR reference.
+            hdr: true,
+            hdr_flip_mean: Some(0.0),
+            relmse: 0.0,
+            ssim: 1.0,
         }
     );
 }
@@ -237,7 +242,7 @@ fn flip_separates_visible_from_invisible_differences() {
     let big = compare(&visible, &reference).unwrap().flip_mean;
     let tiny = compare(&near, &reference).unwrap().flip_mean;
     println!("flip visible {big}, near-identical {tiny}");
-    // Measured: 0.259 and 0.0024 (1e-4 moves dark pixels by at most one sRGB8 code).
+    // Measured: 0.260 and 0.0017 (float FLIP: no 8-bit quantisation step).
     assert!(big > 0.2, "visible change scored only {big}");
     assert!(tiny > 0.0 && tiny < 0.005, "invisible change scored {tiny}");
     assert!(big > 50.0 * tiny);
@@ -333,13 +338,17 @@ fn errors_serialize_with_the_results_schema_names() {
         keys,
         [
             "flip_mean",
+            "hdr",
+            "hdr_flip_mean",
             "max_abs",
             "mean_abs",
             "nonfinite",
             "over_1_255",
             "over_1_64",
             "psnr",
-            "rmse"
+            "relmse",
+            "rmse",
+            "ssim"
         ]
     );
     assert_eq!(value["nonfinite"], serde_json::json!(0));
