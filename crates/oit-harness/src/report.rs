@@ -14,15 +14,18 @@ pub fn markdown(results: &Results) -> String {
         "Adapter: **{}** ({}, {}, {}). GPU ms are medians over the timed frames; \
          cost × unsorted is relative to `unsorted` on the same scene in this run, cost × floor \
          to the scene's floor (one blended pass over its transparent draws with vertex colour \
-         only: the least any technique can spend); errors are against the exact CPU reference on linear RGB; order dep. is the largest difference between \
-         draw order and reversed draw order.\n",
+         only: the least any technique can spend); errors are against the exact CPU reference \
+         on linear RGB; FLIP is the mean ꟻLIP of the Reinhard-tone-mapped images (unquantised \
+         floats), and HDR-FLIP (marked HDR: exposure-bracketed, ACES, as NVIDIA's tool) on \
+         scenes whose reference exceeds 1; order dep. is the largest difference between draw \
+         order and reversed draw order.\n",
         a.name, a.backend, a.device_type, a.driver
     );
     out.push_str(&summary_markdown(results));
     out.push_str(&matrix_markdown(
         results,
-        "Mean FLIP per scene and technique",
-        |r| r.error.map(|e| e.flip_mean),
+        "Mean FLIP per scene and technique (HDR-FLIP where the reference exceeds 1)",
+        |r| r.error.map(|e| e.headline_flip().0),
     ));
     out.push_str(&matrix_markdown(
         results,
@@ -132,7 +135,7 @@ pub fn summary_markdown(results: &Results) -> String {
         let median_floor = median_cell(runs.iter().filter_map(|r| r.cost_vs_floor).collect());
         let errors: Vec<_> = runs.iter().filter_map(|r| r.error).collect();
         let n = errors.len().max(1) as f64;
-        let flip = errors.iter().map(|e| e.flip_mean).sum::<f64>() / n;
+        let flip = errors.iter().map(|e| e.headline_flip().0).sum::<f64>() / n;
         let rmse = errors.iter().map(|e| e.rmse).sum::<f64>() / n;
         let exact = errors
             .iter()
@@ -305,7 +308,7 @@ fn row_cells(r: &Run) -> Vec<String> {
         .map(|b| format!("{b:.1}"))
         .unwrap_or_default();
     let (rmse, max, flip) = match &r.error {
-        Some(e) => (sci(e.rmse), sci(e.max_abs), format!("{:.4}", e.flip_mean)),
+        Some(e) => (sci(e.rmse), sci(e.max_abs), flip_cell(e)),
         None => Default::default(),
     };
     let od = r.order_dependence.map(sci).unwrap_or_default();
@@ -321,6 +324,15 @@ fn row_cells(r: &Run) -> Vec<String> {
         od,
         r.inexact.join("; "),
     ]
+}
+
+/// The FLIP a person should read for this run: LDR-FLIP of the tone-mapped images, or HDR-FLIP
+/// (marked) when the reference is HDR.
+pub fn flip_cell(e: &oit_metrics::Errors) -> String {
+    match e.headline_flip() {
+        (v, "HDR-FLIP") => format!("{v:.4} HDR"),
+        (v, _) => format!("{v:.4}"),
+    }
 }
 
 /// Compact scientific notation that keeps small errors readable (`3.1e-4`) and zero exact (`0`).
@@ -364,6 +376,7 @@ mod tests {
             over_1_64: 0.0,
             flip_mean: flip,
             nonfinite: 0,
+            ..Default::default()
         });
         r
     }

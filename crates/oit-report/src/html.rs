@@ -203,7 +203,7 @@ fn scene_section(
     out.push_str(
         "<table>\n<tr><th>technique</th><th>GPU ms median</th><th>min–max (frames, source)</th>\
          <th>cost × unsorted</th><th>cost × floor</th><th>bytes/px</th><th>RMSE</th><th>PSNR dB</th><th>mean FLIP</th>\
-         <th>max error</th><th>order dep.</th><th>inexact</th></tr>\n",
+         <th>relMSE</th><th>SSIM</th><th>max error</th><th>order dep.</th><th>inexact</th></tr>\n",
     );
     for run in runs {
         let front = members.contains(&(run.scene.clone(), run.technique.clone()));
@@ -221,7 +221,7 @@ fn scene_section(
             };
             let _ = writeln!(
                 out,
-                "<td class=\"note\" colspan=\"11\">{status}: {}</td></tr>",
+                "<td class=\"note\" colspan=\"13\">{status}: {}</td></tr>",
                 esc(run.reason.as_deref().unwrap_or("no reason recorded"))
             );
             continue;
@@ -244,13 +244,15 @@ fn scene_section(
         let _ = writeln!(
             out,
             "<td>{median}</td><td>{spread}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>\
-             <td>{}</td><td>{}</td><td>{}</td><td class=\"note\">{}</td></tr>",
+             <td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"note\">{}</td></tr>",
             opt(run.cost_vs_unsorted, |v| format!("{v:.2}")),
             opt(run.cost_vs_floor, |v| format!("{v:.2}")),
             opt(run.bytes_per_pixel, |v| format!("{v:.1}")),
             opt(e.map(|e| e.rmse), oit_harness::report::sci),
             opt(e.map(|e| e.psnr), |v| format!("{v:.1}")),
-            opt(e.map(|e| e.flip_mean), |v| format!("{v:.4}")),
+            e.map_or_else(|| "–".to_owned(), oit_harness::report::flip_cell),
+            opt(e.map(|e| e.relmse), oit_harness::report::sci),
+            opt(e.map(|e| e.ssim), |v| format!("{v:.4}")),
             opt(e.map(|e| e.max_abs), oit_harness::report::sci),
             opt(run.order_dependence, oit_harness::report::sci),
             esc(&run.inexact.join("; ")),

@@ -42,7 +42,8 @@ fn register_font() -> Result<(), ReportError> {
 /// The error axis.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Metric {
-    /// Mean ꟻLIP of the tone-mapped images (`error.flip_mean`), in [0, 1].
+    /// Mean ꟻLIP in [0, 1]: `error.flip_mean`, or `error.hdr_flip_mean` on HDR scenes
+    /// ([`oit_metrics::Errors::headline_flip`]).
     Flip,
     /// Root mean squared error on linear RGB (`error.rmse`).
     Rmse,
@@ -51,7 +52,7 @@ pub enum Metric {
 impl Metric {
     pub fn of(self, e: &oit_metrics::Errors) -> f64 {
         match self {
-            Metric::Flip => e.flip_mean,
+            Metric::Flip => e.headline_flip().0,
             Metric::Rmse => e.rmse,
         }
     }
@@ -74,7 +75,7 @@ impl Metric {
     /// Axis label with its unit.
     pub fn axis_label(self) -> &'static str {
         match self {
-            Metric::Flip => "mean FLIP error (0-1, unitless; log scale)",
+            Metric::Flip => "mean FLIP (HDR-FLIP on HDR scenes; 0-1, log scale)",
             Metric::Rmse => "RMSE (linear RGB, 1 = full scale; log scale)",
         }
     }

@@ -71,6 +71,7 @@ fn ok_run(scene: &str, row: Row) -> Run {
         over_1_64: 0.0,
         flip_mean: flip,
         nonfinite: 0,
+        ..Default::default()
     });
     run.order_dependence = Some(0.0);
     run.outputs = Some(Outputs {
@@ -213,7 +214,7 @@ fn every_plot_has_one_point_per_ok_run_and_labelled_axes() {
             };
             assert!(svg.contains(x_unit), "{}: x axis label missing", plot.stem);
             let y_unit = match metric {
-                Metric::Flip => "mean FLIP error (0-1, unitless; log scale)",
+                Metric::Flip => "mean FLIP (HDR-FLIP on HDR scenes; 0-1, log scale)",
                 Metric::Rmse => "RMSE (linear RGB, 1 = full scale; log scale)",
             };
             assert!(svg.contains(y_unit), "{}: y axis label missing", plot.stem);
