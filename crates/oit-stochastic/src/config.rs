@@ -85,10 +85,10 @@ impl Pattern {
         }
     }
 
-    /// Bytes of the f32 threshold table the dither pass binds as a storage buffer (a 16-byte
-    /// placeholder for procedural patterns, which read none).
+    /// Bytes of the R32Float threshold texture the dither pass binds (a one-texel placeholder
+    /// for procedural patterns, which read none).
     pub fn table_bytes(self) -> u64 {
-        self.tile().map_or(16, |t| u64::from(t) * u64::from(t) * 4)
+        self.tile().map_or(4, |t| u64::from(t) * u64::from(t) * 4)
     }
 }
 

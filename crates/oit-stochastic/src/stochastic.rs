@@ -150,8 +150,8 @@ impl Stochastic {
         match (pattern, pattern.bayer_side()) {
             (Pattern::Blue, _) => pattern::thresholds(&pattern::blue_noise().0),
             (_, Some(side)) => pattern::thresholds(&pattern::bayer(side as usize)),
-            // Procedural patterns read no table; the binding still needs a buffer.
-            _ => vec![0.0; 4],
+            // Procedural patterns read no table; the binding still needs a texture.
+            _ => vec![0.0; 1],
         }
     }
 
@@ -176,12 +176,14 @@ impl Stochastic {
         let device = &ctx.device;
         let ledger = &mut self.ledger;
 
-        // Dither pass: group 0 = scene, group 1 = per-frame uniform + threshold table.
+        // Dither pass: group 0 = scene, group 1 = per-frame uniform + threshold table. The table
+        // is an R32Float texture read with textureLoad: on CPU rasterizers a per-fragment
+        // storage-buffer read costs several times the rest of the dither shader.
         let dither_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("stochastic dither"),
             entries: &[
                 bind::dynamic_uniform(0, wgpu::ShaderStages::VERTEX_FRAGMENT, DITHER_UNIFORM_BYTES),
-                bind::min_size(bind::storage(1, wgpu::ShaderStages::FRAGMENT, true), 4),
+                bind::float_texture(1, wgpu::ShaderStages::FRAGMENT),
             ],
         });
         let dither_stride = bind::uniform_stride(ctx, DITHER_UNIFORM_BYTES);
@@ -197,17 +199,33 @@ impl Stochastic {
         );
         ctx.queue.write_buffer(&dither_buffer, 0, &uniforms);
         let table = Self::table(config.pattern);
-        let table_buffer = ledger.create_buffer(
+        let side = config.pattern.tile().unwrap_or(1);
+        let table_texture = ledger.create_texture_2d(
             device,
-            &wgpu::BufferDescriptor {
-                label: Some("stochastic threshold table"),
-                size: table.len() as u64 * 4,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
+            "stochastic threshold table",
+            oit_scene::Resolution {
+                width: side,
+                height: side,
+            },
+            wgpu::TextureFormat::R32Float,
+            wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+            1,
+        );
+        ctx.queue.write_texture(
+            table_texture.as_image_copy(),
+            bytemuck::cast_slice(&table),
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(side * 4),
+                rows_per_image: Some(side),
+            },
+            wgpu::Extent3d {
+                width: side,
+                height: side,
+                depth_or_array_layers: 1,
             },
         );
-        ctx.queue
-            .write_buffer(&table_buffer, 0, bytemuck::cast_slice(&table));
+        let table_view = table_texture.create_view(&Default::default());
         let dither_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("stochastic dither"),
             layout: &dither_layout,
@@ -222,7 +240,7 @@ impl Stochastic {
                 },
                 wgpu::BindGroupEntry {
                     binding: 1,
-                    resource: table_buffer.as_entire_binding(),
+                    resource: wgpu::BindingResource::TextureView(&table_view),
                 },
             ],
         });
@@ -438,15 +456,15 @@ impl Technique for Stochastic {
             .map_err(|e| Unsupported::new(format!("the spec is invalid: {e}")))?;
         if caps.max_storage_buffers_per_shader_stage == 0 {
             return Err(Unsupported::new(
-                "the adapter has no storage buffers per shader stage (scene materials in the vertex stage, the threshold table in the fragment stage)",
+                "the adapter has no storage buffers in vertex shaders (scene materials)",
             ));
         }
-        let table = config.pattern.table_bytes();
-        if table > caps.max_storage_buffer_binding_size {
+        let side = config.pattern.tile().unwrap_or(1);
+        if side > caps.max_texture_dimension_2d {
             return Err(Unsupported::new(format!(
-                "the {} threshold table is {table} bytes; the adapter binds storage buffers of at most {} bytes",
+                "the {} threshold table is {side}×{side} texels; the adapter's 2D textures are at most {} wide",
                 config.pattern.name(),
-                caps.max_storage_buffer_binding_size
+                caps.max_texture_dimension_2d
             )));
         }
         if config.spp > 1 {
