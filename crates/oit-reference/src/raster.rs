@@ -112,17 +112,10 @@ pub(crate) struct TileRect {
     pub height: u32,
 }
 
-/// Per-fragment interpolation inputs handed to the shading closure.
-#[derive(Debug, Clone, Copy)]
-struct Edges {
-    e: [i64; 3],
-    /// Pixel centre in window coordinates, for the float attribute weights.
-    px: f64,
-    py: f64,
-}
-
-/// Walks the pixels of `tri`'s bounding box inside `tile` and calls `f(pixel_in_tile, edges)`
-/// for each pixel centre covered under the top-left rule.
+/// Calls `f(row, first, end)` for every row of `tri`'s bounding box inside `tile` that has
+/// covered pixel centres, with the covered pixels `first..end` of that row (tile-local
+/// coordinates). Coverage is the exact top-left-rule test of the GPU, solved per row instead of
+/// tested per pixel.
 ///
 /// Edge i goes from vertex i+1 to vertex i+2 (opposite vertex i), with
 /// `E(p) = (xb − xa)(py − ya) − (yb − ya)(px − xa)`, positive inside because the triangle was
@@ -130,9 +123,10 @@ struct Edges {
 /// a *top* edge is horizontal with the interior below it, which is `dy == 0 && dx > 0`; a
 /// *left* edge has the interior to its right, which is `dy < 0`. Pixel centres exactly on a
 /// top or left edge are covered (`E >= 0`), on any other edge they are not (`E >= 1`, exact
-/// because E is an integer).
+/// because E is an integer). Along a row E is linear in the pixel index, so each edge admits a
+/// half-line of pixels and a triangle covers one contiguous run per row ([`row_span`]).
 #[inline(always)]
-fn raster_triangle(tri: &SetupTriangle, tile: TileRect, mut f: impl FnMut(usize, Edges)) {
+fn for_each_span(tri: &SetupTriangle, tile: TileRect, mut f: impl FnMut(u32, u32, u32)) {
     let x0 = tri.bbox[0].max(tile.x0);
     let y0 = tri.bbox[1].max(tile.y0);
     let x1 = tri.bbox[2].min(tile.x0 + tile.width - 1);
@@ -148,43 +142,42 @@ fn raster_triangle(tri: &SetupTriangle, tile: TileRect, mut f: impl FnMut(usize,
     let mut step_x = [0i64; 3];
     let mut step_y = [0i64; 3];
     let mut bias = [0i64; 3];
+    let mut inside_everywhere = true;
     for i in 0..3 {
         let (a, b) = ((i + 1) % 3, (i + 2) % 3);
         let dx = tri.x[b] - tri.x[a];
         let dy = tri.y[b] - tri.y[a];
         let edge = |px: i64, py: i64| dx * (py - tri.y[a]) - dy * (px - tri.x[a]);
-        row[i] = edge(px0, py0);
-        // The rectangle is entirely outside this edge when its best corner is.
-        let best = row[i]
-            .max(edge(px1, py0))
-            .max(edge(px0, py1))
-            .max(edge(px1, py1));
+        let corners = [
+            edge(px0, py0),
+            edge(px1, py0),
+            edge(px0, py1),
+            edge(px1, py1),
+        ];
         let top_left = (dy == 0 && dx > 0) || dy < 0;
         bias[i] = if top_left { 0 } else { 1 };
-        if best < bias[i] {
+        // E is linear, so its extremes over the rectangle are at the corners: the rectangle is
+        // entirely outside this edge when its best corner is, entirely inside when its worst is.
+        if corners.iter().all(|&e| e < bias[i]) {
             return;
         }
+        inside_everywhere &= corners.iter().all(|&e| e >= bias[i]);
+        row[i] = corners[0];
         step_x[i] = -dy * ONE;
         step_y[i] = dx * ONE;
     }
-    let tile_w = tile.width as usize;
+    let (first, end) = (x0 - tile.x0, x1 + 1 - tile.x0);
+    if inside_everywhere {
+        for y in y0..=y1 {
+            f(y - tile.y0, first, end);
+        }
+        return;
+    }
+    let width = i64::from(x1 - x0) + 1;
     for y in y0..=y1 {
-        let mut e = row;
-        let base = (y - tile.y0) as usize * tile_w;
-        for x in x0..=x1 {
-            if e[0] >= bias[0] && e[1] >= bias[1] && e[2] >= bias[2] {
-                f(
-                    base + (x - tile.x0) as usize,
-                    Edges {
-                        e,
-                        px: x as f64 + 0.5,
-                        py: y as f64 + 0.5,
-                    },
-                );
-            }
-            e[0] += step_x[0];
-            e[1] += step_x[1];
-            e[2] += step_x[2];
+        let (lo, hi) = row_span(row, step_x, bias, width);
+        if lo < hi {
+            f(y - tile.y0, first + lo as u32, first + hi as u32);
         }
         row[0] += step_y[0];
         row[1] += step_y[1];
@@ -192,57 +185,144 @@ fn raster_triangle(tri: &SetupTriangle, tile: TileRect, mut f: impl FnMut(usize,
     }
 }
 
-/// Screen-linear window depth and perspective-correct colour at a covered pixel.
+/// The pixels `k` in `lo..hi` (`0 <= k < width`) of a row whose edge values
+/// `e[i] + k·step[i]` are all `>= bias[i]`: exact integer solutions of the three half-lines.
 #[inline(always)]
-fn interpolate(tri: &SetupTriangle, edges: Edges) -> (f32, Shaded) {
-    // Coverage comes from the snapped integer edge functions; the attribute weights come from
-    // the *unsnapped* f32 window positions, as lavapipe interpolates (measured: a mask cutoff
-    // decided on snapped weights differed from the GPU on one `foliage-cards` pixel). The f64
-    // error is far below half an f32 ulp, so a constant-depth triangle gets exactly its depth
-    // back and coplanar ties stay ties. Degenerate float triangles fall back to snapped weights.
-    let l = if tri.inv_farea2 != 0.0 {
-        let e = |i: usize| {
-            let (a, b) = ((i + 1) % 3, (i + 2) % 3);
-            (tri.fx[b] - tri.fx[a]) * (edges.py - tri.fy[a])
-                - (tri.fy[b] - tri.fy[a]) * (edges.px - tri.fx[a])
-        };
-        [
-            e(0) * tri.inv_farea2,
-            e(1) * tri.inv_farea2,
-            e(2) * tri.inv_farea2,
-        ]
-    } else {
-        let inv = tri.inv_area2;
-        [
-            edges.e[0] as f64 * inv,
-            edges.e[1] as f64 * inv,
-            edges.e[2] as f64 * inv,
-        ]
-    };
-    let z = l[0] * f64::from(tri.z[0]) + l[1] * f64::from(tri.z[1]) + l[2] * f64::from(tri.z[2]);
-    // The viewport depth range is [0, 1]; the GPU clamps fragment depth to it.
-    // `+ 0.0` turns −0.0 into +0.0 so both get one sort key.
-    let depth = (z as f32).clamp(0.0, 1.0) + 0.0;
-    let shaded = match tri.constant {
-        Some(s) => s,
-        None => {
-            let pw = [
-                l[0] * tri.inv_w[0],
-                l[1] * tri.inv_w[1],
-                l[2] * tri.inv_w[2],
-            ];
-            let sum = pw[0] + pw[1] + pw[2];
-            let c = &tri.color;
-            let rgba: [f32; 4] = std::array::from_fn(|k| {
-                ((pw[0] * f64::from(c[0][k])
-                    + pw[1] * f64::from(c[1][k])
-                    + pw[2] * f64::from(c[2][k]))
-                    / sum) as f32
-            });
-            tri.material.shade(rgba)
+fn row_span(e: [i64; 3], step: [i64; 3], bias: [i64; 3], width: i64) -> (i64, i64) {
+    let (mut lo, mut hi) = (0i64, width);
+    for i in 0..3 {
+        // Need k·step >= deficit.
+        let deficit = bias[i] - e[i];
+        let s = step[i];
+        if s > 0 {
+            if deficit > 0 {
+                // k >= ceil(deficit / s); both positive.
+                lo = lo.max((deficit + s - 1) / s);
+            }
+        } else if s < 0 {
+            if deficit > 0 {
+                return (0, 0);
+            }
+            // The row's last pixel is inside too: no bound from this edge.
+            if e[i] + (width - 1) * s < bias[i] {
+                // k <= floor(deficit / s) = floor(-deficit / -s); both non-negative.
+                hi = hi.min(deficit / s + 1);
+            }
+        } else if deficit > 0 {
+            return (0, 0);
         }
-    };
-    (depth, shaded)
+    }
+    (lo, hi)
+}
+
+/// Pixels per batch of the shading kernel: the float arithmetic of neighbouring pixels is
+/// independent, so it is written over small arrays that the compiler turns into SIMD.
+const LANES: usize = 4;
+
+/// Screen-linear window depth and perspective-correct shaded colour of the pixels
+/// `first..end` of tile row `row`, calling `f(pixel_in_tile, depth, shaded)` for each in order.
+///
+/// Coverage comes from the snapped integer edge functions; the attribute weights come from
+/// the *unsnapped* f32 window positions, as lavapipe interpolates (measured: a mask cutoff
+/// decided on snapped weights differed from the GPU on one `foliage-cards` pixel). The f64
+/// error is far below half an f32 ulp, so a constant-depth triangle gets exactly its depth
+/// back and coplanar ties stay ties. Degenerate float triangles fall back to snapped weights.
+/// Every value is computed by the same f64 operations in the same order per pixel (only the
+/// row-constant product is hoisted), so batching changes no bit of the result.
+#[inline(always)]
+fn shade_span(
+    tri: &SetupTriangle,
+    tile: TileRect,
+    row: u32,
+    first: u32,
+    end: u32,
+    mut f: impl FnMut(usize, f32, Shaded),
+) {
+    let y = tile.y0 + row;
+    let py = y as f64 + 0.5;
+    let base = (row * tile.width) as usize;
+    if tri.inv_farea2 == 0.0 {
+        for x in first..end {
+            let px = i64::from(tile.x0 + x) * ONE + HALF;
+            let pys = i64::from(y) * ONE + HALF;
+            let l: [[f64; 1]; 3] = std::array::from_fn(|i| {
+                let (a, b) = ((i + 1) % 3, (i + 2) % 3);
+                let e = (tri.x[b] - tri.x[a]) * (pys - tri.y[a])
+                    - (tri.y[b] - tri.y[a]) * (px - tri.x[a]);
+                [e as f64 * tri.inv_area2]
+            });
+            let (depth, rgba) = attributes(tri, &l);
+            let shaded = tri.constant.unwrap_or_else(|| tri.material.shade(rgba[0]));
+            f(base + x as usize, depth[0], shaded);
+        }
+        return;
+    }
+    // E_i(px, py) = dx_i·(py − ya) − dy_i·(px − xa): the first product is constant along a row.
+    let mut along_row = [0.0f64; 3];
+    let mut dy = [0.0f64; 3];
+    let mut xa = [0.0f64; 3];
+    for i in 0..3 {
+        let (a, b) = ((i + 1) % 3, (i + 2) % 3);
+        along_row[i] = (tri.fx[b] - tri.fx[a]) * (py - tri.fy[a]);
+        dy[i] = tri.fy[b] - tri.fy[a];
+        xa[i] = tri.fx[a];
+    }
+    let mut x = first;
+    while x < end {
+        let count = ((end - x) as usize).min(LANES);
+        let px: [f64; LANES] = std::array::from_fn(|j| (tile.x0 + x + j as u32) as f64 + 0.5);
+        let l: [[f64; LANES]; 3] = std::array::from_fn(|i| {
+            std::array::from_fn(|j| (along_row[i] - dy[i] * (px[j] - xa[i])) * tri.inv_farea2)
+        });
+        let p = base + x as usize;
+        match tri.constant {
+            Some(shaded) => {
+                let depth = depths(tri, &l);
+                for j in 0..count {
+                    f(p + j, depth[j], shaded);
+                }
+            }
+            None => {
+                let (depth, rgba) = attributes(tri, &l);
+                for j in 0..count {
+                    f(p + j, depth[j], tri.material.shade(rgba[j]));
+                }
+            }
+        }
+        x += LANES as u32;
+    }
+}
+
+/// Window depth from the barycentric weights `l`: linear in screen space, stored as f32 and
+/// clamped to the viewport depth range [0, 1] like the GPU does. `+ 0.0` turns −0.0 into +0.0
+/// so both get one sort key.
+#[inline(always)]
+fn depths<const N: usize>(tri: &SetupTriangle, l: &[[f64; N]; 3]) -> [f32; N] {
+    let z = tri.z.map(f64::from);
+    std::array::from_fn(|j| {
+        let z = l[0][j] * z[0] + l[1][j] * z[1] + l[2][j] * z[2];
+        (z as f32).clamp(0.0, 1.0) + 0.0
+    })
+}
+
+/// Depth and perspective-correct vertex colour (weights / w, converted to f32 as the fragment
+/// shader receives it) from the barycentric weights `l`.
+#[inline(always)]
+fn attributes<const N: usize>(tri: &SetupTriangle, l: &[[f64; N]; 3]) -> ([f32; N], [[f32; 4]; N]) {
+    let depth = depths(tri, l);
+    let pw: [[f64; N]; 3] =
+        std::array::from_fn(|i| std::array::from_fn(|j| l[i][j] * tri.inv_w[i]));
+    let sum: [f64; N] = std::array::from_fn(|j| pw[0][j] + pw[1][j] + pw[2][j]);
+    let c = &tri.color;
+    let rgba = std::array::from_fn(|j| {
+        std::array::from_fn(|k| {
+            ((pw[0][j] * f64::from(c[0][k])
+                + pw[1][j] * f64::from(c[1][k])
+                + pw[2][j] * f64::from(c[2][k]))
+                / sum[j]) as f32
+        })
+    });
+    (depth, rgba)
 }
 
 /// Output slices for one tile, rows of the full-width band.
@@ -287,17 +367,18 @@ pub(crate) fn render_tile(
         if tri.transparent {
             continue;
         }
-        raster_triangle(tri, tile, |p, edges| {
-            let (depth, shaded) = interpolate(tri, edges);
-            let Shaded::Opaque(color) = shaded else {
-                return;
-            };
-            s.all_count[p] += 1;
-            let key = opaque_key(depth_key(depth, reverse_z), tri.key);
-            if key < s.opaque_key[p] {
-                s.opaque_key[p] = key;
-                s.opaque_color[p] = color;
-            }
+        for_each_span(tri, tile, |row, first, end| {
+            shade_span(tri, tile, row, first, end, |p, depth, shaded| {
+                let Shaded::Opaque(color) = shaded else {
+                    return;
+                };
+                s.all_count[p] += 1;
+                let key = opaque_key(depth_key(depth, reverse_z), tri.key);
+                if key < s.opaque_key[p] {
+                    s.opaque_key[p] = key;
+                    s.opaque_color[p] = color;
+                }
+            });
         });
     }
     for &t in bin {
@@ -305,27 +386,28 @@ pub(crate) fn render_tile(
         if !tri.transparent {
             continue;
         }
-        raster_triangle(tri, tile, |p, edges| {
-            let (depth, shaded) = interpolate(tri, edges);
-            let Shaded::Transparent {
-                premultiplied,
-                alpha,
-            } = shaded
-            else {
-                return;
-            };
-            s.all_count[p] += 1;
-            stats.transparent_fragments += 1;
-            let dkey = depth_key(depth, reverse_z);
-            // Strictly nearer than the opaque depth (the background sentinel never wins).
-            if u64::from(dkey) < (s.opaque_key[p] >> 32) {
-                s.raw.push(RawFragment {
-                    key: transparent_key(dkey, tri.key),
+        for_each_span(tri, tile, |row, first, end| {
+            shade_span(tri, tile, row, first, end, |p, depth, shaded| {
+                let Shaded::Transparent {
                     premultiplied,
                     alpha,
-                    pixel: p as u32,
-                });
-            }
+                } = shaded
+                else {
+                    return;
+                };
+                s.all_count[p] += 1;
+                stats.transparent_fragments += 1;
+                let dkey = depth_key(depth, reverse_z);
+                // Strictly nearer than the opaque depth (the background sentinel never wins).
+                if u64::from(dkey) < (s.opaque_key[p] >> 32) {
+                    s.raw.push(RawFragment {
+                        key: transparent_key(dkey, tri.key),
+                        premultiplied,
+                        alpha,
+                        pixel: p as u32,
+                    });
+                }
+            });
         });
     }
     let t_raster = Instant::now();
