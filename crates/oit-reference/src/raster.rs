@@ -8,46 +8,51 @@ use oit_scene::Shaded;
 use crate::composite::composite_iter;
 use crate::setup::{HALF, ONE, SetupTriangle};
 
-/// One transparent fragment as rasterized (in triangle order), before grouping by pixel.
-#[derive(Debug, Clone, Copy, Default)]
-pub(crate) struct RawFragment {
-    /// Sort key, ascending = front to back (see [`transparent_key`]).
-    key: u64,
-    premultiplied: [f32; 3],
-    alpha: f32,
-    /// Pixel index inside the tile.
-    pixel: u32,
-}
-
-/// A transparent fragment after the counting sort by pixel.
-#[derive(Debug, Clone, Copy, Default)]
-struct Fragment {
-    key: u64,
-    premultiplied: [f32; 3],
-    alpha: f32,
+/// One row's run of pixels covered by a transparent triangle, recorded by the coverage pass
+/// and replayed by the shading pass.
+#[derive(Debug, Clone, Copy)]
+struct Span {
+    /// Index into the set-up triangles.
+    triangle: u32,
+    /// Tile-local row and pixels `first..end` of it.
+    row: u16,
+    first: u16,
+    end: u16,
 }
 
 /// Reusable per-thread tile storage.
+///
+/// Transparent fragments are written straight into per-pixel lists: a coverage pass counts
+/// each pixel's covered transparent triangles (an upper bound on what it stores, since the
+/// cutoff discard and the opaque depth test only remove fragments), the prefix sum gives each
+/// pixel its slots `start[p]..start[p + 1]`, and the shading pass appends at `end[p]`. Keys and
+/// colours are separate arrays so that sorting only touches keys and 4-byte indices.
 #[derive(Debug, Default)]
 pub(crate) struct Scratch {
     opaque_key: Vec<u64>,
     opaque_color: Vec<[f32; 3]>,
     all_count: Vec<u32>,
-    offsets: Vec<u32>,
-    cursor: Vec<u32>,
-    raw: Vec<RawFragment>,
-    sorted: Vec<Fragment>,
-    merge_buffer: Vec<Fragment>,
+    start: Vec<u32>,
+    end: Vec<u32>,
+    spans: Vec<Span>,
+    /// Per slot: sort key and (premultiplied RGB, alpha).
+    keys: Vec<u64>,
+    colors: Vec<[f32; 4]>,
+    /// Per slot: the slots of each pixel's list in front-to-back order.
+    order: Vec<u32>,
+    /// The last pixel's sorting permutation, and the merge sort's buffers.
+    perm: Vec<u32>,
+    merge_buffer: Vec<u32>,
     runs: Vec<usize>,
 }
 
-/// Bytes of per-pixel state a tile keeps besides its fragment lists.
-pub(crate) const PER_PIXEL_BYTES: u64 =
-    (size_of::<u64>() + size_of::<[f32; 3]>() + size_of::<u32>() + size_of::<u32>()) as u64;
+/// Bytes of per-pixel state a tile keeps besides its fragment lists: opaque key and colour,
+/// fragment count, list start and end.
+const PER_PIXEL_BYTES: u64 =
+    (size_of::<u64>() + size_of::<[f32; 3]>() + 3 * size_of::<u32>()) as u64;
 
-/// Bytes of storage per stored (transparent, unoccluded) fragment: raw plus sorted copy.
-pub(crate) const PER_FRAGMENT_BYTES: u64 =
-    (size_of::<RawFragment>() + size_of::<Fragment>()) as u64;
+/// Bytes per transparent fragment slot: key, colour and sorted-order index.
+const PER_SLOT_BYTES: u64 = (size_of::<u64>() + size_of::<[f32; 4]>() + size_of::<u32>()) as u64;
 
 /// Statistics of one tile or band, summed.
 #[derive(Debug, Default, Clone, Copy)]
@@ -336,9 +341,10 @@ pub(crate) struct TileOutput<'a> {
     pub x_offset: usize,
 }
 
-/// Renders one tile: opaque pass into a tile depth/colour buffer, transparent pass keeping only
-/// fragments strictly in front of the opaque depth, counting sort by pixel, per-pixel sort by
-/// key, f64 front-to-back compositing.
+/// Renders one tile: opaque pass into a tile depth/colour buffer; transparent coverage pass
+/// (row spans, per-pixel slot counts); transparent shading pass keeping only fragments
+/// strictly in front of the opaque depth, appended to their pixel's list; per-pixel sort by
+/// key; f64 front-to-back compositing.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn render_tile(
     triangles: &[SetupTriangle],
@@ -351,6 +357,7 @@ pub(crate) fn render_tile(
 ) -> TileStats {
     let t_start = Instant::now();
     let n = (tile.width * tile.height) as usize;
+    let tile_w = tile.width as usize;
     let s = scratch;
     s.opaque_key.clear();
     s.opaque_key.resize(n, u64::MAX);
@@ -358,13 +365,28 @@ pub(crate) fn render_tile(
     s.opaque_color.resize(n, [0.0; 3]);
     s.all_count.clear();
     s.all_count.resize(n, 0);
-    s.raw.clear();
+    s.start.clear();
+    s.start.resize(n + 1, 0);
+    s.spans.clear();
     let mut stats = TileStats::default();
 
     // Opaque (and mask) triangles first: they define the depth transparent fragments must beat.
+    // Transparent triangles only record their spans and count the slots they may need.
     for &t in bin {
         let tri = &triangles[t as usize];
         if tri.transparent {
+            for_each_span(tri, tile, |row, first, end| {
+                s.spans.push(Span {
+                    triangle: t,
+                    row: row as u16,
+                    first: first as u16,
+                    end: end as u16,
+                });
+                let p = row as usize * tile_w;
+                for c in &mut s.start[p + first as usize + 1..p + end as usize + 1] {
+                    *c += 1;
+                }
+            });
             continue;
         }
         for_each_span(tri, tile, |row, first, end| {
@@ -381,78 +403,85 @@ pub(crate) fn render_tile(
             });
         });
     }
-    for &t in bin {
-        let tri = &triangles[t as usize];
-        if !tri.transparent {
-            continue;
-        }
-        for_each_span(tri, tile, |row, first, end| {
-            shade_span(tri, tile, row, first, end, |p, depth, shaded| {
-                let Shaded::Transparent {
-                    premultiplied,
-                    alpha,
-                } = shaded
-                else {
-                    return;
-                };
-                s.all_count[p] += 1;
-                stats.transparent_fragments += 1;
-                let dkey = depth_key(depth, reverse_z);
-                // Strictly nearer than the opaque depth (the background sentinel never wins).
-                if u64::from(dkey) < (s.opaque_key[p] >> 32) {
-                    s.raw.push(RawFragment {
-                        key: transparent_key(dkey, tri.key),
-                        premultiplied,
-                        alpha,
-                        pixel: p as u32,
-                    });
-                }
-            });
+    for p in 0..n {
+        s.start[p + 1] += s.start[p];
+    }
+    let slots = s.start[n] as usize;
+    s.end.clear();
+    s.end.extend_from_slice(&s.start[..n]);
+    // Every slot below `end[p]` is written before it is read; the fill only sizes the arrays.
+    s.keys.resize(slots, 0);
+    s.colors.resize(slots, [0.0; 4]);
+    for span in &s.spans {
+        let tri = &triangles[span.triangle as usize];
+        let (row, first, end) = (span.row.into(), span.first.into(), span.end.into());
+        shade_span(tri, tile, row, first, end, |p, depth, shaded| {
+            let Shaded::Transparent {
+                premultiplied,
+                alpha,
+            } = shaded
+            else {
+                return;
+            };
+            s.all_count[p] += 1;
+            stats.transparent_fragments += 1;
+            let dkey = depth_key(depth, reverse_z);
+            // Strictly nearer than the opaque depth (the background sentinel never wins).
+            if u64::from(dkey) < (s.opaque_key[p] >> 32) {
+                let slot = s.end[p] as usize;
+                s.keys[slot] = transparent_key(dkey, tri.key);
+                let [r, g, b] = premultiplied;
+                s.colors[slot] = [r, g, b, alpha];
+                s.end[p] += 1;
+            }
         });
     }
     let t_raster = Instant::now();
 
-    // Counting sort by pixel: offsets[p]..offsets[p+1] is pixel p's list.
-    s.offsets.clear();
-    s.offsets.resize(n + 1, 0);
-    for f in &s.raw {
-        s.offsets[f.pixel as usize + 1] += 1;
-    }
+    // Sort each pixel's list. Neighbouring pixels are usually covered by the same triangles in
+    // the same depth order, so the previous pixel's permutation is tried first: if it puts the
+    // keys in strictly ascending order it is the (unique) sorted order, found with n − 1
+    // comparisons and no moves.
+    s.order.resize(slots, 0);
+    s.perm.clear();
     for p in 0..n {
-        s.offsets[p + 1] += s.offsets[p];
-    }
-    s.sorted.clear();
-    s.sorted.resize(s.raw.len(), Fragment::default());
-    s.cursor.clear();
-    s.cursor.extend_from_slice(&s.offsets[..n]);
-    for f in &s.raw {
-        let slot = &mut s.cursor[f.pixel as usize];
-        s.sorted[*slot as usize] = Fragment {
-            key: f.key,
-            premultiplied: f.premultiplied,
-            alpha: f.alpha,
-        };
-        *slot += 1;
-    }
-    for p in 0..n {
-        let list = &mut s.sorted[s.offsets[p] as usize..s.offsets[p + 1] as usize];
-        sort_fragments(list, &mut s.merge_buffer, &mut s.runs);
+        let (lo, hi) = (s.start[p] as usize, s.end[p] as usize);
+        let keys = &s.keys[lo..hi];
+        let reuse = s.perm.len() == keys.len()
+            && s.perm
+                .windows(2)
+                .all(|w| keys[w[0] as usize] < keys[w[1] as usize]);
+        if !reuse {
+            s.perm.clear();
+            s.perm.extend(0..keys.len() as u32);
+            sort_by_key(
+                &mut s.perm,
+                |i| keys[i as usize],
+                &mut s.merge_buffer,
+                &mut s.runs,
+            );
+        }
+        for (o, &i) in s.order[lo..hi].iter_mut().zip(&s.perm) {
+            *o = lo as u32 + i;
+        }
     }
     let t_sort = Instant::now();
 
     for p in 0..n {
-        let list = &s.sorted[s.offsets[p] as usize..s.offsets[p + 1] as usize];
+        let list = &s.order[s.start[p] as usize..s.end[p] as usize];
         let base = if s.opaque_key[p] == u64::MAX {
             background
         } else {
             s.opaque_color[p].map(f64::from)
         };
         let rgb = composite_iter(
-            list.iter()
-                .map(|f| (f.premultiplied.map(f64::from), f64::from(f.alpha))),
+            list.iter().map(|&slot| {
+                let [r, g, b, a] = s.colors[slot as usize].map(f64::from);
+                ([r, g, b], a)
+            }),
             base,
         );
-        let (tx, ty) = (p % tile.width as usize, p / tile.width as usize);
+        let (tx, ty) = (p % tile_w, p / tile_w);
         let o = ty * out.stride + out.x_offset + tx;
         out.image[o] = [rgb[0] as f32, rgb[1] as f32, rgb[2] as f32, 1.0];
         let layers = list.len() as u32;
@@ -467,26 +496,34 @@ pub(crate) fn render_tile(
     stats.raster = t_raster - t_start;
     stats.sort = t_sort - t_raster;
     stats.composite = t_end - t_sort;
-    stats.peak_tile_bytes = n as u64 * (PER_PIXEL_BYTES + size_of::<u32>() as u64)
+    stats.peak_tile_bytes = n as u64 * PER_PIXEL_BYTES
         + size_of::<u32>() as u64
-        + s.raw.len() as u64 * PER_FRAGMENT_BYTES;
+        + slots as u64 * PER_SLOT_BYTES
+        + (s.spans.len() * size_of::<Span>()) as u64
+        + (s.perm.capacity() + s.merge_buffer.capacity()) as u64 * size_of::<u32>() as u64;
     stats
 }
 
-/// Sorts one pixel's list by key (keys are unique: they contain the triangle rank).
+/// Sorts one pixel's list (indices of its fragments) by key; keys are unique: they contain the
+/// triangle rank.
 ///
 /// Fragments arrive in triangle-rank order, one per triangle, so a pixel's list is usually a
 /// few monotone runs (each object's layers in order, one way or the other). This is a natural
 /// merge sort: find the runs (reversing descending ones), then merge neighbours pairwise
 /// through `buffer` until one run is left: O(n) for one or two runs, O(n log n) at worst, and
 /// no allocation once the tile's scratch has grown. Short lists use insertion sort.
-fn sort_fragments(list: &mut [Fragment], buffer: &mut Vec<Fragment>, runs: &mut Vec<usize>) {
+fn sort_by_key(
+    list: &mut [u32],
+    key: impl Fn(u32) -> u64,
+    buffer: &mut Vec<u32>,
+    runs: &mut Vec<usize>,
+) {
     let n = list.len();
     if n <= 12 {
         for i in 1..n {
             let f = list[i];
             let mut j = i;
-            while j > 0 && list[j - 1].key > f.key {
+            while j > 0 && key(list[j - 1]) > key(f) {
                 list[j] = list[j - 1];
                 j -= 1;
             }
@@ -499,13 +536,13 @@ fn sort_fragments(list: &mut [Fragment], buffer: &mut Vec<Fragment>, runs: &mut 
     let mut i = 0;
     while i < n {
         let mut j = i + 1;
-        if j < n && list[j].key < list[j - 1].key {
-            while j < n && list[j].key < list[j - 1].key {
+        if j < n && key(list[j]) < key(list[j - 1]) {
+            while j < n && key(list[j]) < key(list[j - 1]) {
                 j += 1;
             }
             list[i..j].reverse();
         } else {
-            while j < n && list[j].key > list[j - 1].key {
+            while j < n && key(list[j]) > key(list[j - 1]) {
                 j += 1;
             }
         }
@@ -520,7 +557,7 @@ fn sort_fragments(list: &mut [Fragment], buffer: &mut Vec<Fragment>, runs: &mut 
     // Ping-pong between `list` and `buffer`; `in_list` says where the current runs live.
     let mut in_list = true;
     while runs.len() > 2 {
-        let (src, dst): (&[Fragment], &mut [Fragment]) = if in_list {
+        let (src, dst): (&[u32], &mut [u32]) = if in_list {
             (&*list, &mut buffer[..])
         } else {
             (&buffer[..], &mut *list)
@@ -531,7 +568,7 @@ fn sort_fragments(list: &mut [Fragment], buffer: &mut Vec<Fragment>, runs: &mut 
             let lo = runs[r];
             if r + 2 < runs.len() {
                 let (mid, hi) = (runs[r + 1], runs[r + 2]);
-                merge(&src[lo..mid], &src[mid..hi], &mut dst[lo..hi]);
+                merge(&src[lo..mid], &src[mid..hi], &mut dst[lo..hi], &key);
                 runs[merged] = hi;
                 r += 2;
             } else {
@@ -550,11 +587,11 @@ fn sort_fragments(list: &mut [Fragment], buffer: &mut Vec<Fragment>, runs: &mut 
     }
 }
 
-/// Merges two ascending runs into `out` (`out.len() == a.len() + b.len()`).
-fn merge(a: &[Fragment], b: &[Fragment], out: &mut [Fragment]) {
+/// Merges two runs ascending by key into `out` (`out.len() == a.len() + b.len()`).
+fn merge(a: &[u32], b: &[u32], out: &mut [u32], key: &impl Fn(u32) -> u64) {
     let (mut i, mut j) = (0, 0);
     for slot in out.iter_mut() {
-        let take_a = j >= b.len() || (i < a.len() && a[i].key < b[j].key);
+        let take_a = j >= b.len() || (i < a.len() && key(a[i]) < key(b[j]));
         if take_a {
             *slot = a[i];
             i += 1;
@@ -568,14 +605,6 @@ fn merge(a: &[Fragment], b: &[Fragment], out: &mut [Fragment]) {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn frag(key: u64) -> Fragment {
-        Fragment {
-            key,
-            premultiplied: [key as f32, 0.0, 0.0],
-            alpha: 0.5,
-        }
-    }
 
     #[test]
     fn natural_merge_sort_matches_a_plain_sort() {
@@ -606,15 +635,17 @@ mod tests {
                     }
                 }
             }
-            let mut list: Vec<Fragment> = keys.iter().map(|&k| frag(k)).collect();
-            sort_fragments(&mut list, &mut buffer, &mut runs);
-            let got: Vec<u64> = list.iter().map(|f| f.key).collect();
+            let mut list: Vec<u32> = (0..n as u32).collect();
+            sort_by_key(&mut list, |i| keys[i as usize], &mut buffer, &mut runs);
+            let got: Vec<u64> = list.iter().map(|&i| keys[i as usize]).collect();
             let mut want = keys.clone();
             want.sort_unstable();
             assert_eq!(got, want, "case {case}, n = {n}");
+            let mut seen = list.clone();
+            seen.sort_unstable();
             assert!(
-                list.iter().all(|f| f.premultiplied[0] == f.key as f32),
-                "payload moved with key"
+                seen.iter().copied().eq(0..n as u32),
+                "the result is a permutation"
             );
         }
     }
