@@ -85,16 +85,16 @@ impl TileStats {
 
 /// Maps an f32 window depth to a u32 whose ascending unsigned order is nearest first, i.e. the
 /// order [`oit_scene::Camera::nearer`] defines: `nearer(a, b)` ⇔ `depth_key(a) < depth_key(b)`.
+/// Written without branches so that a batch of pixels is keyed with SIMD integer operations.
+#[inline(always)]
 pub(crate) fn depth_key(depth: f32, reverse_z: bool) -> u32 {
     let bits = depth.to_bits();
-    // Order-preserving map from f32 to u32 (negative values flipped entirely).
-    let ordered = if bits & 0x8000_0000 != 0 {
-        !bits
-    } else {
-        bits | 0x8000_0000
-    };
+    // Order-preserving map from f32 to u32: negative values are flipped entirely (all ones
+    // from the arithmetic shift), others get the sign bit set.
+    let negative = ((bits as i32) >> 31) as u32;
+    let ordered = bits ^ (negative | 0x8000_0000);
     // Reverse-Z: larger depth is nearer, so invert to put it first.
-    if reverse_z { !ordered } else { ordered }
+    ordered ^ if reverse_z { u32::MAX } else { 0 }
 }
 
 /// Opaque key: nearest first, then the lower (draw.id, triangle index) rank wins a tie.
@@ -225,7 +225,8 @@ fn row_span(e: [i64; 3], step: [i64; 3], bias: [i64; 3], width: i64) -> (i64, i6
 const LANES: usize = 4;
 
 /// Screen-linear window depth and perspective-correct shaded colour of the pixels
-/// `first..end` of tile row `row`, calling `f(pixel_in_tile, depth, shaded)` for each in order.
+/// `first..end` of tile row `row`, calling `f(pixel_in_tile, depth_key, shaded)` for each in
+/// order ([`depth_key`] of the f32 depth).
 ///
 /// Coverage comes from the snapped integer edge functions; the attribute weights come from
 /// the *unsnapped* f32 window positions, as lavapipe interpolates (measured: a mask cutoff
@@ -241,7 +242,8 @@ fn shade_span(
     row: u32,
     first: u32,
     end: u32,
-    mut f: impl FnMut(usize, f32, Shaded),
+    reverse_z: bool,
+    mut f: impl FnMut(usize, u32, Shaded),
 ) {
     let y = tile.y0 + row;
     let py = y as f64 + 0.5;
@@ -258,7 +260,7 @@ fn shade_span(
             });
             let (depth, rgba) = attributes(tri, &l);
             let shaded = tri.constant.unwrap_or_else(|| tri.material.shade(rgba[0]));
-            f(base + x as usize, depth[0], shaded);
+            f(base + x as usize, depth_key(depth[0], reverse_z), shaded);
         }
         return;
     }
@@ -275,22 +277,25 @@ fn shade_span(
     let mut x = first;
     while x < end {
         let count = ((end - x) as usize).min(LANES);
-        let px: [f64; LANES] = std::array::from_fn(|j| (tile.x0 + x + j as u32) as f64 + 0.5);
+        // Pixel centres; small integers plus 0.5, so the sum is exact.
+        let px0 = (tile.x0 + x) as f64 + 0.5;
+        let px: [f64; LANES] = std::array::from_fn(|j| px0 + j as f64);
         let l: [[f64; LANES]; 3] = std::array::from_fn(|i| {
             std::array::from_fn(|j| (along_row[i] - dy[i] * (px[j] - xa[i])) * tri.inv_farea2)
         });
         let p = base + x as usize;
         match tri.constant {
             Some(shaded) => {
-                let depth = depths(tri, &l);
+                let dkey = depth_keys(depths(tri, &l), reverse_z);
                 for j in 0..count {
-                    f(p + j, depth[j], shaded);
+                    f(p + j, dkey[j], shaded);
                 }
             }
             None => {
                 let (depth, rgba) = attributes(tri, &l);
+                let dkey = depth_keys(depth, reverse_z);
                 for j in 0..count {
-                    f(p + j, depth[j], tri.material.shade(rgba[j]));
+                    f(p + j, dkey[j], tri.material.shade(rgba[j]));
                 }
             }
         }
@@ -298,12 +303,18 @@ fn shade_span(
     }
 }
 
+/// [`depth_key`] of a batch (`array::map` is not reliably inlined in this hot loop).
+#[inline(always)]
+fn depth_keys<const N: usize>(depth: [f32; N], reverse_z: bool) -> [u32; N] {
+    std::array::from_fn(|j| depth_key(depth[j], reverse_z))
+}
+
 /// Window depth from the barycentric weights `l`: linear in screen space, stored as f32 and
 /// clamped to the viewport depth range [0, 1] like the GPU does. `+ 0.0` turns −0.0 into +0.0
 /// so both get one sort key.
 #[inline(always)]
 fn depths<const N: usize>(tri: &SetupTriangle, l: &[[f64; N]; 3]) -> [f32; N] {
-    let z = tri.z.map(f64::from);
+    let z: [f64; 3] = std::array::from_fn(|i| f64::from(tri.z[i]));
     std::array::from_fn(|j| {
         let z = l[0][j] * z[0] + l[1][j] * z[1] + l[2][j] * z[2];
         (z as f32).clamp(0.0, 1.0) + 0.0
@@ -319,15 +330,54 @@ fn attributes<const N: usize>(tri: &SetupTriangle, l: &[[f64; N]; 3]) -> ([f32; 
         std::array::from_fn(|i| std::array::from_fn(|j| l[i][j] * tri.inv_w[i]));
     let sum: [f64; N] = std::array::from_fn(|j| pw[0][j] + pw[1][j] + pw[2][j]);
     let c = &tri.color;
-    let rgba = std::array::from_fn(|j| {
+    let weighted: [[f64; 4]; N] = std::array::from_fn(|j| {
         std::array::from_fn(|k| {
-            ((pw[0][j] * f64::from(c[0][k])
+            pw[0][j] * f64::from(c[0][k])
                 + pw[1][j] * f64::from(c[1][k])
-                + pw[2][j] * f64::from(c[2][k]))
-                / sum[j]) as f32
+                + pw[2][j] * f64::from(c[2][k])
         })
     });
-    (depth, rgba)
+    (depth, quotients_f32(&weighted, &sum))
+}
+
+/// `(weighted / sum) as f32` per pixel and channel, bit for bit, with one division per pixel
+/// instead of four (the divisions were the slowest part of shading).
+///
+/// `q = weighted · RN(1 / sum)` is two roundings away from the exact quotient and
+/// `RN(weighted / sum)` one, so they are within 4 f64 ulps of each other. Converting f64 to
+/// f32 is monotone, so if `q·(1 − 2^-48)` and `q·(1 + 2^-48)` (each at least 14 ulps away
+/// from q, even after rounding) convert to the same f32, every value between them does,
+/// the true quotient included. That holds except within a few ulps of an f32 rounding
+/// midpoint (about one value in 2^24), and when it fails the batch divides. This relies on
+/// `1 / sum` being a normal f64 (relative rounding error), also checked; a q that underflows
+/// converts to a zero of the quotient's sign either way.
+#[inline(always)]
+fn quotients_f32<const N: usize>(weighted: &[[f64; 4]; N], sum: &[f64; N]) -> [[f32; 4]; N] {
+    const BELOW: f64 = 1.0 - 1.0 / (1u64 << 48) as f64;
+    const ABOVE: f64 = 1.0 + 1.0 / (1u64 << 48) as f64;
+    let inv: [f64; N] = std::array::from_fn(|j| 1.0 / sum[j]);
+    let q: [[f64; 4]; N] =
+        std::array::from_fn(|j| std::array::from_fn(|k| weighted[j][k] * inv[j]));
+    let below: [[f32; 4]; N] =
+        std::array::from_fn(|j| std::array::from_fn(|k| (q[j][k] * BELOW) as f32));
+    let above: [[f32; 4]; N] =
+        std::array::from_fn(|j| std::array::from_fn(|k| (q[j][k] * ABOVE) as f32));
+    let mut same = true;
+    for j in 0..N {
+        same &= inv[j].is_normal();
+        for k in 0..4 {
+            same &= below[j][k] == above[j][k];
+        }
+    }
+    if same { below } else { divide(weighted, sum) }
+}
+
+/// `(weighted / sum) as f32`, the plain way: the rare batches where the reciprocal is not
+/// known to give the same result.
+#[cold]
+#[inline(never)]
+fn divide<const N: usize>(weighted: &[[f64; 4]; N], sum: &[f64; N]) -> [[f32; 4]; N] {
+    std::array::from_fn(|j| std::array::from_fn(|k| (weighted[j][k] / sum[j]) as f32))
 }
 
 /// Output slices for one tile, rows of the full-width band.
@@ -369,6 +419,7 @@ pub(crate) fn render_tile(
     s.start.resize(n + 1, 0);
     s.spans.clear();
     let mut stats = TileStats::default();
+    let mut any_opaque = false;
 
     // Opaque (and mask) triangles first: they define the depth transparent fragments must beat.
     // Transparent triangles only record their spans and count the slots they may need.
@@ -390,12 +441,13 @@ pub(crate) fn render_tile(
             continue;
         }
         for_each_span(tri, tile, |row, first, end| {
-            shade_span(tri, tile, row, first, end, |p, depth, shaded| {
+            shade_span(tri, tile, row, first, end, reverse_z, |p, dkey, shaded| {
                 let Shaded::Opaque(color) = shaded else {
                     return;
                 };
                 s.all_count[p] += 1;
-                let key = opaque_key(depth_key(depth, reverse_z), tri.key);
+                any_opaque = true;
+                let key = opaque_key(dkey, tri.key);
                 if key < s.opaque_key[p] {
                     s.opaque_key[p] = key;
                     s.opaque_color[p] = color;
@@ -403,7 +455,9 @@ pub(crate) fn render_tile(
             });
         });
     }
+    // Each covered pixel counts as a fragment unless the cutoff discards it (counted below).
     for p in 0..n {
+        s.all_count[p] += s.start[p + 1];
         s.start[p + 1] += s.start[p];
     }
     let slots = s.start[n] as usize;
@@ -412,30 +466,36 @@ pub(crate) fn render_tile(
     // Every slot below `end[p]` is written before it is read; the fill only sizes the arrays.
     s.keys.resize(slots, 0);
     s.colors.resize(slots, [0.0; 4]);
-    for span in &s.spans {
-        let tri = &triangles[span.triangle as usize];
-        let (row, first, end) = (span.row.into(), span.first.into(), span.end.into());
-        shade_span(tri, tile, row, first, end, |p, depth, shaded| {
-            let Shaded::Transparent {
-                premultiplied,
-                alpha,
-            } = shaded
-            else {
-                return;
-            };
-            s.all_count[p] += 1;
-            stats.transparent_fragments += 1;
-            let dkey = depth_key(depth, reverse_z);
-            // Strictly nearer than the opaque depth (the background sentinel never wins).
-            if u64::from(dkey) < (s.opaque_key[p] >> 32) {
-                let slot = s.end[p] as usize;
-                s.keys[slot] = transparent_key(dkey, tri.key);
-                let [r, g, b] = premultiplied;
-                s.colors[slot] = [r, g, b, alpha];
-                s.end[p] += 1;
-            }
-        });
+    let mut discarded = 0;
+    {
+        // Plain slices, so the per-fragment code keeps their addresses in registers.
+        let (keys, colors, end) = (&mut s.keys[..], &mut s.colors[..], &mut s.end[..]);
+        let (all_count, opaque_key) = (&mut s.all_count[..], &s.opaque_key[..]);
+        for span in &s.spans {
+            let tri = &triangles[span.triangle as usize];
+            let (row, first, last) = (span.row.into(), span.first.into(), span.end.into());
+            shade_span(tri, tile, row, first, last, reverse_z, |p, dkey, shaded| {
+                let Shaded::Transparent {
+                    premultiplied,
+                    alpha,
+                } = shaded
+                else {
+                    all_count[p] -= 1;
+                    discarded += 1;
+                    return;
+                };
+                // Strictly nearer than the opaque depth (the background sentinel never wins).
+                if !any_opaque || u64::from(dkey) < (opaque_key[p] >> 32) {
+                    let slot = end[p] as usize;
+                    keys[slot] = transparent_key(dkey, tri.key);
+                    let [r, g, b] = premultiplied;
+                    colors[slot] = [r, g, b, alpha];
+                    end[p] += 1;
+                }
+            });
+        }
     }
+    stats.transparent_fragments = slots as u64 - discarded;
     let t_raster = Instant::now();
 
     // Sort each pixel's list. Neighbouring pixels are usually covered by the same triangles in
@@ -447,10 +507,7 @@ pub(crate) fn render_tile(
     for p in 0..n {
         let (lo, hi) = (s.start[p] as usize, s.end[p] as usize);
         let keys = &s.keys[lo..hi];
-        let reuse = s.perm.len() == keys.len()
-            && s.perm
-                .windows(2)
-                .all(|w| keys[w[0] as usize] < keys[w[1] as usize]);
+        let reuse = s.perm.len() == keys.len() && strictly_ascending(&s.perm, keys);
         if !reuse {
             s.perm.clear();
             s.perm.extend(0..keys.len() as u32);
@@ -476,8 +533,8 @@ pub(crate) fn render_tile(
         };
         let rgb = composite_iter(
             list.iter().map(|&slot| {
-                let [r, g, b, a] = s.colors[slot as usize].map(f64::from);
-                ([r, g, b], a)
+                let c = &s.colors[slot as usize];
+                std::array::from_fn(|k| f64::from(c[k]))
             }),
             base,
         );
@@ -502,6 +559,22 @@ pub(crate) fn render_tile(
         + (s.spans.len() * size_of::<Span>()) as u64
         + (s.perm.capacity() + s.merge_buffer.capacity()) as u64 * size_of::<u32>() as u64;
     stats
+}
+
+/// Whether `keys[perm[0]] < keys[perm[1]] < …` (`perm` indexes `keys`). Branch-free over the
+/// list: the answer is almost always yes, so an early exit would not pay.
+fn strictly_ascending(perm: &[u32], keys: &[u64]) -> bool {
+    let Some((&first, rest)) = perm.split_first() else {
+        return true;
+    };
+    let mut previous = keys[first as usize];
+    let mut ascending = true;
+    for &i in rest {
+        let key = keys[i as usize];
+        ascending &= previous < key;
+        previous = key;
+    }
+    ascending
 }
 
 /// Sorts one pixel's list (indices of its fragments) by key; keys are unique: they contain the
@@ -648,6 +721,61 @@ mod tests {
                 "the result is a permutation"
             );
         }
+    }
+
+    #[test]
+    fn reciprocal_quotients_round_like_division() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        let unit = |bits: u64| (bits >> 11) as f64 / (1u64 << 53) as f64;
+        let mut checked = 0;
+        for case in 0..200_000 {
+            let sum: f64 = match case % 5 {
+                0 => unit(next()) * 4.0,
+                1 => unit(next()) * 1e-30,
+                2 => -unit(next()) * 1e30,
+                3 => [0.0, -0.0, 1e-310, f64::MIN_POSITIVE, 1e300][case / 5 % 5],
+                _ => unit(next()) + 0.5,
+            };
+            // Quotients on and around f32 rounding midpoints, exact f32 values, zeros and
+            // values outside the f32 range.
+            let weighted: [[f64; 4]; 2] = std::array::from_fn(|_| {
+                std::array::from_fn(|k| {
+                    let f = f32::from_bits((next() as u32) & 0x3fff_ffff);
+                    let midpoint =
+                        (f64::from(f) + f64::from(f32::from_bits(f.to_bits() + 1))) / 2.0;
+                    let target = match k {
+                        0 => midpoint,
+                        1 => f64::from(f),
+                        2 => [0.0, -0.0, 1e-320, 1e40][case % 4],
+                        _ => unit(next()),
+                    };
+                    let nudge = 1.0 + ((next() % 64) as f64 - 32.0) * f64::EPSILON;
+                    target * sum * nudge
+                })
+            });
+            let sums = [sum, sum * 0.75];
+            let got = quotients_f32(&weighted, &sums);
+            let want = divide(&weighted, &sums);
+            for j in 0..2 {
+                for k in 0..4 {
+                    assert_eq!(
+                        got[j][k].to_bits(),
+                        want[j][k].to_bits(),
+                        "{} / {}",
+                        weighted[j][k],
+                        sums[j]
+                    );
+                    checked += 1;
+                }
+            }
+        }
+        assert_eq!(checked, 1_600_000);
     }
 
     #[test]
