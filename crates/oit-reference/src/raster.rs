@@ -44,7 +44,6 @@ pub(crate) struct Scratch {
     perm: Vec<u32>,
     merge_buffer: Vec<u32>,
     runs: Vec<usize>,
-    span: SpanBuffers,
 }
 
 /// Bytes of per-pixel state a tile keeps besides its fragment lists: opaque key and colour,
@@ -221,29 +220,9 @@ fn row_span(e: [i64; 3], step: [i64; 3], bias: [i64; 3], width: i64) -> (i64, i6
     (lo, hi)
 }
 
-/// Per-pixel values of one span, as a structure of arrays: each step is a plain loop over the
-/// span that the compiler vectorizes (SSE2: two f64 or four f32 per instruction).
-#[derive(Debug, Default)]
-pub(crate) struct SpanBuffers {
-    /// Barycentric weight of each vertex.
-    l: [Vec<f64>; 3],
-    depth_key: Vec<u32>,
-    /// Interpolated vertex colour, one array per channel.
-    rgba: [Vec<f32>; 4],
-}
-
-impl SpanBuffers {
-    /// Makes room for spans of up to `width` pixels (once per tile, not per span).
-    fn reserve(&mut self, width: usize) {
-        for v in &mut self.l {
-            v.resize(width, 0.0);
-        }
-        self.depth_key.resize(width, 0);
-        for v in &mut self.rgba {
-            v.resize(width, 0.0);
-        }
-    }
-}
+/// Pixels per batch of the shading kernel: the float arithmetic of neighbouring pixels is
+/// independent, so it is written over small arrays that the compiler turns into SIMD.
+const LANES: usize = 4;
 
 /// Screen-linear window depth and perspective-correct shaded colour of the pixels
 /// `first..end` of tile row `row`, calling `f(pixel_in_tile, depth_key, shaded)` for each in
@@ -255,8 +234,7 @@ impl SpanBuffers {
 /// error is far below half an f32 ulp, so a constant-depth triangle gets exactly its depth
 /// back and coplanar ties stay ties. Degenerate float triangles fall back to snapped weights.
 /// Every value is computed by the same f64 operations in the same order per pixel (only the
-/// row-constant product is hoisted), so working a span at a time changes no bit of the result.
-#[allow(clippy::too_many_arguments)]
+/// row-constant product is hoisted), so batching changes no bit of the result.
 #[inline(always)]
 fn shade_span(
     tri: &SetupTriangle,
@@ -265,190 +243,126 @@ fn shade_span(
     first: u32,
     end: u32,
     reverse_z: bool,
-    buf: &mut SpanBuffers,
     mut f: impl FnMut(usize, u32, Shaded),
 ) {
-    let len = (end - first) as usize;
     let y = tile.y0 + row;
-    let x0 = tile.x0 + first;
-    let [l0, l1, l2] = &mut buf.l;
-    let (l0, l1, l2) = (&mut l0[..len], &mut l1[..len], &mut l2[..len]);
-    if tri.inv_farea2 != 0.0 {
-        float_weights(tri, x0, y, l0, l1, l2);
-    } else {
-        snapped_weights(tri, x0, y, l0, l1, l2);
-    }
-    let dkey = &mut buf.depth_key[..len];
-    depth_keys(tri, reverse_z, l0, l1, l2, dkey);
-    let (l0, l1, l2, dkey) = (&*l0, &*l1, &*l2, &*dkey);
-
-    let base = (row * tile.width + first) as usize;
-    match tri.constant {
-        Some(shaded) => {
-            for (j, &k) in dkey.iter().enumerate() {
-                f(base + j, k, shaded);
-            }
-        }
-        None => {
-            let [r, g, b, a] = &mut buf.rgba;
-            colours(
-                tri,
-                l0,
-                l1,
-                l2,
-                &mut r[..len],
-                &mut g[..len],
-                &mut b[..len],
-                &mut a[..len],
-            );
-            let [r, g, b, a] = &buf.rgba;
-            for (j, &k) in dkey.iter().enumerate() {
-                f(base + j, k, tri.material.shade([r[j], g[j], b[j], a[j]]));
-            }
-        }
-    }
-}
-
-/// Barycentric weights `l_i = E_i / (2·area)` of the pixels `x0..x0 + len` of row `y` from the
-/// unsnapped float positions: `E_i(px, py) = dx_i·(py − ya) − dy_i·(px − xa)`, the first
-/// product constant along the row. (Separate `&mut` arguments tell the compiler the outputs do
-/// not overlap, so the loop is vectorized.)
-#[inline]
-fn float_weights(
-    tri: &SetupTriangle,
-    x0: u32,
-    y: u32,
-    l0: &mut [f64],
-    l1: &mut [f64],
-    l2: &mut [f64],
-) {
     let py = y as f64 + 0.5;
-    let along_row: [f64; 3] = std::array::from_fn(|i| {
+    let base = (row * tile.width) as usize;
+    if tri.inv_farea2 == 0.0 {
+        for x in first..end {
+            let px = i64::from(tile.x0 + x) * ONE + HALF;
+            let pys = i64::from(y) * ONE + HALF;
+            let l: [[f64; 1]; 3] = std::array::from_fn(|i| {
+                let (a, b) = ((i + 1) % 3, (i + 2) % 3);
+                let e = (tri.x[b] - tri.x[a]) * (pys - tri.y[a])
+                    - (tri.y[b] - tri.y[a]) * (px - tri.x[a]);
+                [e as f64 * tri.inv_area2]
+            });
+            let (depth, rgba) = attributes(tri, &l);
+            let shaded = tri.constant.unwrap_or_else(|| tri.material.shade(rgba[0]));
+            f(base + x as usize, depth_key(depth[0], reverse_z), shaded);
+        }
+        return;
+    }
+    // E_i(px, py) = dx_i·(py − ya) − dy_i·(px − xa): the first product is constant along a row.
+    let mut along_row = [0.0f64; 3];
+    let mut dy = [0.0f64; 3];
+    let mut xa = [0.0f64; 3];
+    for i in 0..3 {
         let (a, b) = ((i + 1) % 3, (i + 2) % 3);
-        (tri.fx[b] - tri.fx[a]) * (py - tri.fy[a])
-    });
-    let dy: [f64; 3] = std::array::from_fn(|i| tri.fy[(i + 2) % 3] - tri.fy[(i + 1) % 3]);
-    let xa: [f64; 3] = std::array::from_fn(|i| tri.fx[(i + 1) % 3]);
-    let inv = tri.inv_farea2;
-    let n = l0.len();
-    let (l1, l2) = (&mut l1[..n], &mut l2[..n]);
-    for j in 0..n {
-        // The pixel centre (exact; i32 converts to f64 with SIMD, u32 does not).
-        let px = (x0 as i32 + j as i32) as f64 + 0.5;
-        l0[j] = (along_row[0] - dy[0] * (px - xa[0])) * inv;
-        l1[j] = (along_row[1] - dy[1] * (px - xa[1])) * inv;
-        l2[j] = (along_row[2] - dy[2] * (px - xa[2])) * inv;
+        along_row[i] = (tri.fx[b] - tri.fx[a]) * (py - tri.fy[a]);
+        dy[i] = tri.fy[b] - tri.fy[a];
+        xa[i] = tri.fx[a];
+    }
+    let mut x = first;
+    while x < end {
+        let count = ((end - x) as usize).min(LANES);
+        // Pixel centres; small integers plus 0.5, so the sum is exact.
+        let px0 = (tile.x0 + x) as f64 + 0.5;
+        let px: [f64; LANES] = std::array::from_fn(|j| px0 + j as f64);
+        let l: [[f64; LANES]; 3] = std::array::from_fn(|i| {
+            std::array::from_fn(|j| (along_row[i] - dy[i] * (px[j] - xa[i])) * tri.inv_farea2)
+        });
+        let p = base + x as usize;
+        match tri.constant {
+            Some(shaded) => {
+                let dkey = depth_keys(depths(tri, &l), reverse_z);
+                for j in 0..count {
+                    f(p + j, dkey[j], shaded);
+                }
+            }
+            None => {
+                let (depth, rgba) = attributes(tri, &l);
+                let dkey = depth_keys(depth, reverse_z);
+                for j in 0..count {
+                    f(p + j, dkey[j], tri.material.shade(rgba[j]));
+                }
+            }
+        }
+        x += LANES as u32;
     }
 }
 
-/// [`float_weights`] for triangles whose float area is 0: weights from the snapped integer
-/// edge functions instead.
-#[cold]
-#[inline(never)]
-fn snapped_weights(
-    tri: &SetupTriangle,
-    x0: u32,
-    y: u32,
-    l0: &mut [f64],
-    l1: &mut [f64],
-    l2: &mut [f64],
-) {
-    let py = i64::from(y) * ONE + HALF;
-    for (j, ((w0, w1), w2)) in l0.iter_mut().zip(l1).zip(l2).enumerate() {
-        let px = i64::from(x0 + j as u32) * ONE + HALF;
-        let e = |i: usize| {
-            let (a, b) = ((i + 1) % 3, (i + 2) % 3);
-            let e =
-                (tri.x[b] - tri.x[a]) * (py - tri.y[a]) - (tri.y[b] - tri.y[a]) * (px - tri.x[a]);
-            e as f64 * tri.inv_area2
-        };
-        (*w0, *w1, *w2) = (e(0), e(1), e(2));
-    }
+/// [`depth_key`] of a batch (`array::map` is not reliably inlined in this hot loop).
+#[inline(always)]
+fn depth_keys<const N: usize>(depth: [f32; N], reverse_z: bool) -> [u32; N] {
+    std::array::from_fn(|j| depth_key(depth[j], reverse_z))
 }
 
-/// Window depth keys from the weights: depth is linear in screen space, stored as f32 and
-/// clamped to the viewport depth range [0, 1] like the GPU does; `+ 0.0` turns −0.0 into +0.0
-/// so both get one key.
-#[inline]
-fn depth_keys(
-    tri: &SetupTriangle,
-    reverse_z: bool,
-    l0: &[f64],
-    l1: &[f64],
-    l2: &[f64],
-    dkey: &mut [u32],
-) {
+/// Window depth from the barycentric weights `l`: linear in screen space, stored as f32 and
+/// clamped to the viewport depth range [0, 1] like the GPU does. `+ 0.0` turns −0.0 into +0.0
+/// so both get one sort key.
+#[inline(always)]
+fn depths<const N: usize>(tri: &SetupTriangle, l: &[[f64; N]; 3]) -> [f32; N] {
     let z: [f64; 3] = std::array::from_fn(|i| f64::from(tri.z[i]));
-    let n = dkey.len();
-    let (l0, l1, l2) = (&l0[..n], &l1[..n], &l2[..n]);
-    for j in 0..n {
-        let depth = l0[j] * z[0] + l1[j] * z[1] + l2[j] * z[2];
-        dkey[j] = depth_key((depth as f32).clamp(0.0, 1.0) + 0.0, reverse_z);
-    }
+    std::array::from_fn(|j| {
+        let z = l[0][j] * z[0] + l[1][j] * z[1] + l[2][j] * z[2];
+        (z as f32).clamp(0.0, 1.0) + 0.0
+    })
 }
 
-/// Perspective-correct vertex colour (weights / w, converted to f32 as the fragment shader
-/// receives it) of each pixel of a span: `(Σ l_i/w_i · c_i) / (Σ l_i/w_i)` per channel.
-///
-/// The division is done once per pixel, as a reciprocal ([`quotient_via_reciprocal`] says
-/// when that provably gives the same f32); the rare span where it does not is redone with
-/// plain division.
-#[allow(clippy::too_many_arguments)]
-#[inline]
-fn colours(
-    tri: &SetupTriangle,
-    l0: &[f64],
-    l1: &[f64],
-    l2: &[f64],
-    r: &mut [f32],
-    g: &mut [f32],
-    b: &mut [f32],
-    a: &mut [f32],
-) {
-    let c: [[f64; 4]; 3] =
-        std::array::from_fn(|i| std::array::from_fn(|k| f64::from(tri.color[i][k])));
-    let iw = tri.inv_w;
-    let n = r.len();
-    let (g, b, a) = (&mut g[..n], &mut b[..n], &mut a[..n]);
-    let (l0, l1, l2) = (&l0[..n], &l1[..n], &l2[..n]);
-    let mut inexact = false;
-    for j in 0..n {
-        let pw = [l0[j] * iw[0], l1[j] * iw[1], l2[j] * iw[2]];
-        let sum = pw[0] + pw[1] + pw[2];
-        let inv = 1.0 / sum;
-        // The error bound below needs a normal reciprocal (false for NaN too).
-        let magnitude = inv.abs();
-        inexact |= !(magnitude >= f64::MIN_POSITIVE) | !(magnitude <= f64::MAX);
-        let weighted = |k: usize| pw[0] * c[0][k] + pw[1] * c[1][k] + pw[2] * c[2][k];
-        let (vr, okr) = quotient_via_reciprocal(weighted(0), inv);
-        let (vg, okg) = quotient_via_reciprocal(weighted(1), inv);
-        let (vb, okb) = quotient_via_reciprocal(weighted(2), inv);
-        let (va, oka) = quotient_via_reciprocal(weighted(3), inv);
-        (r[j], g[j], b[j], a[j]) = (vr, vg, vb, va);
-        inexact |= !(okr & okg & okb & oka);
-    }
-    if inexact {
-        divide_colours(tri, [l0, l1, l2], [r, g, b, a]);
-    }
-}
-
-/// [`colours`] with plain division, for the rare spans where the reciprocal is not known to
-/// give the same f32.
-#[cold]
-#[inline(never)]
-fn divide_colours(tri: &SetupTriangle, l: [&[f64]; 3], rgba: [&mut [f32]; 4]) {
+/// Depth and perspective-correct vertex colour (weights / w, converted to f32 as the fragment
+/// shader receives it) from the barycentric weights `l`.
+#[inline(always)]
+fn attributes<const N: usize>(tri: &SetupTriangle, l: &[[f64; N]; 3]) -> ([f32; N], [[f32; 4]; N]) {
+    let depth = depths(tri, l);
+    let pw: [[f64; N]; 3] =
+        std::array::from_fn(|i| std::array::from_fn(|j| l[i][j] * tri.inv_w[i]));
+    let sum: [f64; N] = std::array::from_fn(|j| pw[0][j] + pw[1][j] + pw[2][j]);
     let c = &tri.color;
-    let iw = tri.inv_w;
-    for (k, channel) in rgba.into_iter().enumerate() {
-        for (j, v) in channel.iter_mut().enumerate() {
-            let pw = [l[0][j] * iw[0], l[1][j] * iw[1], l[2][j] * iw[2]];
-            let sum = pw[0] + pw[1] + pw[2];
-            let weighted = pw[0] * f64::from(c[0][k])
-                + pw[1] * f64::from(c[1][k])
-                + pw[2] * f64::from(c[2][k]);
-            *v = (weighted / sum) as f32;
+    let weighted: [[f64; 4]; N] = std::array::from_fn(|j| {
+        std::array::from_fn(|k| {
+            pw[0][j] * f64::from(c[0][k])
+                + pw[1][j] * f64::from(c[1][k])
+                + pw[2][j] * f64::from(c[2][k])
+        })
+    });
+    // One division per pixel instead of four: see `quotient_via_reciprocal`.
+    let inv: [f64; N] = std::array::from_fn(|j| 1.0 / sum[j]);
+    let mut exact = true;
+    let mut rgba = [[0.0f32; 4]; N];
+    for j in 0..N {
+        // The error bound needs a normal reciprocal (false for NaN too).
+        let magnitude = inv[j].abs();
+        exact &= (magnitude >= f64::MIN_POSITIVE) & (magnitude <= f64::MAX);
+        for k in 0..4 {
+            let (value, ok) = quotient_via_reciprocal(weighted[j][k], inv[j]);
+            rgba[j][k] = value;
+            exact &= ok;
         }
     }
+    if !exact {
+        rgba = divide(&weighted, &sum);
+    }
+    (depth, rgba)
+}
+
+/// `(weighted / sum) as f32`, the plain way: the rare batches where the reciprocal is not
+/// known to give the same result.
+#[cold]
+#[inline(never)]
+fn divide<const N: usize>(weighted: &[[f64; 4]; N], sum: &[f64; N]) -> [[f32; 4]; N] {
+    std::array::from_fn(|j| std::array::from_fn(|k| (weighted[j][k] / sum[j]) as f32))
 }
 
 /// `(num / sum) as f32` computed as `num · inv` with `inv = RN(1 / sum)` a normal f64, and
@@ -508,7 +422,6 @@ pub(crate) fn render_tile(
     s.start.clear();
     s.start.resize(n + 1, 0);
     s.spans.clear();
-    s.span.reserve(tile_w);
     let mut stats = TileStats::default();
     let mut any_opaque = false;
 
@@ -532,27 +445,18 @@ pub(crate) fn render_tile(
             continue;
         }
         for_each_span(tri, tile, |row, first, end| {
-            shade_span(
-                tri,
-                tile,
-                row,
-                first,
-                end,
-                reverse_z,
-                &mut s.span,
-                |p, dkey, shaded| {
-                    let Shaded::Opaque(color) = shaded else {
-                        return;
-                    };
-                    s.all_count[p] += 1;
-                    any_opaque = true;
-                    let key = opaque_key(dkey, tri.key);
-                    if key < s.opaque_key[p] {
-                        s.opaque_key[p] = key;
-                        s.opaque_color[p] = color;
-                    }
-                },
-            );
+            shade_span(tri, tile, row, first, end, reverse_z, |p, dkey, shaded| {
+                let Shaded::Opaque(color) = shaded else {
+                    return;
+                };
+                s.all_count[p] += 1;
+                any_opaque = true;
+                let key = opaque_key(dkey, tri.key);
+                if key < s.opaque_key[p] {
+                    s.opaque_key[p] = key;
+                    s.opaque_color[p] = color;
+                }
+            });
         });
     }
     // Each covered pixel counts as a fragment unless the cutoff discards it (counted below).
@@ -571,38 +475,28 @@ pub(crate) fn render_tile(
         // Plain slices, so the per-fragment code keeps their addresses in registers.
         let (keys, colors, end) = (&mut s.keys[..], &mut s.colors[..], &mut s.end[..]);
         let (all_count, opaque_key) = (&mut s.all_count[..], &s.opaque_key[..]);
-        let span_buffers = &mut s.span;
         for span in &s.spans {
             let tri = &triangles[span.triangle as usize];
             let (row, first, last) = (span.row.into(), span.first.into(), span.end.into());
-            shade_span(
-                tri,
-                tile,
-                row,
-                first,
-                last,
-                reverse_z,
-                span_buffers,
-                |p, dkey, shaded| {
-                    let Shaded::Transparent {
-                        premultiplied,
-                        alpha,
-                    } = shaded
-                    else {
-                        all_count[p] -= 1;
-                        discarded += 1;
-                        return;
-                    };
-                    // Strictly nearer than the opaque depth (the background sentinel never wins).
-                    if !any_opaque || u64::from(dkey) < (opaque_key[p] >> 32) {
-                        let slot = end[p] as usize;
-                        keys[slot] = transparent_key(dkey, tri.key);
-                        let [r, g, b] = premultiplied;
-                        colors[slot] = [r, g, b, alpha];
-                        end[p] += 1;
-                    }
-                },
-            );
+            shade_span(tri, tile, row, first, last, reverse_z, |p, dkey, shaded| {
+                let Shaded::Transparent {
+                    premultiplied,
+                    alpha,
+                } = shaded
+                else {
+                    all_count[p] -= 1;
+                    discarded += 1;
+                    return;
+                };
+                // Strictly nearer than the opaque depth (the background sentinel never wins).
+                if !any_opaque || u64::from(dkey) < (opaque_key[p] >> 32) {
+                    let slot = end[p] as usize;
+                    keys[slot] = transparent_key(dkey, tri.key);
+                    let [r, g, b] = premultiplied;
+                    colors[slot] = [r, g, b, alpha];
+                    end[p] += 1;
+                }
+            });
         }
     }
     stats.transparent_fragments = slots as u64 - discarded;
