@@ -274,32 +274,36 @@ fn shade_span(
         dy[i] = tri.fy[b] - tri.fy[a];
         xa[i] = tri.fx[a];
     }
-    let mut x = first;
-    while x < end {
-        let count = ((end - x) as usize).min(LANES);
+    // Barycentric weights of the batch of pixels from `x`.
+    let inv_farea2 = tri.inv_farea2;
+    let weights = |x: u32| -> [[f64; LANES]; 3] {
         // Pixel centres; small integers plus 0.5, so the sum is exact.
         let px0 = (tile.x0 + x) as f64 + 0.5;
         let px: [f64; LANES] = std::array::from_fn(|j| px0 + j as f64);
-        let l: [[f64; LANES]; 3] = std::array::from_fn(|i| {
-            std::array::from_fn(|j| (along_row[i] - dy[i] * (px[j] - xa[i])) * tri.inv_farea2)
-        });
-        let p = base + x as usize;
-        match tri.constant {
-            Some(shaded) => {
-                let dkey = depth_keys(depths(tri, &l), reverse_z);
-                for j in 0..count {
-                    f(p + j, dkey[j], shaded);
-                }
-            }
-            None => {
-                let (depth, rgba) = attributes(tri, &l);
-                let dkey = depth_keys(depth, reverse_z);
-                for j in 0..count {
-                    f(p + j, dkey[j], tri.material.shade(rgba[j]));
-                }
+        std::array::from_fn(|i| {
+            std::array::from_fn(|j| (along_row[i] - dy[i] * (px[j] - xa[i])) * inv_farea2)
+        })
+    };
+    if let Some(shaded) = tri.constant {
+        for x in (first..end).step_by(LANES) {
+            let dkey = depth_keys(depths(tri, &weights(x)), reverse_z);
+            let p = base + x as usize;
+            for j in 0..((end - x) as usize).min(LANES) {
+                f(p + j, dkey[j], shaded);
             }
         }
-        x += LANES as u32;
+    } else {
+        // A local copy, not loads through `tri` per fragment (the caller's stores could alias
+        // it as far as the compiler knows).
+        let material = tri.material;
+        for x in (first..end).step_by(LANES) {
+            let (depth, rgba) = attributes(tri, &weights(x));
+            let dkey = depth_keys(depth, reverse_z);
+            let p = base + x as usize;
+            for j in 0..((end - x) as usize).min(LANES) {
+                f(p + j, dkey[j], material.shade(rgba[j]));
+            }
+        }
     }
 }
 
@@ -444,6 +448,7 @@ pub(crate) fn render_tile(
             });
             continue;
         }
+        let rank = tri.key;
         for_each_span(tri, tile, |row, first, end| {
             shade_span(tri, tile, row, first, end, reverse_z, |p, dkey, shaded| {
                 let Shaded::Opaque(color) = shaded else {
@@ -451,7 +456,7 @@ pub(crate) fn render_tile(
                 };
                 s.all_count[p] += 1;
                 any_opaque = true;
-                let key = opaque_key(dkey, tri.key);
+                let key = opaque_key(dkey, rank);
                 if key < s.opaque_key[p] {
                     s.opaque_key[p] = key;
                     s.opaque_color[p] = color;
@@ -477,6 +482,7 @@ pub(crate) fn render_tile(
         let (all_count, opaque_key) = (&mut s.all_count[..], &s.opaque_key[..]);
         for span in &s.spans {
             let tri = &triangles[span.triangle as usize];
+            let rank = tri.key;
             let (row, first, last) = (span.row.into(), span.first.into(), span.end.into());
             shade_span(tri, tile, row, first, last, reverse_z, |p, dkey, shaded| {
                 let Shaded::Transparent {
@@ -491,7 +497,7 @@ pub(crate) fn render_tile(
                 // Strictly nearer than the opaque depth (the background sentinel never wins).
                 if !any_opaque || u64::from(dkey) < (opaque_key[p] >> 32) {
                     let slot = end[p] as usize;
-                    keys[slot] = transparent_key(dkey, tri.key);
+                    keys[slot] = transparent_key(dkey, rank);
                     let [r, g, b] = premultiplied;
                     colors[slot] = [r, g, b, alpha];
                     end[p] += 1;
