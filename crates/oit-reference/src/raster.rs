@@ -8,46 +8,51 @@ use oit_scene::Shaded;
 use crate::composite::composite_iter;
 use crate::setup::{HALF, ONE, SetupTriangle};
 
-/// One transparent fragment as rasterized (in triangle order), before grouping by pixel.
-#[derive(Debug, Clone, Copy, Default)]
-pub(crate) struct RawFragment {
-    /// Sort key, ascending = front to back (see [`transparent_key`]).
-    key: u64,
-    premultiplied: [f32; 3],
-    alpha: f32,
-    /// Pixel index inside the tile.
-    pixel: u32,
-}
-
-/// A transparent fragment after the counting sort by pixel.
-#[derive(Debug, Clone, Copy, Default)]
-struct Fragment {
-    key: u64,
-    premultiplied: [f32; 3],
-    alpha: f32,
+/// One row's run of pixels covered by a transparent triangle, recorded by the coverage pass
+/// and replayed by the shading pass.
+#[derive(Debug, Clone, Copy)]
+struct Span {
+    /// Index into the set-up triangles.
+    triangle: u32,
+    /// Tile-local row and pixels `first..end` of it.
+    row: u16,
+    first: u16,
+    end: u16,
 }
 
 /// Reusable per-thread tile storage.
+///
+/// Transparent fragments are written straight into per-pixel lists: a coverage pass counts
+/// each pixel's covered transparent triangles (an upper bound on what it stores, since the
+/// cutoff discard and the opaque depth test only remove fragments), the prefix sum gives each
+/// pixel its slots `start[p]..start[p + 1]`, and the shading pass appends at `end[p]`. Keys and
+/// colours are separate arrays so that sorting only touches keys and 4-byte indices.
 #[derive(Debug, Default)]
 pub(crate) struct Scratch {
     opaque_key: Vec<u64>,
     opaque_color: Vec<[f32; 3]>,
     all_count: Vec<u32>,
-    offsets: Vec<u32>,
-    cursor: Vec<u32>,
-    raw: Vec<RawFragment>,
-    sorted: Vec<Fragment>,
-    merge_buffer: Vec<Fragment>,
+    start: Vec<u32>,
+    end: Vec<u32>,
+    spans: Vec<Span>,
+    /// Per slot: sort key and (premultiplied RGB, alpha).
+    keys: Vec<u64>,
+    colors: Vec<[f32; 4]>,
+    /// Per slot: the slots of each pixel's list in front-to-back order.
+    order: Vec<u32>,
+    /// The last pixel's sorting permutation, and the merge sort's buffers.
+    perm: Vec<u32>,
+    merge_buffer: Vec<u32>,
     runs: Vec<usize>,
 }
 
-/// Bytes of per-pixel state a tile keeps besides its fragment lists.
-pub(crate) const PER_PIXEL_BYTES: u64 =
-    (size_of::<u64>() + size_of::<[f32; 3]>() + size_of::<u32>() + size_of::<u32>()) as u64;
+/// Bytes of per-pixel state a tile keeps besides its fragment lists: opaque key and colour,
+/// fragment count, list start and end.
+const PER_PIXEL_BYTES: u64 =
+    (size_of::<u64>() + size_of::<[f32; 3]>() + 3 * size_of::<u32>()) as u64;
 
-/// Bytes of storage per stored (transparent, unoccluded) fragment: raw plus sorted copy.
-pub(crate) const PER_FRAGMENT_BYTES: u64 =
-    (size_of::<RawFragment>() + size_of::<Fragment>()) as u64;
+/// Bytes per transparent fragment slot: key, colour and sorted-order index.
+const PER_SLOT_BYTES: u64 = (size_of::<u64>() + size_of::<[f32; 4]>() + size_of::<u32>()) as u64;
 
 /// Statistics of one tile or band, summed.
 #[derive(Debug, Default, Clone, Copy)]
@@ -80,16 +85,16 @@ impl TileStats {
 
 /// Maps an f32 window depth to a u32 whose ascending unsigned order is nearest first, i.e. the
 /// order [`oit_scene::Camera::nearer`] defines: `nearer(a, b)` ⇔ `depth_key(a) < depth_key(b)`.
+/// Written without branches so that a batch of pixels is keyed with SIMD integer operations.
+#[inline(always)]
 pub(crate) fn depth_key(depth: f32, reverse_z: bool) -> u32 {
     let bits = depth.to_bits();
-    // Order-preserving map from f32 to u32 (negative values flipped entirely).
-    let ordered = if bits & 0x8000_0000 != 0 {
-        !bits
-    } else {
-        bits | 0x8000_0000
-    };
+    // Order-preserving map from f32 to u32: negative values are flipped entirely (all ones
+    // from the arithmetic shift), others get the sign bit set.
+    let negative = ((bits as i32) >> 31) as u32;
+    let ordered = bits ^ (negative | 0x8000_0000);
     // Reverse-Z: larger depth is nearer, so invert to put it first.
-    if reverse_z { !ordered } else { ordered }
+    ordered ^ if reverse_z { u32::MAX } else { 0 }
 }
 
 /// Opaque key: nearest first, then the lower (draw.id, triangle index) rank wins a tie.
@@ -112,17 +117,10 @@ pub(crate) struct TileRect {
     pub height: u32,
 }
 
-/// Per-fragment interpolation inputs handed to the shading closure.
-#[derive(Debug, Clone, Copy)]
-struct Edges {
-    e: [i64; 3],
-    /// Pixel centre in window coordinates, for the float attribute weights.
-    px: f64,
-    py: f64,
-}
-
-/// Walks the pixels of `tri`'s bounding box inside `tile` and calls `f(pixel_in_tile, edges)`
-/// for each pixel centre covered under the top-left rule.
+/// Calls `f(row, first, end)` for every row of `tri`'s bounding box inside `tile` that has
+/// covered pixel centres, with the covered pixels `first..end` of that row (tile-local
+/// coordinates). Coverage is the exact top-left-rule test of the GPU, solved per row instead of
+/// tested per pixel.
 ///
 /// Edge i goes from vertex i+1 to vertex i+2 (opposite vertex i), with
 /// `E(p) = (xb − xa)(py − ya) − (yb − ya)(px − xa)`, positive inside because the triangle was
@@ -130,9 +128,10 @@ struct Edges {
 /// a *top* edge is horizontal with the interior below it, which is `dy == 0 && dx > 0`; a
 /// *left* edge has the interior to its right, which is `dy < 0`. Pixel centres exactly on a
 /// top or left edge are covered (`E >= 0`), on any other edge they are not (`E >= 1`, exact
-/// because E is an integer).
+/// because E is an integer). Along a row E is linear in the pixel index, so each edge admits a
+/// half-line of pixels and a triangle covers one contiguous run per row ([`row_span`]).
 #[inline(always)]
-fn raster_triangle(tri: &SetupTriangle, tile: TileRect, mut f: impl FnMut(usize, Edges)) {
+fn for_each_span(tri: &SetupTriangle, tile: TileRect, mut f: impl FnMut(u32, u32, u32)) {
     let x0 = tri.bbox[0].max(tile.x0);
     let y0 = tri.bbox[1].max(tile.y0);
     let x1 = tri.bbox[2].min(tile.x0 + tile.width - 1);
@@ -148,43 +147,42 @@ fn raster_triangle(tri: &SetupTriangle, tile: TileRect, mut f: impl FnMut(usize,
     let mut step_x = [0i64; 3];
     let mut step_y = [0i64; 3];
     let mut bias = [0i64; 3];
+    let mut inside_everywhere = true;
     for i in 0..3 {
         let (a, b) = ((i + 1) % 3, (i + 2) % 3);
         let dx = tri.x[b] - tri.x[a];
         let dy = tri.y[b] - tri.y[a];
         let edge = |px: i64, py: i64| dx * (py - tri.y[a]) - dy * (px - tri.x[a]);
-        row[i] = edge(px0, py0);
-        // The rectangle is entirely outside this edge when its best corner is.
-        let best = row[i]
-            .max(edge(px1, py0))
-            .max(edge(px0, py1))
-            .max(edge(px1, py1));
+        let corners = [
+            edge(px0, py0),
+            edge(px1, py0),
+            edge(px0, py1),
+            edge(px1, py1),
+        ];
         let top_left = (dy == 0 && dx > 0) || dy < 0;
         bias[i] = if top_left { 0 } else { 1 };
-        if best < bias[i] {
+        // E is linear, so its extremes over the rectangle are at the corners: the rectangle is
+        // entirely outside this edge when its best corner is, entirely inside when its worst is.
+        if corners.iter().all(|&e| e < bias[i]) {
             return;
         }
+        inside_everywhere &= corners.iter().all(|&e| e >= bias[i]);
+        row[i] = corners[0];
         step_x[i] = -dy * ONE;
         step_y[i] = dx * ONE;
     }
-    let tile_w = tile.width as usize;
+    let (first, end) = (x0 - tile.x0, x1 + 1 - tile.x0);
+    if inside_everywhere {
+        for y in y0..=y1 {
+            f(y - tile.y0, first, end);
+        }
+        return;
+    }
+    let width = i64::from(x1 - x0) + 1;
     for y in y0..=y1 {
-        let mut e = row;
-        let base = (y - tile.y0) as usize * tile_w;
-        for x in x0..=x1 {
-            if e[0] >= bias[0] && e[1] >= bias[1] && e[2] >= bias[2] {
-                f(
-                    base + (x - tile.x0) as usize,
-                    Edges {
-                        e,
-                        px: x as f64 + 0.5,
-                        py: y as f64 + 0.5,
-                    },
-                );
-            }
-            e[0] += step_x[0];
-            e[1] += step_x[1];
-            e[2] += step_x[2];
+        let (lo, hi) = row_span(row, step_x, bias, width);
+        if lo < hi {
+            f(y - tile.y0, first + lo as u32, first + hi as u32);
         }
         row[0] += step_y[0];
         row[1] += step_y[1];
@@ -192,57 +190,207 @@ fn raster_triangle(tri: &SetupTriangle, tile: TileRect, mut f: impl FnMut(usize,
     }
 }
 
-/// Screen-linear window depth and perspective-correct colour at a covered pixel.
+/// The pixels `k` in `lo..hi` (`0 <= k < width`) of a row whose edge values
+/// `e[i] + k·step[i]` are all `>= bias[i]`: exact integer solutions of the three half-lines.
 #[inline(always)]
-fn interpolate(tri: &SetupTriangle, edges: Edges) -> (f32, Shaded) {
-    // Coverage comes from the snapped integer edge functions; the attribute weights come from
-    // the *unsnapped* f32 window positions, as lavapipe interpolates (measured: a mask cutoff
-    // decided on snapped weights differed from the GPU on one `foliage-cards` pixel). The f64
-    // error is far below half an f32 ulp, so a constant-depth triangle gets exactly its depth
-    // back and coplanar ties stay ties. Degenerate float triangles fall back to snapped weights.
-    let l = if tri.inv_farea2 != 0.0 {
-        let e = |i: usize| {
-            let (a, b) = ((i + 1) % 3, (i + 2) % 3);
-            (tri.fx[b] - tri.fx[a]) * (edges.py - tri.fy[a])
-                - (tri.fy[b] - tri.fy[a]) * (edges.px - tri.fx[a])
-        };
-        [
-            e(0) * tri.inv_farea2,
-            e(1) * tri.inv_farea2,
-            e(2) * tri.inv_farea2,
-        ]
-    } else {
-        let inv = tri.inv_area2;
-        [
-            edges.e[0] as f64 * inv,
-            edges.e[1] as f64 * inv,
-            edges.e[2] as f64 * inv,
-        ]
-    };
-    let z = l[0] * f64::from(tri.z[0]) + l[1] * f64::from(tri.z[1]) + l[2] * f64::from(tri.z[2]);
-    // The viewport depth range is [0, 1]; the GPU clamps fragment depth to it.
-    // `+ 0.0` turns −0.0 into +0.0 so both get one sort key.
-    let depth = (z as f32).clamp(0.0, 1.0) + 0.0;
-    let shaded = match tri.constant {
-        Some(s) => s,
-        None => {
-            let pw = [
-                l[0] * tri.inv_w[0],
-                l[1] * tri.inv_w[1],
-                l[2] * tri.inv_w[2],
-            ];
-            let sum = pw[0] + pw[1] + pw[2];
-            let c = &tri.color;
-            let rgba: [f32; 4] = std::array::from_fn(|k| {
-                ((pw[0] * f64::from(c[0][k])
-                    + pw[1] * f64::from(c[1][k])
-                    + pw[2] * f64::from(c[2][k]))
-                    / sum) as f32
-            });
-            tri.material.shade(rgba)
+fn row_span(e: [i64; 3], step: [i64; 3], bias: [i64; 3], width: i64) -> (i64, i64) {
+    let (mut lo, mut hi) = (0i64, width);
+    for i in 0..3 {
+        // Need k·step >= deficit.
+        let deficit = bias[i] - e[i];
+        let s = step[i];
+        if s > 0 {
+            if deficit > 0 {
+                // k >= ceil(deficit / s); both positive.
+                lo = lo.max((deficit + s - 1) / s);
+            }
+        } else if s < 0 {
+            if deficit > 0 {
+                return (0, 0);
+            }
+            // The row's last pixel is inside too: no bound from this edge.
+            if e[i] + (width - 1) * s < bias[i] {
+                // k <= floor(deficit / s) = floor(-deficit / -s); both non-negative.
+                hi = hi.min(deficit / s + 1);
+            }
+        } else if deficit > 0 {
+            return (0, 0);
         }
+    }
+    (lo, hi)
+}
+
+/// Pixels per batch of the shading kernel: the float arithmetic of neighbouring pixels is
+/// independent, so it is written over small arrays that the compiler turns into SIMD.
+const LANES: usize = 4;
+
+/// Screen-linear window depth and perspective-correct shaded colour of the pixels
+/// `first..end` of tile row `row`, calling `f(pixel_in_tile, depth_key, shaded)` for each in
+/// order ([`depth_key`] of the f32 depth).
+///
+/// Coverage comes from the snapped integer edge functions; the attribute weights come from
+/// the *unsnapped* f32 window positions, as lavapipe interpolates (measured: a mask cutoff
+/// decided on snapped weights differed from the GPU on one `foliage-cards` pixel). The f64
+/// error is far below half an f32 ulp, so a constant-depth triangle gets exactly its depth
+/// back and coplanar ties stay ties. Degenerate float triangles fall back to snapped weights.
+/// Every value is computed by the same f64 operations in the same order per pixel (only the
+/// row-constant product is hoisted), so batching changes no bit of the result.
+// Indexed lane loops: the iterator form (`enumerate().take(n)`) compiled to markedly slower
+// code here (callgrind: +20 % instructions, 3× the mispredicted branches).
+#[allow(clippy::needless_range_loop)]
+#[inline(always)]
+fn shade_span(
+    tri: &SetupTriangle,
+    tile: TileRect,
+    row: u32,
+    first: u32,
+    end: u32,
+    reverse_z: bool,
+    mut f: impl FnMut(usize, u32, Shaded),
+) {
+    let y = tile.y0 + row;
+    let py = y as f64 + 0.5;
+    let base = (row * tile.width) as usize;
+    if tri.inv_farea2 == 0.0 {
+        for x in first..end {
+            let px = i64::from(tile.x0 + x) * ONE + HALF;
+            let pys = i64::from(y) * ONE + HALF;
+            let l: [[f64; 1]; 3] = std::array::from_fn(|i| {
+                let (a, b) = ((i + 1) % 3, (i + 2) % 3);
+                let e = (tri.x[b] - tri.x[a]) * (pys - tri.y[a])
+                    - (tri.y[b] - tri.y[a]) * (px - tri.x[a]);
+                [e as f64 * tri.inv_area2]
+            });
+            let (depth, rgba) = attributes(tri, &l);
+            let shaded = tri.constant.unwrap_or_else(|| tri.material.shade(rgba[0]));
+            f(base + x as usize, depth_key(depth[0], reverse_z), shaded);
+        }
+        return;
+    }
+    // E_i(px, py) = dx_i·(py − ya) − dy_i·(px − xa): the first product is constant along a row.
+    let mut along_row = [0.0f64; 3];
+    let mut dy = [0.0f64; 3];
+    let mut xa = [0.0f64; 3];
+    for i in 0..3 {
+        let (a, b) = ((i + 1) % 3, (i + 2) % 3);
+        along_row[i] = (tri.fx[b] - tri.fx[a]) * (py - tri.fy[a]);
+        dy[i] = tri.fy[b] - tri.fy[a];
+        xa[i] = tri.fx[a];
+    }
+    // Barycentric weights of the batch of pixels from `x`.
+    let inv_farea2 = tri.inv_farea2;
+    let weights = |x: u32| -> [[f64; LANES]; 3] {
+        // Pixel centres; small integers plus 0.5, so the sum is exact.
+        let px0 = (tile.x0 + x) as f64 + 0.5;
+        let px: [f64; LANES] = std::array::from_fn(|j| px0 + j as f64);
+        std::array::from_fn(|i| {
+            std::array::from_fn(|j| (along_row[i] - dy[i] * (px[j] - xa[i])) * inv_farea2)
+        })
     };
-    (depth, shaded)
+    if let Some(shaded) = tri.constant {
+        for x in (first..end).step_by(LANES) {
+            let dkey = depth_keys(depths(tri, &weights(x)), reverse_z);
+            let p = base + x as usize;
+            for j in 0..((end - x) as usize).min(LANES) {
+                f(p + j, dkey[j], shaded);
+            }
+        }
+    } else {
+        // A local copy, not loads through `tri` per fragment (the caller's stores could alias
+        // it as far as the compiler knows).
+        let material = tri.material;
+        for x in (first..end).step_by(LANES) {
+            let (depth, rgba) = attributes(tri, &weights(x));
+            let dkey = depth_keys(depth, reverse_z);
+            let p = base + x as usize;
+            for j in 0..((end - x) as usize).min(LANES) {
+                f(p + j, dkey[j], material.shade(rgba[j]));
+            }
+        }
+    }
+}
+
+/// [`depth_key`] of a batch (`array::map` is not reliably inlined in this hot loop).
+#[inline(always)]
+fn depth_keys<const N: usize>(depth: [f32; N], reverse_z: bool) -> [u32; N] {
+    std::array::from_fn(|j| depth_key(depth[j], reverse_z))
+}
+
+/// Window depth from the barycentric weights `l`: linear in screen space, stored as f32 and
+/// clamped to the viewport depth range [0, 1] like the GPU does. `+ 0.0` turns −0.0 into +0.0
+/// so both get one sort key.
+#[inline(always)]
+fn depths<const N: usize>(tri: &SetupTriangle, l: &[[f64; N]; 3]) -> [f32; N] {
+    let z: [f64; 3] = std::array::from_fn(|i| f64::from(tri.z[i]));
+    std::array::from_fn(|j| {
+        let z = l[0][j] * z[0] + l[1][j] * z[1] + l[2][j] * z[2];
+        (z as f32).clamp(0.0, 1.0) + 0.0
+    })
+}
+
+/// Depth and perspective-correct vertex colour (weights / w, converted to f32 as the fragment
+/// shader receives it) from the barycentric weights `l`.
+// `&` of both comparisons, not `RangeInclusive::contains` (which short-circuits into a branch).
+#[allow(clippy::manual_range_contains)]
+#[inline(always)]
+fn attributes<const N: usize>(tri: &SetupTriangle, l: &[[f64; N]; 3]) -> ([f32; N], [[f32; 4]; N]) {
+    let depth = depths(tri, l);
+    let pw: [[f64; N]; 3] =
+        std::array::from_fn(|i| std::array::from_fn(|j| l[i][j] * tri.inv_w[i]));
+    let sum: [f64; N] = std::array::from_fn(|j| pw[0][j] + pw[1][j] + pw[2][j]);
+    let c = &tri.color;
+    let weighted: [[f64; 4]; N] = std::array::from_fn(|j| {
+        std::array::from_fn(|k| {
+            pw[0][j] * f64::from(c[0][k])
+                + pw[1][j] * f64::from(c[1][k])
+                + pw[2][j] * f64::from(c[2][k])
+        })
+    });
+    // One division per pixel instead of four: see `quotient_via_reciprocal`.
+    let inv: [f64; N] = std::array::from_fn(|j| 1.0 / sum[j]);
+    let mut exact = true;
+    let mut rgba = [[0.0f32; 4]; N];
+    for j in 0..N {
+        // The error bound needs a normal reciprocal (false for NaN too).
+        let magnitude = inv[j].abs();
+        exact &= (magnitude >= f64::MIN_POSITIVE) & (magnitude <= f64::MAX);
+        for k in 0..4 {
+            let (value, ok) = quotient_via_reciprocal(weighted[j][k], inv[j]);
+            rgba[j][k] = value;
+            exact &= ok;
+        }
+    }
+    if !exact {
+        rgba = divide(&weighted, &sum);
+    }
+    (depth, rgba)
+}
+
+/// `(weighted / sum) as f32`, the plain way: the rare batches where the reciprocal is not
+/// known to give the same result.
+#[cold]
+#[inline(never)]
+fn divide<const N: usize>(weighted: &[[f64; 4]; N], sum: &[f64; N]) -> [[f32; 4]; N] {
+    std::array::from_fn(|j| std::array::from_fn(|k| (weighted[j][k] / sum[j]) as f32))
+}
+
+/// `(num / sum) as f32` computed as `num · inv` with `inv = RN(1 / sum)` a normal f64, and
+/// whether that is known to be bit-identical to the division.
+///
+/// `q = num · inv` is two roundings away from the exact quotient and `RN(num / sum)` one, so
+/// they are within 4 f64 ulps of each other. Converting f64 to f32 is monotone, so if
+/// `q·(1 − 2^-48)` and `q·(1 + 2^-48)` (each at least 14 ulps away from q, even after
+/// rounding) convert to the same f32, every value between them does, the correctly rounded
+/// quotient included. That only fails within a few ulps of an f32 rounding midpoint (about
+/// one value in 2^24). A q that underflows converts to a zero of the quotient's sign either
+/// way.
+#[inline(always)]
+fn quotient_via_reciprocal(num: f64, inv: f64) -> (f32, bool) {
+    const BELOW: f64 = 1.0 - 1.0 / (1u64 << 48) as f64;
+    const ABOVE: f64 = 1.0 + 1.0 / (1u64 << 48) as f64;
+    let q = num * inv;
+    let below = (q * BELOW) as f32;
+    (below, below == (q * ABOVE) as f32)
 }
 
 /// Output slices for one tile, rows of the full-width band.
@@ -256,9 +404,10 @@ pub(crate) struct TileOutput<'a> {
     pub x_offset: usize,
 }
 
-/// Renders one tile: opaque pass into a tile depth/colour buffer, transparent pass keeping only
-/// fragments strictly in front of the opaque depth, counting sort by pixel, per-pixel sort by
-/// key, f64 front-to-back compositing.
+/// Renders one tile: opaque pass into a tile depth/colour buffer; transparent coverage pass
+/// (row spans, per-pixel slot counts); transparent shading pass keeping only fragments
+/// strictly in front of the opaque depth, appended to their pixel's list; per-pixel sort by
+/// key; f64 front-to-back compositing.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn render_tile(
     triangles: &[SetupTriangle],
@@ -271,6 +420,7 @@ pub(crate) fn render_tile(
 ) -> TileStats {
     let t_start = Instant::now();
     let n = (tile.width * tile.height) as usize;
+    let tile_w = tile.width as usize;
     let s = scratch;
     s.opaque_key.clear();
     s.opaque_key.resize(n, u64::MAX);
@@ -278,137 +428,210 @@ pub(crate) fn render_tile(
     s.opaque_color.resize(n, [0.0; 3]);
     s.all_count.clear();
     s.all_count.resize(n, 0);
-    s.raw.clear();
+    s.start.clear();
+    s.start.resize(n + 1, 0);
+    s.spans.clear();
     let mut stats = TileStats::default();
+    let mut any_opaque = false;
 
     // Opaque (and mask) triangles first: they define the depth transparent fragments must beat.
+    // Transparent triangles only record their spans and count the slots they may need.
     for &t in bin {
         let tri = &triangles[t as usize];
         if tri.transparent {
+            for_each_span(tri, tile, |row, first, end| {
+                s.spans.push(Span {
+                    triangle: t,
+                    row: row as u16,
+                    first: first as u16,
+                    end: end as u16,
+                });
+                let p = row as usize * tile_w;
+                for c in &mut s.start[p + first as usize + 1..p + end as usize + 1] {
+                    *c += 1;
+                }
+            });
             continue;
         }
-        raster_triangle(tri, tile, |p, edges| {
-            let (depth, shaded) = interpolate(tri, edges);
-            let Shaded::Opaque(color) = shaded else {
-                return;
-            };
-            s.all_count[p] += 1;
-            let key = opaque_key(depth_key(depth, reverse_z), tri.key);
-            if key < s.opaque_key[p] {
-                s.opaque_key[p] = key;
-                s.opaque_color[p] = color;
-            }
+        let rank = tri.key;
+        for_each_span(tri, tile, |row, first, end| {
+            shade_span(tri, tile, row, first, end, reverse_z, |p, dkey, shaded| {
+                let Shaded::Opaque(color) = shaded else {
+                    return;
+                };
+                s.all_count[p] += 1;
+                any_opaque = true;
+                let key = opaque_key(dkey, rank);
+                if key < s.opaque_key[p] {
+                    s.opaque_key[p] = key;
+                    s.opaque_color[p] = color;
+                }
+            });
         });
     }
-    for &t in bin {
-        let tri = &triangles[t as usize];
-        if !tri.transparent {
-            continue;
-        }
-        raster_triangle(tri, tile, |p, edges| {
-            let (depth, shaded) = interpolate(tri, edges);
-            let Shaded::Transparent {
-                premultiplied,
-                alpha,
-            } = shaded
-            else {
-                return;
-            };
-            s.all_count[p] += 1;
-            stats.transparent_fragments += 1;
-            let dkey = depth_key(depth, reverse_z);
-            // Strictly nearer than the opaque depth (the background sentinel never wins).
-            if u64::from(dkey) < (s.opaque_key[p] >> 32) {
-                s.raw.push(RawFragment {
-                    key: transparent_key(dkey, tri.key),
+    // Each covered pixel counts as a fragment unless the cutoff discards it (counted below).
+    for p in 0..n {
+        s.all_count[p] += s.start[p + 1];
+        s.start[p + 1] += s.start[p];
+    }
+    let slots = s.start[n] as usize;
+    s.end.clear();
+    s.end.extend_from_slice(&s.start[..n]);
+    // Every slot below `end[p]` is written before it is read; the fill only sizes the arrays.
+    s.keys.resize(slots, 0);
+    s.colors.resize(slots, [0.0; 4]);
+    let mut discarded = 0;
+    {
+        // Plain slices, so the per-fragment code keeps their addresses in registers.
+        let (keys, colors, end) = (&mut s.keys[..], &mut s.colors[..], &mut s.end[..]);
+        let (all_count, opaque_key) = (&mut s.all_count[..], &s.opaque_key[..]);
+        for span in &s.spans {
+            let tri = &triangles[span.triangle as usize];
+            let rank = tri.key;
+            let (row, first, last) = (span.row.into(), span.first.into(), span.end.into());
+            shade_span(tri, tile, row, first, last, reverse_z, |p, dkey, shaded| {
+                let Shaded::Transparent {
                     premultiplied,
                     alpha,
-                    pixel: p as u32,
-                });
-            }
-        });
+                } = shaded
+                else {
+                    all_count[p] -= 1;
+                    discarded += 1;
+                    return;
+                };
+                // Strictly nearer than the opaque depth (the background sentinel never wins).
+                if !any_opaque || u64::from(dkey) < (opaque_key[p] >> 32) {
+                    let slot = end[p] as usize;
+                    keys[slot] = transparent_key(dkey, rank);
+                    let [r, g, b] = premultiplied;
+                    colors[slot] = [r, g, b, alpha];
+                    end[p] += 1;
+                }
+            });
+        }
     }
+    stats.transparent_fragments = slots as u64 - discarded;
     let t_raster = Instant::now();
 
-    // Counting sort by pixel: offsets[p]..offsets[p+1] is pixel p's list.
-    s.offsets.clear();
-    s.offsets.resize(n + 1, 0);
-    for f in &s.raw {
-        s.offsets[f.pixel as usize + 1] += 1;
-    }
+    // Sort each pixel's list. Neighbouring pixels are usually covered by the same triangles in
+    // the same depth order, so the previous pixel's permutation is tried first: if it puts the
+    // keys in strictly ascending order it is the (unique) sorted order, found with n − 1
+    // comparisons and no moves.
+    s.order.resize(slots, 0);
+    s.perm.clear();
     for p in 0..n {
-        s.offsets[p + 1] += s.offsets[p];
-    }
-    s.sorted.clear();
-    s.sorted.resize(s.raw.len(), Fragment::default());
-    s.cursor.clear();
-    s.cursor.extend_from_slice(&s.offsets[..n]);
-    for f in &s.raw {
-        let slot = &mut s.cursor[f.pixel as usize];
-        s.sorted[*slot as usize] = Fragment {
-            key: f.key,
-            premultiplied: f.premultiplied,
-            alpha: f.alpha,
-        };
-        *slot += 1;
-    }
-    for p in 0..n {
-        let list = &mut s.sorted[s.offsets[p] as usize..s.offsets[p + 1] as usize];
-        sort_fragments(list, &mut s.merge_buffer, &mut s.runs);
+        let (lo, hi) = (s.start[p] as usize, s.end[p] as usize);
+        let keys = &s.keys[lo..hi];
+        let reuse = s.perm.len() == keys.len() && strictly_ascending(&s.perm, keys);
+        if !reuse {
+            s.perm.clear();
+            s.perm.extend(0..keys.len() as u32);
+            sort_by_key(
+                &mut s.perm,
+                |i| keys[i as usize],
+                &mut s.merge_buffer,
+                &mut s.runs,
+            );
+        }
+        for (o, &i) in s.order[lo..hi].iter_mut().zip(&s.perm) {
+            *o = lo as u32 + i;
+        }
     }
     let t_sort = Instant::now();
 
+    let (mut out_row, mut column) = (out.x_offset, 0);
     for p in 0..n {
-        let list = &s.sorted[s.offsets[p] as usize..s.offsets[p + 1] as usize];
+        let list = &s.order[s.start[p] as usize..s.end[p] as usize];
         let base = if s.opaque_key[p] == u64::MAX {
             background
         } else {
             s.opaque_color[p].map(f64::from)
         };
         let rgb = composite_iter(
-            list.iter()
-                .map(|f| (f.premultiplied.map(f64::from), f64::from(f.alpha))),
+            list.iter().map(|&slot| {
+                let c = &s.colors[slot as usize];
+                std::array::from_fn(|k| f64::from(c[k]))
+            }),
             base,
         );
-        let (tx, ty) = (p % tile.width as usize, p / tile.width as usize);
-        let o = ty * out.stride + out.x_offset + tx;
-        out.image[o] = [rgb[0] as f32, rgb[1] as f32, rgb[2] as f32, 1.0];
         let layers = list.len() as u32;
+        let o = out_row + column;
+        out.image[o] = [rgb[0] as f32, rgb[1] as f32, rgb[2] as f32, 1.0];
         out.layers[o] = layers;
         out.fragments[o] = s.all_count[p];
         stats.fragments += u64::from(s.all_count[p]);
         stats.composited_fragments += u64::from(layers);
         stats.max_layers = stats.max_layers.max(layers);
         stats.covered_pixels += u64::from(layers > 0);
+        // Next pixel: the output index follows the tile's rows through the frame's.
+        column += 1;
+        if column == tile_w {
+            column = 0;
+            out_row += out.stride;
+        }
     }
     let t_end = Instant::now();
     stats.raster = t_raster - t_start;
     stats.sort = t_sort - t_raster;
     stats.composite = t_end - t_sort;
-    stats.peak_tile_bytes = n as u64 * (PER_PIXEL_BYTES + size_of::<u32>() as u64)
+    stats.peak_tile_bytes = n as u64 * PER_PIXEL_BYTES
         + size_of::<u32>() as u64
-        + s.raw.len() as u64 * PER_FRAGMENT_BYTES;
+        + slots as u64 * PER_SLOT_BYTES
+        + (s.spans.len() * size_of::<Span>()) as u64
+        + (s.perm.capacity() + s.merge_buffer.capacity()) as u64 * size_of::<u32>() as u64;
     stats
 }
 
-/// Sorts one pixel's list by key (keys are unique: they contain the triangle rank).
+/// Whether `keys[perm[0]] < keys[perm[1]] < …` (`perm` indexes `keys`). Branch-free over the
+/// list: the answer is almost always yes, so an early exit would not pay.
+fn strictly_ascending(perm: &[u32], keys: &[u64]) -> bool {
+    let Some((&first, rest)) = perm.split_first() else {
+        return true;
+    };
+    let mut previous = keys[first as usize];
+    let mut ascending = true;
+    for &i in rest {
+        let key = keys[i as usize];
+        ascending &= previous < key;
+        previous = key;
+    }
+    ascending
+}
+
+/// Lists up to this long are sorted by insertion, longer ones by merging runs.
+const SHORT_LIST: usize = 12;
+
+/// Sorts one pixel's list (indices of its fragments) by key; keys are unique: they contain the
+/// triangle rank.
 ///
 /// Fragments arrive in triangle-rank order, one per triangle, so a pixel's list is usually a
 /// few monotone runs (each object's layers in order, one way or the other). This is a natural
 /// merge sort: find the runs (reversing descending ones), then merge neighbours pairwise
 /// through `buffer` until one run is left: O(n) for one or two runs, O(n log n) at worst, and
 /// no allocation once the tile's scratch has grown. Short lists use insertion sort.
-fn sort_fragments(list: &mut [Fragment], buffer: &mut Vec<Fragment>, runs: &mut Vec<usize>) {
+fn sort_by_key(
+    list: &mut [u32],
+    key: impl Fn(u32) -> u64,
+    buffer: &mut Vec<u32>,
+    runs: &mut Vec<usize>,
+) {
     let n = list.len();
-    if n <= 12 {
+    if n <= SHORT_LIST {
+        // Insertion sort on a local copy of the keys (no indirect loads while shifting).
+        let mut keys = [0u64; SHORT_LIST];
+        for (k, &i) in keys.iter_mut().zip(list.iter()) {
+            *k = key(i);
+        }
         for i in 1..n {
-            let f = list[i];
+            let (f, fk) = (list[i], keys[i]);
             let mut j = i;
-            while j > 0 && list[j - 1].key > f.key {
+            while j > 0 && keys[j - 1] > fk {
                 list[j] = list[j - 1];
+                keys[j] = keys[j - 1];
                 j -= 1;
             }
             list[j] = f;
+            keys[j] = fk;
         }
         return;
     }
@@ -417,13 +640,13 @@ fn sort_fragments(list: &mut [Fragment], buffer: &mut Vec<Fragment>, runs: &mut 
     let mut i = 0;
     while i < n {
         let mut j = i + 1;
-        if j < n && list[j].key < list[j - 1].key {
-            while j < n && list[j].key < list[j - 1].key {
+        if j < n && key(list[j]) < key(list[j - 1]) {
+            while j < n && key(list[j]) < key(list[j - 1]) {
                 j += 1;
             }
             list[i..j].reverse();
         } else {
-            while j < n && list[j].key > list[j - 1].key {
+            while j < n && key(list[j]) > key(list[j - 1]) {
                 j += 1;
             }
         }
@@ -438,7 +661,7 @@ fn sort_fragments(list: &mut [Fragment], buffer: &mut Vec<Fragment>, runs: &mut 
     // Ping-pong between `list` and `buffer`; `in_list` says where the current runs live.
     let mut in_list = true;
     while runs.len() > 2 {
-        let (src, dst): (&[Fragment], &mut [Fragment]) = if in_list {
+        let (src, dst): (&[u32], &mut [u32]) = if in_list {
             (&*list, &mut buffer[..])
         } else {
             (&buffer[..], &mut *list)
@@ -449,7 +672,7 @@ fn sort_fragments(list: &mut [Fragment], buffer: &mut Vec<Fragment>, runs: &mut 
             let lo = runs[r];
             if r + 2 < runs.len() {
                 let (mid, hi) = (runs[r + 1], runs[r + 2]);
-                merge(&src[lo..mid], &src[mid..hi], &mut dst[lo..hi]);
+                merge(&src[lo..mid], &src[mid..hi], &mut dst[lo..hi], &key);
                 runs[merged] = hi;
                 r += 2;
             } else {
@@ -468,11 +691,11 @@ fn sort_fragments(list: &mut [Fragment], buffer: &mut Vec<Fragment>, runs: &mut 
     }
 }
 
-/// Merges two ascending runs into `out` (`out.len() == a.len() + b.len()`).
-fn merge(a: &[Fragment], b: &[Fragment], out: &mut [Fragment]) {
+/// Merges two runs ascending by key into `out` (`out.len() == a.len() + b.len()`).
+fn merge(a: &[u32], b: &[u32], out: &mut [u32], key: &impl Fn(u32) -> u64) {
     let (mut i, mut j) = (0, 0);
     for slot in out.iter_mut() {
-        let take_a = j >= b.len() || (i < a.len() && a[i].key < b[j].key);
+        let take_a = j >= b.len() || (i < a.len() && key(a[i]) < key(b[j]));
         if take_a {
             *slot = a[i];
             i += 1;
@@ -486,14 +709,6 @@ fn merge(a: &[Fragment], b: &[Fragment], out: &mut [Fragment]) {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn frag(key: u64) -> Fragment {
-        Fragment {
-            key,
-            premultiplied: [key as f32, 0.0, 0.0],
-            alpha: 0.5,
-        }
-    }
 
     #[test]
     fn natural_merge_sort_matches_a_plain_sort() {
@@ -524,17 +739,67 @@ mod tests {
                     }
                 }
             }
-            let mut list: Vec<Fragment> = keys.iter().map(|&k| frag(k)).collect();
-            sort_fragments(&mut list, &mut buffer, &mut runs);
-            let got: Vec<u64> = list.iter().map(|f| f.key).collect();
+            let mut list: Vec<u32> = (0..n as u32).collect();
+            sort_by_key(&mut list, |i| keys[i as usize], &mut buffer, &mut runs);
+            let got: Vec<u64> = list.iter().map(|&i| keys[i as usize]).collect();
             let mut want = keys.clone();
             want.sort_unstable();
             assert_eq!(got, want, "case {case}, n = {n}");
+            let mut seen = list.clone();
+            seen.sort_unstable();
             assert!(
-                list.iter().all(|f| f.premultiplied[0] == f.key as f32),
-                "payload moved with key"
+                seen.iter().copied().eq(0..n as u32),
+                "the result is a permutation"
             );
         }
+    }
+
+    #[test]
+    fn reciprocal_quotients_round_like_division() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        let unit = |bits: u64| (bits >> 11) as f64 / (1u64 << 53) as f64;
+        let (mut fast, mut checked) = (0, 0);
+        for case in 0..1_000_000 {
+            let sum: f64 = match case % 5 {
+                0 => unit(next()) * 4.0,
+                1 => unit(next()) * 1e-30,
+                2 => -unit(next()) * 1e30,
+                3 => [0.0, -0.0, 1e-310, f64::MIN_POSITIVE, 1e300][case / 5 % 5],
+                _ => unit(next()) + 0.5,
+            };
+            // Quotients on and around f32 rounding midpoints, exact f32 values, zeros and
+            // values outside the f32 range.
+            let f = f32::from_bits((next() as u32) & 0x3fff_ffff);
+            let midpoint = (f64::from(f) + f64::from(f32::from_bits(f.to_bits() + 1))) / 2.0;
+            let target = match case % 7 {
+                0..=2 => midpoint,
+                3 => f64::from(f),
+                4 => [0.0, -0.0, 1e-320, 1e40][case % 4],
+                _ => unit(next()),
+            };
+            let nudge = 1.0 + ((next() % 64) as f64 - 32.0) * f64::EPSILON;
+            let num = target * sum * nudge;
+            let inv = 1.0 / sum;
+            let (got, exact) = quotient_via_reciprocal(num, inv);
+            // `colours` only uses the result when the reciprocal is a normal f64.
+            if exact && inv.is_normal() {
+                let want = (num / sum) as f32;
+                assert_eq!(got.to_bits(), want.to_bits(), "{num} / {sum}");
+                fast += 1;
+            }
+            checked += 1;
+        }
+        // Most quotients take the fast path, but not those closest to a midpoint.
+        assert!(
+            fast > checked / 2 && fast < checked * 9 / 10,
+            "{fast} of {checked}"
+        );
     }
 
     #[test]
