@@ -3,15 +3,16 @@
 //!
 //! It rasterizes with the GPU's coverage rules (DESIGN.md, "Rasterization conventions"):
 //! positions from [`Camera::clip`](oit_scene::Camera::clip) in f32; clipping in homogeneous clip
-//! space against near (`z >= 0`), far (`z <= w`) and a guard band (`|x|, |y| <= G·w`, see
-//! below), never dividing by `w <= 0`; perspective divide and viewport transform in f32 with a
-//! top-left origin; x, y snapped to 1/256 pixel; exact i64 edge functions sampled at pixel
-//! centres with the top-left fill rule; back faces culled by the sign of the snapped area
-//! (counter-clockwise with y up is front, wgpu's `FrontFace::Ccw`); zero-area triangles produce
-//! nothing. Window depth is interpolated linearly in screen space (f64 barycentrics from the
-//! integer edge functions, stored as f32 like a `Depth32Float` buffer, clamped to [0, 1]);
-//! colour is interpolated perspective-correctly and converted to f32 before
-//! [`Material::shade`](oit_scene::Material::shade), as the fragment shader sees it.
+//! space against the whole clip volume, the viewport (`|x|, |y| <= w`: no guard band, as
+//! lavapipe with a depth buffer), near (`z >= 0`) and far (`z <= w`), never dividing by
+//! `w <= 0`; perspective divide and viewport transform in f32 with a top-left origin, with
+//! lavapipe's operations (see the README); x, y snapped to 1/256 pixel; exact i64 edge
+//! functions sampled at pixel centres with the top-left fill rule; back faces culled by the sign
+//! of the snapped area (counter-clockwise with y up is front, wgpu's `FrontFace::Ccw`);
+//! zero-area triangles produce nothing. Window depth is interpolated linearly in screen space
+//! (f64 barycentrics from the integer edge functions, stored as f32 like a `Depth32Float`
+//! buffer, clamped to [0, 1]); colour is interpolated perspective-correctly and converted to f32
+//! before [`Material::shade`](oit_scene::Material::shade), as the fragment shader sees it.
 //!
 //! Per pixel the nearest opaque fragment wins (equal depth: lower `(draw.id, triangle index)`),
 //! else the background. Transparent fragments strictly nearer than that are sorted front to
@@ -21,11 +22,9 @@
 //! bit-identical for any permutation of the draw list (given unique ids, which the loader
 //! guarantees; draws sharing an id are ranked by their position in the list).
 //!
-//! **Guard band and overflow bound.** Clipping against `|x| <= G·w` with
-//! `G = 2^21 / width` (and likewise for y) keeps every window coordinate within 2^20 pixels of
-//! the viewport centre, i.e. below 2^29 in 1/256-pixel units; edge functions are then below
-//! 2^61 and i64 never overflows. Only triangles reaching more than 2^20 pixels off-centre get
-//! new vertices from it (as on guard-band hardware).
+//! **Overflow bound.** Clipping to the viewport keeps every window coordinate inside it (up to
+//! rounding); snapped coordinates are clamped to `±2^29` sub-pixel units regardless, so edge
+//! functions stay below 2^61 and i64 never overflows.
 //!
 //! **Memory.** Triangles are set up once and their indices binned to square screen tiles; tiles
 //! are rendered in parallel (rayon), each with per-thread scratch arrays sized by the tile's

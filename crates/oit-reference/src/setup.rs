@@ -3,7 +3,8 @@
 //!
 //! The steps follow the Vulkan pipeline that wgpu drives, in the same number formats where that
 //! matters for coverage: positions come from [`oit_scene::Camera::clip`] in f32, the perspective
-//! divide and the viewport transform are done in f32, and window x/y are snapped to 1/256 pixel.
+//! divide and the viewport transform are done in f32 with lavapipe's operations, and window x/y
+//! are snapped to 1/256 pixel.
 
 use glam::Vec4;
 use oit_scene::{Material, Scene, Shaded};
@@ -16,17 +17,11 @@ pub(crate) const ONE: i64 = 1 << SUBPIXEL_BITS;
 /// Half a pixel: pixel centres are at `ONE * x + HALF`.
 pub(crate) const HALF: i64 = ONE / 2;
 
-/// Half-extent of the guard band in pixels, measured from the viewport centre. Triangles are
-/// clipped against `|x| <= G·w`, `|y| <= G·w` with `G = 2·GUARD_BAND_PIXELS / size`, so every
-/// window coordinate satisfies `|x_win| <= GUARD_BAND_PIXELS + size/2 < 2^21` pixels, i.e.
-/// `< 2^29` sub-pixel units. Edge functions are products of two differences of such values, so
-/// they stay below `2 · 2^30 · 2^30 = 2^61` and i64 arithmetic can never overflow. The band is
-/// 128 viewport widths at 8192 pixels (far more at smaller sizes), so only triangles that reach
-/// far outside the screen get new vertices from it, exactly as on hardware with a guard band.
-pub(crate) const GUARD_BAND_PIXELS: f32 = (1u32 << 20) as f32;
-
-/// Largest coordinate (sub-pixel units) a snapped vertex may have; see [`GUARD_BAND_PIXELS`].
-const COORD_LIMIT: i64 = 1 << 30;
+/// Largest coordinate (sub-pixel units) a snapped vertex may have. Clipping to the view volume
+/// keeps window coordinates inside the viewport (up to rounding), so this clamp never fires for
+/// viewports below 2^21 pixels; it bounds the edge functions (differences of two products of
+/// differences of such values, < 2^61) so that i64 arithmetic cannot overflow whatever the input.
+const COORD_LIMIT: i64 = 1 << 29;
 
 /// A set-up triangle ready for rasterization: integer window vertices with positive signed area
 /// (vertices swapped if necessary), its pixel bounding box and the per-vertex values that are
@@ -46,7 +41,7 @@ pub(crate) struct SetupTriangle {
     pub inv_farea2: f64,
     /// Inclusive pixel bounding box (min x, min y, max x, max y), clamped to the viewport.
     pub bbox: [u32; 4],
-    /// Window depth per vertex (z_clip / w_clip, f32 as the GPU computes it).
+    /// Window depth per vertex (z_clip · (1 / w_clip), f32 as the GPU computes it).
     pub z: [f32; 3],
     /// 1 / w_clip per vertex, for perspective-correct attributes.
     pub inv_w: [f64; 3],
@@ -65,6 +60,9 @@ pub(crate) struct SetupTriangle {
 struct ClipVertex {
     p: Vec4,
     color: [f32; 4],
+    /// Made by clipping: lavapipe maps such a vertex to the window in its clipper, with other
+    /// operations than its vertex stage (see [`to_window`]).
+    new: bool,
 }
 
 /// Up to 3 + 6 vertices after clipping a triangle against six planes.
@@ -76,60 +74,67 @@ struct Polygon {
     n: usize,
 }
 
-/// The clip planes as signed distances (inside when >= 0). Near and far are `z >= 0` and
-/// `z <= w` both for standard and for reverse-Z: reverse-Z only swaps which one is "near".
-fn plane_distance(plane: usize, p: Vec4, guard: [f32; 2]) -> f64 {
-    let (x, y, z, w) = (
-        f64::from(p.x),
-        f64::from(p.y),
-        f64::from(p.z),
-        f64::from(p.w),
-    );
-    let gx = f64::from(guard[0]);
-    let gy = f64::from(guard[1]);
+/// Signed distance (inside when >= 0) to plane `plane` of the Vulkan clip volume
+/// `-w <= x, y <= w`, `0 <= z <= w`, in f32 and in the order of lavapipe's clipper (its f32
+/// dot products with the plane vectors reduce to exactly these single roundings). x and y are
+/// clipped to the viewport itself, as lavapipe does (no guard band when a depth buffer is
+/// bound): with a guard band an edge whose ends lie off-screen is snapped at those ends instead
+/// of at new vertices on the viewport border, which decided single pixels (see the README).
+/// Near and far are `z >= 0` and `z <= w` for standard and reverse-Z alike.
+fn plane_distance(plane: usize, p: Vec4) -> f32 {
     match plane {
-        0 => z,
-        1 => w - z,
-        2 => gx * w - x,
-        3 => gx * w + x,
-        4 => gy * w - y,
-        _ => gy * w + y,
+        0 => p.w - p.x,
+        1 => p.x + p.w,
+        2 => p.w - p.y,
+        3 => p.y + p.w,
+        4 => p.z,
+        _ => p.w - p.z,
     }
 }
 
-/// Point where edge inside→outside crosses the plane. Always interpolated from the inside
-/// vertex, so two triangles sharing an edge produce bit-identical new vertices (no cracks).
-fn intersect(inside: ClipVertex, outside: ClipVertex, d_in: f64, d_out: f64) -> ClipVertex {
-    let t = d_in / (d_in - d_out);
-    let lerp = |a: f32, b: f32| (f64::from(a) + t * (f64::from(b) - f64::from(a))) as f32;
+/// The new vertex where edge `prev → cur` (opposite sides of a plane) crosses it, in f32 as
+/// lavapipe's clipper computes it: interpolated from the endpoint nearer the plane (the inside
+/// one on a tie) with `t = |d_near| / |d_cur − d_prev|`. Symmetric in the two endpoints, so
+/// triangles sharing an edge get bit-identical vertices (no cracks).
+fn intersect(prev: ClipVertex, cur: ClipVertex, d_prev: f32, d_cur: f32) -> ClipVertex {
+    let denom = d_cur - d_prev;
+    let (t, near, far) = if d_cur < 0.0 {
+        if -d_cur < d_prev {
+            (d_cur / denom, cur, prev)
+        } else {
+            (-d_prev / denom, prev, cur)
+        }
+    } else if -d_prev < d_cur {
+        (-d_prev / denom, prev, cur)
+    } else {
+        (d_cur / denom, cur, prev)
+    };
+    let lerp = |a: f32, b: f32| a + t * (b - a);
     ClipVertex {
         p: Vec4::new(
-            lerp(inside.p.x, outside.p.x),
-            lerp(inside.p.y, outside.p.y),
-            lerp(inside.p.z, outside.p.z),
-            lerp(inside.p.w, outside.p.w),
+            lerp(near.p.x, far.p.x),
+            lerp(near.p.y, far.p.y),
+            lerp(near.p.z, far.p.z),
+            lerp(near.p.w, far.p.w),
         ),
-        color: std::array::from_fn(|k| lerp(inside.color[k], outside.color[k])),
+        color: std::array::from_fn(|k| lerp(near.color[k], far.color[k])),
+        new: true,
     }
 }
 
-/// Sutherland–Hodgman against the six planes; only called when some vertex is outside one.
-fn clip_polygon(tri: [ClipVertex; 3], guard: [f32; 2]) -> Polygon {
+/// Sutherland–Hodgman against the planes in `mask` (those some input vertex is outside of, in
+/// plane order, as lavapipe); only called when the mask is not empty.
+fn clip_polygon(tri: [ClipVertex; 3], mask: u32) -> Polygon {
     let mut poly = Polygon {
         v: [tri[0]; MAX_POLY],
         n: 3,
     };
     poly.v[1] = tri[1];
     poly.v[2] = tri[2];
-    for plane in 0..6 {
-        let mut d = [0.0f64; MAX_POLY];
-        let mut any_out = false;
+    for plane in (0..6).filter(|p| mask & (1 << p) != 0) {
+        let mut d = [0.0f32; MAX_POLY];
         for (di, v) in d.iter_mut().zip(&poly.v[..poly.n]) {
-            *di = plane_distance(plane, v.p, guard);
-            any_out |= *di < 0.0;
-        }
-        if !any_out {
-            continue;
+            *di = plane_distance(plane, v.p);
         }
         let mut out = Polygon { v: poly.v, n: 0 };
         for i in 0..poly.n {
@@ -141,11 +146,7 @@ fn clip_polygon(tri: [ClipVertex; 3], guard: [f32; 2]) -> Polygon {
                 out.n += 1;
             }
             if (da >= 0.0) != (db >= 0.0) {
-                out.v[out.n] = if da >= 0.0 {
-                    intersect(a, b, da, db)
-                } else {
-                    intersect(b, a, db, da)
-                };
+                out.v[out.n] = intersect(a, b, da, db);
                 out.n += 1;
             }
         }
@@ -170,20 +171,27 @@ struct WindowVertex {
     color: [f32; 4],
 }
 
-/// Perspective divide and viewport transform in f32, as Vulkan specifies them
-/// (`x_f = (p_x/2)·x_d + o_x`; wgpu's y flip is a negative viewport height), then snapping to
-/// 1/256 pixel, rounding to nearest (ties to even). Returns None when w <= 0 (never divided).
+/// Perspective divide and viewport transform in f32 (`x_f = (p_x/2)·x_d + o_x`; wgpu's y flip is
+/// a negative viewport height) with lavapipe's operations, which Vulkan leaves to the
+/// implementation: the divide is a multiply by `1/w`; the viewport transform is one fused
+/// multiply-add for a vertex from the vertex stage, a multiply and an add for a vertex made by
+/// clipping. Then snapping to 1/256 pixel, rounding to nearest (ties to even). Returns None
+/// when w <= 0 (never divided).
 fn to_window(v: ClipVertex, width: u32, height: u32) -> Option<WindowVertex> {
     let p = v.p;
     // Written so that NaN is rejected too (it never gets here: setup drops non-finite input).
     if p.w.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
         return None;
     }
-    let (xd, yd, zd) = (p.x / p.w, p.y / p.w, p.z / p.w);
+    let inv_w = 1.0 / p.w;
+    let (xd, yd, zd) = (p.x * inv_w, p.y * inv_w, p.z * inv_w);
     let half_w = width as f32 * 0.5;
     let half_h = height as f32 * 0.5;
-    let xf = half_w * xd + half_w;
-    let yf = -half_h * yd + half_h;
+    let (xf, yf) = if v.new {
+        (xd * half_w + half_w, yd * -half_h + half_h)
+    } else {
+        (xd.mul_add(half_w, half_w), yd.mul_add(-half_h, half_h))
+    };
     let snap =
         |f: f32| ((f * ONE as f32).round_ties_even() as i64).clamp(-COORD_LIMIT, COORD_LIMIT);
     Some(WindowVertex {
@@ -224,6 +232,7 @@ pub(crate) fn setup_triangle(
     let tri: [ClipVertex; 3] = std::array::from_fn(|i| ClipVertex {
         p: clip[i].0,
         color: clip[i].1,
+        new: false,
     });
     // A non-finite position cannot be rasterized meaningfully; the loader rejects them, a
     // hand-built scene simply loses the triangle.
@@ -233,14 +242,10 @@ pub(crate) fn setup_triangle(
     {
         return;
     }
-    let guard = [
-        2.0 * GUARD_BAND_PIXELS / width as f32,
-        2.0 * GUARD_BAND_PIXELS / height as f32,
-    ];
-    let all_inside = tri
-        .iter()
-        .all(|v| (0..6).all(|plane| plane_distance(plane, v.p, guard) >= 0.0));
-    let poly = if all_inside {
+    let mask = (0..6)
+        .filter(|&plane| tri.iter().any(|v| plane_distance(plane, v.p) < 0.0))
+        .fold(0, |m, plane| m | 1 << plane);
+    let poly = if mask == 0 {
         let mut p = Polygon {
             v: [tri[0]; MAX_POLY],
             n: 3,
@@ -249,7 +254,7 @@ pub(crate) fn setup_triangle(
         p.v[2] = tri[2];
         p
     } else {
-        clip_polygon(tri, guard)
+        clip_polygon(tri, mask)
     };
     if poly.n < 3 {
         return;

@@ -195,9 +195,9 @@ fn depth_stays_in_range_and_layers_sort_near_the_near_plane() {
 }
 
 #[test]
-fn guard_band_clipped_giant_quads_stay_watertight() {
-    // Corners a million units out (NDC ±1e6, far beyond the 2^21-pixel guard band): every
-    // triangle is cut by the band, yet the shared diagonals must still cover each pixel once.
+fn viewport_clipped_giant_quads_stay_watertight() {
+    // Corners a million units out (NDC ±1e6): every triangle is cut by the viewport planes, yet
+    // the shared diagonals must still cover each pixel once.
     for (size, far_out) in [(128u32, 1.0e6f32), (96, 3.7e5)] {
         let mut b = SceneBuilder::new(size, size);
         b.quad(

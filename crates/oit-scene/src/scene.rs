@@ -108,9 +108,14 @@ impl Camera {
     }
 
     /// Clip-space position of a world-space point, with exactly the f32 operations the vertex
-    /// shader performs (`view_proj * vec4(p, 1)`).
+    /// shader performs (`view_proj * vec4(p, 1)`) on lavapipe: Mesa's SPIR-V translator sums the
+    /// columns from the last one, `((c3 + c2·z) + c1·y) + c0·x`, each product and sum rounded
+    /// (llvmpipe lowers the fused multiply-adds it emits to a multiply and an add). Vulkan leaves
+    /// the order and fusion to the implementation; glam's `Mat4 * Vec4` sums from the first column
+    /// and differed from the GPU in the last bit often enough to move single pixels.
     pub fn clip(&self, world: Vec3) -> Vec4 {
-        self.view_proj * world.extend(1.0)
+        let m = &self.view_proj;
+        ((m.w_axis + m.z_axis * world.z) + m.y_axis * world.y) + m.x_axis * world.x
     }
 
     /// True when window depth `a` is strictly nearer to the camera than `b`.
