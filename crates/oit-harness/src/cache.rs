@@ -29,13 +29,15 @@ pub fn default_dir() -> PathBuf {
     PathBuf::from(".oit-cache")
 }
 
-/// File name for a scene's reference: the name keeps it readable, the hash makes it exact.
+/// File name for a scene's reference: the name keeps it readable, the hash makes it exact, and
+/// the reference's output version keeps references of an older build from being reused.
 pub fn key_path(dir: &Path, scene: &Scene) -> PathBuf {
     dir.join(format!(
-        "{}-{}-{:016x}.oitref",
+        "{}-{}-{:016x}-v{}.oitref",
         crate::file_stem(&scene.name),
         scene.resolution,
-        scene.content_hash()
+        scene.content_hash(),
+        oit_reference::OUTPUT_VERSION
     ))
 }
 

@@ -44,6 +44,11 @@ use rayon::prelude::*;
 
 pub use composite::composite_front_to_back;
 
+/// Changes whenever any output bit of [`render`] changes for some scene (rules, arithmetic),
+/// so that caches of references made by an older build are never reused. 2: vertex
+/// arithmetic and viewport clipping as lavapipe does them.
+pub const OUTPUT_VERSION: u32 = 2;
+
 use raster::{Scratch, TileOutput, TileRect, TileStats};
 use setup::SetupTriangle;
 
