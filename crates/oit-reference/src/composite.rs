@@ -7,28 +7,22 @@
 /// colour of the nearest opaque surface, or the scene background. The reference uses exactly
 /// this function per pixel, so GPU-side tests and closed-form checks can call it directly.
 pub fn composite_front_to_back(fragments: &[([f64; 3], f64)], background: [f64; 3]) -> [f64; 3] {
-    composite_iter(
-        fragments.iter().map(|&([r, g, b], alpha)| [r, g, b, alpha]),
-        background,
-    )
+    composite_iter(fragments.iter().copied(), background)
 }
 
-/// [`composite_front_to_back`] over an iterator of `[premultiplied RGB, alpha]` (the renderer
-/// feeds its tile storage directly).
+/// [`composite_front_to_back`] over an iterator (the renderer feeds its tile storage directly).
 #[inline]
 pub(crate) fn composite_iter(
-    fragments: impl Iterator<Item = [f64; 4]>,
+    fragments: impl Iterator<Item = ([f64; 3], f64)>,
     background: [f64; 3],
 ) -> [f64; 3] {
-    // Lanes 0..3 are the colour; lane 3 accumulates T·α, which is never used, so that the
-    // update is one 4-wide multiply-add (SIMD) instead of three scalar ones.
-    let mut color = [0.0f64; 4];
+    let mut color = [0.0f64; 3];
     let mut transmittance = 1.0f64;
-    for fragment in fragments {
-        for k in 0..4 {
-            color[k] += transmittance * fragment[k];
+    for (premultiplied, alpha) in fragments {
+        for k in 0..3 {
+            color[k] += transmittance * premultiplied[k];
         }
-        transmittance *= 1.0 - fragment[3];
+        transmittance *= 1.0 - alpha;
     }
     [
         color[0] + transmittance * background[0],

@@ -549,8 +549,8 @@ pub(crate) fn render_tile(
         };
         let rgb = composite_iter(
             list.iter().map(|&slot| {
-                let c = &s.colors[slot as usize];
-                std::array::from_fn(|k| f64::from(c[k]))
+                let [r, g, b, a] = s.colors[slot as usize];
+                ([f64::from(r), f64::from(g), f64::from(b)], f64::from(a))
             }),
             base,
         );
