@@ -162,7 +162,7 @@ fn results(dir: Option<&str>) -> Result<()> {
         Some(d) => PathBuf::from(d),
         None => Path::new("docs/results").join(adapter_slug(&scratch.join("suite/results.json"))?),
     };
-    // Only what the README links to is published: results.json, results.md and the plots.
+    // Only what the README links to is published: results.json, results.md and the FLIP-cost plots.
     // The per-run EXR/PNG files stay in target/xtask-results (the same command remakes them).
     for (name, _) in RESULT_SETS {
         let (from, to) = (scratch.join(name), dir.join(name));
@@ -176,6 +176,15 @@ fn results(dir: Option<&str>) -> Result<()> {
         }
         for entry in std::fs::read_dir(from.join("plots")).context("plots folder")? {
             let path = entry?.path();
+            // FLIP against cost is the plot the README shows; the rest stay in the scratch
+            // folder (and in `oit report`), to keep the repository small.
+            let wanted = path
+                .file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.contains("-flip-cost."));
+            if !wanted {
+                continue;
+            }
             if let Some(file) = path.file_name() {
                 std::fs::copy(&path, to.join("plots").join(file))
                     .with_context(|| path.display().to_string())?;
