@@ -19,23 +19,55 @@ use crate::timer::GpuTimer;
 /// The name the floor goes by in reports.
 pub const FLOOR_NAME: &str = "floor";
 
-/// The floor pass, as a [`Technique`] so that it is timed exactly like one (opaque pass
-/// included). Not in any registry.
-#[derive(Debug, Default)]
-pub struct Floor {
+/// What a [`DrawOrderBlend`] pass computes per fragment.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BlendShading {
+    /// Interpolated vertex colour, premultiplied (shaders/floor.wgsl): the floor.
+    VertexColour,
+    /// The material rule `shade()` (shaders/blend.wgsl `fs_blend`): what `unsorted` draws, for
+    /// tests and examples that cannot depend on the technique crates.
+    Material,
+}
+
+/// One premultiplied-OVER pass over the transparent draws in draw order, after the shared
+/// opaque pass, as a [`Technique`] so that it is timed exactly like one. Not in any registry.
+#[derive(Debug)]
+pub struct DrawOrderBlend {
+    shading: BlendShading,
     pipelines: Option<((wgpu::TextureFormat, bool), ScenePipelines)>,
 }
 
-impl Floor {
+/// The floor (see the module docs).
+pub type Floor = DrawOrderBlend;
+
+impl DrawOrderBlend {
+    /// The floor: vertex colour only.
     pub fn new() -> Self {
-        Self::default()
+        Self::with(BlendShading::VertexColour)
+    }
+
+    pub fn with(shading: BlendShading) -> Self {
+        DrawOrderBlend {
+            shading,
+            pipelines: None,
+        }
     }
 }
 
-impl Technique for Floor {
+impl Default for DrawOrderBlend {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Technique for DrawOrderBlend {
     fn spec(&self) -> TechniqueSpec {
         TechniqueSpec {
-            name: FLOOR_NAME.to_owned(),
+            name: match self.shading {
+                BlendShading::VertexColour => FLOOR_NAME,
+                BlendShading::Material => "blend-in-draw-order",
+            }
+            .to_owned(),
             params: Default::default(),
         }
     }
@@ -53,27 +85,42 @@ impl Technique for Floor {
     ) -> Result<RenderStats, GpuError> {
         let key = (targets.color_format, scene.scene.camera.reverse_z);
         if self.pipelines.as_ref().is_none_or(|(k, _)| *k != key) {
-            let module = ctx.shader("floor.wgsl", crate::shaders::FLOOR)?;
+            let (module, vertex_entry, fragment_entry) = match self.shading {
+                BlendShading::VertexColour => (
+                    ctx.shader("floor.wgsl", crate::shaders::FLOOR)?,
+                    "vs_floor",
+                    "fs_floor",
+                ),
+                BlendShading::Material => (
+                    ctx.shader("blend.wgsl", crate::shaders::BLEND)?,
+                    "vs_main",
+                    "fs_blend",
+                ),
+            };
             let color = [Some(wgpu::ColorTargetState {
                 format: targets.color_format,
                 blend: Some(PREMULTIPLIED_OVER),
                 write_mask: wgpu::ColorWrites::ALL,
             })];
             let desc = ScenePipelineDesc {
-                vertex_entry: "vs_floor",
+                vertex_entry,
                 targets: &color,
                 depth: Some(depth_test(scene.depth_nearer(), false)),
-                ..ScenePipelineDesc::new("floor", &module, "fs_floor")
+                ..ScenePipelineDesc::new("draw-order blend", &module, fragment_entry)
             };
             self.pipelines = Some((key, ScenePipelines::new(ctx, &desc)));
         }
         let (_, pipelines) = self.pipelines.as_ref().expect("built above");
-        let ts = timer.pass("floor");
+        let label = match self.shading {
+            BlendShading::VertexColour => FLOOR_NAME,
+            BlendShading::Material => "blend",
+        };
+        let ts = timer.pass(label);
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         {
             let mut pass = crate::pass::begin(
                 &mut encoder,
-                "floor",
+                label,
                 &[crate::pass::color(&targets.color_view, wgpu::LoadOp::Load)],
                 crate::pass::depth(
                     &targets.depth_view,

@@ -40,7 +40,7 @@ pub use blend::PREMULTIPLIED_OVER;
 pub use context::{AdapterSummary, Backend, Caps, Context, ContextOptions, FormatCaps};
 pub use count::count_fragments;
 pub use error::{GpuError, Unsupported};
-pub use floor::{FLOOR_NAME, Floor};
+pub use floor::{BlendShading, DrawOrderBlend, FLOOR_NAME, Floor};
 pub use frame::{FrameResult, opaque_pass, render_frame};
 pub use memory::MemoryLedger;
 pub use pipeline::{FullscreenDesc, fullscreen_pipeline};

@@ -509,7 +509,7 @@ fn floor_is_unsorted_without_materials() {
                 .pixels
         };
         let floor = render(&scene, &mut oit_gpu::Floor::new());
-        let mut unsorted = NeutralUnsorted;
+        let mut unsorted = oit_gpu::DrawOrderBlend::with(oit_gpu::BlendShading::Material);
         assert_eq!(
             floor,
             render(&neutral, &mut unsorted),
@@ -517,75 +517,6 @@ fn floor_is_unsorted_without_materials() {
         );
         let shaded = render(&scene, &mut unsorted);
         assert_ne!(floor, shaded, "{name}: the materials should matter");
-    }
-}
-
-/// `unsorted`'s pass (draw order, `fs_blend`, strict depth test, culling by material), kept
-/// here because oit-gpu cannot depend on the technique crates.
-#[derive(Debug)]
-struct NeutralUnsorted;
-
-impl Technique for NeutralUnsorted {
-    fn spec(&self) -> TechniqueSpec {
-        TechniqueSpec {
-            name: "blend-in-draw-order".into(),
-            params: Default::default(),
-        }
-    }
-    fn check(&self, _: &Caps) -> Result<(), Unsupported> {
-        Ok(())
-    }
-    fn render(
-        &mut self,
-        ctx: &Context,
-        scene: &GpuScene,
-        targets: &Targets,
-        timer: &mut GpuTimer,
-    ) -> Result<RenderStats, GpuError> {
-        let module = ctx.shader("blend.wgsl", oit_gpu::shaders::BLEND)?;
-        let color = [Some(oit_gpu::wgpu::ColorTargetState {
-            format: targets.color_format,
-            blend: Some(oit_gpu::PREMULTIPLIED_OVER),
-            write_mask: oit_gpu::wgpu::ColorWrites::ALL,
-        })];
-        let pipelines = oit_gpu::ScenePipelines::new(
-            ctx,
-            &oit_gpu::ScenePipelineDesc {
-                targets: &color,
-                depth: Some(oit_gpu::depth_test(scene.depth_nearer(), false)),
-                ..oit_gpu::ScenePipelineDesc::new("blend", &module, "fs_blend")
-            },
-        );
-        let ts = timer.pass("blend");
-        let mut encoder = ctx.device.create_command_encoder(&Default::default());
-        {
-            let mut pass = oit_gpu::pass::begin(
-                &mut encoder,
-                "blend",
-                &[oit_gpu::pass::color(
-                    &targets.color_view,
-                    oit_gpu::wgpu::LoadOp::Load,
-                )],
-                oit_gpu::pass::depth(
-                    &targets.depth_view,
-                    oit_gpu::wgpu::LoadOp::Load,
-                    oit_gpu::wgpu::StoreOp::Store,
-                ),
-                ts.writes(),
-            );
-            scene.bind(&mut pass);
-            for i in scene.transparent_draws() {
-                scene.draw(&mut pass, &pipelines, i);
-            }
-        }
-        timer.submit(ctx, encoder)?;
-        Ok(RenderStats {
-            geometry_passes: 1,
-            ..Default::default()
-        })
-    }
-    fn memory_bytes(&self) -> u64 {
-        0
     }
 }
 

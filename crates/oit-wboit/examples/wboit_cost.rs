@@ -1,92 +1,18 @@
 //! GPU time of wboit configurations relative to plain draw-order OVER blending ("unsorted",
-//! re-implemented here in a few lines so this crate does not depend on oit-sorted), and bytes
+//! `oit_gpu::DrawOrderBlend` with materials, so this crate does not depend on oit-sorted), and bytes
 //! per pixel: `cargo run -p oit-wboit --release --example wboit_cost -- [SIZE] [FRAMES]`.
 //! Times are medians of the technique's passes (the shared opaque pass excluded), from
 //! timestamp queries where the adapter has them, else wall-clock.
 
 use anyhow::{Result, bail};
-use oit_gpu::pass;
-use oit_gpu::wgpu;
 use oit_gpu::{
-    Caps, ColorFormat, Context, GpuError, GpuScene, GpuTimer, PREMULTIPLIED_OVER, RenderStats,
-    ScenePipelineDesc, ScenePipelines, Targets, Technique, TechniqueSpec, Unsupported, depth_test,
+    BlendShading, ColorFormat, Context, DrawOrderBlend, GpuScene, GpuTimer, Targets, Technique,
     render_frame,
 };
 use oit_scene::Resolution;
 use oit_wboit::tail::{AccumFormat, RevealFormat};
 use oit_wboit::{Config, Wboit, Weight};
 use std::path::Path;
-
-/// Draw-order premultiplied OVER: the cost baseline.
-#[derive(Debug, Default)]
-struct Unsorted {
-    pipelines: Option<(wgpu::TextureFormat, bool, ScenePipelines)>,
-}
-
-impl Technique for Unsorted {
-    fn spec(&self) -> TechniqueSpec {
-        TechniqueSpec {
-            name: "unsorted".into(),
-            params: Default::default(),
-        }
-    }
-    fn check(&self, _: &Caps) -> Result<(), Unsupported> {
-        Ok(())
-    }
-    fn render(
-        &mut self,
-        ctx: &Context,
-        scene: &GpuScene,
-        targets: &Targets,
-        timer: &mut GpuTimer,
-    ) -> Result<RenderStats, GpuError> {
-        let key = (targets.color_format, scene.scene.camera.reverse_z);
-        if self.pipelines.as_ref().is_none_or(|p| (p.0, p.1) != key) {
-            let module = ctx.shader("blend.wgsl", oit_gpu::shaders::BLEND)?;
-            let p = ScenePipelines::new(
-                ctx,
-                &ScenePipelineDesc {
-                    targets: &[Some(wgpu::ColorTargetState {
-                        format: targets.color_format,
-                        blend: Some(PREMULTIPLIED_OVER),
-                        write_mask: wgpu::ColorWrites::ALL,
-                    })],
-                    depth: Some(depth_test(scene.depth_nearer(), false)),
-                    ..ScenePipelineDesc::new("unsorted", &module, "fs_blend")
-                },
-            );
-            self.pipelines = Some((key.0, key.1, p));
-        }
-        let pipelines = &self.pipelines.as_ref().expect("built above").2;
-        let ts = timer.pass("blend");
-        let mut encoder = ctx.device.create_command_encoder(&Default::default());
-        {
-            let mut pass = pass::begin(
-                &mut encoder,
-                "unsorted",
-                &[pass::color(&targets.color_view, wgpu::LoadOp::Load)],
-                pass::depth(
-                    &targets.depth_view,
-                    wgpu::LoadOp::Load,
-                    wgpu::StoreOp::Store,
-                ),
-                ts.writes(),
-            );
-            scene.bind(&mut pass);
-            for i in scene.transparent_draws() {
-                scene.draw(&mut pass, pipelines, i);
-            }
-        }
-        timer.submit(ctx, encoder)?;
-        Ok(RenderStats {
-            geometry_passes: 1,
-            ..Default::default()
-        })
-    }
-    fn memory_bytes(&self) -> u64 {
-        0
-    }
-}
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -169,7 +95,13 @@ fn main() -> Result<()> {
     for (_, scene) in oit_scene::load_dir(&dir)? {
         let scene = scene.with_resolution(res);
         let gpu = GpuScene::upload(&ctx, &scene)?;
-        let base = time(&ctx, &gpu, &mut Unsorted::default(), &targets, frames)?;
+        let base = time(
+            &ctx,
+            &gpu,
+            &mut DrawOrderBlend::with(BlendShading::Material),
+            &targets,
+            frames,
+        )?;
         let mut row = format!("| {} | {base:.3} |", scene.name);
         for (i, &c) in configs.iter().enumerate() {
             let mut t = Wboit::new(c);
