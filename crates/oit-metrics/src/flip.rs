@@ -463,7 +463,11 @@ where
                     let mut conv = |src: &[f32], taps: &[f32]| {
                         // Filters shorter than the common radius start further in.
                         let off = r - taps.len() / 2;
-                        convolve_row(dst.next().unwrap(), &src[off..], taps);
+                        convolve_row(
+                            dst.next().expect("one destination row per filter"),
+                            &src[off..],
+                            taps,
+                        );
                     };
                     conv(plane(0), &f.csf_y);
                     conv(plane(1), &f.csf_cx);
@@ -489,7 +493,7 @@ where
                         let mut acc = acc.chunks_mut(w);
                         // Accumulate horizontal plane `plane` with `taps` into the next output.
                         let mut vert = |plane: usize, taps: &[f32]| {
-                            let a = acc.next().unwrap();
+                            let a = acc.next().expect("one accumulator row per vertical filter");
                             let half = taps.len() / 2;
                             for (k, &wk) in taps.iter().enumerate() {
                                 let yy = (y + k).saturating_sub(half).min(height - 1) - lo;
