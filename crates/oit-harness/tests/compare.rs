@@ -19,6 +19,22 @@ fn temp_dir(name: &str) -> PathBuf {
     dir
 }
 
+/// One frame, no warm-up, at 32×32 into `out`, references cached under `out/cache`: the
+/// cheapest compare for tests that check what is reported, not how fast.
+fn one_frame_at_32px(out: &Path, context: oit_gpu::ContextOptions) -> CompareOptions {
+    CompareOptions {
+        resolution: Some(Resolution {
+            width: 32,
+            height: 32,
+        }),
+        frames: 1,
+        warmup: 0,
+        out_dir: out.to_path_buf(),
+        cache_dir: Some(out.join("cache")),
+        context,
+    }
+}
+
 const SORTED: [&str; 5] = [
     "unsorted",
     "sorted-object",
@@ -233,17 +249,7 @@ fn a_technique_the_adapter_cannot_run_is_skipped_with_its_reason_and_the_rest_ru
         "sorted-object".to_string(),
     ])
     .unwrap();
-    let options = CompareOptions {
-        resolution: Some(Resolution {
-            width: 32,
-            height: 32,
-        }),
-        frames: 1,
-        warmup: 0,
-        out_dir: out.clone(),
-        cache_dir: Some(out.join("cache")),
-        context: options,
-    };
+    let options = one_frame_at_32px(&out, options);
     let results = compare(&ctx, &scenes, &specs, &options, &|_| {}).unwrap();
     assert_eq!(results.runs.len(), 2);
     let skipped = &results.runs[0];
@@ -278,17 +284,7 @@ fn a_run_that_drops_layers_says_so_in_every_report() {
         "front-peel:layers=auto".to_string(),
     ])
     .unwrap();
-    let options = CompareOptions {
-        resolution: Some(Resolution {
-            width: 32,
-            height: 32,
-        }),
-        frames: 1,
-        warmup: 0,
-        out_dir: out.clone(),
-        cache_dir: Some(out.join("cache")),
-        context: Default::default(),
-    };
+    let options = one_frame_at_32px(&out, Default::default());
     let results = compare(&ctx, &scenes, &specs, &options, &|_| {}).unwrap();
     let (cut, full) = (&results.runs[0], &results.runs[1]);
     let dropped = cut.stats.as_ref().unwrap().pixels_with_dropped_layers;
