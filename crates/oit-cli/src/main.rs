@@ -290,6 +290,9 @@ fn reference(
         st.seconds,
         st.fragments_per_second / 1e6
     );
+    for caveat in oit_harness::results::reference_caveats(st) {
+        println!("note: {caveat}");
+    }
     println!("preview: {}", png.display());
     Ok(())
 }

@@ -309,11 +309,8 @@ fn fragment_counts_match_the_reference_on_every_bundled_scene() {
         let reference = oit_reference::render(&scene, &Default::default());
         let gpu = GpuScene::upload(&ctx, &scene).expect("upload");
         let counts = oit_gpu::count_fragments(&ctx, &gpu).expect("count");
-        let mismatched = counts
-            .iter()
-            .zip(&reference.fragments)
-            .filter(|(a, b)| a != b)
-            .count();
+        let comparison = reference.compare_fragment_counts(&counts);
+        let mismatched = comparison.unexplained.len();
         let total: u64 = counts.iter().map(|&c| u64::from(c)).sum();
         let clipped = needs_depth_clipping(&scene);
         let name = path
@@ -322,20 +319,18 @@ fn fragment_counts_match_the_reference_on_every_bundled_scene() {
             .to_string_lossy()
             .into_owned();
         println!(
-            "conformance {name}: {mismatched} of {} pixels differ ({total} GPU fragments, {} reference; depth clipping: {clipped})",
+            "conformance {name}: {mismatched} of {} pixels differ ({} more within the undecided cutoff band; {total} GPU fragments, {} reference; depth clipping: {clipped})",
             counts.len(),
+            comparison.undecided,
             reference.stats.fragments
         );
-        if let Some((i, (g, r))) = counts
-            .iter()
-            .zip(&reference.fragments)
-            .enumerate()
-            .find(|(_, (a, b))| a != b)
-        {
+        if let Some(&i) = comparison.unexplained.first() {
             println!(
-                "  first at x={} y={}: GPU {g}, reference {r}",
+                "  first at x={} y={}: GPU {}, reference {}",
                 i % RES.width as usize,
-                i / RES.width as usize
+                i / RES.width as usize,
+                counts[i],
+                reference.fragments[i]
             );
         }
         // Clipped triangles included: the reference clips and snaps as lavapipe does.
@@ -531,7 +526,7 @@ fn fragment_counts_match_the_reference_on_random_scenes() {
         return;
     };
     let mut failures = Vec::new();
-    let mut pixels = 0;
+    let (mut pixels, mut tolerated) = (0, 0);
     for seed in 0..200 {
         let (text, about) = oit_scene::random::random_scene_json(seed);
         let scene = oit_scene::parse(&text, &format!("random-{seed}")).expect("random scene");
@@ -540,10 +535,10 @@ fn fragment_counts_match_the_reference_on_random_scenes() {
         let counts = oit_gpu::count_fragments(&ctx, &gpu).expect("count");
         pixels += counts.len();
         let width = scene.resolution.width as usize;
-        if let Some(i) = (0..counts.len()).find(|&i| counts[i] != reference.fragments[i]) {
-            let n = (0..counts.len())
-                .filter(|&i| counts[i] != reference.fragments[i])
-                .count();
+        let comparison = reference.compare_fragment_counts(&counts);
+        tolerated += comparison.undecided;
+        if let Some(&i) = comparison.unexplained.first() {
+            let n = comparison.unexplained.len();
             failures.push(format!(
                 "seed {seed}: {n} px differ, first at x={} y={}: GPU {}, reference {}; {about:?}",
                 i % width,
@@ -553,6 +548,8 @@ fn fragment_counts_match_the_reference_on_random_scenes() {
             ));
         }
     }
-    println!("random conformance: 200 scenes, {pixels} px");
+    println!(
+        "random conformance: 200 scenes, {pixels} px, {tolerated} px differ within the undecided cutoff band"
+    );
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }

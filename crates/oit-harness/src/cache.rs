@@ -2,7 +2,8 @@
 //! computes each reference once even across invocations.
 //!
 //! Format (little endian): magic `OITREF01`, width u32, height u32, stats JSON length u32, stats
-//! JSON, then width·height RGBA f32 pixels, layer counts u32, fragment counts u32. Written
+//! JSON, then width·height RGBA f32 pixels, layer counts u32, fragment counts u32, undecided
+//! counts u32, precision-tie flags u8 (0 or 1). Written
 //! atomically; a file that does not parse is recomputed, never trusted.
 
 use std::path::{Path, PathBuf};
@@ -12,7 +13,7 @@ use oit_scene::{LinearImage, Scene};
 
 use crate::HarnessError;
 
-const MAGIC: &[u8; 8] = b"OITREF01";
+const MAGIC: &[u8; 8] = b"OITREF02";
 
 /// The default cache directory: `$OIT_CACHE_DIR`, else `$XDG_CACHE_HOME/oit-lab/references`,
 /// else `$HOME/.cache/oit-lab/references`, else `.oit-cache` in the working directory.
@@ -73,9 +74,10 @@ fn encode(r: &Reference) -> Vec<u8> {
             out.extend_from_slice(&c.to_le_bytes());
         }
     }
-    for v in r.layers.iter().chain(&r.fragments) {
+    for v in r.layers.iter().chain(&r.fragments).chain(&r.undecided) {
         out.extend_from_slice(&v.to_le_bytes());
     }
+    out.extend(r.precision_ties.iter().map(|&t| u8::from(t)));
     out
 }
 
@@ -108,6 +110,15 @@ fn decode(bytes: &[u8], scene: &Scene) -> Option<Reference> {
         .collect();
     let layers = take(n * 4)?.chunks_exact(4).map(u32_at).collect();
     let fragments = take(n * 4)?.chunks_exact(4).map(u32_at).collect();
+    let undecided = take(n * 4)?.chunks_exact(4).map(u32_at).collect();
+    let precision_ties = take(n)?
+        .iter()
+        .map(|&b| match b {
+            0 => Some(false),
+            1 => Some(true),
+            _ => None,
+        })
+        .collect::<Option<Vec<bool>>>()?;
     if at != bytes.len() {
         return None;
     }
@@ -119,6 +130,8 @@ fn decode(bytes: &[u8], scene: &Scene) -> Option<Reference> {
         },
         layers,
         fragments,
+        undecided,
+        precision_ties,
         stats,
     })
 }

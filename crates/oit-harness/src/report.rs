@@ -42,6 +42,9 @@ pub fn markdown(results: &Results) -> String {
                 f.gpu_ms.median
             );
         }
+        for caveat in scene_caveats(&runs) {
+            let _ = writeln!(out, "Reference: {caveat}.\n");
+        }
         let _ = writeln!(
             out,
             "| technique | GPU ms | cost × unsorted | cost × floor | bytes/px | RMSE | max error | FLIP | order dep. | inexact |"
@@ -80,6 +83,9 @@ pub fn terminal_table(results: &Results) -> String {
             }
         }
         let _ = writeln!(out, "\n{scene}");
+        for caveat in scene_caveats(&runs) {
+            let _ = writeln!(out, "  reference: {caveat}");
+        }
         let line = |cells: &[String]| {
             cells
                 .iter()
@@ -104,6 +110,14 @@ pub fn terminal_table(results: &Results) -> String {
         }
     }
     out
+}
+
+/// The scene's reference caveats, from its first run that recorded them.
+pub fn scene_caveats(runs: &[&Run]) -> Vec<String> {
+    runs.iter()
+        .find(|r| r.undecided_pixels.is_some())
+        .map(|r| r.reference_caveats())
+        .unwrap_or_default()
 }
 
 /// One row per technique over every scene it ran on: the answer to "which technique, for this

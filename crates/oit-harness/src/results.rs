@@ -120,8 +120,40 @@ pub struct Run {
     /// numbers, never only in `stats`.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub inexact: Vec<String>,
+    /// Pixels of the scene's reference holding a fragment whose α is within
+    /// `oit_reference::CUTOFF_UNDECIDED_BOUND` of its cutoff: GPU interpolation rounding may
+    /// decide them either way, and this run's error figures include them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub undecided_pixels: Option<u64>,
+    /// Pixels of the scene's reference whose composite depends on two surfaces (or a surface
+    /// and the far plane) within `oit_reference::PRECISION_TIE_ULPS` f32 ulps of window depth:
+    /// rounding, not geometry, decides their order.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub precision_tie_pixels: Option<u64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub outputs: Option<Outputs>,
+}
+
+/// What in a scene's reference rounding decides, one short phrase each; empty when nothing.
+/// Shown once per scene in every report, beside the runs whose errors include those pixels.
+pub fn reference_caveats(stats: &oit_reference::ReferenceStats) -> Vec<String> {
+    caveats(stats.undecided_pixels, stats.precision_tie_pixels)
+}
+
+fn caveats(undecided_pixels: u64, precision_tie_pixels: u64) -> Vec<String> {
+    let mut out = Vec::new();
+    if undecided_pixels > 0 {
+        out.push(format!(
+            "{undecided_pixels} px hold a fragment on its cutoff's knife edge (|α − cutoff| ≤ 2^-16): rounding keeps or discards it"
+        ));
+    }
+    if precision_tie_pixels > 0 {
+        out.push(format!(
+            "{precision_tie_pixels} px depend on a precision tie (window depths within {} ulps): rounding orders them",
+            oit_reference::PRECISION_TIE_ULPS
+        ));
+    }
+    out
 }
 
 impl Stats {
@@ -139,6 +171,14 @@ impl Stats {
 }
 
 impl Run {
+    /// [`reference_caveats`] as recorded in this run.
+    pub fn reference_caveats(&self) -> Vec<String> {
+        caveats(
+            self.undecided_pixels.unwrap_or(0),
+            self.precision_tie_pixels.unwrap_or(0),
+        )
+    }
+
     /// A run that did not render, with the reason.
     pub fn not_rendered(
         scene: &str,
@@ -166,6 +206,8 @@ impl Run {
             order_dependence: None,
             stats: None,
             inexact: Vec::new(),
+            undecided_pixels: None,
+            precision_tie_pixels: None,
             outputs: None,
         }
     }

@@ -276,6 +276,8 @@ fn run_one(
         error: Some(error),
         order_dependence: Some(order_dependence),
         inexact: stats.inexact(),
+        undecided_pixels: Some(reference.stats.undecided_pixels),
+        precision_tie_pixels: Some(reference.stats.precision_tie_pixels),
         stats: Some(stats),
         outputs: Some(outputs),
     })

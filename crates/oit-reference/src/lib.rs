@@ -43,11 +43,17 @@ use oit_scene::{LinearImage, Scene};
 use rayon::prelude::*;
 
 pub use composite::composite_front_to_back;
+pub use raster::PRECISION_TIE_ULPS;
+pub use setup::CUTOFF_UNDECIDED_BOUND;
 
 /// Changes whenever any output bit of [`render`] changes for some scene (rules, arithmetic),
 /// so that caches of references made by an older build are never reused. 2: vertex
-/// arithmetic and viewport clipping as lavapipe does them.
-pub const OUTPUT_VERSION: u32 = 2;
+/// arithmetic and viewport clipping as lavapipe does them. 3: fragments exactly on the far
+/// plane are never visible; undecided-cutoff and precision-tie outputs.
+pub const OUTPUT_VERSION: u32 = 3;
+
+/// Most input triangles a scene may have (ranks are u32 sort keys).
+pub const MAX_TRIANGLES: u32 = u32::MAX - 1;
 
 use raster::{Scratch, TileOutput, TileRect, TileStats};
 use setup::SetupTriangle;
@@ -99,7 +105,51 @@ pub struct Reference {
     /// cutoff discard, opaque and transparent, before any depth test (what a GPU counting
     /// fragment-shader invocations with the same coverage rules would count).
     pub fragments: Vec<u32>,
+    /// Per pixel: fragments (opaque or transparent, kept or discarded) whose α lies within
+    /// [`CUTOFF_UNDECIDED_BOUND`] of their material's cutoff: a GPU's interpolation rounding may
+    /// decide them the other way, so `fragments` may differ from a GPU's count by up to this.
+    pub undecided: Vec<u32>,
+    /// Per pixel: whether the composite depends on two surfaces whose window depths are within
+    /// [`PRECISION_TIE_ULPS`] of each other (or of the far plane), so that rounding, not
+    /// geometry, decides their order or visibility.
+    pub precision_ties: Vec<bool>,
     pub stats: ReferenceStats,
+}
+
+/// A GPU's per-pixel fragment counts against [`Reference::fragments`]
+/// ([`Reference::compare_fragment_counts`]).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct CountComparison {
+    /// Pixels whose counts differ by more than their undecided fragments: a bug on one side.
+    pub unexplained: Vec<usize>,
+    /// Pixels whose counts differ by no more than their undecided fragments (the GPU's
+    /// rounding decided a knife-edge cutoff the other way).
+    pub undecided: usize,
+}
+
+impl Reference {
+    /// Compares a GPU's per-pixel fragment counts (same resolution) with this reference: a
+    /// difference is tolerated exactly where, and as far as, the pixel holds fragments in a
+    /// cutoff's undecided band.
+    pub fn compare_fragment_counts(&self, gpu: &[u32]) -> CountComparison {
+        assert_eq!(
+            gpu.len(),
+            self.fragments.len(),
+            "counts for another resolution"
+        );
+        let mut out = CountComparison::default();
+        for (p, (&g, &r)) in gpu.iter().zip(&self.fragments).enumerate() {
+            if g == r {
+                continue;
+            }
+            if g.abs_diff(r) <= self.undecided[p] {
+                out.undecided += 1;
+            } else {
+                out.unexplained.push(p);
+            }
+        }
+        out
+    }
 }
 
 /// Statistics of one reference render. Phase times marked "thread time" are summed over the
@@ -126,6 +176,15 @@ pub struct ReferenceStats {
     pub mean_depth_complexity_all: f64,
     /// Pixels with at least one layer.
     pub covered_pixels: u64,
+    /// Fragments in the undecided band of a mask cutoff (sum of [`Reference::undecided`]).
+    #[serde(default)]
+    pub undecided_fragments: u64,
+    /// Pixels holding at least one undecided fragment.
+    #[serde(default)]
+    pub undecided_pixels: u64,
+    /// Pixels whose composite depends on a precision tie ([`Reference::precision_ties`]).
+    #[serde(default)]
+    pub precision_tie_pixels: u64,
     /// Wall time of the whole render.
     pub seconds: f64,
     /// `fragments / seconds`.
@@ -169,7 +228,7 @@ pub enum ReferenceError {
         count: u32,
         total: usize,
     },
-    #[error("{0} triangles: at most {max} are supported", max = u32::MAX)]
+    #[error("{0} triangles: at most {max} are supported", max = MAX_TRIANGLES)]
     TooManyTriangles(u64),
 }
 
@@ -203,11 +262,13 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
         total += u64::from(scene.draws[i].triangle_count());
     }
     first_rank.push(total);
-    if total >= u64::from(u32::MAX) {
+    if total > u64::from(MAX_TRIANGLES) {
         return Err(ReferenceError::TooManyTriangles(total));
     }
     const CHUNK: u64 = 2048;
     let chunks = total.div_ceil(CHUNK);
+    // Only for telling coplanar flat triangles from ones rounding merged (`plane_depth`).
+    let view_proj64 = scene.camera.view_proj.as_dmat4();
     let triangles: Vec<SetupTriangle> = (0..chunks)
         .into_par_iter()
         .flat_map_iter(|c| {
@@ -226,11 +287,19 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
                     let v = &scene.vertices[v0 + k];
                     (scene.camera.clip(glam::Vec3::from(v.position)), v.color)
                 });
-                setup::setup_triangle(scene, material, clip, rank as u32, &mut out);
+                let p = glam::Vec3::from(scene.vertices[v0].position).as_dvec3();
+                let plane = view_proj64 * p.extend(1.0);
+                let plane_depth = plane.z / plane.w;
+                setup::setup_triangle(scene, material, clip, rank as u32, plane_depth, &mut out);
             }
             out
         })
         .collect();
+    // Per rank: the plane depth of a flat triangle, NaN otherwise (fan pieces share both).
+    let mut plane_depths = vec![f64::NAN; total as usize];
+    for t in &triangles {
+        plane_depths[t.key as usize] = t.plane_depth;
+    }
     let setup_done = Instant::now();
 
     // Binning: counting pass, prefix sum, fill. Each bin lists triangle indices ascending.
@@ -281,6 +350,8 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
     };
     let mut layers = vec![0u32; scene.resolution.pixel_count()];
     let mut fragments = vec![0u32; scene.resolution.pixel_count()];
+    let mut undecided = vec![0u32; scene.resolution.pixel_count()];
+    let mut precision_ties = vec![false; scene.resolution.pixel_count()];
     let background = scene.background.map(f64::from);
     let reverse_z = scene.camera.reverse_z;
     let done = AtomicUsize::new(0);
@@ -290,36 +361,51 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
         .par_chunks_mut(band)
         .zip(layers.par_chunks_mut(band))
         .zip(fragments.par_chunks_mut(band))
+        .zip(undecided.par_chunks_mut(band))
+        .zip(precision_ties.par_chunks_mut(band))
         .enumerate()
-        .map_init(Scratch::default, |scratch, (ty, ((img, lay), frag))| {
-            let mut stats = TileStats::default();
-            let band_height = (img.len() / w) as u32;
-            for tx in 0..tiles_x {
-                let rect = TileRect {
-                    x0: tx as u32 * tile,
-                    y0: ty as u32 * tile,
-                    width: tile.min(width - tx as u32 * tile),
-                    height: band_height,
-                };
-                let t = ty * tiles_x + tx;
-                let bin = &bins[bin_start[t] as usize..bin_start[t + 1] as usize];
-                let out = TileOutput {
-                    image: &mut *img,
-                    layers: &mut *lay,
-                    fragments: &mut *frag,
-                    stride: w,
-                    x_offset: rect.x0 as usize,
-                };
-                let s =
-                    raster::render_tile(&triangles, bin, rect, reverse_z, background, scratch, out);
-                stats = stats.merge(s);
-                let d = done.fetch_add(1, Ordering::Relaxed) + 1;
-                if let Some(progress) = &options.progress {
-                    progress(d, tile_count);
+        .map_init(
+            Scratch::default,
+            |scratch, (ty, ((((img, lay), frag), und), ties))| {
+                let mut stats = TileStats::default();
+                let band_height = (img.len() / w) as u32;
+                for tx in 0..tiles_x {
+                    let rect = TileRect {
+                        x0: tx as u32 * tile,
+                        y0: ty as u32 * tile,
+                        width: tile.min(width - tx as u32 * tile),
+                        height: band_height,
+                    };
+                    let t = ty * tiles_x + tx;
+                    let bin = &bins[bin_start[t] as usize..bin_start[t + 1] as usize];
+                    let out = TileOutput {
+                        image: &mut *img,
+                        layers: &mut *lay,
+                        fragments: &mut *frag,
+                        undecided: &mut *und,
+                        precision_ties: &mut *ties,
+                        stride: w,
+                        x_offset: rect.x0 as usize,
+                    };
+                    let s = raster::render_tile(
+                        &triangles,
+                        &plane_depths,
+                        bin,
+                        rect,
+                        reverse_z,
+                        background,
+                        scratch,
+                        out,
+                    );
+                    stats = stats.merge(s);
+                    let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+                    if let Some(progress) = &options.progress {
+                        progress(d, tile_count);
+                    }
                 }
-            }
-            stats
-        })
+                stats
+            },
+        )
         .reduce(TileStats::default, TileStats::merge);
 
     let seconds = start.elapsed().as_secs_f64();
@@ -338,6 +424,9 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
         },
         mean_depth_complexity_all: stats.composited_fragments as f64 / pixels,
         covered_pixels: stats.covered_pixels,
+        undecided_fragments: stats.undecided_fragments,
+        undecided_pixels: stats.undecided_pixels,
+        precision_tie_pixels: stats.precision_tie_pixels,
         seconds,
         fragments_per_second: if seconds > 0.0 {
             stats.fragments as f64 / seconds
@@ -358,6 +447,8 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
         image,
         layers,
         fragments,
+        undecided,
+        precision_ties,
         stats,
     })
 }

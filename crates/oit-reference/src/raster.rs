@@ -6,7 +6,7 @@ use std::time::{Duration, Instant};
 use oit_scene::Shaded;
 
 use crate::composite::composite_iter;
-use crate::setup::{HALF, ONE, SetupTriangle};
+use crate::setup::{HALF, ONE, SetupTriangle, same_plane, undecided};
 
 /// One row's run of pixels covered by a transparent triangle, recorded by the coverage pass
 /// and replayed by the shading pass.
@@ -32,6 +32,10 @@ pub(crate) struct Scratch {
     opaque_key: Vec<u64>,
     opaque_color: Vec<[f32; 3]>,
     all_count: Vec<u32>,
+    /// Per pixel: fragments in the undecided band of a mask cutoff; whether its composite
+    /// depends on a precision tie.
+    undecided: Vec<u32>,
+    tie: Vec<bool>,
     start: Vec<u32>,
     end: Vec<u32>,
     spans: Vec<Span>,
@@ -47,9 +51,9 @@ pub(crate) struct Scratch {
 }
 
 /// Bytes of per-pixel state a tile keeps besides its fragment lists: opaque key and colour,
-/// fragment count, list start and end.
+/// fragment count, undecided count, list start and end, tie flag.
 const PER_PIXEL_BYTES: u64 =
-    (size_of::<u64>() + size_of::<[f32; 3]>() + 3 * size_of::<u32>()) as u64;
+    (size_of::<u64>() + size_of::<[f32; 3]>() + 4 * size_of::<u32>() + size_of::<bool>()) as u64;
 
 /// Bytes per transparent fragment slot: key, colour and sorted-order index.
 const PER_SLOT_BYTES: u64 = (size_of::<u64>() + size_of::<[f32; 4]>() + size_of::<u32>()) as u64;
@@ -62,6 +66,9 @@ pub(crate) struct TileStats {
     pub composited_fragments: u64,
     pub max_layers: u32,
     pub covered_pixels: u64,
+    pub undecided_fragments: u64,
+    pub undecided_pixels: u64,
+    pub precision_tie_pixels: u64,
     pub raster: Duration,
     pub sort: Duration,
     pub composite: Duration,
@@ -75,6 +82,9 @@ impl TileStats {
         self.composited_fragments += o.composited_fragments;
         self.max_layers = self.max_layers.max(o.max_layers);
         self.covered_pixels += o.covered_pixels;
+        self.undecided_fragments += o.undecided_fragments;
+        self.undecided_pixels += o.undecided_pixels;
+        self.precision_tie_pixels += o.precision_tie_pixels;
         self.raster += o.raster;
         self.sort += o.sort;
         self.composite += o.composite;
@@ -100,6 +110,45 @@ pub(crate) fn depth_key(depth: f32, reverse_z: bool) -> u32 {
 /// Opaque key: nearest first, then the lower (draw.id, triangle index) rank wins a tie.
 fn opaque_key(dkey: u32, rank: u32) -> u64 {
     (u64::from(dkey) << 32) | u64::from(rank)
+}
+
+/// Window depths (as [`depth_key`]s) closer than this many f32 ulps are a *precision tie*:
+/// which one is nearer is decided by rounding (vertex transform, divide, interpolation: a few
+/// ulps each on the GPU), not by the geometry. The exception is an exact tie of two
+/// constant-depth triangles on one plane (`SetupTriangle::plane_depth`): every rasterizer
+/// computes the same depth for both, so draw order decides them, as documented.
+pub const PRECISION_TIE_ULPS: u32 = 4;
+
+/// Whether two surfaces form a precision tie (see [`PRECISION_TIE_ULPS`]): depth keys `a`,
+/// `b` and plane depths (NaN unless flat; NaN for the far plane, whose depth is rounded too).
+#[inline(always)]
+fn near_tie(a: u32, plane_a: f64, b: u32, plane_b: f64) -> bool {
+    a.abs_diff(b) <= PRECISION_TIE_ULPS && !(a == b && same_plane(plane_a, plane_b))
+}
+
+/// Depth key and plane depth of a pixel's opaque key (NaN for the far sentinel).
+#[inline(always)]
+fn opaque_depth(key: u64, far: u64, planes: &[f64]) -> (u32, f64) {
+    let plane = if key == far {
+        f64::NAN
+    } else {
+        planes[(key as u32) as usize]
+    };
+    ((key >> 32) as u32, plane)
+}
+
+/// Depth key and plane depth of a transparent key (low half `u32::MAX − rank`).
+#[inline(always)]
+fn transparent_depth(key: u64, planes: &[f64]) -> (u32, f64) {
+    ((key >> 32) as u32, planes[(u32::MAX - key as u32) as usize])
+}
+
+/// The opaque key of a pixel no opaque fragment reached: the cleared far depth with the lowest
+/// rank, so a fragment exactly at far never beats it (`key < far` fails, as `Less` against a
+/// buffer cleared to 1.0 does, or `Greater` against 0.0 under reverse-Z).
+fn far_key(reverse_z: bool) -> u64 {
+    let far = if reverse_z { 0.0 } else { 1.0 };
+    opaque_key(depth_key(far, reverse_z), 0)
 }
 
 /// Transparent key: nearest first, then at equal depth the HIGHER rank is in front (it would
@@ -225,8 +274,9 @@ fn row_span(e: [i64; 3], step: [i64; 3], bias: [i64; 3], width: i64) -> (i64, i6
 const LANES: usize = 4;
 
 /// Screen-linear window depth and perspective-correct shaded colour of the pixels
-/// `first..end` of tile row `row`, calling `f(pixel_in_tile, depth_key, shaded)` for each in
-/// order ([`depth_key`] of the f32 depth).
+/// `first..end` of tile row `row`, calling `f(pixel_in_tile, depth_key, shaded, undecided)` for
+/// each in order ([`depth_key`] of the f32 depth; `undecided`: α is in the cutoff's undecided
+/// band, [`crate::CUTOFF_UNDECIDED_BOUND`]).
 ///
 /// Coverage comes from the snapped integer edge functions; the attribute weights come from
 /// the *unsnapped* f32 window positions, as lavapipe interpolates (measured: a mask cutoff
@@ -246,7 +296,7 @@ fn shade_span(
     first: u32,
     end: u32,
     reverse_z: bool,
-    mut f: impl FnMut(usize, u32, Shaded),
+    mut f: impl FnMut(usize, u32, Shaded, bool),
 ) {
     let y = tile.y0 + row;
     let py = y as f64 + 0.5;
@@ -262,8 +312,19 @@ fn shade_span(
                 [e as f64 * tri.inv_area2]
             });
             let (depth, rgba) = attributes(tri, &l);
-            let shaded = tri.constant.unwrap_or_else(|| tri.material.shade(rgba[0]));
-            f(base + x as usize, depth_key(depth[0], reverse_z), shaded);
+            let (shaded, open) = match tri.constant {
+                Some(shaded) => (shaded, tri.constant_undecided),
+                None => (
+                    tri.material.shade(rgba[0]),
+                    tri.cutoff_rounds && undecided(&tri.material, rgba[0][3]),
+                ),
+            };
+            f(
+                base + x as usize,
+                depth_key(depth[0], reverse_z),
+                shaded,
+                open,
+            );
         }
         return;
     }
@@ -288,23 +349,26 @@ fn shade_span(
         })
     };
     if let Some(shaded) = tri.constant {
+        let open = tri.constant_undecided;
         for x in (first..end).step_by(LANES) {
             let dkey = depth_keys(depths(tri, &weights(x)), reverse_z);
             let p = base + x as usize;
             for j in 0..((end - x) as usize).min(LANES) {
-                f(p + j, dkey[j], shaded);
+                f(p + j, dkey[j], shaded, open);
             }
         }
     } else {
         // A local copy, not loads through `tri` per fragment (the caller's stores could alias
         // it as far as the compiler knows).
         let material = tri.material;
+        let cutoff_rounds = tri.cutoff_rounds;
         for x in (first..end).step_by(LANES) {
             let (depth, rgba) = attributes(tri, &weights(x));
             let dkey = depth_keys(depth, reverse_z);
             let p = base + x as usize;
             for j in 0..((end - x) as usize).min(LANES) {
-                f(p + j, dkey[j], material.shade(rgba[j]));
+                let open = cutoff_rounds && undecided(&material, rgba[j][3]);
+                f(p + j, dkey[j], material.shade(rgba[j]), open);
             }
         }
     }
@@ -398,6 +462,8 @@ pub(crate) struct TileOutput<'a> {
     pub image: &'a mut [[f32; 4]],
     pub layers: &'a mut [u32],
     pub fragments: &'a mut [u32],
+    pub undecided: &'a mut [u32],
+    pub precision_ties: &'a mut [bool],
     /// Row stride of the slices (the frame width).
     pub stride: usize,
     /// Row of the tile's first line inside the slices.
@@ -411,6 +477,7 @@ pub(crate) struct TileOutput<'a> {
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn render_tile(
     triangles: &[SetupTriangle],
+    planes: &[f64],
     bin: &[u32],
     tile: TileRect,
     reverse_z: bool,
@@ -422,17 +489,23 @@ pub(crate) fn render_tile(
     let n = (tile.width * tile.height) as usize;
     let tile_w = tile.width as usize;
     let s = scratch;
+    // The far plane is what the depth buffer is cleared to, and every depth test is strict: a
+    // fragment exactly at far is covered (counted) but never visible, opaque or transparent.
+    let far = far_key(reverse_z);
     s.opaque_key.clear();
-    s.opaque_key.resize(n, u64::MAX);
+    s.opaque_key.resize(n, far);
     s.opaque_color.clear();
     s.opaque_color.resize(n, [0.0; 3]);
     s.all_count.clear();
     s.all_count.resize(n, 0);
+    s.undecided.clear();
+    s.undecided.resize(n, 0);
+    s.tie.clear();
+    s.tie.resize(n, false);
     s.start.clear();
     s.start.resize(n + 1, 0);
     s.spans.clear();
     let mut stats = TileStats::default();
-    let mut any_opaque = false;
 
     // Opaque (and mask) triangles first: they define the depth transparent fragments must beat.
     // Transparent triangles only record their spans and count the slots they may need.
@@ -454,19 +527,35 @@ pub(crate) fn render_tile(
             continue;
         }
         let rank = tri.key;
+        let plane = tri.plane_depth;
         for_each_span(tri, tile, |row, first, end| {
-            shade_span(tri, tile, row, first, end, reverse_z, |p, dkey, shaded| {
-                let Shaded::Opaque(color) = shaded else {
-                    return;
-                };
-                s.all_count[p] += 1;
-                any_opaque = true;
-                let key = opaque_key(dkey, rank);
-                if key < s.opaque_key[p] {
-                    s.opaque_key[p] = key;
-                    s.opaque_color[p] = color;
-                }
-            });
+            shade_span(
+                tri,
+                tile,
+                row,
+                first,
+                end,
+                reverse_z,
+                |p, dkey, shaded, open| {
+                    s.undecided[p] += u32::from(open);
+                    let Shaded::Opaque(color) = shaded else {
+                        return;
+                    };
+                    s.all_count[p] += 1;
+                    let key = opaque_key(dkey, rank);
+                    let (nearest, nearest_plane) = opaque_depth(s.opaque_key[p], far, planes);
+                    let tie = near_tie(dkey, plane, nearest, nearest_plane);
+                    if key < s.opaque_key[p] {
+                        // The old nearest is the runner-up: if it is not within the tie distance,
+                        // nothing farther is.
+                        s.tie[p] = tie;
+                        s.opaque_key[p] = key;
+                        s.opaque_color[p] = color;
+                    } else {
+                        s.tie[p] |= tie;
+                    }
+                },
+            );
         });
     }
     // Each covered pixel counts as a fragment unless the cutoff discards it (counted below).
@@ -485,29 +574,43 @@ pub(crate) fn render_tile(
         // Plain slices, so the per-fragment code keeps their addresses in registers.
         let (keys, colors, end) = (&mut s.keys[..], &mut s.colors[..], &mut s.end[..]);
         let (all_count, opaque_key) = (&mut s.all_count[..], &s.opaque_key[..]);
+        let (undecided, tie) = (&mut s.undecided[..], &mut s.tie[..]);
         for span in &s.spans {
             let tri = &triangles[span.triangle as usize];
             let rank = tri.key;
+            let plane = tri.plane_depth;
             let (row, first, last) = (span.row.into(), span.first.into(), span.end.into());
-            shade_span(tri, tile, row, first, last, reverse_z, |p, dkey, shaded| {
-                let Shaded::Transparent {
-                    premultiplied,
-                    alpha,
-                } = shaded
-                else {
-                    all_count[p] -= 1;
-                    discarded += 1;
-                    return;
-                };
-                // Strictly nearer than the opaque depth (the background sentinel never wins).
-                if !any_opaque || u64::from(dkey) < (opaque_key[p] >> 32) {
-                    let slot = end[p] as usize;
-                    keys[slot] = transparent_key(dkey, rank);
-                    let [r, g, b] = premultiplied;
-                    colors[slot] = [r, g, b, alpha];
-                    end[p] += 1;
-                }
-            });
+            shade_span(
+                tri,
+                tile,
+                row,
+                first,
+                last,
+                reverse_z,
+                |p, dkey, shaded, open| {
+                    undecided[p] += u32::from(open);
+                    let Shaded::Transparent {
+                        premultiplied,
+                        alpha,
+                    } = shaded
+                    else {
+                        all_count[p] -= 1;
+                        discarded += 1;
+                        return;
+                    };
+                    // Kept or hidden by rounding when this close to the opaque depth (or far).
+                    let (nearest, nearest_plane) = opaque_depth(opaque_key[p], far, planes);
+                    tie[p] |= near_tie(dkey, plane, nearest, nearest_plane);
+                    // Strictly nearer than the opaque depth, or than the far plane where none is.
+                    if dkey < nearest {
+                        let slot = end[p] as usize;
+                        keys[slot] = transparent_key(dkey, rank);
+                        let [r, g, b] = premultiplied;
+                        colors[slot] = [r, g, b, alpha];
+                        end[p] += 1;
+                    }
+                },
+            );
         }
     }
     stats.transparent_fragments = slots as u64 - discarded;
@@ -542,7 +645,7 @@ pub(crate) fn render_tile(
     let (mut out_row, mut column) = (out.x_offset, 0);
     for p in 0..n {
         let list = &s.order[s.start[p] as usize..s.end[p] as usize];
-        let base = if s.opaque_key[p] == u64::MAX {
+        let base = if s.opaque_key[p] == far {
             background
         } else {
             s.opaque_color[p].map(f64::from)
@@ -555,10 +658,26 @@ pub(crate) fn render_tile(
             base,
         );
         let layers = list.len() as u32;
+        // Neighbours in the sorted list that rounding could swap, and that differ (swapping
+        // equal layers changes nothing).
+        let mut tie = s.tie[p];
+        for pair in list.windows(2) {
+            let (a, b) = (pair[0] as usize, pair[1] as usize);
+            let ((da, pa), (db, pb)) = (
+                transparent_depth(s.keys[a], planes),
+                transparent_depth(s.keys[b], planes),
+            );
+            tie |= near_tie(da, pa, db, pb) && s.colors[a] != s.colors[b];
+        }
         let o = out_row + column;
         out.image[o] = [rgb[0] as f32, rgb[1] as f32, rgb[2] as f32, 1.0];
         out.layers[o] = layers;
         out.fragments[o] = s.all_count[p];
+        out.undecided[o] = s.undecided[p];
+        out.precision_ties[o] = tie;
+        stats.undecided_fragments += u64::from(s.undecided[p]);
+        stats.undecided_pixels += u64::from(s.undecided[p] > 0);
+        stats.precision_tie_pixels += u64::from(tie);
         stats.fragments += u64::from(s.all_count[p]);
         stats.composited_fragments += u64::from(layers);
         stats.max_layers = stats.max_layers.max(layers);

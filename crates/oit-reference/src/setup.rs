@@ -48,10 +48,22 @@ pub(crate) struct SetupTriangle {
     /// Linear RGBA per vertex.
     pub color: [[f32; 4]; 3],
     /// When all three vertex colours are equal the fragment colour is constant: shade it once.
+    /// (The exact interpolation of a constant is that constant, so this is the value the full
+    /// path would give; the GPU may land an ulp off, which `constant_undecided` covers.)
     pub constant: Option<Shaded>,
+    /// The material has a cutoff and α is interpolated with rounding (not a constant over
+    /// constant w, not a material α of 0): fragments near the cutoff may be undecided.
+    pub cutoff_rounds: bool,
+    /// For a constant colour: whether its α is inside the undecided band of the cutoff.
+    pub constant_undecided: bool,
     pub material: Material,
     /// Rank of (draw.id, triangle index) over the whole scene: the deterministic tie-break key.
     pub key: u32,
+    /// When the window depth is constant over the triangle (bit-identical at the vertices):
+    /// the f64 window depth of its plane, else NaN. Two such triangles with equal f32 depths
+    /// are geometrically coplanar when these agree ([`same_plane`]), and only then is their
+    /// tie exact on every rasterizer (draw order decides it); otherwise rounding made it.
+    pub plane_depth: f64,
     pub transparent: bool,
 }
 
@@ -225,7 +237,8 @@ pub(crate) fn setup_triangle(
     scene: &Scene,
     material: &Material,
     clip: [ClipInput; 3],
-    key: u32,
+    rank: u32,
+    plane_depth: f64,
     out: &mut Vec<SetupTriangle>,
 ) {
     let (width, height) = (scene.resolution.width, scene.resolution.height);
@@ -311,10 +324,21 @@ pub(crate) fn setup_triangle(
         let color = [a.color, b.color, c.color];
         let constant =
             (color[0] == color[1] && color[0] == color[2]).then(|| material.shade(color[0]));
-        // Every fragment would be discarded by the cutoff: nothing to rasterize or count.
-        if constant == Some(Shaded::Discarded) {
+        // A constant α over a triangle of constant w has zero gradients: every rasterizer gets
+        // it back exactly. With varying w, perspective correction rounds (lavapipe returns
+        // 1.0 as 0.99999994 on scattered pixels of a turned card), as does any gradient.
+        let constant_w = a.inv_w == b.inv_w && b.inv_w == c.inv_w;
+        let constant_alpha = color[0][3] == color[1][3] && color[0][3] == color[2][3];
+        let cutoff_rounds =
+            material.mode.uses_cutoff() && material.alpha != 0.0 && !(constant_alpha && constant_w);
+        let constant_undecided =
+            constant.is_some() && cutoff_rounds && undecided(material, color[0][3]);
+        // Every fragment is discarded by the cutoff, and no GPU could keep one: nothing to
+        // rasterize or count.
+        if constant == Some(Shaded::Discarded) && !constant_undecided {
             continue;
         }
+        let flat_depth = a.z == b.z && b.z == c.z;
         out.push(SetupTriangle {
             x: [a.x, b.x, c.x],
             y: [a.y, b.y, c.y],
@@ -331,11 +355,36 @@ pub(crate) fn setup_triangle(
             inv_w: [a.inv_w, b.inv_w, c.inv_w],
             color,
             constant,
+            cutoff_rounds,
+            constant_undecided,
             material: *material,
-            key,
+            key: rank,
+            plane_depth: if flat_depth { plane_depth } else { f64::NAN },
             transparent,
         });
     }
+}
+
+/// Half-width of the band around a mask cutoff inside which a fragment's fate is decided by
+/// interpolation rounding: *undecided* when `|α − cutoff| <= CUTOFF_UNDECIDED_BOUND`. The
+/// reference interpolates in f64 and rounds once; a GPU interpolates in f32 (lavapipe: up to
+/// 4.1e-6 from the exact value on attributes in [0, 1], worst of 532 614 values on 300 random
+/// scenes, `cargo run -p oit-gpu --example interpolation_error`), so it may discard what the
+/// reference keeps, or the reverse. 2^-16 ≈ 1.5e-5 is 3.7 times that worst case.
+pub const CUTOFF_UNDECIDED_BOUND: f32 = 1.0 / 65536.0;
+
+/// Whether interpolated vertex α `vertex_alpha` is in the undecided band of `material`'s
+/// cutoff, α as `Material::shade` computes it. Only asked where `cutoff_rounds` holds.
+#[inline(always)]
+pub(crate) fn undecided(material: &Material, vertex_alpha: f32) -> bool {
+    (vertex_alpha * material.alpha - material.cutoff).abs() <= CUTOFF_UNDECIDED_BOUND
+}
+
+/// Whether two [`SetupTriangle::plane_depth`]s are the same plane: equal to 1e-12 relative
+/// (f64 rounding of the same plane through different vertices); never for NaN.
+#[inline(always)]
+pub(crate) fn same_plane(a: f64, b: f64) -> bool {
+    (a - b).abs() <= 1e-12 * a.abs().max(b.abs())
 }
 
 /// Clip-space position and colour of one input vertex.

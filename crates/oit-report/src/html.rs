@@ -176,6 +176,9 @@ fn scene_section(
         res[0],
         res[1]
     );
+    for caveat in oit_harness::report::scene_caveats(runs) {
+        let _ = writeln!(out, "<p class=\"caveat\">Reference: {}.</p>", esc(&caveat));
+    }
 
     out.push_str("<div class=\"plots\">\n");
     for kind in [PlotKind::CostError, PlotKind::BytesError] {

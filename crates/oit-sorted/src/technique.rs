@@ -125,6 +125,7 @@ impl Blended {
             write_mask: wgpu::ColorWrites::ALL,
         })];
         let nearer = scene.depth_nearer();
+        let far = [("FAR_DEPTH", f64::from(scene.scene.camera.far_depth()))];
         let make = |label: &str,
                     entry: &str,
                     targets: &[Option<wgpu::ColorTargetState>],
@@ -137,6 +138,7 @@ impl Blended {
                     targets,
                     depth: Some(depth_test(cmp, write)),
                     cull,
+                    constants: if entry == "fs_blend_equal" { &far } else { &[] },
                     ..ScenePipelineDesc::new(label, &module, entry)
                 },
             )
@@ -175,7 +177,7 @@ impl Blended {
             blend_equal: (k == Kind::DepthPrepass).then(|| {
                 make(
                     "blend equal",
-                    "fs_blend",
+                    "fs_blend_equal",
                     &color,
                     false,
                     wgpu::CompareFunction::Equal,
