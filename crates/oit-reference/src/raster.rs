@@ -119,28 +119,32 @@ fn opaque_key(dkey: u32, rank: u32) -> u64 {
 /// computes the same depth for both, so draw order decides them, as documented.
 pub const PRECISION_TIE_ULPS: u32 = 4;
 
-/// Whether two surfaces form a precision tie (see [`PRECISION_TIE_ULPS`]): depth keys `a`,
-/// `b` and plane depths (NaN unless flat; NaN for the far plane, whose depth is rounded too).
+/// Whether two surfaces with depth keys `a`, `b` form a precision tie (see
+/// [`PRECISION_TIE_ULPS`]). `planes()` gives their plane depths (NaN unless flat; NaN for the
+/// far plane, whose depth is rounded too); it is only looked up for an exact tie.
 #[inline(always)]
-fn near_tie(a: u32, plane_a: f64, b: u32, plane_b: f64) -> bool {
-    a.abs_diff(b) <= PRECISION_TIE_ULPS && !(a == b && same_plane(plane_a, plane_b))
+fn near_tie(a: u32, b: u32, planes: impl FnOnce() -> (f64, f64)) -> bool {
+    a.abs_diff(b) <= PRECISION_TIE_ULPS
+        && (a != b || {
+            let (pa, pb) = planes();
+            !same_plane(pa, pb)
+        })
 }
 
-/// Depth key and plane depth of a pixel's opaque key (NaN for the far sentinel).
+/// Plane depth of the surface behind a pixel's opaque key (NaN for the far sentinel).
 #[inline(always)]
-fn opaque_depth(key: u64, far: u64, planes: &[f64]) -> (u32, f64) {
-    let plane = if key == far {
+fn opaque_plane(key: u64, far: u64, planes: &[f64]) -> f64 {
+    if key == far {
         f64::NAN
     } else {
         planes[(key as u32) as usize]
-    };
-    ((key >> 32) as u32, plane)
+    }
 }
 
-/// Depth key and plane depth of a transparent key (low half `u32::MAX − rank`).
+/// Plane depth of a transparent key's triangle (low half `u32::MAX − rank`).
 #[inline(always)]
-fn transparent_depth(key: u64, planes: &[f64]) -> (u32, f64) {
-    ((key >> 32) as u32, planes[(u32::MAX - key as u32) as usize])
+fn transparent_plane(key: u64, planes: &[f64]) -> f64 {
+    planes[(u32::MAX - key as u32) as usize]
 }
 
 /// The opaque key of a pixel no opaque fragment reached: the cleared far depth with the lowest
@@ -537,14 +541,18 @@ pub(crate) fn render_tile(
                 end,
                 reverse_z,
                 |p, dkey, shaded, open| {
-                    s.undecided[p] += u32::from(open);
+                    if open {
+                        s.undecided[p] += 1;
+                    }
                     let Shaded::Opaque(color) = shaded else {
                         return;
                     };
                     s.all_count[p] += 1;
                     let key = opaque_key(dkey, rank);
-                    let (nearest, nearest_plane) = opaque_depth(s.opaque_key[p], far, planes);
-                    let tie = near_tie(dkey, plane, nearest, nearest_plane);
+                    let current = s.opaque_key[p];
+                    let tie = near_tie(dkey, (current >> 32) as u32, || {
+                        (plane, opaque_plane(current, far, planes))
+                    });
                     if key < s.opaque_key[p] {
                         // The old nearest is the runner-up: if it is not within the tie distance,
                         // nothing farther is.
@@ -588,7 +596,9 @@ pub(crate) fn render_tile(
                 last,
                 reverse_z,
                 |p, dkey, shaded, open| {
-                    undecided[p] += u32::from(open);
+                    if open {
+                        undecided[p] += 1;
+                    }
                     let Shaded::Transparent {
                         premultiplied,
                         alpha,
@@ -599,8 +609,11 @@ pub(crate) fn render_tile(
                         return;
                     };
                     // Kept or hidden by rounding when this close to the opaque depth (or far).
-                    let (nearest, nearest_plane) = opaque_depth(opaque_key[p], far, planes);
-                    tie[p] |= near_tie(dkey, plane, nearest, nearest_plane);
+                    let opaque = opaque_key[p];
+                    let nearest = (opaque >> 32) as u32;
+                    if near_tie(dkey, nearest, || (plane, opaque_plane(opaque, far, planes))) {
+                        tie[p] = true;
+                    }
                     // Strictly nearer than the opaque depth, or than the far plane where none is.
                     if dkey < nearest {
                         let slot = end[p] as usize;
@@ -663,11 +676,10 @@ pub(crate) fn render_tile(
         let mut tie = s.tie[p];
         for pair in list.windows(2) {
             let (a, b) = (pair[0] as usize, pair[1] as usize);
-            let ((da, pa), (db, pb)) = (
-                transparent_depth(s.keys[a], planes),
-                transparent_depth(s.keys[b], planes),
-            );
-            tie |= near_tie(da, pa, db, pb) && s.colors[a] != s.colors[b];
+            let (ka, kb) = (s.keys[a], s.keys[b]);
+            tie |= near_tie((ka >> 32) as u32, (kb >> 32) as u32, || {
+                (transparent_plane(ka, planes), transparent_plane(kb, planes))
+            }) && s.colors[a] != s.colors[b];
         }
         let o = out_row + column;
         out.image[o] = [rgb[0] as f32, rgb[1] as f32, rgb[2] as f32, 1.0];
