@@ -119,16 +119,20 @@ fn opaque_key(dkey: u32, rank: u32) -> u64 {
 /// computes the same depth for both, so draw order decides them, as documented.
 pub const PRECISION_TIE_ULPS: u32 = 4;
 
-/// Whether two surfaces with depth keys `a`, `b` form a precision tie (see
-/// [`PRECISION_TIE_ULPS`]). `planes()` gives their plane depths (NaN unless flat; NaN for the
-/// far plane, whose depth is rounded too); it is only looked up for an exact tie.
+/// Whether two depth keys are within the tie distance ([`PRECISION_TIE_ULPS`]); the rare
+/// true case then asks [`rounding_tie`]. Kept tiny: it sits in the per-fragment loops.
 #[inline(always)]
-fn near_tie(a: u32, b: u32, planes: impl FnOnce() -> (f64, f64)) -> bool {
+fn close(a: u32, b: u32) -> bool {
     a.abs_diff(b) <= PRECISION_TIE_ULPS
-        && (a != b || {
-            let (pa, pb) = planes();
-            !same_plane(pa, pb)
-        })
+}
+
+/// For depth keys within the tie distance: whether rounding decides them, i.e. not an exact tie
+/// of two surfaces on one plane. Plane depths are NaN unless flat, and NaN for the far plane
+/// (whose depth is rounded too). Out of line: the per-fragment loops only pay for [`close`].
+#[cold]
+#[inline(never)]
+fn rounding_tie(a: u32, b: u32, plane_a: f64, plane_b: f64) -> bool {
+    a != b || !same_plane(plane_a, plane_b)
 }
 
 /// Plane depth of the surface behind a pixel's opaque key (NaN for the far sentinel).
@@ -145,6 +149,21 @@ fn opaque_plane(key: u64, far: u64, planes: &[f64]) -> f64 {
 #[inline(always)]
 fn transparent_plane(key: u64, planes: &[f64]) -> f64 {
     planes[(u32::MAX - key as u32) as usize]
+}
+
+/// For two neighbouring slots of a sorted list whose depths are within the tie distance:
+/// whether rounding decides their order and the order matters (their colours differ).
+#[cold]
+#[inline(never)]
+fn transparent_tie(keys: &[u64], colors: &[[f32; 4]], planes: &[f64], a: usize, b: usize) -> bool {
+    let (ka, kb) = (keys[a], keys[b]);
+    colors[a] != colors[b]
+        && rounding_tie(
+            (ka >> 32) as u32,
+            (kb >> 32) as u32,
+            transparent_plane(ka, planes),
+            transparent_plane(kb, planes),
+        )
 }
 
 /// The opaque key of a pixel no opaque fragment reached: the cleared far depth with the lowest
@@ -277,9 +296,126 @@ fn row_span(e: [i64; 3], step: [i64; 3], bias: [i64; 3], width: i64) -> (i64, i6
 /// independent, so it is written over small arrays that the compiler turns into SIMD.
 const LANES: usize = 4;
 
+/// Receives the fragments of [`shade_span`]. A trait with `#[inline(always)]` implementations
+/// rather than a closure: LLVM left the transparent pass's closure out of line once it grew
+/// (a call per fragment halved the reference's throughput).
+trait Fragments {
+    /// Pixel in the tile, [`depth_key`], shaded colour, whether α is in the cutoff's
+    /// undecided band.
+    fn fragment(&mut self, p: usize, dkey: u32, shaded: Shaded, undecided: bool);
+}
+
+/// The opaque pass of one triangle: nearest opaque fragment per pixel, fragment and
+/// undecided counts, opaque precision ties.
+struct OpaqueFragments<'a> {
+    rank: u32,
+    plane: f64,
+    far: u64,
+    planes: &'a [f64],
+    opaque_key: &'a mut [u64],
+    opaque_color: &'a mut [[f32; 3]],
+    all_count: &'a mut [u32],
+    undecided: &'a mut [u32],
+    tie: &'a mut [bool],
+}
+
+impl Fragments for OpaqueFragments<'_> {
+    #[inline(always)]
+    fn fragment(&mut self, p: usize, dkey: u32, shaded: Shaded, undecided: bool) {
+        if undecided {
+            self.undecided[p] += 1;
+        }
+        let Shaded::Opaque(color) = shaded else {
+            return;
+        };
+        self.all_count[p] += 1;
+        let key = opaque_key(dkey, self.rank);
+        let current = self.opaque_key[p];
+        let nearest = (current >> 32) as u32;
+        let tie = close(dkey, nearest)
+            && rounding_tie(
+                dkey,
+                nearest,
+                self.plane,
+                opaque_plane(current, self.far, self.planes),
+            );
+        if key < current {
+            // The old nearest is the runner-up: if it is not within the tie distance, nothing
+            // farther is.
+            self.tie[p] = tie;
+            self.opaque_key[p] = key;
+            self.opaque_color[p] = color;
+        } else {
+            self.tie[p] |= tie;
+        }
+    }
+}
+
+/// The transparent pass: fragments strictly nearer than the opaque depth (or far) appended to
+/// their pixel's list; cutoff discards, undecided counts, ties with the opaque surface.
+struct TransparentFragments<'a> {
+    /// Of the triangle being shaded.
+    rank: u32,
+    plane: f64,
+    far: u64,
+    planes: &'a [f64],
+    keys: &'a mut [u64],
+    colors: &'a mut [[f32; 4]],
+    end: &'a mut [u32],
+    all_count: &'a mut [u32],
+    opaque_key: &'a [u64],
+    /// False when no opaque fragment reached the tile: every opaque key is `far`, no load.
+    any_opaque: bool,
+    undecided: &'a mut [u32],
+    tie: &'a mut [bool],
+    discarded: u64,
+}
+
+impl Fragments for TransparentFragments<'_> {
+    #[inline(always)]
+    fn fragment(&mut self, p: usize, dkey: u32, shaded: Shaded, undecided: bool) {
+        if undecided {
+            self.undecided[p] += 1;
+        }
+        let Shaded::Transparent {
+            premultiplied,
+            alpha,
+        } = shaded
+        else {
+            self.all_count[p] -= 1;
+            self.discarded += 1;
+            return;
+        };
+        // Kept or hidden by rounding when this close to the opaque depth (or far).
+        let opaque = if self.any_opaque {
+            self.opaque_key[p]
+        } else {
+            self.far
+        };
+        let nearest = (opaque >> 32) as u32;
+        if close(dkey, nearest)
+            && rounding_tie(
+                dkey,
+                nearest,
+                self.plane,
+                opaque_plane(opaque, self.far, self.planes),
+            )
+        {
+            self.tie[p] = true;
+        }
+        // Strictly nearer than the opaque depth, or than the far plane where none is.
+        if dkey < nearest {
+            let slot = self.end[p] as usize;
+            self.keys[slot] = transparent_key(dkey, self.rank);
+            let [r, g, b] = premultiplied;
+            self.colors[slot] = [r, g, b, alpha];
+            self.end[p] += 1;
+        }
+    }
+}
+
 /// Screen-linear window depth and perspective-correct shaded colour of the pixels
-/// `first..end` of tile row `row`, calling `f(pixel_in_tile, depth_key, shaded, undecided)` for
-/// each in order ([`depth_key`] of the f32 depth; `undecided`: α is in the cutoff's undecided
+/// `first..end` of tile row `row`, handing each to `sink` in order ([`depth_key`] of the f32 depth; `undecided`: α is in the cutoff's undecided
 /// band, [`crate::CUTOFF_UNDECIDED_BOUND`]).
 ///
 /// Coverage comes from the snapped integer edge functions; the attribute weights come from
@@ -300,7 +436,7 @@ fn shade_span(
     first: u32,
     end: u32,
     reverse_z: bool,
-    mut f: impl FnMut(usize, u32, Shaded, bool),
+    sink: &mut impl Fragments,
 ) {
     let y = tile.y0 + row;
     let py = y as f64 + 0.5;
@@ -323,7 +459,7 @@ fn shade_span(
                     tri.cutoff_rounds && undecided(&tri.material, rgba[0][3]),
                 ),
             };
-            f(
+            sink.fragment(
                 base + x as usize,
                 depth_key(depth[0], reverse_z),
                 shaded,
@@ -358,7 +494,7 @@ fn shade_span(
             let dkey = depth_keys(depths(tri, &weights(x)), reverse_z);
             let p = base + x as usize;
             for j in 0..((end - x) as usize).min(LANES) {
-                f(p + j, dkey[j], shaded, open);
+                sink.fragment(p + j, dkey[j], shaded, open);
             }
         }
     } else {
@@ -372,7 +508,7 @@ fn shade_span(
             let p = base + x as usize;
             for j in 0..((end - x) as usize).min(LANES) {
                 let open = cutoff_rounds && undecided(&material, rgba[j][3]);
-                f(p + j, dkey[j], material.shade(rgba[j]), open);
+                sink.fragment(p + j, dkey[j], material.shade(rgba[j]), open);
             }
         }
     }
@@ -530,40 +666,19 @@ pub(crate) fn render_tile(
             });
             continue;
         }
-        let rank = tri.key;
-        let plane = tri.plane_depth;
+        let mut sink = OpaqueFragments {
+            rank: tri.key,
+            plane: tri.plane_depth,
+            far,
+            planes,
+            opaque_key: &mut s.opaque_key,
+            opaque_color: &mut s.opaque_color,
+            all_count: &mut s.all_count,
+            undecided: &mut s.undecided,
+            tie: &mut s.tie,
+        };
         for_each_span(tri, tile, |row, first, end| {
-            shade_span(
-                tri,
-                tile,
-                row,
-                first,
-                end,
-                reverse_z,
-                |p, dkey, shaded, open| {
-                    if open {
-                        s.undecided[p] += 1;
-                    }
-                    let Shaded::Opaque(color) = shaded else {
-                        return;
-                    };
-                    s.all_count[p] += 1;
-                    let key = opaque_key(dkey, rank);
-                    let current = s.opaque_key[p];
-                    let tie = near_tie(dkey, (current >> 32) as u32, || {
-                        (plane, opaque_plane(current, far, planes))
-                    });
-                    if key < s.opaque_key[p] {
-                        // The old nearest is the runner-up: if it is not within the tie distance,
-                        // nothing farther is.
-                        s.tie[p] = tie;
-                        s.opaque_key[p] = key;
-                        s.opaque_color[p] = color;
-                    } else {
-                        s.tie[p] |= tie;
-                    }
-                },
-            );
+            shade_span(tri, tile, row, first, end, reverse_z, &mut sink);
         });
     }
     // Each covered pixel counts as a fragment unless the cutoff discards it (counted below).
@@ -577,55 +692,29 @@ pub(crate) fn render_tile(
     // Every slot below `end[p]` is written before it is read; the fill only sizes the arrays.
     s.keys.resize(slots, 0);
     s.colors.resize(slots, [0.0; 4]);
-    let mut discarded = 0;
-    {
-        // Plain slices, so the per-fragment code keeps their addresses in registers.
-        let (keys, colors, end) = (&mut s.keys[..], &mut s.colors[..], &mut s.end[..]);
-        let (all_count, opaque_key) = (&mut s.all_count[..], &s.opaque_key[..]);
-        let (undecided, tie) = (&mut s.undecided[..], &mut s.tie[..]);
-        for span in &s.spans {
-            let tri = &triangles[span.triangle as usize];
-            let rank = tri.key;
-            let plane = tri.plane_depth;
-            let (row, first, last) = (span.row.into(), span.first.into(), span.end.into());
-            shade_span(
-                tri,
-                tile,
-                row,
-                first,
-                last,
-                reverse_z,
-                |p, dkey, shaded, open| {
-                    if open {
-                        undecided[p] += 1;
-                    }
-                    let Shaded::Transparent {
-                        premultiplied,
-                        alpha,
-                    } = shaded
-                    else {
-                        all_count[p] -= 1;
-                        discarded += 1;
-                        return;
-                    };
-                    // Kept or hidden by rounding when this close to the opaque depth (or far).
-                    let opaque = opaque_key[p];
-                    let nearest = (opaque >> 32) as u32;
-                    if near_tie(dkey, nearest, || (plane, opaque_plane(opaque, far, planes))) {
-                        tie[p] = true;
-                    }
-                    // Strictly nearer than the opaque depth, or than the far plane where none is.
-                    if dkey < nearest {
-                        let slot = end[p] as usize;
-                        keys[slot] = transparent_key(dkey, rank);
-                        let [r, g, b] = premultiplied;
-                        colors[slot] = [r, g, b, alpha];
-                        end[p] += 1;
-                    }
-                },
-            );
-        }
+    let mut sink = TransparentFragments {
+        rank: 0,
+        plane: f64::NAN,
+        far,
+        planes,
+        keys: &mut s.keys,
+        colors: &mut s.colors,
+        end: &mut s.end,
+        all_count: &mut s.all_count,
+        any_opaque: s.opaque_key.iter().any(|&k| k != far),
+        opaque_key: &s.opaque_key,
+        undecided: &mut s.undecided,
+        tie: &mut s.tie,
+        discarded: 0,
+    };
+    for span in &s.spans {
+        let tri = &triangles[span.triangle as usize];
+        sink.rank = tri.key;
+        sink.plane = tri.plane_depth;
+        let (row, first, last) = (span.row.into(), span.first.into(), span.end.into());
+        shade_span(tri, tile, row, first, last, reverse_z, &mut sink);
     }
+    let discarded = sink.discarded;
     stats.transparent_fragments = slots as u64 - discarded;
     let t_raster = Instant::now();
 
@@ -663,24 +752,24 @@ pub(crate) fn render_tile(
         } else {
             s.opaque_color[p].map(f64::from)
         };
+        // Neighbours in the sorted list that rounding could swap, found while compositing (one
+        // pass over the list); only close ones are looked at further.
+        let mut tie = s.tie[p];
+        let mut previous = (u32::MAX - PRECISION_TIE_ULPS * 2, 0usize);
         let rgb = composite_iter(
             list.iter().map(|&slot| {
-                let [r, g, b, a] = s.colors[slot as usize];
+                let slot = slot as usize;
+                let depth = (s.keys[slot] >> 32) as u32;
+                if close(previous.0, depth) {
+                    tie |= transparent_tie(&s.keys, &s.colors, planes, previous.1, slot);
+                }
+                previous = (depth, slot);
+                let [r, g, b, a] = s.colors[slot];
                 ([f64::from(r), f64::from(g), f64::from(b)], f64::from(a))
             }),
             base,
         );
         let layers = list.len() as u32;
-        // Neighbours in the sorted list that rounding could swap, and that differ (swapping
-        // equal layers changes nothing).
-        let mut tie = s.tie[p];
-        for pair in list.windows(2) {
-            let (a, b) = (pair[0] as usize, pair[1] as usize);
-            let (ka, kb) = (s.keys[a], s.keys[b]);
-            tie |= near_tie((ka >> 32) as u32, (kb >> 32) as u32, || {
-                (transparent_plane(ka, planes), transparent_plane(kb, planes))
-            }) && s.colors[a] != s.colors[b];
-        }
         let o = out_row + column;
         out.image[o] = [rgb[0] as f32, rgb[1] as f32, rgb[2] as f32, 1.0];
         out.layers[o] = layers;
