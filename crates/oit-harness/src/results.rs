@@ -38,6 +38,21 @@ pub struct AdapterJson {
     pub driver: String,
 }
 
+impl AdapterJson {
+    /// The adapter of `ctx`, as every file the harness writes records it.
+    pub fn of(ctx: &oit_gpu::Context) -> Self {
+        let info = ctx.adapter_info();
+        AdapterJson {
+            name: info.name,
+            backend: info.backend,
+            device_type: info.device_type,
+            driver: format!("{} {}", info.driver, info.driver_info)
+                .trim()
+                .to_owned(),
+        }
+    }
+}
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum RunStatus {

@@ -91,17 +91,9 @@ pub fn compare(
         .cache_dir
         .clone()
         .unwrap_or_else(crate::cache::default_dir);
-    let info = ctx.adapter_info();
     let mut results = Results {
         schema: SCHEMA.to_owned(),
-        adapter: AdapterJson {
-            name: info.name.clone(),
-            backend: info.backend.clone(),
-            device_type: info.device_type.clone(),
-            driver: format!("{} {}", info.driver, info.driver_info)
-                .trim()
-                .to_owned(),
-        },
+        adapter: AdapterJson::of(ctx),
         runs: Vec::new(),
         floors: Vec::new(),
     };
