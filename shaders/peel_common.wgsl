@@ -1,10 +1,11 @@
 // Shared by the depth-peeling passes (oit-peel): the peel key, i.e. the monotonic depth encoding
 // every pass of one frame computes from the fragment's window depth and compares with the values
-// earlier passes stored, plus the per-frame counters and the pass index.
+// earlier passes stored, plus the bindings of the per-frame counters and the pass index.
 //
 // Window depth `clip.z` is @invariant (common.wgsl), and the key is a pure function of it, so
 // every pass computes bit-identical keys for the same fragment: equality tests are exact.
 #include "common.wgsl"
+#include "peel_counters.wgsl"
 
 struct PeelParams {
     // View distance from window depth z: perspective 1/d = a·z + b, orthographic d = a·z + b.
@@ -21,24 +22,10 @@ struct PeelParams {
     width: u32,
 }
 
-// Slots per counter array; must equal oit_peel's COUNTER_SLOTS.
-const COUNTER_SLOTS: u32 = 160u;
-// counters[i]: pass i found something left for pass i + 1 (0 or 1).
-// counters[COUNTER_SLOTS + i]: fragments pass i composited.
-// counters[2 * COUNTER_SLOTS]: pixels that lost layers (written by the final count).
-const PEELED_BASE: u32 = 160u;
-const DROPPED_SLOT: u32 = 320u;
-
-struct PassInfo {
-    index: u32,
-    pad0: u32,
-    pad1: u32,
-    pad2: u32,
-}
-
 @group(1) @binding(0) var<uniform> peel: PeelParams;
-@group(1) @binding(2) var<storage, read_write> counters: array<atomic<u32>>;
+// The pass group (oit-peel's Control): pass index and counters (peel_counters.wgsl).
 @group(2) @binding(0) var<uniform> pass_info: PassInfo;
+@group(2) @binding(1) var<storage, read_write> counters: array<atomic<u32>>;
 
 // 0 window depth, 1 linear view distance, 2 logarithmic view distance (over [d_min, d_max]).
 override ENCODING: u32 = 0u;
@@ -106,9 +93,11 @@ fn peel_key(z: f32) -> f32 {
     return s;
 }
 
-// Marks "pass `slot` found something left" (a load first: most fragments find it set already).
-fn mark_pass(slot: u32) {
-    if atomicLoad(&counters[slot]) == 0u {
-        atomicStore(&counters[slot], 1u);
+// Marks "pass `pass_index` found something left" (a load first: most fragments find it set
+// already).
+fn mark_pass(pass_index: u32) {
+    let word = left_word(pass_index);
+    if atomicLoad(&counters[word]) == 0u {
+        atomicStore(&counters[word], 1u);
     }
 }

@@ -4,19 +4,12 @@
 // The front accumulator holds (Σ C_i T_i, T) with T the transmittance so far, cleared to
 // (0, 0, 0, 1). Under blending: colour src·DstAlpha + dst, alpha dst·(1 − src.a).
 
-// Must equal peel_common.wgsl (this file has no scene bindings, so it does not include it).
-const PEELED_BASE: u32 = 160u;
-
-struct PassInfo {
-    index: u32,
-    pad0: u32,
-    pad1: u32,
-    pad2: u32,
-}
+#include "peel_counters.wgsl"
 
 @group(0) @binding(0) var source: texture_2d<f32>;
-@group(0) @binding(1) var<storage, read_write> counters: array<atomic<u32>>;
+// The pass group (oit-peel's Control).
 @group(1) @binding(0) var<uniform> pass_info: PassInfo;
+@group(1) @binding(1) var<storage, read_write> counters: array<atomic<u32>>;
 
 @vertex
 fn vs_fullscreen(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
@@ -25,7 +18,7 @@ fn vs_fullscreen(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> 
 }
 
 // One peeled layer (alpha < 0 marks "no fragment here"), under-blended, counted, and flagged
-// (counters[i]: layer i exists, so front peeling runs pass i + 1).
+// (counters[left_word(i)]: layer i exists, so front peeling runs pass i + 1).
 @fragment
 fn fs_under(@builtin(position) p: vec4<f32>) -> @location(0) vec4<f32> {
     let layer = textureLoad(source, vec2<i32>(p.xy), 0);
@@ -33,10 +26,11 @@ fn fs_under(@builtin(position) p: vec4<f32>) -> @location(0) vec4<f32> {
         discard;
     }
     // A layer exists here, so the next pass may find one behind it.
-    if atomicLoad(&counters[pass_info.index]) == 0u {
-        atomicStore(&counters[pass_info.index], 1u);
+    let left = left_word(pass_info.index);
+    if atomicLoad(&counters[left]) == 0u {
+        atomicStore(&counters[left], 1u);
     }
-    atomicAdd(&counters[PEELED_BASE + pass_info.index], 1u);
+    atomicAdd(&counters[peeled_word(pass_info.index)], 1u);
     return layer;
 }
 

@@ -77,6 +77,6 @@ fn fs_peel(v: VertexOut, @builtin(front_facing) front_facing: bool) -> PeelOut {
     } else {
         out.back = vec4<f32>(shaded.color, shaded.alpha);
     }
-    atomicAdd(&counters[PEELED_BASE + pass_info.index], 1u);
+    atomicAdd(&counters[peeled_word(pass_info.index)], 1u);
     return out;
 }

@@ -3,18 +3,10 @@
 // every indirect draw of pass i + 1, so a pass with nothing to peel costs no rasterization and
 // the CPU never waits for the answer.
 
-// Must equal peel_common.wgsl (this file has no scene bindings, so it does not include it).
-const COUNTER_SLOTS: u32 = 160u;
-const DROPPED_SLOT: u32 = 320u;
+#include "peel_counters.wgsl"
+
 // Read by the dual-peel count: keys are in [0, 1], EMPTY is -2.
 const EMPTY_BELOW: f32 = -1.5;
-
-struct PassInfo {
-    index: u32,
-    pad0: u32,
-    pad1: u32,
-    pad2: u32,
-}
 
 struct Grid {
     width: u32,
@@ -23,18 +15,19 @@ struct Grid {
     pad0: u32,
 }
 
-@group(0) @binding(0) var<storage, read_write> counters: array<atomic<u32>>;
 // wgpu::util::DrawIndirectArgs per draw: vertex_count, instance_count, first_vertex, first_instance.
 @group(0) @binding(1) var<storage, read_write> args: array<u32>;
 @group(0) @binding(2) var<uniform> grid: Grid;
 // Dual: the last range target. Front: the detection pass's layer texture.
 @group(0) @binding(3) var last_range: texture_2d<f32>;
+// The pass group (oit-peel's Control).
 @group(1) @binding(0) var<uniform> pass_info: PassInfo;
+@group(1) @binding(1) var<storage, read_write> counters: array<atomic<u32>>;
 
 @compute @workgroup_size(64)
 fn cs_gate(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x < grid.draws {
-        args[id.x * 4u + 1u] = atomicLoad(&counters[pass_info.index]);
+        args[id.x * 4u + 1u] = atomicLoad(&counters[left_word(pass_info.index)]);
     }
 }
 
@@ -44,7 +37,7 @@ fn cs_count_range(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x < grid.width && id.y < grid.height {
         let r = textureLoad(last_range, vec2<i32>(id.xy), 0).x;
         if r > EMPTY_BELOW {
-            atomicAdd(&counters[DROPPED_SLOT], 1u);
+            atomicAdd(&counters[DROPPED_WORD], 1u);
         }
     }
 }
@@ -55,7 +48,7 @@ fn cs_count_range(@builtin(global_invocation_id) id: vec3<u32>) {
 fn cs_count_layer(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x < grid.width && id.y < grid.height {
         if textureLoad(last_range, vec2<i32>(id.xy), 0).a >= 0.0 {
-            atomicAdd(&counters[DROPPED_SLOT], 1u);
+            atomicAdd(&counters[DROPPED_WORD], 1u);
         }
     }
 }

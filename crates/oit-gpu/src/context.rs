@@ -138,6 +138,8 @@ pub struct Caps {
     pub max_storage_buffers_per_shader_stage: u32,
     pub max_buffer_size: u64,
     pub max_storage_buffer_binding_size: u64,
+    /// Alignment of dynamic uniform-buffer offsets (one slot per offset costs this many bytes).
+    pub min_uniform_buffer_offset_alignment: u32,
     /// `(format name, capabilities)` for every format in [`PROBED_FORMATS`].
     pub formats: Vec<(String, FormatCaps)>,
 }
@@ -164,6 +166,7 @@ impl Caps {
             max_storage_buffers_per_shader_stage: limits.max_storage_buffers_per_shader_stage,
             max_buffer_size: limits.max_buffer_size,
             max_storage_buffer_binding_size: limits.max_storage_buffer_binding_size,
+            min_uniform_buffer_offset_alignment: limits.min_uniform_buffer_offset_alignment,
             formats,
         }
     }

@@ -52,7 +52,9 @@ pub use scene::{
 pub use spec::{Allowed, ParamInfo, SpecError, TechniqueInfo, TechniqueSpec};
 pub use targets::{ColorFormat, Targets, f16_to_f32, read_color};
 pub use technique::{RenderStats, Technique};
-pub use timer::{FrameTimings, GpuTimer, PassTimestamps, PassTiming, TimingSource};
+pub use timer::{
+    FrameTimings, GpuTimer, PASSES_PER_QUERY_SET, PassTimestamps, PassTiming, TimingSource,
+};
 
 /// Re-exported so technique crates use exactly the wgpu version this crate was built with.
 pub use wgpu;

@@ -82,14 +82,51 @@ impl PassTimestamps {
     }
 }
 
-/// Most passes one frame may time with timestamps (two queries each).
-pub const MAX_TIMED_PASSES: u32 = 512;
+/// Passes timed by one query set (two queries each). A frame that times more gets further sets:
+/// a frame has no pass limit (depth peeling records one pass per layer, thousands on deep
+/// scenes); wgpu caps one set at `wgpu::QUERY_SET_MAX_QUERIES` (4096) queries.
+pub const PASSES_PER_QUERY_SET: u32 = 512;
 
+/// One query set with its resolve and readback buffers.
 #[derive(Debug)]
-struct Queries {
+struct QueryChunk {
     set: wgpu::QuerySet,
     resolve: wgpu::Buffer,
     readback: wgpu::Buffer,
+}
+
+impl QueryChunk {
+    fn new(device: &wgpu::Device) -> Self {
+        let count = PASSES_PER_QUERY_SET * 2;
+        let bytes = u64::from(count) * 8;
+        QueryChunk {
+            set: device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("pass timestamps"),
+                ty: wgpu::QueryType::Timestamp,
+                count,
+            }),
+            resolve: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("timestamp resolve"),
+                size: bytes,
+                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            }),
+            readback: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("timestamp readback"),
+                size: bytes,
+                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+                mapped_at_creation: false,
+            }),
+        }
+    }
+}
+
+#[derive(Debug)]
+struct Queries {
+    /// Grown on demand, kept across frames.
+    chunks: Vec<QueryChunk>,
+    /// For creating further chunks inside `pass` (which has no context argument).
+    device: wgpu::Device,
     period_ns: f64,
 }
 
@@ -125,32 +162,11 @@ impl GpuTimer {
     }
 
     fn with_timestamps(ctx: &Context) -> Self {
-        let count = MAX_TIMED_PASSES * 2;
-        let bytes = u64::from(count) * 8;
-        let set = ctx.device.create_query_set(&wgpu::QuerySetDescriptor {
-            label: Some("pass timestamps"),
-            ty: wgpu::QueryType::Timestamp,
-            count,
-        });
-        let resolve = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("timestamp resolve"),
-            size: bytes,
-            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let readback = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("timestamp readback"),
-            size: bytes,
-            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-            mapped_at_creation: false,
-        });
-        let period_ns = f64::from(ctx.queue.get_timestamp_period());
         GpuTimer {
             queries: Some(Queries {
-                set,
-                resolve,
-                readback,
-                period_ns,
+                chunks: vec![QueryChunk::new(&ctx.device)],
+                device: ctx.device.clone(),
+                period_ns: f64::from(ctx.queue.get_timestamp_period()),
             }),
             ..Self::wall_clock()
         }
@@ -174,22 +190,17 @@ impl GpuTimer {
 
     /// Registers a pass; put `writes()` into its descriptor.
     pub fn pass(&mut self, name: &str) -> PassTimestamps {
-        match &self.queries {
-            Some(q) if (self.names.len() as u32) < MAX_TIMED_PASSES => {
-                let begin = self.names.len() as u32 * 2;
-                self.names.push(name.to_owned());
-                PassTimestamps {
-                    query_set: Some(q.set.clone()),
-                    begin,
+        match &mut self.queries {
+            Some(q) => {
+                let index = self.names.len() as u32;
+                let chunk = (index / PASSES_PER_QUERY_SET) as usize;
+                while q.chunks.len() <= chunk {
+                    q.chunks.push(QueryChunk::new(&q.device));
                 }
-            }
-            Some(_) => {
-                // Over capacity: recorded as untimed so the frame still renders; end_frame
-                // reports the overflow as an error rather than a wrong total.
                 self.names.push(name.to_owned());
                 PassTimestamps {
-                    query_set: None,
-                    begin: 0,
+                    query_set: Some(q.chunks[chunk].set.clone()),
+                    begin: index % PASSES_PER_QUERY_SET * 2,
                 }
             }
             None => {
@@ -233,27 +244,39 @@ impl GpuTimer {
             }
             Some(q) => {
                 let n = self.names.len() as u32;
-                if n > MAX_TIMED_PASSES {
-                    return Err(GpuError::TooLarge {
-                        what: "timed passes in one frame".into(),
-                        needed: u64::from(n),
-                        limit: u64::from(MAX_TIMED_PASSES),
-                    });
-                }
                 if n == 0 {
                     ctx.wait()?;
                     Vec::new()
                 } else {
+                    let used = n.div_ceil(PASSES_PER_QUERY_SET) as usize;
+                    // Passes timed by chunk i (all but the last are full).
+                    let in_chunk =
+                        |i: usize| (n - i as u32 * PASSES_PER_QUERY_SET).min(PASSES_PER_QUERY_SET);
                     let mut enc = ctx.device.create_command_encoder(&Default::default());
-                    enc.resolve_query_set(&q.set, 0..n * 2, &q.resolve, 0);
-                    enc.copy_buffer_to_buffer(&q.resolve, 0, &q.readback, 0, u64::from(n) * 16);
+                    for (i, chunk) in q.chunks[..used].iter().enumerate() {
+                        let passes = in_chunk(i);
+                        enc.resolve_query_set(&chunk.set, 0..passes * 2, &chunk.resolve, 0);
+                        enc.copy_buffer_to_buffer(
+                            &chunk.resolve,
+                            0,
+                            &chunk.readback,
+                            0,
+                            u64::from(passes) * 16,
+                        );
+                    }
                     ctx.queue.submit([enc.finish()]);
-                    let bytes = crate::readback::read_buffer(ctx, &q.readback, "timestamps")?;
-                    let ticks: Vec<u64> = bytes
-                        .chunks_exact(8)
-                        .take(n as usize * 2)
-                        .map(|b| u64::from_le_bytes(b.try_into().unwrap_or([0; 8])))
-                        .collect();
+                    let mut ticks: Vec<u64> = Vec::with_capacity(n as usize * 2);
+                    for (i, chunk) in q.chunks[..used].iter().enumerate() {
+                        let passes = in_chunk(i);
+                        let bytes =
+                            crate::readback::read_buffer(ctx, &chunk.readback, "timestamps")?;
+                        ticks.extend(
+                            bytes
+                                .chunks_exact(8)
+                                .take(passes as usize * 2)
+                                .map(|b| u64::from_le_bytes(b.try_into().unwrap_or([0; 8]))),
+                        );
+                    }
                     self.names
                         .iter()
                         .zip(ticks.chunks_exact(2))

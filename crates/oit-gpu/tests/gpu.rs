@@ -254,6 +254,46 @@ fn timer_reports_the_opaque_pass() {
     assert_eq!(GpuTimer::wall_clock().source(), TimingSource::WallClock);
 }
 
+/// A frame may time more passes than one query set holds (depth peeling records one pass per
+/// layer): the timer adds query sets instead of failing, and every pass keeps its own time.
+#[test]
+fn timer_times_frames_beyond_one_query_set() {
+    let Some(ctx) = context_or_skip("timer_times_frames_beyond_one_query_set") else {
+        return;
+    };
+    let targets = Targets::new(&ctx, RES, ColorFormat::Rgba16Float).expect("targets");
+    let n = 2 * oit_gpu::PASSES_PER_QUERY_SET + 7;
+    let mut timer = GpuTimer::new(&ctx);
+    for frame in 0..2 {
+        timer.begin_frame();
+        for i in 0..n {
+            let ts = timer.pass(&format!("clear {i}"));
+            let mut encoder = ctx.device.create_command_encoder(&Default::default());
+            let _ = oit_gpu::pass::begin(
+                &mut encoder,
+                "clear",
+                &[oit_gpu::pass::color(
+                    &targets.color_view,
+                    oit_gpu::wgpu::LoadOp::Clear(oit_gpu::wgpu::Color::BLACK),
+                )],
+                None,
+                ts.writes(),
+            );
+            timer.submit(&ctx, encoder).expect("submit");
+        }
+        let t = timer.end_frame(&ctx).expect("end frame");
+        assert_eq!(t.passes.len(), n as usize, "frame {frame}");
+        for (i, p) in t.passes.iter().enumerate() {
+            assert_eq!(p.name, format!("clear {i}"));
+            assert!(p.ms.is_finite() && p.ms >= 0.0, "{p:?}");
+        }
+        println!(
+            "frame {frame}: {n} passes, {:?}, total {:.3} ms",
+            t.source, t.total_ms
+        );
+    }
+}
+
 #[test]
 fn mismatched_targets_are_an_error() {
     let Some(ctx) = context_or_skip("mismatched_targets_are_an_error") else {

@@ -302,3 +302,61 @@ fn a_run_that_drops_layers_says_so_in_every_report() {
     assert!(table.contains("dropped layers on 1024 px"), "{table}");
     let _ = std::fs::remove_dir_all(&out);
 }
+
+#[test]
+fn deep_stacks_peel_exactly_with_auto_and_flag_a_small_budget() {
+    // 200 screen-filling layers (past the old 128-layer / 64-pass caps of the peelers): `auto`
+    // peels all of them and is exact; a budget of 10 layers (dual: 20) cuts every pixel,
+    // which the run reports as inexact.
+    let Some(ctx) = oit_gpu::testing::context_or_skip("deep_stacks_peel_exactly_with_auto") else {
+        return;
+    };
+    let out = temp_dir("deep");
+    let alpha = 2.0 / 200.0;
+    let scene = format!(
+        r#"{{"name": "stack-200", "resolution": [16, 16],
+            "camera": {{"eye": [0, 0, 10], "target": [0, 0, 0], "orthographic": {{"height": 2}},
+                        "near": 0.5, "far": 30}},
+            "background": [0.02, 0.02, 0.03],
+            "objects": [{{"mesh": {{"kind": "layers", "count": 200, "spacing": 0.008,
+                "size": [4, 4], "color_from": [1, 0.55, 0.1], "color_to": [0.1, 0.3, 1],
+                "alpha_from": {alpha}, "alpha_to": {alpha}}},
+              "transform": {{"translate": [0, 0, 4]}}, "material": {{"mode": "blend"}}}}]}}"#
+    );
+    let path = out.join("stack-200.json");
+    std::fs::write(&path, scene).unwrap();
+    let scenes = load_scenes(&[path]).unwrap();
+    let specs = resolve_specs(&[
+        "front-peel:layers=10".to_string(),
+        "front-peel:layers=auto".to_string(),
+        "dual-peel:passes=10,depth=rg32f".to_string(),
+        "dual-peel:passes=auto,depth=rg32f".to_string(),
+    ])
+    .unwrap();
+    let options = CompareOptions {
+        resolution: None,
+        ..one_frame_at_32px(&out, Default::default())
+    };
+    let results = compare(&ctx, &scenes, &specs, &options, &|_| {}).unwrap();
+    let pixels = 16 * 16;
+    for (run, peeled_per_pixel) in results.runs.iter().zip([10, 200, 20, 200]) {
+        let stats = run.stats.as_ref().unwrap();
+        let error = run.error.as_ref().unwrap();
+        println!(
+            "{}: {stats:?}, max error {:.2e}, {:?}",
+            run.technique, error.max_abs, run.inexact
+        );
+        assert_eq!(run.resolution, [16, 16]);
+        assert_eq!(stats.layers_peeled, peeled_per_pixel * pixels, "{run:?}");
+        if peeled_per_pixel < 200 {
+            assert_eq!(stats.pixels_with_dropped_layers, pixels, "{run:?}");
+            assert_eq!(run.inexact, [format!("dropped layers on {pixels} px")]);
+            assert!(error.max_abs > 0.1, "{run:?}");
+        } else {
+            assert_eq!(stats.pixels_with_dropped_layers, 0, "{run:?}");
+            assert!(run.inexact.is_empty(), "{run:?}");
+            assert!(error.max_abs <= 4e-3, "{run:?}");
+        }
+    }
+    let _ = std::fs::remove_dir_all(&out);
+}

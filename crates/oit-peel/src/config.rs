@@ -2,21 +2,24 @@
 
 use crate::encoding::DepthEncoding;
 use crate::error::PeelError;
-use crate::{MAX_DUAL_PASSES, MAX_FRONT_LAYERS};
 use oit_gpu::wgpu::TextureFormat;
 use oit_gpu::{Caps, TechniqueSpec, Unsupported};
 
 /// How many passes (layers for front peeling) to run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum PassCount {
-    /// At most this many; passes with nothing left to peel are skipped on the GPU.
+    /// At most this many; a frame stops early when nothing is left (passes with nothing to
+    /// peel are not recorded, or skipped on the GPU).
     Fixed(u32),
-    /// Until nothing is left (bounded by the technique's maximum).
+    /// Until nothing is left (bounded only by the adapter: [`crate::max_pass_slots`]).
     Auto,
 }
 
 impl PassCount {
-    fn parse(spec: &TechniqueSpec, key: &'static str, max: u32) -> Result<Self, PeelError> {
+    /// Any count a u32 holds parses; whether the adapter can record that many passes is the
+    /// technique's `check` (the bound is the adapter's, not the spec's).
+    fn parse(spec: &TechniqueSpec, key: &'static str) -> Result<Self, PeelError> {
+        let max = u32::MAX;
         let value = get(spec, key, &format!("an integer 1..={max}, auto"))?;
         if value == "auto" {
             return Ok(PassCount::Auto);
@@ -39,7 +42,21 @@ impl PassCount {
         }
     }
 
-    /// The most passes this setting may record.
+    /// Unsupported when a fixed count is more than the adapter allows (`max`, set by the
+    /// adapter limit `limit`).
+    pub(crate) fn check(self, key: &str, max: u32, limit: &str) -> Result<(), Unsupported> {
+        match self {
+            _ if max == 0 => Err(Unsupported::new(format!(
+                "{key}: this adapter allows no peel pass (limited by its {limit})"
+            ))),
+            PassCount::Fixed(n) if n > max => Err(Unsupported::new(format!(
+                "{key}={n}: this adapter allows at most {max} (limited by its {limit})"
+            ))),
+            _ => Ok(()),
+        }
+    }
+
+    /// The most passes this setting may record on an adapter that allows `max`.
     pub fn budget(self, max: u32) -> u32 {
         match self {
             PassCount::Fixed(n) => n.min(max),
@@ -196,7 +213,7 @@ impl DualPeelConfig {
             });
         }
         Ok(DualPeelConfig {
-            passes: PassCount::parse(spec, "passes", MAX_DUAL_PASSES)?,
+            passes: PassCount::parse(spec, "passes")?,
             depth: word(spec, "depth", DepthFormat::NAMES, DepthFormat::parse)?,
             reverse_z: word(spec, "reverse-z", &["on", "off"], |s| match s {
                 "on" => Some(true),
@@ -250,7 +267,7 @@ impl FrontPeelConfig {
             });
         }
         Ok(FrontPeelConfig {
-            layers: PassCount::parse(spec, "layers", MAX_FRONT_LAYERS)?,
+            layers: PassCount::parse(spec, "layers")?,
         })
     }
 

@@ -14,7 +14,6 @@
 //! one layer: the first drawn wins (strict test in draw order) and the others are lost,
 //! deterministically.
 
-use crate::MAX_FRONT_LAYERS;
 use crate::config::{FrontPeelConfig, PassCount};
 use crate::encoding::KeyParams;
 use crate::error::PeelError;
@@ -131,7 +130,7 @@ impl FrontPeel {
         self.list = None;
         let device = &ctx.device;
         let mut ledger = MemoryLedger::new();
-        let control = Control::new(ctx, &mut ledger)?;
+        let control = Control::new(ctx)?;
         let params = ledger.create_buffer(
             device,
             &wgpu::BufferDescriptor {
@@ -262,22 +261,16 @@ impl FrontPeel {
         let composite_module = gpu::shader(ctx, "peel_composite.wgsl", gpu::PEEL_COMPOSITE)?;
         let composite_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("peel composite"),
-            entries: &[bind::float_texture(0, fs), bind::storage(1, fs, false)],
+            entries: &[bind::float_texture(0, fs)],
         });
         let composite_group = |view: &wgpu::TextureView| {
             device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("front-peel composite"),
                 layout: &composite_layout,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: wgpu::BindingResource::TextureView(view),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 1,
-                        resource: control.counters.as_entire_binding(),
-                    },
-                ],
+                entries: &[wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::TextureView(view),
+                }],
             })
         };
         let under_group = composite_group(&layer);
@@ -336,6 +329,19 @@ impl FrontPeel {
             count_layout,
         });
         Ok(())
+    }
+
+    fn control(&self) -> &Control {
+        &self.gpu.as_ref().expect("resources built").control
+    }
+
+    /// Room for pass slots `0..slots` (layer passes `0..slots`).
+    fn reserve(&mut self, ctx: &Context, slots: u32) -> Result<(), GpuError> {
+        self.gpu
+            .as_mut()
+            .expect("resources built")
+            .control
+            .reserve(ctx, slots)
     }
 
     /// Records layer pass `k` (0-based): opaque depth copy, the layer, then (peel) its
@@ -456,7 +462,12 @@ impl Technique for FrontPeel {
         if caps.max_color_attachments < 2 {
             return Err(Unsupported::new("front peeling needs 2 colour attachments"));
         }
-        Ok(())
+        let (_, limit) = crate::max_pass_slots(caps);
+        self.config
+            .as_ref()
+            .map_err(|e| Unsupported::new(e.to_string()))?
+            .layers
+            .check("layers", crate::max_front_layers(caps), limit)
     }
 
     fn render(
@@ -487,7 +498,7 @@ impl Technique for FrontPeel {
         }
         let g = self.gpu.as_ref().expect("resources built");
         let list = self.list.as_ref().expect("draw list built");
-        let max = config.layers.budget(MAX_FRONT_LAYERS);
+        let max = config.layers.budget(crate::max_front_layers(&ctx.caps));
         let gated = self.options.termination == Termination::GpuGated;
         let mut report = PeelReport::default();
 
@@ -538,44 +549,50 @@ impl Technique for FrontPeel {
         }
         timer.submit(ctx, encoder)?;
 
+        // Layer pass k uses pass slot k; the slots grow with `recorded`.
         let mut recorded = 0u32;
         let mut counters: Option<Counters> = None;
-        match (self.options.termination, config.layers) {
-            (Termination::CpuReadbackPerPass, _) => loop {
+        if gated {
+            let initial = match config.layers {
+                PassCount::Fixed(n) => n.min(gpu::FIXED_FIRST),
+                PassCount::Auto => 8,
+            };
+            let mut end = self.budget.first(scene.id, initial, max);
+            loop {
+                self.reserve(ctx, end)?;
+                while recorded < end {
+                    self.layer_pass(ctx, scene, timer, recorded, PassRole::Peel, true)?;
+                    recorded += 1;
+                }
+                if recorded == max {
+                    // Nothing more may be recorded: the counters are read once, below.
+                    break;
+                }
+                let c = self.control().read(ctx, recorded)?;
+                report.readbacks += 1;
+                let more = c.left(recorded - 1);
+                counters = Some(c);
+                if !more {
+                    break;
+                }
+                end = recorded.saturating_add(gpu::more_passes(recorded)).min(max);
+            }
+        } else {
+            loop {
+                self.reserve(ctx, recorded + 1)?;
                 self.layer_pass(ctx, scene, timer, recorded, PassRole::Peel, false)?;
                 recorded += 1;
-                let c = g.control.read(ctx)?;
+                let c = self.control().read(ctx, recorded)?;
                 report.readbacks += 1;
                 let more = recorded < max && c.left(recorded - 1);
                 counters = Some(c);
                 if !more {
                     break;
                 }
-            },
-            (Termination::GpuGated, PassCount::Fixed(_)) => {
-                while recorded < max {
-                    self.layer_pass(ctx, scene, timer, recorded, PassRole::Peel, true)?;
-                    recorded += 1;
-                }
-            }
-            (Termination::GpuGated, PassCount::Auto) => {
-                let mut end = self.budget.first(scene.id, 8, max);
-                loop {
-                    while recorded < end {
-                        self.layer_pass(ctx, scene, timer, recorded, PassRole::Peel, true)?;
-                        recorded += 1;
-                    }
-                    let c = g.control.read(ctx)?;
-                    report.readbacks += 1;
-                    let more = c.left(recorded - 1) && recorded < max;
-                    counters = Some(c);
-                    if !more {
-                        break;
-                    }
-                    end = (recorded + gpu::CHUNK).min(max);
-                }
             }
         }
+        let g = self.gpu.as_ref().expect("resources built");
+        let list = self.list.as_ref().expect("draw list built");
         // Known from the flags: the last pass found no layer, so nothing was cut off.
         let finished = counters.as_ref().is_some_and(|c| !c.left(recorded - 1));
         let detect = !finished;
@@ -614,7 +631,7 @@ impl Technique for FrontPeel {
             Some(c) if finished => c,
             _ => {
                 report.readbacks += 1;
-                g.control.read(ctx)?
+                g.control.read(ctx, recorded)?
             }
         };
 
@@ -626,9 +643,9 @@ impl Technique for FrontPeel {
         report.passes_run = run + 1;
         report.peeled_per_pass = (0..recorded).map(|k| counters.peeled(k)).collect();
         report.dropped_pixels = if finished { 0 } else { counters.dropped() };
-        if config.layers == PassCount::Auto {
-            self.budget.remember(scene.id, recorded.min(run));
-        }
+        report.pass_slots = g.control.capacity();
+        // Next frame: the passes that ran (the last of them found nothing, or the budget ended).
+        self.budget.remember(scene.id, recorded.min(run));
         let stats = RenderStats {
             geometry_passes: run + 1,
             cpu_ms: 0.0,
@@ -640,6 +657,9 @@ impl Technique for FrontPeel {
     }
 
     fn memory_bytes(&self) -> u64 {
-        self.gpu.as_ref().map_or(0, |g| g.ledger.total()) + self.list_ledger.total()
+        self.gpu
+            .as_ref()
+            .map_or(0, |g| g.ledger.total() + g.control.memory_bytes())
+            + self.list_ledger.total()
     }
 }

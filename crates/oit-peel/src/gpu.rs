@@ -3,16 +3,57 @@
 
 use oit_gpu::bind;
 use oit_gpu::wgpu;
-use oit_gpu::{Context, GpuError, GpuScene, MemoryLedger, ScenePipelines};
+use oit_gpu::{Caps, Context, GpuError, GpuScene, MemoryLedger, ScenePipelines};
 
-/// Slots per counter array in the counters buffer (shaders/peel_common.wgsl `COUNTER_SLOTS`):
-/// `[0, S)` "pass i left something for pass i + 1", `[S, 2S)` fragments composited by pass i,
-/// `2S` pixels that lost layers.
-pub const COUNTER_SLOTS: u32 = 160;
-const PEELED_BASE: u32 = COUNTER_SLOTS;
-const DROPPED_SLOT: u32 = 2 * COUNTER_SLOTS;
-const COUNTER_WORDS: u32 = 2 * COUNTER_SLOTS + 1;
+/// Counter words before the per-pass records (shaders/peel_counters.wgsl): word 0 counts the
+/// pixels that lost layers.
+pub const COUNTER_HEADER_WORDS: u32 = 1;
+/// Counter words per pass (shaders/peel_counters.wgsl): "pass i left something for pass i + 1",
+/// then the fragments pass i composited.
+pub const COUNTER_WORDS_PER_PASS: u32 = 2;
+const DROPPED_WORD: u32 = 0;
 
+fn left_word(pass: u32) -> u64 {
+    u64::from(COUNTER_HEADER_WORDS) + u64::from(COUNTER_WORDS_PER_PASS) * u64::from(pass)
+}
+
+/// Pass slots (counter records and pass indices) allocated before the first frame; more are
+/// allocated when a frame needs them.
+const INITIAL_SLOTS: u32 = 64;
+
+/// Bytes of one pass index record: 16 (`PassInfo`) at the adapter's dynamic-offset alignment.
+fn pass_stride(caps: &Caps) -> u32 {
+    caps.min_uniform_buffer_offset_alignment.max(16)
+}
+
+/// Most pass slots the adapter allows, and the limit that sets it. Each pass has a 16-byte
+/// index record at its own dynamic uniform offset (`min_uniform_buffer_offset_alignment`
+/// apart, in one buffer of at most `max_buffer_size` bytes, offsets being u32) and
+/// `COUNTER_WORDS_PER_PASS` counter words in one storage binding of at most
+/// `max_storage_buffer_binding_size` bytes. Nothing else in the crate bounds the pass count.
+pub fn max_pass_slots(caps: &Caps) -> (u32, &'static str) {
+    let stride = u64::from(pass_stride(caps));
+    let by_indices = (caps.max_buffer_size / stride).min(u64::from(u32::MAX) / stride + 1);
+    let counter_bytes = caps
+        .max_storage_buffer_binding_size
+        .min(caps.max_buffer_size);
+    let by_counters = (counter_bytes / 4).saturating_sub(u64::from(COUNTER_HEADER_WORDS))
+        / u64::from(COUNTER_WORDS_PER_PASS);
+    let (slots, limit) = if by_indices <= by_counters {
+        (
+            by_indices,
+            "max_buffer_size / min_uniform_buffer_offset_alignment (one pass-index slot per pass)",
+        )
+    } else {
+        (
+            by_counters,
+            "max_storage_buffer_binding_size (8 counter bytes per pass)",
+        )
+    };
+    (slots.min(u64::from(u32::MAX)) as u32, limit)
+}
+
+pub(crate) const PEEL_COUNTERS: &str = include_str!("../../../shaders/peel_counters.wgsl");
 pub(crate) const PEEL_COMMON: &str = include_str!("../../../shaders/peel_common.wgsl");
 pub(crate) const PEEL_DUAL: &str = include_str!("../../../shaders/peel_dual.wgsl");
 pub(crate) const PEEL_FRONT: &str = include_str!("../../../shaders/peel_front.wgsl");
@@ -69,6 +110,9 @@ pub struct PeelReport {
     pub peeled_per_pass: Vec<u32>,
     /// Pixels where layers were left after the last pass.
     pub dropped_pixels: u32,
+    /// Pass slots (counter records and pass indices) allocated after the frame: grown when a
+    /// frame needed more, never shrunk.
+    pub pass_slots: u32,
 }
 
 /// A module of this crate's WGSL: `#include` resolves peel_common.wgsl, oit-wboit's tail and
@@ -83,6 +127,7 @@ pub(crate) fn shader(
         source,
         &[
             ("peel_common.wgsl", PEEL_COMMON),
+            ("peel_counters.wgsl", PEEL_COUNTERS),
             ("wboit_tail.wgsl", oit_wboit::tail::WGSL),
         ],
     )
@@ -126,10 +171,17 @@ pub(crate) fn texture_2d(
 }
 
 /// Counters, pass-index uniform, gate and count pipelines: everything that does not depend on
-/// the scene. The indirect argument buffer is per scene ([`DrawList`]).
+/// the scene. The indirect argument buffer is per scene ([`DrawList`]). The counters and the
+/// pass indices live in one bind group (`pass_group`, group 2 of the scene passes, group 1 of
+/// the full-screen and compute passes), so growing them replaces that group and nothing else.
 #[derive(Debug)]
 pub(crate) struct Control {
-    pub counters: wgpu::Buffer,
+    /// The counters, their readback and the pass indices (replaced when they grow).
+    ledger: MemoryLedger,
+    /// Pass slots allocated.
+    capacity: u32,
+    max_slots: (u32, &'static str),
+    counters: wgpu::Buffer,
     readback: wgpu::Buffer,
     /// Kept with the bind group that reads it.
     _pass_buffer: wgpu::Buffer,
@@ -141,14 +193,25 @@ pub(crate) struct Control {
     gate_pipeline: wgpu::ComputePipeline,
 }
 
-impl Control {
-    pub fn new(ctx: &Context, ledger: &mut MemoryLedger) -> Result<Self, GpuError> {
+/// The counters, their readback, the pass indices and their bind group for `capacity` slots.
+struct Slots {
+    ledger: MemoryLedger,
+    counters: wgpu::Buffer,
+    readback: wgpu::Buffer,
+    pass_buffer: wgpu::Buffer,
+    pass_group: wgpu::BindGroup,
+}
+
+impl Slots {
+    fn new(ctx: &Context, layout: &wgpu::BindGroupLayout, stride: u32, capacity: u32) -> Self {
         let device = &ctx.device;
+        let mut ledger = MemoryLedger::new();
+        let counter_bytes = counter_bytes(capacity);
         let counters = ledger.create_buffer(
             device,
             &wgpu::BufferDescriptor {
                 label: Some("peel counters"),
-                size: u64::from(COUNTER_WORDS) * 4,
+                size: counter_bytes,
                 usage: wgpu::BufferUsages::STORAGE
                     | wgpu::BufferUsages::COPY_SRC
                     | wgpu::BufferUsages::COPY_DST,
@@ -159,72 +222,150 @@ impl Control {
             device,
             &wgpu::BufferDescriptor {
                 label: Some("peel counters readback"),
-                size: u64::from(COUNTER_WORDS) * 4,
+                size: counter_bytes,
                 usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
                 mapped_at_creation: false,
             },
         );
         // One 16-byte PassInfo per pass index at the dynamic-offset alignment.
-        let pass_stride = device.limits().min_uniform_buffer_offset_alignment.max(16);
-        let mut words = vec![0u32; (pass_stride / 4 * COUNTER_SLOTS) as usize];
-        for i in 0..COUNTER_SLOTS {
-            words[(i * pass_stride / 4) as usize] = i;
+        let words_per_slot = (stride / 4) as usize;
+        let mut words = vec![0u32; words_per_slot * capacity as usize];
+        for i in 0..capacity {
+            words[i as usize * words_per_slot] = i;
         }
         let pass_buffer = ledger.create_buffer(
             device,
             &wgpu::BufferDescriptor {
                 label: Some("peel pass indices"),
-                size: u64::from(pass_stride) * u64::from(COUNTER_SLOTS),
+                size: u64::from(stride) * u64::from(capacity),
                 usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             },
         );
         ctx.queue
             .write_buffer(&pass_buffer, 0, bytemuck::cast_slice(&words));
+        let pass_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("peel pass group"),
+            layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer: &pass_buffer,
+                        offset: 0,
+                        size: wgpu::BufferSize::new(16),
+                    }),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: counters.as_entire_binding(),
+                },
+            ],
+        });
+        Slots {
+            ledger,
+            counters,
+            readback,
+            pass_buffer,
+            pass_group,
+        }
+    }
+}
+
+/// Bytes of the counters for `slots` passes.
+fn counter_bytes(slots: u32) -> u64 {
+    left_word(slots) * 4
+}
+
+impl Control {
+    pub fn new(ctx: &Context) -> Result<Self, GpuError> {
+        let device = &ctx.device;
+        let max_slots = max_pass_slots(&ctx.caps);
+        let capacity = INITIAL_SLOTS.min(max_slots.0);
+        let pass_stride = pass_stride(&ctx.caps);
         let all = wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE;
         let pass_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("peel pass index"),
-            entries: &[bind::dynamic_uniform(0, all, 16)],
+            label: Some("peel pass group"),
+            entries: &[
+                bind::dynamic_uniform(0, all, 16),
+                bind::storage(1, all, false),
+            ],
         });
-        let pass_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("peel pass index"),
-            layout: &pass_layout,
-            entries: &[wgpu::BindGroupEntry {
-                binding: 0,
-                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                    buffer: &pass_buffer,
-                    offset: 0,
-                    size: wgpu::BufferSize::new(16),
-                }),
-            }],
-        });
+        let slots = Slots::new(ctx, &pass_layout, pass_stride, capacity);
         let gate_module = shader(ctx, "peel_gate.wgsl", PEEL_GATE)?;
         let cs = wgpu::ShaderStages::COMPUTE;
         let gate_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("peel gate"),
-            entries: &[
-                bind::storage(0, cs, false),
-                bind::storage(1, cs, false),
-                bind::uniform(2, cs),
-            ],
+            entries: &[bind::storage(1, cs, false), bind::uniform(2, cs)],
         });
         let gate_pipeline =
             compute_pipeline(ctx, &gate_module, &[&gate_layout, &pass_layout], "cs_gate");
         Ok(Control {
-            counters,
-            readback,
-            _pass_buffer: pass_buffer,
+            ledger: slots.ledger,
+            capacity,
+            max_slots,
+            counters: slots.counters,
+            readback: slots.readback,
+            _pass_buffer: slots.pass_buffer,
             pass_stride,
             pass_layout,
-            pass_group,
+            pass_group: slots.pass_group,
             gate_module,
             gate_layout,
             gate_pipeline,
         })
     }
 
-    /// The dynamic offset that selects pass index `i`.
+    /// Pass slots allocated now.
+    pub fn capacity(&self) -> u32 {
+        self.capacity
+    }
+
+    /// Bytes of the counters, their readback and the pass indices.
+    pub fn memory_bytes(&self) -> u64 {
+        self.ledger.total()
+    }
+
+    /// Makes room for pass indices `0..slots`, keeping the counts already written this frame:
+    /// a larger set of buffers (at least double, at most the adapter's bound) replaces the
+    /// pass group, and the old counters are copied into the new ones on the queue, after the
+    /// passes already submitted. Fails only beyond [`max_pass_slots`] (which `check` and the
+    /// `auto` budgets stay within).
+    pub fn reserve(&mut self, ctx: &Context, slots: u32) -> Result<(), GpuError> {
+        if slots <= self.capacity {
+            return Ok(());
+        }
+        let (max, limit) = self.max_slots;
+        if slots > max {
+            return Err(GpuError::TooLarge {
+                what: format!("depth-peeling passes (adapter limit: {limit})"),
+                needed: u64::from(slots),
+                limit: u64::from(max),
+            });
+        }
+        let capacity = slots.max(self.capacity.saturating_mul(2)).min(max);
+        let grown = Slots::new(ctx, &self.pass_layout, self.pass_stride, capacity);
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        encoder.copy_buffer_to_buffer(
+            &self.counters,
+            0,
+            &grown.counters,
+            0,
+            counter_bytes(self.capacity),
+        );
+        ctx.queue.submit([encoder.finish()]);
+        self.ledger = grown.ledger;
+        self.capacity = capacity;
+        self.counters = grown.counters;
+        self.readback = grown.readback;
+        self._pass_buffer = grown.pass_buffer;
+        self.pass_group = grown.pass_group;
+        Ok(())
+    }
+
+    /// The dynamic offset that selects pass index `i` (within [`Control::capacity`]).
     pub fn offset(&self, i: u32) -> u32 {
+        debug_assert!(i < self.capacity, "pass {i} beyond {} slots", self.capacity);
         i * self.pass_stride
     }
 
@@ -258,9 +399,10 @@ impl Control {
             .device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some(entry),
-                entries: &[bind::storage(0, cs, false), bind::uniform(2, cs), extra],
+                entries: &[bind::uniform(2, cs), extra],
             });
-        let pipeline = compute_pipeline(ctx, &self.gate_module, &[&layout], entry);
+        let pipeline =
+            compute_pipeline(ctx, &self.gate_module, &[&layout, &self.pass_layout], entry);
         (layout, pipeline)
     }
 
@@ -283,10 +425,6 @@ impl Control {
             layout: count.0,
             entries: &[
                 wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: self.counters.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
                     binding: 2,
                     resource: grid.as_entire_binding(),
                 },
@@ -302,6 +440,7 @@ impl Control {
         });
         pass.set_pipeline(count.1);
         pass.set_bind_group(0, &group, &[]);
+        pass.set_bind_group(1, &self.pass_group, &[0]);
         pass.dispatch_workgroups(
             resolution.width.div_ceil(8),
             resolution.height.div_ceil(8),
@@ -309,18 +448,15 @@ impl Control {
         );
     }
 
-    /// Copies the counters back (waits for the GPU).
-    pub fn read(&self, ctx: &Context) -> Result<Counters, GpuError> {
+    /// Copies back the counters of passes `0..slots` and the dropped-pixel count (waits for
+    /// the GPU).
+    pub fn read(&self, ctx: &Context, slots: u32) -> Result<Counters, GpuError> {
+        let bytes = counter_bytes(slots.min(self.capacity));
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
-        encoder.copy_buffer_to_buffer(
-            &self.counters,
-            0,
-            &self.readback,
-            0,
-            u64::from(COUNTER_WORDS) * 4,
-        );
+        encoder.copy_buffer_to_buffer(&self.counters, 0, &self.readback, 0, bytes);
         ctx.queue.submit([encoder.finish()]);
-        let words = oit_gpu::read_buffer_u32(ctx, &self.readback, "peel counters")?;
+        let mut words = oit_gpu::read_buffer_u32(ctx, &self.readback, "peel counters")?;
+        words.truncate((bytes / 4) as usize);
         Ok(Counters { words })
     }
 }
@@ -357,20 +493,25 @@ pub(crate) struct Counters {
 }
 
 impl Counters {
-    /// Pass `i` left something for pass `i + 1`.
-    pub fn left(&self, i: u32) -> bool {
-        self.words.get(i as usize).is_some_and(|&w| w != 0)
-    }
-
-    pub fn peeled(&self, i: u32) -> u32 {
-        self.words
-            .get((PEELED_BASE + i) as usize)
+    fn word(&self, index: u64) -> u32 {
+        usize::try_from(index)
+            .ok()
+            .and_then(|i| self.words.get(i))
             .copied()
             .unwrap_or(0)
     }
 
+    /// Pass `i` left something for pass `i + 1`.
+    pub fn left(&self, i: u32) -> bool {
+        self.word(left_word(i)) != 0
+    }
+
+    pub fn peeled(&self, i: u32) -> u32 {
+        self.word(left_word(i) + 1)
+    }
+
     pub fn dropped(&self) -> u32 {
-        self.words.get(DROPPED_SLOT as usize).copied().unwrap_or(0)
+        self.word(u64::from(DROPPED_WORD))
     }
 }
 
@@ -437,10 +578,6 @@ impl DrawList {
             layout: &control.gate_layout,
             entries: &[
                 wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: control.counters.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
                     binding: 1,
                     resource: args.as_entire_binding(),
                 },
@@ -486,7 +623,7 @@ impl DrawList {
     }
 }
 
-/// How many passes the next frame records for `auto`: what this scene needed last time.
+/// How many passes the next frame records: what this scene needed last time.
 #[derive(Debug, Default)]
 pub(crate) struct Budget {
     scene_id: Option<u64>,
@@ -494,7 +631,8 @@ pub(crate) struct Budget {
 }
 
 impl Budget {
-    /// Passes to record first (at least `min`, at most `max`).
+    /// Passes to record first (at least 1, at most `max`): last frame's count for the same
+    /// scene, else `initial`.
     pub fn first(&self, scene_id: u64, initial: u32, max: u32) -> u32 {
         let n = if self.scene_id == Some(scene_id) {
             self.passes
@@ -510,5 +648,15 @@ impl Budget {
     }
 }
 
-/// Chunk of extra passes recorded when the budget was too small.
-pub(crate) const CHUNK: u32 = 8;
+/// Passes the first frame of a scene records for a fixed budget before asking the GPU whether
+/// more are needed: budgets up to this record all their passes at once (one readback per
+/// frame, as before), a budget far above the scene's depth complexity (any N is allowed up
+/// to the adapter's bound) does not record thousands of empty passes.
+pub(crate) const FIXED_FIRST: u32 = 64;
+
+/// Passes recorded after a readback found the budget too small: at least 8, and half of what
+/// the frame recorded so far, so a scene with L layers needs O(log L) readbacks on its first
+/// frame and wastes at most a third of the recorded passes (gated off, they rasterize nothing).
+pub(crate) fn more_passes(recorded: u32) -> u32 {
+    (recorded / 2).max(8)
+}

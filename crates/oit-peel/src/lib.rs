@@ -15,6 +15,11 @@
 //! records as many passes as the previous frame needed and reads the counters back once at the
 //! end (for the stats); only when that budget was too small does it record more.
 //!
+//! No pass count is fixed: `auto` peels until nothing is left. The per-pass counters and pass
+//! indices grow with the frame; the only bound is the adapter's ([`max_pass_slots`]: buffer
+//! size over the dynamic-offset alignment, or the storage binding size), which an explicit
+//! `layers=N` / `passes=N` beyond it is reported against by `check`.
+//!
 //! See README.md for the measurements (lavapipe) and the depth-range encoding table.
 
 mod config;
@@ -29,14 +34,22 @@ pub use dual::DualPeel;
 pub use encoding::{DepthEncoding, KeyParams, f16_round, half_uniform, peel_key};
 pub use error::PeelError;
 pub use front::FrontPeel;
-pub use gpu::{COUNTER_SLOTS, Options, PeelReport, Termination};
+pub use gpu::{
+    COUNTER_HEADER_WORDS, COUNTER_WORDS_PER_PASS, Options, PeelReport, Termination, max_pass_slots,
+};
 
-use oit_gpu::{Allowed, ParamInfo, TechniqueInfo};
+use oit_gpu::{Allowed, Caps, ParamInfo, TechniqueInfo};
 
-/// Largest `dual-peel:passes=N` (and the `auto` budget): 128 layers.
-pub const MAX_DUAL_PASSES: u32 = 64;
-/// Largest `front-peel:layers=N` (and the `auto` budget).
-pub const MAX_FRONT_LAYERS: u32 = 128;
+/// Most `front-peel` layers on this adapter (`auto` and `layers=N`): one pass slot per layer.
+pub fn max_front_layers(caps: &Caps) -> u32 {
+    max_pass_slots(caps).0
+}
+
+/// Most `dual-peel` peel passes on this adapter (`auto` and `passes=N`): the init pass takes
+/// one pass slot, each peel pass one more.
+pub fn max_dual_passes(caps: &Caps) -> u32 {
+    max_pass_slots(caps).0.saturating_sub(1)
+}
 
 /// The registry entries of this crate.
 pub fn techniques() -> Vec<TechniqueInfo> {
@@ -46,11 +59,11 @@ pub fn techniques() -> Vec<TechniqueInfo> {
             description: "front-to-back depth peeling (Everitt 2001): one layer per geometry pass, exact up to the layer budget; auto stops after the first empty pass",
             params: vec![ParamInfo {
                 key: "layers",
-                description: "layers to peel (one geometry pass each), or auto: until a pass finds nothing (GPU-gated indirect draws)",
+                description: "layers to peel (one geometry pass each), or auto: until a pass finds nothing (GPU-gated indirect draws). No fixed cap: per-layer counters and pass indices grow with the frame, bounded only by the adapter (8 counter bytes per layer within max_storage_buffer_binding_size, one pass-index slot per layer within max_buffer_size; lavapipe: 16777215 layers, set by its 128 MiB storage binding size); a larger N is reported as unsupported there",
                 default: "auto",
                 allowed: Allowed::Integer {
                     min: 1,
-                    max: MAX_FRONT_LAYERS as u64,
+                    max: u32::MAX as u64,
                     words: &["auto"],
                 },
             }],
@@ -62,11 +75,11 @@ pub fn techniques() -> Vec<TechniqueInfo> {
             params: vec![
                 ParamInfo {
                     key: "passes",
-                    description: "peel passes after the init pass (2 layers each; Babylon's default is 5), or auto: exactly ceil(L/2), GPU-gated",
+                    description: "peel passes after the init pass (2 layers each; Babylon's default is 5), or auto: exactly ceil(L/2), GPU-gated. No fixed cap: per-pass counters and pass indices grow with the frame, bounded only by the adapter (8 counter bytes per pass within max_storage_buffer_binding_size, one pass-index slot per pass within max_buffer_size; lavapipe: 16777214 passes, set by its 128 MiB storage binding size); a larger N is reported as unsupported there",
                     default: "5",
                     allowed: Allowed::Integer {
                         min: 1,
-                        max: MAX_DUAL_PASSES as u64,
+                        max: u32::MAX as u64,
                         words: &["auto"],
                     },
                 },

@@ -18,6 +18,7 @@ fn peel_shaders_validate() {
         [
             "peel_common.wgsl",
             "peel_composite.wgsl",
+            "peel_counters.wgsl",
             "peel_dual.wgsl",
             "peel_front.wgsl",
             "peel_gate.wgsl",
@@ -39,35 +40,58 @@ fn peel_shaders_validate() {
     }
 }
 
-/// The counter layout is written twice (WGSL constants and Rust); they must agree.
+/// The counter layout is written twice (WGSL in peel_counters.wgsl, which every peel shader
+/// includes, and Rust); they must agree. No shader holds a pass count: the counters are a
+/// runtime-sized array the crate grows.
 #[test]
 fn counter_layout_matches_the_shaders() {
-    let slots = oit_peel::COUNTER_SLOTS;
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shaders");
-    for (file, needles) in [
-        (
-            "peel_common.wgsl",
-            vec![
-                format!("COUNTER_SLOTS: u32 = {slots}u"),
-                format!("PEELED_BASE: u32 = {slots}u"),
-                format!("DROPPED_SLOT: u32 = {}u", 2 * slots),
-            ],
+    let read = |file: &str| std::fs::read_to_string(dir.join(file)).expect("readable");
+    let layout = read("peel_counters.wgsl");
+    for needle in [
+        format!(
+            "COUNTER_HEADER_WORDS: u32 = {}u",
+            oit_peel::COUNTER_HEADER_WORDS
         ),
-        (
-            "peel_composite.wgsl",
-            vec![format!("PEELED_BASE: u32 = {slots}u")],
+        format!(
+            "COUNTER_WORDS_PER_PASS: u32 = {}u",
+            oit_peel::COUNTER_WORDS_PER_PASS
         ),
-        (
-            "peel_gate.wgsl",
-            vec![
-                format!("COUNTER_SLOTS: u32 = {slots}u"),
-                format!("DROPPED_SLOT: u32 = {}u", 2 * slots),
-            ],
-        ),
+        "DROPPED_WORD: u32 = 0u".to_owned(),
+        "return COUNTER_HEADER_WORDS + COUNTER_WORDS_PER_PASS * pass_index;".to_owned(),
+        "return left_word(pass_index) + 1u;".to_owned(),
     ] {
-        let text = std::fs::read_to_string(dir.join(file)).expect("readable");
-        for n in needles {
-            assert!(text.contains(&n), "{file} lacks {n:?}");
+        assert!(
+            layout.contains(&needle),
+            "peel_counters.wgsl lacks {needle:?}"
+        );
+    }
+    for file in [
+        "peel_common.wgsl",
+        "peel_composite.wgsl",
+        "peel_dual.wgsl",
+        "peel_front.wgsl",
+        "peel_gate.wgsl",
+        "peel_tail.wgsl",
+    ] {
+        let text = read(file);
+        // Counters are indexed only through the layout's functions, never by a literal slot.
+        assert!(!text.contains("SLOT"), "{file} has a fixed counter slot");
+        for (i, _) in text.match_indices("&counters[") {
+            let index = &text[i + "&counters[".len()..];
+            assert!(
+                [
+                    "left_word(",
+                    "peeled_word(",
+                    "DROPPED_WORD]",
+                    "word]",
+                    "left]"
+                ]
+                .iter()
+                .any(|f| index.starts_with(f)),
+                "{file}: counters indexed by {:?}",
+                &index[..index.find(']').unwrap_or(index.len())]
+            );
         }
     }
 }
