@@ -490,6 +490,17 @@ fn shade_span(
     };
     if let Some(shaded) = tri.constant {
         let open = tri.constant_undecided;
+        if tri.z[0] == tri.z[1] && tri.z[1] == tri.z[2] {
+            // A constant depth interpolates to itself: Σ l_i·z in f64 is z·(1 ± 2^-50) (the
+            // weights sum to 1 up to f64 rounding), which rounds back to the f32 z. So every
+            // fragment of a flat constant triangle (layers, camera-facing billboards) has one
+            // key, bit-identical to what the per-pixel path computes.
+            let dkey = depth_key(tri.z[0].clamp(0.0, 1.0) + 0.0, reverse_z);
+            for x in first..end {
+                sink.fragment(base + x as usize, dkey, shaded, open);
+            }
+            return;
+        }
         for x in (first..end).step_by(LANES) {
             let dkey = depth_keys(depths(tri, &weights(x)), reverse_z);
             let p = base + x as usize;
