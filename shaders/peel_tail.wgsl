@@ -24,7 +24,7 @@ fn fs_tail(v: VertexOut, @builtin(front_facing) front_facing: bool) -> TailOut {
     }
     let z = v.clip.z;
     let w = wboit_weight_default(wboit_view_distance_default(z), z, shaded.alpha);
-    let a = wboit_accumulate(shaded.color, shaded.alpha, w);
+    let a = wboit_accumulate(shaded.color, shaded.alpha, w, wboit_color_scale);
     var out: TailOut;
     out.accum = a.accum;
     out.reveal = a.reveal;

@@ -17,6 +17,11 @@ struct WboitParams {
     // The scene's transparent depth interval (view distances) for the `range` weight.
     z_near: f32,
     z_far: f32,
+    // Unit of the colour sums (oit_wboit::RangeParams::color_scale; 1 for LDR colours).
+    color_scale: f32,
+    pad0: f32,
+    pad1: f32,
+    pad2: f32,
 }
 
 @group(1) @binding(0) var<uniform> params: WboitParams;
@@ -58,7 +63,7 @@ fn weight(kind: u32, z: f32, d: f32, alpha: f32) -> f32 {
             return clamp(cube(a) * 1e8 * cube(b), 1e-2, 3e2);
         }
         default: {
-            return wboit_weight_range(z, alpha, params.z_near, params.z_far, params.range_fall);
+            return wboit_weight_range(z, params.z_near, params.z_far, params.range_fall);
         }
     }
 }
@@ -80,7 +85,8 @@ fn fs_wboit(v: VertexOut, @builtin(front_facing) front_facing: bool) -> Outputs 
         d = 1.0 - window_z;
     }
     let z = wboit_view_distance(window_z, params.proj_a, params.proj_b, params.ortho != 0u);
-    let a = wboit_accumulate(s.color, s.alpha, weight(params.weight, z, d, s.alpha));
+    let w = weight(params.weight, z, d, s.alpha);
+    let a = wboit_accumulate(s.color, s.alpha, w, params.color_scale);
     var out: Outputs;
     out.accum = a.accum;
     out.reveal = a.reveal;

@@ -10,7 +10,8 @@ struct CompositeParams {
     accum_max: f32,
     // Largest average colour written (keeps the final target and its blend finite).
     out_max: f32,
-    pad: f32,
+    // Unit the colour sums were accumulated in (a power of two; 1 for LDR colours).
+    color_scale: f32,
 }
 
 @group(0) @binding(0) var accum_tex: texture_2d<f32>;
@@ -115,7 +116,7 @@ fn fs_composite(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32
 
     var avg = vec3<f32>(0.0);
     if acc.a > 0.0 {
-        avg = acc.rgb / acc.a;
+        avg = acc.rgb / acc.a * params.color_scale;
     } else {
         // Covered, but every weight underflowed to zero: the colour is unknown. Black (the
         // "darker than the inputs" underflow symptom) rather than a division by zero.

@@ -6,20 +6,25 @@
 
 // The `range` weight's scene inputs (oit_wboit::RangeParams), for callers that use
 // `wboit_weight_default`: the transparent depth interval [near, far] as view distances and the
-// fall in bits. Set them with oit_wboit::tail::pipeline_constants(scene).
+// fall in bits; and the unit of the colour sums (a power of two, 1 for LDR colours), which the
+// composite multiplies back. Set them with oit_wboit::tail::AccumTargets::prepare(scene).
 override wboit_z_near: f32 = 0.1;
 override wboit_z_far: f32 = 1000.0;
 override wboit_range_fall: f32 = 8.0;
+override wboit_color_scale: f32 = 1.0;
 // The projection terms that turn window depth back into view distance (see
 // `wboit_view_distance`); the defaults are a standard perspective with near 0.1, far 1000.
 override wboit_proj_a: f32 = -1.0001;
 override wboit_proj_b: f32 = -0.10001;
 override wboit_ortho: bool = false;
 
-// Largest `range` weight: 2^8, so 255 layers of alpha 1 and colour 1 still fit in fp16 (65504).
+// Largest `range` weight: 2^8, so 255 layers of alpha 1 and colour at most the colour scale
+// still fit in fp16 (65504).
 const WBOIT_RANGE_MAX: f32 = 256.0;
-// Largest fall (bits): the smallest weight 256 * 2^-12 keeps alpha = 1/512 terms normal in fp16.
-const WBOIT_RANGE_MAX_FALL: f32 = 12.0;
+// Largest fall (bits): the smallest weight 256 * 2^-21 = 2^-13 stays a normal fp16 number. The
+// CPU lowers the scene's fall further so that alpha * w of its faintest layer stays normal too
+// (oit_wboit::range::fall_cap).
+const WBOIT_RANGE_MAX_FALL: f32 = 21.0;
 
 // View distance (positive, along the view axis) of a fragment from its window depth, for the
 // f32 projection matrix `proj` of the camera: a = proj[2][2], b = proj[3][2]. Perspective
@@ -40,33 +45,36 @@ fn wboit_view_distance_default(window_z: f32) -> f32 {
 // fragment's position in the transparent interval (0 at the near end, 1 at the far end) and
 // `fall` the absorbance in bits the scene puts in front of its farthest fragments (see
 // oit_wboit::RangeParams), assumed spread evenly over the interval:
-// w = alpha * 256 * 2^(-fall * t), fall clamped to [0, 12].
-fn wboit_weight_range(view_z: f32, alpha: f32, z_near: f32, z_far: f32, fall: f32) -> f32 {
+// w = 256 * 2^(-fall * t), fall clamped to [0, 21]. No alpha factor: alpha already enters the
+// sums (C = alpha * c and alpha * w), and the exact weight is the transmittance alone.
+fn wboit_weight_range(view_z: f32, z_near: f32, z_far: f32, fall: f32) -> f32 {
     let span = z_far - z_near;
     var t = 0.0;
     if span > 0.0 {
         t = clamp((view_z - z_near) / span, 0.0, 1.0);
     }
-    return alpha * WBOIT_RANGE_MAX * exp2(-clamp(fall, 0.0, WBOIT_RANGE_MAX_FALL) * t);
+    return WBOIT_RANGE_MAX * exp2(-clamp(fall, 0.0, WBOIT_RANGE_MAX_FALL) * t);
 }
 
-// The default weight (the `range` weight with the overridable constants). `window_z` is
-// unused by this weight; it is in the signature so the default can change without callers.
+// The default weight (the `range` weight with the overridable constants). `window_z` and
+// `alpha` are unused by this weight; they are in the signature so the default can change
+// without callers.
 fn wboit_weight_default(view_z: f32, window_z: f32, alpha: f32) -> f32 {
-    return wboit_weight_range(view_z, alpha, wboit_z_near, wboit_z_far, wboit_range_fall);
+    return wboit_weight_range(view_z, wboit_z_near, wboit_z_far, wboit_range_fall);
 }
 
 // The two accumulation outputs of one fragment: location 0 (additive) gets
-// (premultiplied colour * w, alpha * w); location 1 (blend zero, one-minus-src) gets alpha in .r,
-// so it holds the revealage prod(1 - alpha).
+// (premultiplied colour / color_scale * w, alpha * w); location 1 (blend zero, one-minus-src)
+// gets alpha in .r, so it holds the revealage prod(1 - alpha). `color_scale` is a power of two
+// (exact to divide by) that keeps HDR colour sums inside fp16; the composite multiplies it back.
 struct WboitAccum {
     accum: vec4<f32>,
     reveal: vec4<f32>,
 }
 
-fn wboit_accumulate(premultiplied: vec3<f32>, alpha: f32, weight: f32) -> WboitAccum {
+fn wboit_accumulate(premultiplied: vec3<f32>, alpha: f32, weight: f32, color_scale: f32) -> WboitAccum {
     var out: WboitAccum;
-    out.accum = vec4<f32>(premultiplied * weight, alpha * weight);
+    out.accum = vec4<f32>(premultiplied * (weight / color_scale), alpha * weight);
     out.reveal = vec4<f32>(alpha, 0.0, 0.0, 0.0);
     return out;
 }

@@ -739,7 +739,7 @@ impl DualPeel {
         targets: &Targets,
     ) -> Result<TailPass, GpuError> {
         let g = self.gpu.as_ref().expect("resources built");
-        let accum = wboit::AccumTargets::new(ctx, targets.resolution)?;
+        let mut accum = wboit::AccumTargets::new(ctx, targets.resolution)?;
         let module = gpu::shader(ctx, "peel_tail.wgsl", gpu::PEEL_TAIL)?;
         let layout = ctx
             .device
@@ -754,7 +754,7 @@ impl DualPeel {
             });
         let mut constants = key_constants(config, range_format, true);
         constants.retain(|(k, _)| *k != "TEST_FIRST");
-        constants.extend(wboit::pipeline_constants(&scene.scene));
+        constants.extend(accum.prepare(&scene.scene));
         let pipelines = ScenePipelines::with_layout(
             ctx,
             &ScenePipelineDesc {

@@ -1,8 +1,9 @@
 //! Error table of every weight on every bundled scene against the CPU reference:
 //! `cargo run -p oit-wboit --release --example wboit_table -- [SIZE] [accum] [reveal]`
 //! (default 128 rgba16f r16f; `WBOIT_ONLY=eq10,range` limits the weights). Prints mean FLIP
-//! and RMSE per scene × weight, the suite means, guard counts and the order dependence
-//! (max |forward − reversed draw order| over RGB).
+//! (HDR-FLIP on scenes whose reference exceeds 1, as `oit compare` reports) and RMSE per
+//! scene × weight, the suite means, guard counts and the order dependence (max |forward −
+//! reversed draw order| over RGB).
 
 use anyhow::{Context as _, Result, bail};
 use oit_gpu::{ColorFormat, GpuScene, GpuTimer, Targets, read_color, render_frame};
@@ -96,9 +97,10 @@ fn main() -> Result<()> {
             render_frame(&ctx, &reversed, &mut t, &targets, &mut timer)?;
             let rev = read_color(&ctx, &targets)?;
             let e = oit_metrics::compare(&image, &reference.image)?;
-            flip_sum[i] += e.flip_mean;
+            let flip = e.headline_flip().0;
+            flip_sum[i] += flip;
             rmse_sum[i] += e.rmse;
-            row.push_str(&format!(" {:.4} / {:.4} |", e.flip_mean, e.rmse));
+            row.push_str(&format!(" {flip:.4} / {:.4} |", e.rmse));
             notes.push(format!(
                 "{} {name}: nonfinite {} order_dependence {:.3e} guards [{guards}]",
                 scene.name,

@@ -6,10 +6,11 @@
 //! A peel pass that accumulates its leftover layers:
 //!
 //! 1. appends [`WGSL`] to its shader source and, per fragment, writes
-//!    `wboit_accumulate(C, alpha, wboit_weight_default(wboit_view_distance_default(z), z, alpha))`'s
+//!    `wboit_accumulate(C, alpha, wboit_weight_default(wboit_view_distance_default(z), z, alpha), wboit_color_scale)`'s
 //!    `accum` to the attachment of [`AccumTargets::attachments`]`[0]` and `reveal` to `[1]`;
-//! 2. builds its pipeline with [`AccumTargets::color_targets`] and the override constants of
-//!    [`pipeline_constants`] (for the scene's depth interval and projection);
+//! 2. builds its pipeline with [`AccumTargets::color_targets`] and the override constants
+//!    [`AccumTargets::prepare`] returns for the scene (depth interval, projection, colour scale;
+//!    it also tells the composite the colour scale);
 //! 3. calls [`composite`] once after the last accumulation pass.
 
 use crate::guards::{GUARD_SLOTS, GuardCounts};
@@ -27,13 +28,15 @@ use std::sync::Mutex;
 /// - `fn wboit_weight_default(view_z: f32, window_z: f32, alpha: f32) -> f32`: the `range`
 ///   weight with the scene inputs in the override constants `wboit_z_near`, `wboit_z_far`,
 ///   `wboit_range_fall` (defaults 0.1, 1000, 8);
-/// - `fn wboit_weight_range(view_z, alpha, z_near, z_far, fall) -> f32`: the same with the
-///   inputs passed explicitly ([`RangeParams`]);
+/// - `fn wboit_weight_range(view_z, z_near, z_far, fall) -> f32`: the same with the inputs
+///   passed explicitly ([`RangeParams`]);
+/// - `override wboit_color_scale: f32` (default 1): the unit of the colour sums;
 /// - `fn wboit_view_distance(window_z, a, b, ortho: bool) -> f32` and
 ///   `fn wboit_view_distance_default(window_z) -> f32` (overrides `wboit_proj_a`,
 ///   `wboit_proj_b`, `wboit_ortho`): the positive view distance from window depth;
 /// - `struct WboitAccum { accum: vec4<f32>, reveal: vec4<f32> }` and
-///   `fn wboit_accumulate(premultiplied: vec3<f32>, alpha: f32, weight: f32) -> WboitAccum`.
+///   `fn wboit_accumulate(premultiplied: vec3<f32>, alpha: f32, weight: f32, color_scale: f32) -> WboitAccum`
+///   (colour sums in units of `color_scale`, which the composite multiplies back).
 pub const WGSL: &str = include_str!("../../../shaders/wboit_tail.wgsl");
 
 /// The composite pass (shaders/wboit_composite.wgsl).
@@ -193,6 +196,8 @@ pub struct AccumTargets {
     layout: wgpu::BindGroupLayout,
     bind_group: wgpu::BindGroup,
     pipeline: Mutex<Option<CompositePipeline>>,
+    /// Unit of the colour sums, multiplied back by the composite (1 unless set).
+    color_scale: f32,
     ledger: MemoryLedger,
 }
 
@@ -314,6 +319,7 @@ impl AccumTargets {
             layout,
             bind_group,
             pipeline: Mutex::new(None),
+            color_scale: 1.0,
             ledger,
         })
     }
@@ -369,6 +375,37 @@ impl AccumTargets {
         [
             pass::color(&self.accum_view, load(0.0)),
             pass::color(&self.reveal_view, load(reveal_clear)),
+        ]
+    }
+
+    /// The unit the accumulation pass divided the colour sums by, which [`composite`]
+    /// multiplies back ([`RangeParams::color_scale`]; 1, the default, for LDR colours). A pass
+    /// must accumulate with the same value it sets here.
+    pub fn set_color_scale(&mut self, scale: f32) {
+        self.color_scale = scale;
+    }
+
+    pub fn color_scale(&self) -> f32 {
+        self.color_scale
+    }
+
+    /// For a pass that uses `wboit_weight_default` and `wboit_color_scale`: computes the scene's
+    /// [`RangeParams`], sets the colour scale the composite multiplies back, and returns the
+    /// override constants of [`WGSL`] for `wgpu::PipelineCompilationOptions::constants` (depth
+    /// interval, fall, colour scale, projection). One call keeps the shader's colour unit and
+    /// the composite's in step.
+    pub fn prepare(&mut self, scene: &Scene) -> Vec<(&'static str, f64)> {
+        let range = RangeParams::of(scene);
+        self.set_color_scale(range.color_scale);
+        let (a, b, ortho) = view_depth_terms(&scene.camera);
+        vec![
+            ("wboit_z_near", f64::from(range.z_near)),
+            ("wboit_z_far", f64::from(range.z_far)),
+            ("wboit_range_fall", f64::from(range.fall)),
+            ("wboit_color_scale", f64::from(range.color_scale)),
+            ("wboit_proj_a", f64::from(a)),
+            ("wboit_proj_b", f64::from(b)),
+            ("wboit_ortho", if ortho { 1.0 } else { 0.0 }),
         ]
     }
 
@@ -449,7 +486,7 @@ pub fn composite(
         accum.mode.index(),
         accum.accum_format.max_finite().to_bits(),
         out_max(targets.color_format).to_bits(),
-        0,
+        accum.color_scale.to_bits(),
     ];
     ctx.queue
         .write_buffer(&accum.params, 0, bytemuck::cast_slice(&params));
@@ -496,22 +533,6 @@ pub fn view_distance(camera: &Camera, window_z: f32) -> f32 {
     } else {
         b / (window_z + a)
     }
-}
-
-/// The override constants of [`WGSL`] for `scene` (its transparent depth interval and
-/// projection, see [`RangeParams`]), for `wgpu::PipelineCompilationOptions::constants` of a pass that uses
-/// `wboit_weight_default` / `wboit_view_distance_default`.
-pub fn pipeline_constants(scene: &Scene) -> Vec<(&'static str, f64)> {
-    let range = RangeParams::of(scene);
-    let (a, b, ortho) = view_depth_terms(&scene.camera);
-    vec![
-        ("wboit_z_near", f64::from(range.z_near)),
-        ("wboit_z_far", f64::from(range.z_far)),
-        ("wboit_range_fall", f64::from(range.fall)),
-        ("wboit_proj_a", f64::from(a)),
-        ("wboit_proj_b", f64::from(b)),
-        ("wboit_ortho", if ortho { 1.0 } else { 0.0 }),
-    ]
 }
 
 #[cfg(test)]
@@ -587,7 +608,7 @@ mod tests {
         assert!(!WGSL.contains("@group") && !WGSL.contains("#include"));
         for name in [
             "fn wboit_weight_default(view_z: f32, window_z: f32, alpha: f32) -> f32",
-            "fn wboit_accumulate(premultiplied: vec3<f32>, alpha: f32, weight: f32) -> WboitAccum",
+            "fn wboit_accumulate(premultiplied: vec3<f32>, alpha: f32, weight: f32, color_scale: f32) -> WboitAccum",
             "fn wboit_view_distance_default(window_z: f32) -> f32",
         ] {
             assert!(WGSL.contains(name), "{name}");
@@ -596,6 +617,7 @@ mod tests {
             "wboit_z_near",
             "wboit_z_far",
             "wboit_range_fall",
+            "wboit_color_scale",
             "wboit_proj_a",
             "wboit_proj_b",
             "wboit_ortho",
@@ -607,7 +629,7 @@ mod tests {
             crate::range::MAX_WEIGHT == 256.0 && WGSL.contains("WBOIT_RANGE_MAX: f32 = 256.0;")
         );
         assert!(
-            crate::range::MAX_FALL == 12.0 && WGSL.contains("WBOIT_RANGE_MAX_FALL: f32 = 12.0;")
+            crate::range::MAX_FALL == 21.0 && WGSL.contains("WBOIT_RANGE_MAX_FALL: f32 = 21.0;")
         );
     }
 }

@@ -32,11 +32,13 @@ pub enum Weight {
     Eq10,
     /// McGuire 2015: a = 8·min(1, α) + 0.01, b = 1 − 0.95·d, w = clamp(a³·1e8·b³, 1e-2, 3e2).
     McGuire2015,
-    /// Ours: an estimate of the transmittance in front of the fragment, w = α·256·2^(−fall·t),
+    /// Ours: an estimate of the transmittance in front of the fragment, w = 256·2^(−fall·t),
     /// t = position of z in the scene's transparent depth interval (0 near end, 1 far end),
-    /// fall = the scene's mean absorbance in bits in front of its farthest fragments, in
-    /// [0, 12] ([`RangeParams`]). Bounded to [α/16, 256α]: fp16 neither overflows (255 opaque
-    /// layers) nor goes denormal (α = 1/512).
+    /// fall = the scene's mean absorbance in bits in front of the farthest fragment where
+    /// fragments overlap, at most 21 and at most what keeps α·w of the scene's faintest layer a
+    /// normal fp16 number ([`RangeParams`], [`crate::range::fall_cap`]). No α factor (the
+    /// transmittance is the exact weight). At most 256: with colour sums in units of the
+    /// scene's colour scale, 255 layers of α = 1 still fit in fp16.
     Range,
 }
 
@@ -99,7 +101,7 @@ impl Weight {
                 let b = 1.0 - 0.95 * d;
                 (cube(a) * 1e8 * cube(b)).clamp(1e-2, 3e2)
             }
-            Weight::Range => range.weight(z, alpha),
+            Weight::Range => range.weight(z),
         }
     }
 }
@@ -251,7 +253,7 @@ impl Wboit {
                 &ctx.device,
                 &wgpu::BufferDescriptor {
                     label: Some("wboit weight params"),
-                    size: 32,
+                    size: 48,
                     usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
                     mapped_at_creation: false,
                 },
@@ -340,11 +342,12 @@ impl Technique for Wboit {
         let s = &scene.scene;
         let (a, b, ortho) = view_depth_terms(&s.camera);
         let range = self.range(scene);
-        let weight = match self.config {
-            Config::Weighted { weight, .. } => weight.index(),
-            Config::Average => Weight::Const.index(),
+        // The weighted average accumulates unweighted colour, unscaled.
+        let (weight, color_scale) = match self.config {
+            Config::Weighted { weight, .. } => (weight.index(), range.color_scale),
+            Config::Average => (Weight::Const.index(), 1.0),
         };
-        let words: [u32; 8] = [
+        let words: [u32; 12] = [
             weight,
             u32::from(s.camera.reverse_z),
             u32::from(ortho),
@@ -353,11 +356,17 @@ impl Technique for Wboit {
             b.to_bits(),
             range.z_near.to_bits(),
             range.z_far.to_bits(),
+            color_scale.to_bits(),
+            0,
+            0,
+            0,
         ];
         let (params, _, group) = self.params.as_ref().expect("params built in ensure");
         ctx.queue
             .write_buffer(params, 0, bytemuck::cast_slice(&words));
-        let accum = self.accum.as_ref().expect("targets built in ensure");
+        let accum = self.accum.as_mut().expect("targets built in ensure");
+        accum.set_color_scale(color_scale);
+        let accum = &*accum;
         let pipelines = self.pipelines.as_ref().expect("pipelines built in ensure");
         let ts = timer.pass("wboit accumulate");
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
@@ -406,6 +415,7 @@ mod tests {
             z_near: 1.0,
             z_far: 2.0,
             fall: 1.0,
+            color_scale: 1.0,
         };
         let w = |weight: Weight, z: f32| weight.eval(z, 0.5, 1.0, &r);
         assert_eq!(w(Weight::Eq7, 0.28), 3e3);
@@ -427,5 +437,10 @@ mod tests {
         assert_eq!(Weight::Const.eval(7.0, 0.3, 0.2, &r), 1.0);
         assert_eq!(Weight::Alpha.eval(7.0, 0.3, 0.2, &r), 0.2);
         assert_eq!(Weight::Range.eval(2.0, 0.3, 1.0, &r), 128.0);
+        assert_eq!(
+            Weight::Range.eval(1.0, 0.3, 0.2, &r),
+            256.0,
+            "no alpha factor"
+        );
     }
 }

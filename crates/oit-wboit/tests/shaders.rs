@@ -34,7 +34,7 @@ fn accumulation_and_composite_validate() {
 #[test]
 fn tail_appends_to_a_foreign_pass() {
     let pass = format!(
-        "{}\n@fragment\nfn fs(@builtin(position) p: vec4<f32>) -> @location(0) vec4<f32> {{\n    let z = wboit_view_distance_default(p.z);\n    let a = wboit_accumulate(vec3<f32>(0.5), 0.5, wboit_weight_default(z, p.z, 0.5));\n    return a.accum + a.reveal;\n}}\n",
+        "{}\n@fragment\nfn fs(@builtin(position) p: vec4<f32>) -> @location(0) vec4<f32> {{\n    let z = wboit_view_distance_default(p.z);\n    let a = wboit_accumulate(vec3<f32>(0.5), 0.5, wboit_weight_default(z, p.z, 0.5), wboit_color_scale);\n    return a.accum + a.reveal;\n}}\n",
         oit_wboit::tail::WGSL
     );
     validate("peel pass with the tail", &pass);
