@@ -166,6 +166,14 @@ fn transparent_tie(keys: &[u64], colors: &[[f32; 4]], planes: &[f64], a: usize, 
         )
 }
 
+/// Whether some vertex depth of `tri` is within the tie distance of the far plane.
+fn near_far(tri: &SetupTriangle, reverse_z: bool) -> bool {
+    let far = depth_key(if reverse_z { 0.0 } else { 1.0 }, reverse_z);
+    tri.z
+        .iter()
+        .any(|&z| close(depth_key(z.clamp(0.0, 1.0) + 0.0, reverse_z), far))
+}
+
 /// The opaque key of a pixel no opaque fragment reached: the cleared far depth with the lowest
 /// rank, so a fragment exactly at far never beats it (`key < far` fails, as `Less` against a
 /// buffer cleared to 1.0 does, or `Greater` against 0.0 under reverse-Z).
@@ -366,6 +374,8 @@ struct TransparentFragments<'a> {
     opaque_key: &'a [u64],
     /// False when no opaque fragment reached the tile: every opaque key is `far`, no load.
     any_opaque: bool,
+    /// Whether this triangle's fragments can tie with the opaque depth or the far plane.
+    check_ties: bool,
     undecided: &'a mut [u32],
     tie: &'a mut [bool],
     discarded: u64,
@@ -393,7 +403,8 @@ impl Fragments for TransparentFragments<'_> {
             self.far
         };
         let nearest = (opaque >> 32) as u32;
-        if close(dkey, nearest)
+        if self.check_ties
+            && close(dkey, nearest)
             && rounding_tie(
                 dkey,
                 nearest,
@@ -703,29 +714,33 @@ pub(crate) fn render_tile(
     // Every slot below `end[p]` is written before it is read; the fill only sizes the arrays.
     s.keys.resize(slots, 0);
     s.colors.resize(slots, [0.0; 4]);
-    let mut sink = TransparentFragments {
-        rank: 0,
-        plane: f64::NAN,
-        far,
-        planes,
-        keys: &mut s.keys,
-        colors: &mut s.colors,
-        end: &mut s.end,
-        all_count: &mut s.all_count,
-        any_opaque: s.opaque_key.iter().any(|&k| k != far),
-        opaque_key: &s.opaque_key,
-        undecided: &mut s.undecided,
-        tie: &mut s.tie,
-        discarded: 0,
-    };
+    let any_opaque = s.opaque_key.iter().any(|&k| k != far);
+    let mut discarded = 0;
     for span in &s.spans {
         let tri = &triangles[span.triangle as usize];
-        sink.rank = tri.key;
-        sink.plane = tri.plane_depth;
+        // A sink per span: a short-lived local whose fields the optimiser keeps in registers.
+        let mut sink = TransparentFragments {
+            rank: tri.key,
+            plane: tri.plane_depth,
+            far,
+            planes,
+            keys: &mut s.keys,
+            colors: &mut s.colors,
+            end: &mut s.end,
+            all_count: &mut s.all_count,
+            any_opaque,
+            // Without opaque fragments in the tile, only a triangle reaching the far plane's
+            // tie distance can tie with it (its depths lie within its vertices').
+            check_ties: any_opaque || near_far(tri, reverse_z),
+            opaque_key: &s.opaque_key,
+            undecided: &mut s.undecided,
+            tie: &mut s.tie,
+            discarded: 0,
+        };
         let (row, first, last) = (span.row.into(), span.first.into(), span.end.into());
         shade_span(tri, tile, row, first, last, reverse_z, &mut sink);
+        discarded += sink.discarded;
     }
-    let discarded = sink.discarded;
     stats.transparent_fragments = slots as u64 - discarded;
     let t_raster = Instant::now();
 
@@ -785,8 +800,13 @@ pub(crate) fn render_tile(
         out.image[o] = [rgb[0] as f32, rgb[1] as f32, rgb[2] as f32, 1.0];
         out.layers[o] = layers;
         out.fragments[o] = s.all_count[p];
-        out.undecided[o] = s.undecided[p];
-        out.precision_ties[o] = tie;
+        // The outputs start zeroed: writing only what is set leaves untouched pages unmapped.
+        if s.undecided[p] > 0 {
+            out.undecided[o] = s.undecided[p];
+        }
+        if tie {
+            out.precision_ties[o] = true;
+        }
         stats.undecided_fragments += u64::from(s.undecided[p]);
         stats.undecided_pixels += u64::from(s.undecided[p] > 0);
         stats.precision_tie_pixels += u64::from(tie);
