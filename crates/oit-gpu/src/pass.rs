@@ -58,3 +58,28 @@ pub fn begin<'e>(
         multiview_mask: None,
     })
 }
+
+/// One full-screen triangle (a [`crate::fullscreen_pipeline`]) over `view`, keeping what it
+/// holds (`LoadOp::Load`), no depth: the composite passes every technique ends with. `groups`
+/// are bound at 0, 1, … with their dynamic offsets.
+pub fn fullscreen(
+    encoder: &mut wgpu::CommandEncoder,
+    label: &str,
+    view: &wgpu::TextureView,
+    pipeline: &wgpu::RenderPipeline,
+    groups: &[(&wgpu::BindGroup, &[u32])],
+    timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
+) {
+    let mut pass = begin(
+        encoder,
+        label,
+        &[color(view, wgpu::LoadOp::Load)],
+        None,
+        timestamps,
+    );
+    pass.set_pipeline(pipeline);
+    for (i, (group, offsets)) in groups.iter().enumerate() {
+        pass.set_bind_group(i as u32, *group, offsets);
+    }
+    pass.draw(0..3, 0..1);
+}

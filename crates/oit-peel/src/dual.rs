@@ -624,19 +624,14 @@ impl Technique for DualPeel {
             // The far layers onto the opaque image, before the tail and the front layers.
             let ts = timer.pass("back composite");
             let mut encoder = ctx.device.create_command_encoder(&Default::default());
-            {
-                let mut pass = pass::begin(
-                    &mut encoder,
-                    "dual-peel back composite",
-                    &[pass::color(&targets.color_view, wgpu::LoadOp::Load)],
-                    None,
-                    ts.writes(),
-                );
-                pass.set_pipeline(&back.pipeline);
-                pass.set_bind_group(0, &back.group, &[]);
-                pass.set_bind_group(1, &g.control.pass_group, &[0]);
-                pass.draw(0..3, 0..1);
-            }
+            pass::fullscreen(
+                &mut encoder,
+                "dual-peel back composite",
+                &targets.color_view,
+                &back.pipeline,
+                &[(&back.group, &[]), (&g.control.pass_group, &[0])],
+                ts.writes(),
+            );
             timer.submit(ctx, encoder)?;
         }
 
@@ -677,19 +672,14 @@ impl Technique for DualPeel {
                 targets.resolution,
             );
         }
-        {
-            let mut pass = pass::begin(
-                &mut encoder,
-                "dual-peel front composite",
-                &[pass::color(&targets.color_view, wgpu::LoadOp::Load)],
-                None,
-                ts.writes(),
-            );
-            pass.set_pipeline(&g.front_pipeline);
-            pass.set_bind_group(0, &g.composite_group, &[]);
-            pass.set_bind_group(1, &g.control.pass_group, &[0]);
-            pass.draw(0..3, 0..1);
-        }
+        pass::fullscreen(
+            &mut encoder,
+            "dual-peel front composite",
+            &targets.color_view,
+            &g.front_pipeline,
+            &[(&g.composite_group, &[]), (&g.control.pass_group, &[0])],
+            ts.writes(),
+        );
         timer.submit(ctx, encoder)?;
         let counters = match counters {
             Some(c) if finished => c,

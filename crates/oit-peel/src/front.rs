@@ -418,19 +418,17 @@ impl FrontPeel {
         }
         if role == PassRole::Peel {
             let ts = timer.pass(&format!("under {}", k + 1));
-            {
-                let mut pass = pass::begin(
-                    &mut encoder,
-                    "front-peel under",
-                    &[pass::color(&g.accum, wgpu::LoadOp::Load)],
-                    None,
-                    ts.writes(),
-                );
-                pass.set_pipeline(&g.under_pipeline);
-                pass.set_bind_group(0, &g.under_group, &[]);
-                pass.set_bind_group(1, &g.control.pass_group, &[g.control.offset(k)]);
-                pass.draw(0..3, 0..1);
-            }
+            pass::fullscreen(
+                &mut encoder,
+                "front-peel under",
+                &g.accum,
+                &g.under_pipeline,
+                &[
+                    (&g.under_group, &[]),
+                    (&g.control.pass_group, &[g.control.offset(k)]),
+                ],
+                ts.writes(),
+            );
             if gated {
                 g.control.gate(&mut encoder, list, k);
             }
@@ -613,19 +611,14 @@ impl Technique for FrontPeel {
                 targets.resolution,
             );
         }
-        {
-            let mut pass = pass::begin(
-                &mut encoder,
-                "front-peel composite",
-                &[pass::color(&targets.color_view, wgpu::LoadOp::Load)],
-                None,
-                ts.writes(),
-            );
-            pass.set_pipeline(&g.front_pipeline);
-            pass.set_bind_group(0, &g.final_group, &[]);
-            pass.set_bind_group(1, &g.control.pass_group, &[0]);
-            pass.draw(0..3, 0..1);
-        }
+        pass::fullscreen(
+            &mut encoder,
+            "front-peel composite",
+            &targets.color_view,
+            &g.front_pipeline,
+            &[(&g.final_group, &[]), (&g.control.pass_group, &[0])],
+            ts.writes(),
+        );
         timer.submit(ctx, encoder)?;
         let counters = match counters {
             Some(c) if finished => c,

@@ -167,11 +167,20 @@ fn transparent_tie(keys: &[u64], colors: &[[f32; 4]], planes: &[f64], a: usize, 
 }
 
 /// Whether some vertex depth of `tri` is within the tie distance of the far plane.
-fn near_far(tri: &SetupTriangle, reverse_z: bool) -> bool {
-    let far = depth_key(if reverse_z { 0.0 } else { 1.0 }, reverse_z);
+/// `far` is [`far_key`].
+fn near_far(tri: &SetupTriangle, far: u64, reverse_z: bool) -> bool {
+    let far = (far >> 32) as u32;
     tri.z
         .iter()
         .any(|&z| close(depth_key(z.clamp(0.0, 1.0) + 0.0, reverse_z), far))
+}
+
+/// Whether a fragment (depth key `dkey` on a triangle of plane depth `plane`) ties with the
+/// surface behind a pixel's opaque key `opaque` (the far plane when it is `far`).
+#[inline(always)]
+fn ties_opaque(dkey: u32, plane: f64, opaque: u64, far: u64, planes: &[f64]) -> bool {
+    let nearest = (opaque >> 32) as u32;
+    close(dkey, nearest) && rounding_tie(dkey, nearest, plane, opaque_plane(opaque, far, planes))
 }
 
 /// The opaque key of a pixel no opaque fragment reached: the cleared far depth with the lowest
@@ -339,14 +348,7 @@ impl Fragments for OpaqueFragments<'_> {
         self.all_count[p] += 1;
         let key = opaque_key(dkey, self.rank);
         let current = self.opaque_key[p];
-        let nearest = (current >> 32) as u32;
-        let tie = close(dkey, nearest)
-            && rounding_tie(
-                dkey,
-                nearest,
-                self.plane,
-                opaque_plane(current, self.far, self.planes),
-            );
+        let tie = ties_opaque(dkey, self.plane, current, self.far, self.planes);
         if key < current {
             // The old nearest is the runner-up: if it is not within the tie distance, nothing
             // farther is.
@@ -403,15 +405,7 @@ impl Fragments for TransparentFragments<'_> {
             self.far
         };
         let nearest = (opaque >> 32) as u32;
-        if self.check_ties
-            && close(dkey, nearest)
-            && rounding_tie(
-                dkey,
-                nearest,
-                self.plane,
-                opaque_plane(opaque, self.far, self.planes),
-            )
-        {
+        if self.check_ties && ties_opaque(dkey, self.plane, opaque, self.far, self.planes) {
             self.tie[p] = true;
         }
         // Strictly nearer than the opaque depth, or than the far plane where none is.
@@ -731,7 +725,7 @@ pub(crate) fn render_tile(
             any_opaque,
             // Without opaque fragments in the tile, only a triangle reaching the far plane's
             // tie distance can tie with it (its depths lie within its vertices').
-            check_ties: any_opaque || near_far(tri, reverse_z),
+            check_ties: any_opaque || near_far(tri, far, reverse_z),
             opaque_key: &s.opaque_key,
             undecided: &mut s.undecided,
             tie: &mut s.tie,

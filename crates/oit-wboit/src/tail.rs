@@ -493,18 +493,14 @@ pub fn composite(
     let ts = timer.pass("wboit composite");
     let mut encoder = ctx.device.create_command_encoder(&Default::default());
     encoder.clear_buffer(&accum.guards, 0, None);
-    {
-        let mut pass = pass::begin(
-            &mut encoder,
-            "wboit composite",
-            &[pass::color(&targets.color_view, wgpu::LoadOp::Load)],
-            None,
-            ts.writes(),
-        );
-        pass.set_pipeline(&pipeline);
-        pass.set_bind_group(0, &accum.bind_group, &[]);
-        pass.draw(0..3, 0..1);
-    }
+    pass::fullscreen(
+        &mut encoder,
+        "wboit composite",
+        &targets.color_view,
+        &pipeline,
+        &[(&accum.bind_group, &[])],
+        ts.writes(),
+    );
     encoder.copy_buffer_to_buffer(
         &accum.guards,
         0,
