@@ -10,16 +10,24 @@ struct Camera {
     view_proj: mat4x4<f32>,
 }
 
-// One entry per `Scene::materials` element (48 bytes, see `oit_gpu::scene::GpuMaterial`).
+// One entry per `Scene::materials` element (80 bytes, see `oit_gpu::scene::material_words`).
 struct Material {
     // rgb = base colour (linear), a = alpha.
     base_alpha: vec4<f32>,
+    // Linear radiance added after the products (glTF emission); 0 without emission.
+    emissive: vec3<f32>,
     // 0 opaque, 1 mask, 2 blend, 3 mask-blend.
     mode: u32,
     cutoff: f32,
     premultiplied: u32,
     intensity: f32,
     double_sided: u32,
+    // Base colour texture, emissive texture: (first texel in `texels`, width | height << 16);
+    // a size of 0 means none (samples as 1).
+    textures: vec4<u32>,
+    // Wrap codes (0 repeat, 1 mirrored repeat, 2 clamp to edge): base u | base v << 2 |
+    // emissive u << 4 | emissive v << 6.
+    wrap: u32,
     pad0: u32,
     pad1: u32,
     pad2: u32,
@@ -32,11 +40,15 @@ const MODE_MASK_BLEND: u32 = 3u;
 
 @group(0) @binding(0) var<uniform> camera: Camera;
 @group(0) @binding(1) var<storage, read> materials: array<Material>;
+// Every texture's level 0, linear RGBA f32 (sRGB decoded on the CPU), row-major from the
+// image's top-left, one after the other. One dummy texel when the scene has no textures.
+@group(0) @binding(2) var<storage, read> texels: array<vec4<f32>>;
 
 struct VertexIn {
     @location(0) position: vec3<f32>,
     @location(1) material: u32,
     @location(2) color: vec4<f32>,
+    @location(3) uv: vec2<f32>,
 }
 
 struct VertexOut {
@@ -49,12 +61,15 @@ struct VertexOut {
     @location(1) @interpolate(flat) base_alpha: vec4<f32>,
     // x = cutoff, y = intensity.
     @location(2) @interpolate(flat) cutoff_intensity: vec2<f32>,
-    // mode | premultiplied << 2 | double_sided << 3 (see `material_flags`).
+    // mode | premultiplied << 2 | double_sided << 3 | wrap << 4 (see `material_flags`).
     @location(3) @interpolate(flat) flags: u32,
+    @location(4) uv: vec2<f32>,
+    @location(5) @interpolate(flat) emissive: vec3<f32>,
+    @location(6) @interpolate(flat) textures: vec4<u32>,
 }
 
 fn material_flags(m: Material) -> u32 {
-    return m.mode | (m.premultiplied << 2u) | (m.double_sided << 3u);
+    return m.mode | (m.premultiplied << 2u) | (m.double_sided << 3u) | (m.wrap << 4u);
 }
 
 // The vertex stage every scene pass shares (passes with their own vertex entry call it too).
@@ -66,6 +81,9 @@ fn scene_vertex(v: VertexIn) -> VertexOut {
     out.base_alpha = m.base_alpha;
     out.cutoff_intensity = vec2<f32>(m.cutoff, m.intensity);
     out.flags = material_flags(m);
+    out.uv = v.uv;
+    out.emissive = m.emissive;
+    out.textures = m.textures;
     return out;
 }
 
@@ -78,12 +96,61 @@ fn vs_main(v: VertexIn) -> VertexOut {
 fn material_of(v: VertexOut) -> Material {
     var m: Material;
     m.base_alpha = v.base_alpha;
+    m.emissive = v.emissive;
     m.mode = v.flags & 3u;
     m.cutoff = v.cutoff_intensity.x;
     m.premultiplied = (v.flags >> 2u) & 1u;
     m.intensity = v.cutoff_intensity.y;
     m.double_sided = (v.flags >> 3u) & 1u;
+    m.textures = v.textures;
+    m.wrap = v.flags >> 4u;
     return m;
+}
+
+// `Wrap::apply` (crates/oit-scene/src/texture.rs): texel index `i` brought into 0..size.
+fn wrap_texel(i: i32, size: i32, mode: u32) -> i32 {
+    if mode == 0u {
+        return ((i % size) + size) % size;
+    }
+    if mode == 1u {
+        let m = ((i % (2 * size)) + 2 * size) % (2 * size);
+        if m >= size {
+            return 2 * size - 1 - m;
+        }
+        return m;
+    }
+    return clamp(i, 0, size - 1);
+}
+
+fn texel_at(first: u32, width: i32, height: i32, wrap: u32, i: i32, j: i32) -> vec4<f32> {
+    let x = wrap_texel(i, width, wrap & 3u);
+    let y = wrap_texel(j, height, (wrap >> 2u) & 3u);
+    return texels[first + u32(y * width + x)];
+}
+
+// `Texture::sample` (crates/oit-scene/src/texture.rs): bilinear on level 0, f32, same order.
+// `size` = width | height << 16, 0 for no texture (samples as 1).
+fn sample_texture(first: u32, size: u32, wrap: u32, uv: vec2<f32>) -> vec4<f32> {
+    if size == 0u {
+        return vec4<f32>(1.0);
+    }
+    let width = i32(size & 0xffffu);
+    let height = i32(size >> 16u);
+    let x = uv.x * f32(width) - 0.5;
+    let y = uv.y * f32(height) - 0.5;
+    let x0 = floor(x);
+    let y0 = floor(y);
+    let fx = x - x0;
+    let fy = y - y0;
+    let i = i32(x0);
+    let j = i32(y0);
+    let t00 = texel_at(first, width, height, wrap, i, j);
+    let t10 = texel_at(first, width, height, wrap, i + 1, j);
+    let t01 = texel_at(first, width, height, wrap, i, j + 1);
+    let t11 = texel_at(first, width, height, wrap, i + 1, j + 1);
+    let top = t00 + (t10 - t00) * fx;
+    let bottom = t01 + (t11 - t01) * fx;
+    return top + (bottom - top) * fy;
 }
 
 // What a fragment contributes (the WGSL twin of `oit_scene::Shaded`).
@@ -109,8 +176,10 @@ fn uses_cutoff(mode: u32) -> bool {
 // sorted triangle stream) obey the same rule.
 fn shade(v: VertexOut, front_facing: bool) -> Shaded {
     let m = material_of(v);
-    let c = v.color.rgb * m.base_alpha.rgb * m.intensity;
-    let alpha = v.color.a * m.base_alpha.a;
+    let t = sample_texture(m.textures.x, m.textures.y, m.wrap, v.uv);
+    let e = sample_texture(m.textures.z, m.textures.w, m.wrap >> 4u, v.uv);
+    let c = v.color.rgb * m.base_alpha.rgb * t.rgb * m.intensity + m.emissive * e.rgb;
+    let alpha = v.color.a * m.base_alpha.a * t.a;
     var s: Shaded;
     s.keep = (front_facing || m.double_sided != 0u) && !(uses_cutoff(m.mode) && alpha < m.cutoff);
     if is_transparent(m.mode) {

@@ -43,12 +43,15 @@ struct StochasticOut {
     @location(1) @interpolate(flat) base_alpha: vec4<f32>,
     @location(2) @interpolate(flat) cutoff_intensity: vec2<f32>,
     @location(3) @interpolate(flat) flags: u32,
+    @location(4) uv: vec2<f32>,
+    @location(5) @interpolate(flat) emissive: vec3<f32>,
+    @location(6) @interpolate(flat) textures: vec4<u32>,
     // World position: the scene's vertices are already in world space and every instance is its
     // own draw, so this is the stable per-surface coordinate hashed alpha needs (object space
     // up to a rigid transform per object).
-    @location(4) world: vec3<f32>,
+    @location(7) world: vec3<f32>,
     // Pattern seed: 0, the draw id's hash, or the hash of the draw id and triangle.
-    @location(5) @interpolate(flat) seed: u32,
+    @location(8) @interpolate(flat) seed: u32,
 }
 
 // PCG hash (Jarzynski & Olano 2020, "Hash Functions for GPU Rendering").
@@ -93,6 +96,9 @@ fn vs_stochastic(
     out.base_alpha = base.base_alpha;
     out.cutoff_intensity = base.cutoff_intensity;
     out.flags = base.flags;
+    out.uv = base.uv;
+    out.emissive = base.emissive;
+    out.textures = base.textures;
     out.world = v.position;
     let object_seed = pcg(draw_id + 1u);
     if dither.seed_mode == SEED_NONE {
@@ -173,6 +179,9 @@ fn fs_stochastic(v: StochasticOut, @builtin(front_facing) front_facing: bool) ->
     base.base_alpha = v.base_alpha;
     base.cutoff_intensity = v.cutoff_intensity;
     base.flags = v.flags;
+    base.uv = v.uv;
+    base.emissive = v.emissive;
+    base.textures = v.textures;
     let s = shade(base, front_facing);
     if !s.keep {
         discard;

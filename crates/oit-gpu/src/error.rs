@@ -49,6 +49,9 @@ pub enum GpuError {
     Readback { what: String, message: String },
     #[error("waiting for the GPU failed: {0}")]
     Poll(String),
+    /// A hand-built scene breaks a rule the loader enforces (the message says which).
+    #[error("invalid scene: {0}")]
+    InvalidScene(String),
     /// Caller passed inconsistent arguments (e.g. targets of another size than the scene).
     #[error("{0}")]
     Mismatch(String),

@@ -9,16 +9,18 @@ use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
 use wgpu::util::DeviceExt;
 
-/// Bytes per GPU vertex: position f32×3, material index u32, colour f32×4 (uv is unused by
-/// every shading rule so far and is not uploaded).
-pub const VERTEX_STRIDE: u64 = 32;
+/// Bytes per GPU vertex: position f32×3, material index u32, colour f32×4, uv f32×2.
+pub const VERTEX_STRIDE: u64 = 40;
 /// Bytes per entry of the material table (matches `struct Material` in shaders/common.wgsl).
-pub const MATERIAL_STRIDE: usize = 48;
+pub const MATERIAL_STRIDE: usize = 80;
+/// Bytes per texel of the texture store (RGBA f32).
+pub const TEXEL_BYTES: u64 = 16;
 
-const VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 3] = wgpu::vertex_attr_array![
+const VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 4] = wgpu::vertex_attr_array![
     0 => Float32x3,
     1 => Uint32,
     2 => Float32x4,
+    3 => Float32x2,
 ];
 
 /// The vertex buffer layout of [`GpuScene::vertices`].
@@ -41,6 +43,11 @@ pub(crate) fn create_scene_layout(device: &wgpu::Device) -> wgpu::BindGroupLayou
                 bind::storage(1, wgpu::ShaderStages::VERTEX, true),
                 MATERIAL_STRIDE as u64,
             ),
+            // Every texture's texels, read by `shade()` (shaders/common.wgsl).
+            bind::min_size(
+                bind::storage(2, wgpu::ShaderStages::FRAGMENT, true),
+                TEXEL_BYTES,
+            ),
         ],
     })
 }
@@ -54,22 +61,116 @@ fn mode_code(mode: AlphaMode) -> u32 {
     }
 }
 
-/// One material as the shader reads it (48 bytes, little-endian f32/u32 words).
-fn material_words(m: &Material) -> [u32; 12] {
+/// Where each texture starts in the texel store (in texels), in `Scene::textures` order.
+fn texel_offsets(scene: &Scene) -> Vec<u32> {
+    let mut offsets = Vec::with_capacity(scene.textures.len());
+    let mut next = 0u64;
+    for t in &scene.textures {
+        offsets.push(next as u32);
+        next += t.texels.len() as u64;
+    }
+    offsets
+}
+
+/// One material as the shader reads it (80 bytes, little-endian f32/u32 words).
+fn material_words(m: &Material, scene: &Scene, offsets: &[u32]) -> [u32; 20] {
+    // (first texel, width | height << 16, wrap bits) of a texture slot; zeros for none.
+    let slot = |t: Option<u32>| match t {
+        Some(t) => {
+            let tex = &scene.textures[t as usize];
+            (
+                offsets[t as usize],
+                tex.width | tex.height << 16,
+                tex.wrap_u.code() | tex.wrap_v.code() << 2,
+            )
+        }
+        None => (0, 0, 0),
+    };
+    let (base_first, base_size, base_wrap) = slot(m.base_texture);
+    let (emissive_first, emissive_size, emissive_wrap) = slot(m.emissive_texture);
     [
         m.base_color[0].to_bits(),
         m.base_color[1].to_bits(),
         m.base_color[2].to_bits(),
         m.alpha.to_bits(),
+        m.emissive[0].to_bits(),
+        m.emissive[1].to_bits(),
+        m.emissive[2].to_bits(),
         mode_code(m.mode),
         m.cutoff.to_bits(),
         u32::from(m.premultiplied),
         m.intensity.to_bits(),
         u32::from(m.double_sided),
+        base_first,
+        base_size,
+        emissive_first,
+        emissive_size,
+        base_wrap | emissive_wrap << 4,
         0,
         0,
         0,
     ]
+}
+
+/// Checks what the loader guarantees but a hand-built scene may break: texture indices in
+/// range, texel arrays matching their sizes, the texel store addressable with u32 offsets.
+fn check_textures(scene: &Scene) -> Result<u64, GpuError> {
+    let mut total = 0u64;
+    for (i, t) in scene.textures.iter().enumerate() {
+        if !t.is_consistent() {
+            return Err(GpuError::InvalidScene(format!(
+                "texture {i} ({}): {}x{} with {} texels; allowed: 1..={} per side, width·height texels",
+                t.name,
+                t.width,
+                t.height,
+                t.texels.len(),
+                oit_scene::MAX_TEXTURE_DIMENSION
+            )));
+        }
+        total += t.texels.len() as u64;
+    }
+    for (i, m) in scene.materials.iter().enumerate() {
+        for t in [m.base_texture, m.emissive_texture].into_iter().flatten() {
+            if t as usize >= scene.textures.len() {
+                return Err(GpuError::InvalidScene(format!(
+                    "material {i}: texture {t} does not exist (the scene has {})",
+                    scene.textures.len()
+                )));
+            }
+        }
+    }
+    if total > u64::from(u32::MAX) {
+        return Err(GpuError::InvalidScene(format!(
+            "{total} texels in all; allowed: at most {} (u32 texel offsets)",
+            u32::MAX
+        )));
+    }
+    Ok(total)
+}
+
+/// GPU bytes of a scene once uploaded, shared by every technique that draws it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct SceneBytes {
+    pub vertices: u64,
+    pub materials: u64,
+    /// The texel store (RGBA f32 per texel).
+    pub textures: u64,
+}
+
+impl SceneBytes {
+    /// What [`GpuScene::upload`] allocates for `scene` (dummy entries of empty tables included).
+    pub fn of(scene: &Scene) -> SceneBytes {
+        let texels: u64 = scene.textures.iter().map(|t| t.texels.len() as u64).sum();
+        SceneBytes {
+            vertices: scene.vertices.len().max(1) as u64 * VERTEX_STRIDE,
+            materials: scene.materials.len().max(1) as u64 * MATERIAL_STRIDE as u64,
+            textures: texels.max(1) * TEXEL_BYTES,
+        }
+    }
+
+    pub fn total(&self) -> u64 {
+        self.vertices + self.materials + self.textures
+    }
 }
 
 static NEXT_SCENE_ID: AtomicU64 = AtomicU64::new(1);
@@ -85,6 +186,8 @@ pub struct GpuScene {
     pub vertices: wgpu::Buffer,
     pub camera: wgpu::Buffer,
     pub materials: wgpu::Buffer,
+    /// Every texture's texels (see shaders/common.wgsl `texels`).
+    pub texels: wgpu::Buffer,
     /// Group 0 of every scene pipeline.
     pub bind_group: wgpu::BindGroup,
     opaque: Mutex<HashMap<(wgpu::TextureFormat, bool), ScenePipelines>>,
@@ -104,10 +207,11 @@ impl GpuScene {
             words.extend(v.position.map(f32::to_bits));
             words.push(*m);
             words.extend(v.color.map(f32::to_bits));
+            words.extend(v.uv.map(f32::to_bits));
         }
         // wgpu rejects zero-sized vertex bindings; an empty scene still gets one dummy vertex.
         if words.is_empty() {
-            words.resize(8, 0);
+            words.resize(VERTEX_STRIDE as usize / 4, 0);
         }
         let vertex_bytes = words.len() as u64 * 4;
         let limit = ctx.caps.max_buffer_size;
@@ -129,13 +233,40 @@ impl GpuScene {
             contents: bytemuck::cast_slice(&scene.camera.view_proj.to_cols_array()),
             usage: wgpu::BufferUsages::UNIFORM,
         });
-        let mut mat_words: Vec<u32> = scene.materials.iter().flat_map(material_words).collect();
+        let texel_count = check_textures(scene)?;
+        let texel_bytes = texel_count.max(1) * TEXEL_BYTES;
+        let binding_limit = ctx.caps.max_storage_buffer_binding_size.min(limit);
+        if texel_bytes > binding_limit {
+            return Err(GpuError::TooLarge {
+                what: format!("the textures of scene {:?}", scene.name),
+                needed: texel_bytes,
+                limit: binding_limit,
+            });
+        }
+        let offsets = texel_offsets(scene);
+        let mut mat_words: Vec<u32> = scene
+            .materials
+            .iter()
+            .flat_map(|m| material_words(m, scene, &offsets))
+            .collect();
         if mat_words.is_empty() {
             mat_words.resize(MATERIAL_STRIDE / 4, 0);
         }
         let materials = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("materials"),
             contents: bytemuck::cast_slice(&mat_words),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        let mut texel_words: Vec<u32> = Vec::with_capacity(texel_count as usize * 4);
+        for t in &scene.textures {
+            texel_words.extend(t.texels.iter().flatten().map(|c| c.to_bits()));
+        }
+        if texel_words.is_empty() {
+            texel_words.resize(4, 0);
+        }
+        let texels = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("texels"),
+            contents: bytemuck::cast_slice(&texel_words),
             usage: wgpu::BufferUsages::STORAGE,
         });
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -150,6 +281,10 @@ impl GpuScene {
                     binding: 1,
                     resource: materials.as_entire_binding(),
                 },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: texels.as_entire_binding(),
+                },
             ],
         });
         Ok(GpuScene {
@@ -158,6 +293,7 @@ impl GpuScene {
             vertices,
             camera,
             materials,
+            texels,
             bind_group,
             opaque: Mutex::new(HashMap::new()),
         })

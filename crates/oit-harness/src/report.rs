@@ -35,6 +35,11 @@ pub fn markdown(results: &Results) -> String {
     for (scene, runs) in by_scene(results) {
         let res = runs[0].resolution;
         let _ = writeln!(out, "## {scene} ({}x{})\n", res[0], res[1]);
+        if let Some(s) = results.scenes.iter().find(|s| s.scene == scene) {
+            for line in s.report_lines() {
+                let _ = writeln!(out, "{line}.\n");
+            }
+        }
         if let Some(f) = results.floors.iter().find(|f| f.scene == scene) {
             let _ = writeln!(
                 out,
@@ -416,6 +421,7 @@ mod tests {
                 run("s1", "u", 1.0, 0.2, 0.5),
             ],
             floors: Vec::new(),
+            scenes: Vec::new(),
         };
         let text = summary_markdown(&results);
         // t: 3 ok scenes, median cost 2, mean FLIP 0.2, 2 exact (1e-3 and exactly 4e-3), max order 0.25.
@@ -446,6 +452,7 @@ mod tests {
                 run("s2", "t", 1.0, 0.0, 0.75),
             ],
             floors: Vec::new(),
+            scenes: Vec::new(),
         };
         let text = matrix_markdown(&results, "FLIP", |r| r.error.map(|e| e.flip_mean));
         assert!(text.contains("| scene | t | u |"), "{text}");

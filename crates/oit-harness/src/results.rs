@@ -16,6 +16,69 @@ pub struct Results {
     /// fragment work (see [`oit_gpu::Floor`]), timed like a run.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub floors: Vec<FloorJson>,
+    /// Per scene: its size on the GPU and where its content came from.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub scenes: Vec<SceneJson>,
+}
+
+/// What one scene brought to the run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SceneJson {
+    pub scene: String,
+    pub scene_file: String,
+    pub triangles: u64,
+    /// GPU bytes of the uploaded scene that every technique shares (vertices, material table,
+    /// textures); a run's `memory_bytes` is the technique's own on top of it.
+    pub scene_bytes: u64,
+    /// Of `scene_bytes`, the textures (RGBA f32 texels).
+    pub texture_bytes: u64,
+    /// Who made the content (glTF `asset.copyright`); reports show it with the scene.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub credits: Vec<String>,
+    /// What the loader read but does not model (e.g. glTF extensions), one line each.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub ignored: Vec<String>,
+}
+
+impl SceneJson {
+    pub fn of(scene: &oit_scene::Scene, scene_file: &str) -> SceneJson {
+        let bytes = oit_gpu::SceneBytes::of(scene);
+        SceneJson {
+            scene: scene.name.clone(),
+            scene_file: scene_file.to_owned(),
+            triangles: scene.triangle_count() as u64,
+            scene_bytes: bytes.total(),
+            texture_bytes: if scene.textures.is_empty() {
+                0
+            } else {
+                bytes.textures
+            },
+            credits: scene.credits.clone(),
+            ignored: scene.ignored.clone(),
+        }
+    }
+
+    /// The lines a report prints under the scene's heading.
+    pub fn report_lines(&self) -> Vec<String> {
+        let mib = |b: u64| b as f64 / (1024.0 * 1024.0);
+        let mut out = vec![if self.texture_bytes > 0 {
+            format!(
+                "Scene: {} triangles, {:.1} MiB on the GPU shared by every technique ({:.1} MiB of textures)",
+                self.triangles,
+                mib(self.scene_bytes),
+                mib(self.texture_bytes)
+            )
+        } else {
+            format!(
+                "Scene: {} triangles, {:.2} MiB on the GPU shared by every technique",
+                self.triangles,
+                mib(self.scene_bytes)
+            )
+        }];
+        out.extend(self.credits.iter().map(|c| format!("Credits: {c}")));
+        out.extend(self.ignored.iter().map(|i| format!("Not modelled: {i}")));
+        out
+    }
 }
 
 /// The floor of one scene in this run.
@@ -159,7 +222,7 @@ fn caveats(undecided_pixels: u64, precision_tie_pixels: u64) -> Vec<String> {
     let mut out = Vec::new();
     if undecided_pixels > 0 {
         out.push(format!(
-            "{undecided_pixels} px hold a fragment on its cutoff's knife edge (|α − cutoff| ≤ 2^-16): rounding keeps or discards it"
+            "{undecided_pixels} px hold a fragment on its cutoff's knife edge (|α − cutoff| ≤ 2^-16, wider where textured α moves with a rounded uv): rounding keeps or discards it"
         ));
     }
     if precision_tie_pixels > 0 {

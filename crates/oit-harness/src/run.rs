@@ -10,7 +10,8 @@ use oit_gpu::{
 use oit_scene::{LinearImage, Resolution, Scene};
 
 use crate::results::{
-    AdapterJson, FloorJson, GpuMs, Outputs, PassMs, Results, Run, RunStatus, SCHEMA, Stats,
+    AdapterJson, FloorJson, GpuMs, Outputs, PassMs, Results, Run, RunStatus, SCHEMA, SceneJson,
+    Stats,
 };
 use crate::{HarnessError, SceneEntry, at_resolution, file_stem, registry};
 
@@ -96,10 +97,12 @@ pub fn compare(
         adapter: AdapterJson::of(ctx),
         runs: Vec::new(),
         floors: Vec::new(),
+        scenes: Vec::new(),
     };
     for entry in scenes {
         let scene = at_resolution(&entry.scene, options.resolution);
         let scene_file = entry.path.display().to_string();
+        results.scenes.push(SceneJson::of(&scene, &scene_file));
         let (reference, _cached) = crate::cache::reference(&cache_dir, &scene, || {
             Ok(oit_reference::try_render(
                 &scene,

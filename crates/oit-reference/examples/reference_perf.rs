@@ -64,15 +64,11 @@ fn layers_scene(n: usize, size: u32) -> Scene {
     let mut vertices = Vec::new();
     for i in 0..n {
         let t = i as f32 / n as f32;
-        materials.push(Material {
-            base_color: [t, 1.0 - t, 0.5],
-            alpha: 0.05 + 0.4 * ((i * 7) % 11) as f32 / 10.0,
-            mode: AlphaMode::Blend,
-            cutoff: 0.5,
-            double_sided: false,
-            premultiplied: false,
-            intensity: 1.0,
-        });
+        materials.push(Material::plain(
+            [t, 1.0 - t, 0.5],
+            0.05 + 0.4 * ((i * 7) % 11) as f32 / 10.0,
+            AlphaMode::Blend,
+        ));
         let z = -(i as f32) * 0.01;
         let c = [
             [-1.5, -1.5],
@@ -114,6 +110,9 @@ fn layers_scene(n: usize, size: u32) -> Scene {
         materials,
         draws,
         vertices,
+        textures: Vec::new(),
+        ignored: Vec::new(),
+        credits: Vec::new(),
     }
 }
 

@@ -228,6 +228,15 @@ pub enum ReferenceError {
         count: u32,
         total: usize,
     },
+    #[error(
+        "material {material}: texture {texture} does not exist or is malformed (the scene has {count}; each needs 1..={max} texels per side and width·height texels)",
+        max = oit_scene::MAX_TEXTURE_DIMENSION
+    )]
+    Texture {
+        material: usize,
+        texture: u32,
+        count: usize,
+    },
     #[error("{0} triangles: at most {max} are supported", max = MAX_TRIANGLES)]
     TooManyTriangles(u64),
 }
@@ -285,7 +294,11 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
                 let v0 = draw.first_vertex as usize + 3 * t;
                 let clip = std::array::from_fn(|k| {
                     let v = &scene.vertices[v0 + k];
-                    (scene.camera.clip(glam::Vec3::from(v.position)), v.color)
+                    (
+                        scene.camera.clip(glam::Vec3::from(v.position)),
+                        v.color,
+                        v.uv,
+                    )
                 });
                 let p = glam::Vec3::from(scene.vertices[v0].position).as_dvec3();
                 let plane = view_proj64 * p.extend(1.0);
@@ -389,6 +402,7 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
                     };
                     let s = raster::render_tile(
                         &triangles,
+                        &scene.textures,
                         &plane_depths,
                         bin,
                         rect,
@@ -465,6 +479,21 @@ fn validate(scene: &Scene, options: &ReferenceOptions) -> Result<(), ReferenceEr
     }
     if options.tile_size == 0 || options.tile_size > ReferenceOptions::MAX_TILE_SIZE {
         return Err(ReferenceError::TileSize(options.tile_size));
+    }
+    for (i, m) in scene.materials.iter().enumerate() {
+        for t in [m.base_texture, m.emissive_texture].into_iter().flatten() {
+            if !scene
+                .textures
+                .get(t as usize)
+                .is_some_and(oit_scene::Texture::is_consistent)
+            {
+                return Err(ReferenceError::Texture {
+                    material: i,
+                    texture: t,
+                    count: scene.textures.len(),
+                });
+            }
+        }
     }
     for d in &scene.draws {
         if d.material as usize >= scene.materials.len() {

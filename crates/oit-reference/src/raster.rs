@@ -3,10 +3,10 @@
 
 use std::time::{Duration, Instant};
 
-use oit_scene::Shaded;
+use oit_scene::{Material, Shaded, Texels, Texture};
 
 use crate::composite::composite_iter;
-use crate::setup::{HALF, ONE, SetupTriangle, same_plane, undecided};
+use crate::setup::{HALF, ONE, SetupTriangle, same_plane, undecided, undecided_textured};
 
 /// One row's run of pixels covered by a transparent triangle, recorded by the coverage pass
 /// and replayed by the shading pass.
@@ -436,6 +436,7 @@ impl Fragments for TransparentFragments<'_> {
 #[inline(always)]
 fn shade_span(
     tri: &SetupTriangle,
+    textures: &[Texture],
     tile: TileRect,
     row: u32,
     first: u32,
@@ -459,8 +460,11 @@ fn shade_span(
             let (depth, rgba) = attributes(tri, &l);
             let (shaded, open) = match tri.constant {
                 Some(shaded) => (shaded, tri.constant_undecided),
+                None if tri.textured => {
+                    shade_textured(tri, &tri.material, textures, rgba[0], texcoords(tri, &l)[0])
+                }
                 None => (
-                    tri.material.shade(rgba[0]),
+                    tri.material.shade(rgba[0], Texels::UNTEXTURED),
                     tri.cutoff_rounds && undecided(&tri.material, rgba[0][3]),
                 ),
             };
@@ -513,6 +517,19 @@ fn shade_span(
                 sink.fragment(p + j, dkey[j], shaded, open);
             }
         }
+    } else if tri.textured {
+        let material = tri.material;
+        for x in (first..end).step_by(LANES) {
+            let l = weights(x);
+            let (depth, rgba) = attributes(tri, &l);
+            let uv = texcoords(tri, &l);
+            let dkey = depth_keys(depth, reverse_z);
+            let p = base + x as usize;
+            for j in 0..((end - x) as usize).min(LANES) {
+                let (shaded, open) = shade_textured(tri, &material, textures, rgba[j], uv[j]);
+                sink.fragment(p + j, dkey[j], shaded, open);
+            }
+        }
     } else {
         // A local copy, not loads through `tri` per fragment (the caller's stores could alias
         // it as far as the compiler knows).
@@ -524,10 +541,53 @@ fn shade_span(
             let p = base + x as usize;
             for j in 0..((end - x) as usize).min(LANES) {
                 let open = cutoff_rounds && undecided(&material, rgba[j][3]);
-                sink.fragment(p + j, dkey[j], material.shade(rgba[j]), open);
+                sink.fragment(
+                    p + j,
+                    dkey[j],
+                    material.shade(rgba[j], Texels::UNTEXTURED),
+                    open,
+                );
             }
         }
     }
+}
+
+/// One fragment of a textured triangle: the material's texture samples at `uv`, the material
+/// rule, and whether α is in the cutoff's undecided band (widened by the texture's reach).
+#[inline(always)]
+fn shade_textured(
+    tri: &SetupTriangle,
+    material: &Material,
+    textures: &[Texture],
+    rgba: [f32; 4],
+    uv: [f32; 2],
+) -> (Shaded, bool) {
+    let texels = material.texels(textures, uv);
+    let open = tri.cutoff_rounds
+        && match material.base_texture {
+            Some(t) => {
+                undecided_textured(material, &textures[t as usize], rgba[3], texels.base[3], uv)
+            }
+            None => undecided(material, rgba[3]),
+        };
+    (material.shade(rgba, texels), open)
+}
+
+/// Perspective-correct texture coordinates (weights / w, f32 as the shader receives them), by
+/// the same steps as the colours in [`attributes`] with a plain division.
+#[inline(always)]
+fn texcoords<const N: usize>(tri: &SetupTriangle, l: &[[f64; N]; 3]) -> [[f32; 2]; N] {
+    let uv = &tri.uv;
+    std::array::from_fn(|j| {
+        let pw: [f64; 3] = std::array::from_fn(|i| l[i][j] * tri.inv_w[i]);
+        let sum = pw[0] + pw[1] + pw[2];
+        std::array::from_fn(|k| {
+            let weighted = pw[0] * f64::from(uv[0][k])
+                + pw[1] * f64::from(uv[1][k])
+                + pw[2] * f64::from(uv[2][k]);
+            (weighted / sum) as f32
+        })
+    })
 }
 
 /// [`depth_key`] of a batch (`array::map` is not reliably inlined in this hot loop).
@@ -633,6 +693,7 @@ pub(crate) struct TileOutput<'a> {
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn render_tile(
     triangles: &[SetupTriangle],
+    textures: &[Texture],
     planes: &[f64],
     bin: &[u32],
     tile: TileRect,
@@ -694,7 +755,7 @@ pub(crate) fn render_tile(
             tie: &mut s.tie,
         };
         for_each_span(tri, tile, |row, first, end| {
-            shade_span(tri, tile, row, first, end, reverse_z, &mut sink);
+            shade_span(tri, textures, tile, row, first, end, reverse_z, &mut sink);
         });
     }
     // Each covered pixel counts as a fragment unless the cutoff discards it (counted below).
@@ -732,7 +793,7 @@ pub(crate) fn render_tile(
             discarded: 0,
         };
         let (row, first, last) = (span.row.into(), span.first.into(), span.end.into());
-        shade_span(tri, tile, row, first, last, reverse_z, &mut sink);
+        shade_span(tri, textures, tile, row, first, last, reverse_z, &mut sink);
         discarded += sink.discarded;
     }
     stats.transparent_fragments = slots as u64 - discarded;

@@ -7,7 +7,7 @@
 //! are snapped to 1/256 pixel.
 
 use glam::Vec4;
-use oit_scene::{Material, Scene, Shaded};
+use oit_scene::{Material, Scene, Shaded, Texels, Texture};
 
 /// Sub-pixel precision: window coordinates are snapped to 1/256 pixel (8 bits), as the Vulkan
 /// implementations in use do (`subPixelPrecisionBits = 8`).
@@ -47,6 +47,10 @@ pub(crate) struct SetupTriangle {
     pub inv_w: [f64; 3],
     /// Linear RGBA per vertex.
     pub color: [[f32; 4]; 3],
+    /// Texture coordinates per vertex (only read when the material is textured).
+    pub uv: [[f32; 2]; 3],
+    /// The material reads a texture: fragments sample it at their interpolated uv.
+    pub textured: bool,
     /// When all three vertex colours are equal the fragment colour is constant: shade it once.
     /// (The exact interpolation of a constant is that constant, so this is the value the full
     /// path would give; the GPU may land an ulp off, which `constant_undecided` covers.)
@@ -72,6 +76,7 @@ pub(crate) struct SetupTriangle {
 struct ClipVertex {
     p: Vec4,
     color: [f32; 4],
+    uv: [f32; 2],
     /// Made by clipping: lavapipe maps such a vertex to the window in its clipper, with other
     /// operations than its vertex stage (see [`to_window`]).
     new: bool,
@@ -130,6 +135,7 @@ fn intersect(prev: ClipVertex, cur: ClipVertex, d_prev: f32, d_cur: f32) -> Clip
             lerp(near.p.w, far.p.w),
         ),
         color: std::array::from_fn(|k| lerp(near.color[k], far.color[k])),
+        uv: std::array::from_fn(|k| lerp(near.uv[k], far.uv[k])),
         new: true,
     }
 }
@@ -181,6 +187,7 @@ struct WindowVertex {
     z: f32,
     inv_w: f64,
     color: [f32; 4],
+    uv: [f32; 2],
 }
 
 /// Perspective divide and viewport transform in f32 (`x_f = (p_x/2)·x_d + o_x`; wgpu's y flip is
@@ -214,6 +221,7 @@ fn to_window(v: ClipVertex, width: u32, height: u32) -> Option<WindowVertex> {
         z: zd,
         inv_w: 1.0 / f64::from(p.w),
         color: v.color,
+        uv: v.uv,
     })
 }
 
@@ -245,6 +253,7 @@ pub(crate) fn setup_triangle(
     let tri: [ClipVertex; 3] = std::array::from_fn(|i| ClipVertex {
         p: clip[i].0,
         color: clip[i].1,
+        uv: clip[i].2,
         new: false,
     });
     // A non-finite position cannot be rasterized meaningfully; the loader rejects them, a
@@ -280,6 +289,7 @@ pub(crate) fn setup_triangle(
         z: 0.0,
         inv_w: 0.0,
         color: [0.0; 4],
+        uv: [0.0; 2],
     }; MAX_POLY];
     for (w, v) in win.iter_mut().zip(&poly.v[..poly.n]) {
         match to_window(*v, width, height) {
@@ -300,6 +310,7 @@ pub(crate) fn setup_triangle(
         return;
     }
     let transparent = material.mode.is_transparent();
+    let textured = material.is_textured();
     for i in 1..poly.n - 1 {
         let (a, mut b, mut c) = (win[0], win[i], win[i + 1]);
         let mut area = signed_area2(&a, &b, &c);
@@ -322,15 +333,17 @@ pub(crate) fn setup_triangle(
             continue;
         };
         let color = [a.color, b.color, c.color];
-        let constant =
-            (color[0] == color[1] && color[0] == color[2]).then(|| material.shade(color[0]));
+        // Textured colour varies with uv even where the vertex colours agree.
+        let constant = (!textured && color[0] == color[1] && color[0] == color[2])
+            .then(|| material.shade(color[0], Texels::UNTEXTURED));
         // A constant α over a triangle of constant w has zero gradients: every rasterizer gets
         // it back exactly. With varying w, perspective correction rounds (lavapipe returns
         // 1.0 as 0.99999994 on scattered pixels of a turned card), as does any gradient.
         let constant_w = a.inv_w == b.inv_w && b.inv_w == c.inv_w;
         let constant_alpha = color[0][3] == color[1][3] && color[0][3] == color[2][3];
-        let cutoff_rounds =
-            material.mode.uses_cutoff() && material.alpha != 0.0 && !(constant_alpha && constant_w);
+        let cutoff_rounds = material.mode.uses_cutoff()
+            && material.alpha != 0.0
+            && (material.base_texture.is_some() || !(constant_alpha && constant_w));
         let constant_undecided =
             constant.is_some() && cutoff_rounds && undecided(material, color[0][3]);
         // Every fragment is discarded by the cutoff, and no GPU could keep one: nothing to
@@ -354,6 +367,8 @@ pub(crate) fn setup_triangle(
             z: [a.z, b.z, c.z],
             inv_w: [a.inv_w, b.inv_w, c.inv_w],
             color,
+            uv: [a.uv, b.uv, c.uv],
+            textured,
             constant,
             cutoff_rounds,
             constant_undecided,
@@ -380,6 +395,40 @@ pub(crate) fn undecided(material: &Material, vertex_alpha: f32) -> bool {
     (vertex_alpha * material.alpha - material.cutoff).abs() <= CUTOFF_UNDECIDED_BOUND
 }
 
+/// Relative error bound of an interpolated texture coordinate on the GPU: the same measured
+/// interpolation error as for colours (the same f32 plane equations), 2^-16 of max(1, |uv|).
+pub const UV_UNDECIDED_BOUND: f32 = CUTOFF_UNDECIDED_BOUND;
+
+/// [`undecided`] for a material whose α is also multiplied by a texture sample (`texel_alpha`
+/// at `uv`): the GPU's uv may be off by [`UV_UNDECIDED_BOUND`], which moves the bilinear sample
+/// by at most twice that many texels times the alpha range of the texels it can reach.
+#[inline]
+pub(crate) fn undecided_textured(
+    material: &Material,
+    texture: &Texture,
+    vertex_alpha: f32,
+    texel_alpha: f32,
+    uv: [f32; 2],
+) -> bool {
+    let scale = f64::from(vertex_alpha) * f64::from(material.alpha);
+    let alpha = vertex_alpha * material.alpha * texel_alpha;
+    let distance = f64::from((alpha - material.cutoff).abs());
+    let bound = f64::from(CUTOFF_UNDECIDED_BOUND);
+    if distance <= bound {
+        return true;
+    }
+    let reach = |c: f32, size: u32| {
+        f64::from(UV_UNDECIDED_BOUND) * f64::from(c.abs().max(1.0)) * f64::from(size)
+    };
+    // Texels the sample can move by; a texture's alpha range is at most 1 (8/16-bit images).
+    let texels = 2.0 * reach(uv[0], texture.width).max(reach(uv[1], texture.height));
+    if distance > bound + scale * texels {
+        return false;
+    }
+    let (lo, hi) = texture.alpha_range_near(uv);
+    distance <= bound + scale * texels * f64::from(hi - lo)
+}
+
 /// Whether two [`SetupTriangle::plane_depth`]s are the same plane: equal to 1e-12 relative
 /// (f64 rounding of the same plane through different vertices); never for NaN.
 #[inline(always)]
@@ -388,4 +437,4 @@ pub(crate) fn same_plane(a: f64, b: f64) -> bool {
 }
 
 /// Clip-space position and colour of one input vertex.
-pub(crate) type ClipInput = (Vec4, [f32; 4]);
+pub(crate) type ClipInput = (Vec4, [f32; 4], [f32; 2]);

@@ -5,7 +5,7 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use oit_harness::results::{Results, Run, RunStatus};
+use oit_harness::results::{Results, Run, RunStatus, SceneJson};
 
 use crate::plot::{Metric, PlotKind, runs_by_scene};
 use crate::{ReportError, pareto_members, write_plots};
@@ -153,7 +153,8 @@ fn html(results: &Results, dir: &Path) -> String {
     }
     out.push_str("</ul></nav>\n");
     for (scene, runs) in &scenes {
-        scene_section(&mut out, dir, scene, runs, &members);
+        let about = results.scenes.iter().find(|s| s.scene == *scene);
+        scene_section(&mut out, dir, scene, about, runs, &members);
     }
     out.push_str("</body>\n</html>\n");
     out
@@ -163,6 +164,7 @@ fn scene_section(
     out: &mut String,
     dir: &Path,
     scene: &str,
+    about: Option<&SceneJson>,
     runs: &[&Run],
     members: &std::collections::BTreeSet<(String, String)>,
 ) {
@@ -176,6 +178,9 @@ fn scene_section(
         res[0],
         res[1]
     );
+    for line in about.map(SceneJson::report_lines).unwrap_or_default() {
+        let _ = writeln!(out, "<p class=\"about\">{}.</p>", esc(&line));
+    }
     for caveat in oit_harness::report::scene_caveats(runs) {
         let _ = writeln!(out, "<p class=\"caveat\">Reference: {}.</p>", esc(&caveat));
     }

@@ -25,7 +25,7 @@
 //! fragment's premultiplied colour, 1 for colours in [0, 1]), which the composite multiplies
 //! back; α·w is not scaled, so faint layers keep their precision.
 
-use oit_scene::{Scene, Shaded};
+use oit_scene::{Scene, Shaded, Texels};
 
 /// Largest weight: 2^8, so 255 layers of α = 1 (and colour at most the colour scale) still sum
 /// below fp16's 65504.
@@ -87,11 +87,15 @@ impl RangeParams {
 /// for 255 layers of the largest weight.
 pub fn color_scale(scene: &Scene) -> f32 {
     let mut largest = 1.0f32;
+    let bounds: Vec<Texels> = (scene.materials.iter())
+        .map(|m| m.max_texels(&scene.textures))
+        .collect();
     for d in &scene.draws {
         let m = scene.material_of(d);
         if !m.mode.is_transparent() {
             continue;
         }
+        let texels = bounds[d.material as usize];
         let verts = &scene.vertices[d.vertex_range()];
         for tri in verts.chunks_exact(3) {
             // Colour and α are interpolated separately, so their product is bounded by the
@@ -102,7 +106,7 @@ pub fn color_scale(scene: &Scene) -> f32 {
                     *t = t.max(c);
                 }
             }
-            if let Shaded::Transparent { premultiplied, .. } = m.shade(top) {
+            if let Shaded::Transparent { premultiplied, .. } = m.shade(top, texels) {
                 for c in premultiplied {
                     if c.is_finite() {
                         largest = largest.max(c);

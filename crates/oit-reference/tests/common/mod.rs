@@ -12,15 +12,7 @@ use oit_scene::{
 
 /// A material with straight colour `rgb`, coverage `alpha` and mode `mode`.
 pub fn material(rgb: [f32; 3], alpha: f32, mode: AlphaMode) -> Material {
-    Material {
-        base_color: rgb,
-        alpha,
-        mode,
-        cutoff: 0.5,
-        double_sided: false,
-        premultiplied: false,
-        intensity: 1.0,
-    }
+    Material::plain(rgb, alpha, mode)
 }
 
 pub fn blend(rgb: [f32; 3], alpha: f32) -> Material {
@@ -73,6 +65,9 @@ impl SceneBuilder {
                 materials: Vec::new(),
                 draws: Vec::new(),
                 vertices: Vec::new(),
+                textures: Vec::new(),
+                ignored: Vec::new(),
+                credits: Vec::new(),
             },
         }
     }
