@@ -12,8 +12,10 @@ mod mesh;
 pub mod random;
 mod rng;
 mod scene;
+mod texture;
 
 pub use error::{Problem, SceneError};
 pub use format::{DEFAULT_RESOLUTION, MAX_TRIANGLES};
 pub use load::{load, load_dir, parse};
 pub use scene::*;
+pub use texture::{MAX_TEXTURE_DIMENSION, MAX_UV, Texture, Wrap, srgb_to_linear};

@@ -328,6 +328,8 @@ impl Ctx<'_> {
             materials: Vec::with_capacity(raw.objects.len()),
             draws: Vec::new(),
             vertices: Vec::new(),
+            textures: Vec::new(),
+            ignored: Vec::new(),
         };
         // Validate every object and count its triangles before generating any geometry, so an
         // absurd scene is rejected without allocating anything.
@@ -452,6 +454,9 @@ impl Ctx<'_> {
             double_sided: m.double_sided,
             premultiplied: m.premultiplied,
             intensity,
+            base_texture: None,
+            emissive: [0.0; 3],
+            emissive_texture: None,
         })
     }
 

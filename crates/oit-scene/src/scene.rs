@@ -167,6 +167,29 @@ pub struct Material {
     pub premultiplied: bool,
     /// HDR multiplier on colour.
     pub intensity: f32,
+    /// Index into [`Scene::textures`] whose sample multiplies colour and alpha (glTF
+    /// `baseColorTexture`); `None` samples as 1.
+    pub base_texture: Option<u32>,
+    /// Linear RGB radiance added after the multiplications (glTF `emissiveFactor` ×
+    /// `KHR_materials_emissive_strength`); not lit, not scaled by `intensity`.
+    pub emissive: [f32; 3],
+    /// Index into [`Scene::textures`] whose sample's rgb multiplies `emissive`.
+    pub emissive_texture: Option<u32>,
+}
+
+/// The texture samples one fragment's material reads; `UNTEXTURED` where it has none.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Texels {
+    pub base: [f32; 4],
+    pub emissive: [f32; 4],
+}
+
+impl Texels {
+    /// What a material without textures samples: ones, which leave every product unchanged.
+    pub const UNTEXTURED: Texels = Texels {
+        base: [1.0; 4],
+        emissive: [1.0; 4],
+    };
 }
 
 /// What a fragment contributes after the material is applied.
@@ -181,16 +204,63 @@ pub enum Shaded {
 }
 
 impl Material {
-    /// Fragment colour from the interpolated vertex colour, in f32, as the shader computes it:
-    /// `c = vertex.rgb · base · intensity`, `α = vertex.a · alpha`, `C = α·c` (or `c` when the
-    /// material is premultiplied). Mask modes discard when `α < cutoff`.
-    pub fn shade(&self, vertex_rgba: [f32; 4]) -> Shaded {
+    /// A plain material: the given colour and mode, no textures, no emission, intensity 1,
+    /// straight alpha, single-sided, cutoff 0.5.
+    pub fn plain(base_color: [f32; 3], alpha: f32, mode: AlphaMode) -> Material {
+        Material {
+            base_color,
+            alpha,
+            mode,
+            cutoff: 0.5,
+            double_sided: false,
+            premultiplied: false,
+            intensity: 1.0,
+            base_texture: None,
+            emissive: [0.0; 3],
+            emissive_texture: None,
+        }
+    }
+
+    /// Whether any texture is read (fragments then need their uv).
+    pub fn is_textured(&self) -> bool {
+        self.base_texture.is_some() || self.emissive_texture.is_some()
+    }
+
+    /// The textures this material reads, sampled at `uv`.
+    #[inline]
+    pub fn texels(&self, textures: &[crate::Texture], uv: [f32; 2]) -> Texels {
+        let sample = |t: Option<u32>| t.map_or([1.0; 4], |t| textures[t as usize].sample(uv));
+        Texels {
+            base: sample(self.base_texture),
+            emissive: sample(self.emissive_texture),
+        }
+    }
+
+    /// The largest sample each texture slot can return: with non-negative inputs `shade` is
+    /// monotone in the samples, so shading with these bounds every fragment of the material.
+    pub fn max_texels(&self, textures: &[crate::Texture]) -> Texels {
+        let max = |t: Option<u32>| t.map_or([1.0; 4], |t| textures[t as usize].max_texel());
+        Texels {
+            base: max(self.base_texture),
+            emissive: max(self.emissive_texture),
+        }
+    }
+
+    /// Fragment colour from the interpolated vertex colour and the texture samples, in f32, as
+    /// the shader computes it: `c = vertex.rgb · base · texel.rgb · intensity + emissive ·
+    /// emissive_texel.rgb`, `α = vertex.a · alpha · texel.a`, `C = α·c` (or `c` when the
+    /// material is premultiplied). Mask modes discard when `α < cutoff`. Untextured, the
+    /// samples are 1 and the emission 0, which change no bit of the products.
+    #[inline(always)]
+    pub fn shade(&self, vertex_rgba: [f32; 4], texels: Texels) -> Shaded {
+        let t = texels.base;
+        let e = texels.emissive;
         let c = [
-            vertex_rgba[0] * self.base_color[0] * self.intensity,
-            vertex_rgba[1] * self.base_color[1] * self.intensity,
-            vertex_rgba[2] * self.base_color[2] * self.intensity,
+            vertex_rgba[0] * self.base_color[0] * t[0] * self.intensity + self.emissive[0] * e[0],
+            vertex_rgba[1] * self.base_color[1] * t[1] * self.intensity + self.emissive[1] * e[1],
+            vertex_rgba[2] * self.base_color[2] * t[2] * self.intensity + self.emissive[2] * e[2],
         ];
-        let alpha = vertex_rgba[3] * self.alpha;
+        let alpha = vertex_rgba[3] * self.alpha * t[3];
         if self.mode.uses_cutoff() && alpha < self.cutoff {
             return Shaded::Discarded;
         }
@@ -267,6 +337,11 @@ pub struct Scene {
     /// In draw order.
     pub draws: Vec<Draw>,
     pub vertices: Vec<Vertex>,
+    /// Textures that materials index (decoded, linear).
+    pub textures: Vec<crate::Texture>,
+    /// What the loader read but does not model (e.g. a glTF extension), one line each, for
+    /// `oit scenes` and reports. Empty for the JSON format.
+    pub ignored: Vec<String>,
 }
 
 impl Scene {
@@ -350,6 +425,22 @@ impl Scene {
             h.u32(m.double_sided as u32);
             h.u32(m.premultiplied as u32);
             h.f32(m.intensity);
+            for t in [m.base_texture, m.emissive_texture] {
+                h.u32(t.map_or(u32::MAX, |t| t));
+            }
+            for c in m.emissive {
+                h.f32(c);
+            }
+        }
+        for t in &self.textures {
+            h.u32(t.width);
+            h.u32(t.height);
+            h.u32(t.wrap_u.code() | t.wrap_v.code() << 2);
+            for texel in &t.texels {
+                for c in texel {
+                    h.f32(*c);
+                }
+            }
         }
         for d in &self.draws {
             h.u32(d.id);
