@@ -73,7 +73,9 @@ impl Texture {
     /// The largest value of each channel: the most any sample can return (bilinear weights
     /// are convex).
     pub fn max_texel(&self) -> [f32; 4] {
-        self.texels.iter().fold([0.0f32; 4], |m, t| std::array::from_fn(|k| m[k].max(t[k])))
+        self.texels
+            .iter()
+            .fold([0.0f32; 4], |m, t| std::array::from_fn(|k| m[k].max(t[k])))
     }
 
     /// Whether the texel array matches the dimensions (hand-built textures can get it wrong).
@@ -173,7 +175,11 @@ mod tests {
         for j in 0..3 {
             for i in 0..4 {
                 let uv = [(i as f32 + 0.5) / 4.0, (j as f32 + 0.5) / 3.0];
-                assert_eq!(t.sample(uv), t.texels[(j * 4 + i) as usize], "texel {i},{j}");
+                assert_eq!(
+                    t.sample(uv),
+                    t.texels[(j * 4 + i) as usize],
+                    "texel {i},{j}"
+                );
             }
         }
     }
