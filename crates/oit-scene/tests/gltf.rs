@@ -64,11 +64,19 @@ struct Data {
 
 impl Data {
     /// Appends `bytes` as a new bufferView and an accessor over it; returns the accessor index.
-    fn add(&mut self, bytes: &[u8], component: u32, ty: &str, count: usize, normalized: bool) -> usize {
-        while self.bytes.len() % 4 != 0 {
+    fn add(
+        &mut self,
+        bytes: &[u8],
+        component: u32,
+        ty: &str,
+        count: usize,
+        normalized: bool,
+    ) -> usize {
+        while !self.bytes.len().is_multiple_of(4) {
             self.bytes.push(0);
         }
-        self.views.push(json!({"buffer": 0, "byteOffset": self.bytes.len(), "byteLength": bytes.len()}));
+        self.views
+            .push(json!({"buffer": 0, "byteOffset": self.bytes.len(), "byteLength": bytes.len()}));
         self.bytes.extend_from_slice(bytes);
         let mut a = json!({"bufferView": self.views.len() - 1, "componentType": component, "type": ty, "count": count});
         if normalized {
@@ -89,7 +97,9 @@ impl Data {
         if ty == "VEC3" {
             // POSITION accessors must carry min and max (glTF 2.0, 3.7.2.1).
             let fold = |f: fn(f32, f32) -> f32, init: f32| -> Vec<f32> {
-                (0..3).map(|k| v.iter().skip(k).step_by(3).fold(init, |m, &x| f(m, x))).collect()
+                (0..3)
+                    .map(|k| v.iter().skip(k).step_by(3).fold(init, |m, &x| f(m, x)))
+                    .collect()
             };
             self.accessors[a]["min"] = json!(fold(f32::min, f32::INFINITY));
             self.accessors[a]["max"] = json!(fold(f32::max, f32::NEG_INFINITY));
@@ -134,7 +144,7 @@ fn load_text(tag: &str, text: &str) -> Result<Scene, SceneError> {
 
 fn glb(json: &str, bin: Option<&[u8]>) -> Vec<u8> {
     let mut j = json.as_bytes().to_vec();
-    while j.len() % 4 != 0 {
+    while !j.len().is_multiple_of(4) {
         j.push(b' ');
     }
     let mut out = b"glTF".to_vec();
@@ -156,7 +166,9 @@ fn glb(json: &str, bin: Option<&[u8]>) -> Vec<u8> {
 /// Asserts `r` is an `Invalid` error at `path` and returns its problem.
 fn problem_at(r: Result<Scene, SceneError>, path: &str) -> Problem {
     match r {
-        Err(SceneError::Invalid { path: p, problem, .. }) => {
+        Err(SceneError::Invalid {
+            path: p, problem, ..
+        }) => {
             assert_eq!(p, path, "wrong path for {problem}");
             problem
         }
@@ -167,7 +179,9 @@ fn problem_at(r: Result<Scene, SceneError>, path: &str) -> Problem {
 
 fn material_names(path: &Path) -> Vec<String> {
     let g = gltf::Gltf::open(path).unwrap();
-    g.materials().map(|m| m.name().unwrap_or("").to_string()).collect()
+    g.materials()
+        .map(|m| m.name().unwrap_or("").to_string())
+        .collect()
 }
 
 /// Triangles each mesh's primitives declare, from the accessor counts (all TRIANGLES here).
@@ -176,7 +190,12 @@ fn declared_triangles(path: &Path) -> Vec<Vec<usize>> {
     g.meshes()
         .map(|m| {
             m.primitives()
-                .map(|p| p.indices().map_or_else(|| p.get(&gltf::Semantic::Positions).unwrap().count(), |a| a.count()) / 3)
+                .map(|p| {
+                    p.indices().map_or_else(
+                        || p.get(&gltf::Semantic::Positions).unwrap().count(),
+                        |a| a.count(),
+                    ) / 3
+                })
                 .collect()
         })
         .collect()
@@ -196,7 +215,10 @@ fn check_common(s: &Scene, path: &Path) {
     // The framing camera sees every vertex.
     for v in &s.vertices {
         let c = s.camera.clip(Vec3::from(v.position));
-        assert!(c.w > 0.0 && c.x.abs() <= c.w && c.y.abs() <= c.w && c.z >= 0.0 && c.z <= c.w, "{v:?} outside: {c:?}");
+        assert!(
+            c.w > 0.0 && c.x.abs() <= c.w && c.y.abs() <= c.w && c.z >= 0.0 && c.z <= c.w,
+            "{v:?} outside: {c:?}"
+        );
     }
     // Texel decode: each texture is its image's 8-bit codes, sRGB-decoded rgb, linear alpha.
     let (_, _, images) = gltf::import(path).unwrap();
@@ -211,7 +233,11 @@ fn check_common(s: &Scene, path: &Path) {
         };
         for k in [0usize, 1, (t.texels.len() / 2) + 7, t.texels.len() - 1] {
             let px = &img.pixels[n * k..n * k + n];
-            let alpha = if n == 4 { (f64::from(px[3]) / 255.0) as f32 } else { 1.0 };
+            let alpha = if n == 4 {
+                (f64::from(px[3]) / 255.0) as f32
+            } else {
+                1.0
+            };
             let want = [
                 srgb_to_linear(f64::from(px[0]) / 255.0),
                 srgb_to_linear(f64::from(px[1]) / 255.0),
@@ -244,13 +270,28 @@ fn alpha_blend_mode_test_loads_its_modes_and_textures() {
     assert_eq!(by_name("MatCutoffDefault").cutoff, 0.5);
     assert_eq!(by_name("MatOpaque").mode, AlphaMode::Opaque);
     let count = |mode| s.materials.iter().filter(|m| m.mode == mode).count();
-    assert_eq!((count(AlphaMode::Blend), count(AlphaMode::Mask), count(AlphaMode::Opaque)), (1, 3, 2));
+    assert_eq!(
+        (
+            count(AlphaMode::Blend),
+            count(AlphaMode::Mask),
+            count(AlphaMode::Opaque)
+        ),
+        (1, 3, 2)
+    );
     assert_eq!(s.materials.iter().filter(|m| m.double_sided).count(), 5);
     // MatOpaque samples a texture with alpha, which the Opaque mode ignores.
     let opaque_tex = by_name("MatOpaque").base_texture.unwrap() as usize;
     assert!(s.textures[opaque_tex].texels.iter().any(|t| t[3] < 1.0));
-    assert!(s.materials.iter().all(|m| m.base_texture.is_some() && !m.premultiplied));
-    assert!(s.textures.iter().all(|t| t.wrap_u == Wrap::Repeat && t.is_consistent()));
+    assert!(
+        s.materials
+            .iter()
+            .all(|m| m.base_texture.is_some() && !m.premultiplied)
+    );
+    assert!(
+        s.textures
+            .iter()
+            .all(|t| t.wrap_u == Wrap::Repeat && t.is_consistent())
+    );
     assert!(s.ignored.is_empty(), "{:?}", s.ignored);
     check_common(&s, &path);
 }
@@ -262,13 +303,23 @@ fn glass_vase_flowers_lists_transmission_as_ignored() {
     let names = material_names(&path);
     assert_eq!(s.materials.len(), 3);
     let modes: Vec<_> = s.materials.iter().map(|m| m.mode).collect();
-    assert_eq!(modes, [AlphaMode::Mask, AlphaMode::Blend, AlphaMode::Opaque], "{names:?}");
+    assert_eq!(
+        modes,
+        [AlphaMode::Mask, AlphaMode::Blend, AlphaMode::Opaque],
+        "{names:?}"
+    );
     let blend = s.materials[1];
     assert_eq!(blend.alpha, 0.3);
     assert!(s.materials[0].base_texture.is_some());
     let transmission = names.iter().position(|n| n == "GlassTransmission").unwrap();
     assert_eq!(s.materials[transmission].mode, AlphaMode::Opaque);
-    assert!(s.ignored.iter().any(|l| l.contains("KHR_materials_transmission on /materials/2 (GlassTransmission)") && l.contains("OPAQUE")), "{:?}", s.ignored);
+    assert!(
+        s.ignored.iter().any(|l| l
+            .contains("KHR_materials_transmission on /materials/2 (GlassTransmission)")
+            && l.contains("OPAQUE")),
+        "{:?}",
+        s.ignored
+    );
     assert!(s.ignored.iter().any(|l| l.contains("KHR_materials_volume")));
     assert!(s.triangle_count() > 10_000);
     check_common(&s, &path);
@@ -293,7 +344,11 @@ fn node_hierarchy_composes_trs_and_matrix() {
     assert!(close(p[2], [8.0, 0.0, 5.0]), "{p:?}");
     assert_eq!(s.draws[0].name, "asset.gltf /nodes/1 mesh 0 primitive 0");
     // No COLOR_0: white; no TEXCOORD_0: (0, 0); no material: the glTF default.
-    assert!(s.vertices.iter().all(|v| v.color == [1.0; 4] && v.uv == [0.0; 2]));
+    assert!(
+        s.vertices
+            .iter()
+            .all(|v| v.color == [1.0; 4] && v.uv == [0.0; 2])
+    );
     assert_eq!(s.materials.len(), 1);
     assert_eq!(s.materials[0].mode, AlphaMode::Opaque);
     assert!(!s.materials[0].double_sided);
@@ -333,7 +388,11 @@ fn strips_and_fans_become_lists() {
     for (mode, v) in [(5, strip), (6, fan)] {
         let mut d = Data::default();
         let pos = d.f32s(&v, "VEC3");
-        let s = load_text(&format!("mode{mode}"), &d.gltf(single_mesh(pos, json!({"mode": mode})))).unwrap();
+        let s = load_text(
+            &format!("mode{mode}"),
+            &d.gltf(single_mesh(pos, json!({"mode": mode}))),
+        )
+        .unwrap();
         assert_eq!(s.triangle_count(), 2, "mode {mode}");
         let areas = signed_area_z(&s);
         assert!(areas.iter().all(|a| *a > 0.0), "mode {mode}: {areas:?}");
@@ -352,7 +411,10 @@ fn normalized_colours_and_texcoords() {
     let color = d.add(&color_bytes, 5121, "VEC3", 3, true);
     d.views[1]["byteStride"] = json!(4);
     let uv = d.u16s(&[0, 65535, 65535, 0, 32768, 16384], "VEC2", 3, true);
-    let doc = single_mesh(pos, json!({"attributes": {"POSITION": pos, "COLOR_0": color, "TEXCOORD_0": uv}}));
+    let doc = single_mesh(
+        pos,
+        json!({"attributes": {"POSITION": pos, "COLOR_0": color, "TEXCOORD_0": uv}}),
+    );
     let s = load_text("norm", &d.gltf(doc)).unwrap();
     let v = &s.vertices;
     assert_eq!(v[0].color, [1.0, 0.0, 0.2, 1.0]);
@@ -360,7 +422,10 @@ fn normalized_colours_and_texcoords() {
     assert_eq!(v[2].color, [0.4, 0.4, 0.4, 1.0]);
     assert_eq!(v[0].uv, [0.0, 1.0]);
     assert_eq!(v[1].uv, [1.0, 0.0]);
-    assert_eq!(v[2].uv, [(32768.0f64 / 65535.0) as f32, (16384.0f64 / 65535.0) as f32]);
+    assert_eq!(
+        v[2].uv,
+        [(32768.0f64 / 65535.0) as f32, (16384.0f64 / 65535.0) as f32]
+    );
 }
 
 #[test]
@@ -369,7 +434,10 @@ fn json_object_kind_gltf_places_the_asset() {
     let mut d = Data::default();
     let pos = d.f32s(&TRI, "VEC3");
     std::fs::create_dir_all(dir.0.join("models")).unwrap();
-    dir.write("models/tri.gltf", d.gltf(single_mesh(pos, json!({}))).as_bytes());
+    dir.write(
+        "models/tri.gltf",
+        d.gltf(single_mesh(pos, json!({}))).as_bytes(),
+    );
     let scene = json!({
         "name": "placed",
         "camera": {"eye": [0, 0, 10], "target": [0, 0, 0]},
@@ -384,11 +452,17 @@ fn json_object_kind_gltf_places_the_asset() {
     let s = oit_scene::load(&path).unwrap();
     assert_eq!(s.draws.len(), 3);
     let g = &s.draws[1];
-    assert_eq!(g.name, "objects[1].instances[0] tri.gltf /nodes/0 mesh 0 primitive 0");
+    assert_eq!(
+        g.name,
+        "objects[1].instances[0] tri.gltf /nodes/0 mesh 0 primitive 0"
+    );
     assert_eq!((g.render_group, g.alpha_index), (3, -2));
     let v = &s.vertices[g.vertex_range()];
     assert_eq!(v[1].position, [7.0, 0.0, 0.0]);
-    assert_eq!(s.vertices[s.draws[2].vertex_range()][1].position, [7.0, 0.0, 1.0]);
+    assert_eq!(
+        s.vertices[s.draws[2].vertex_range()][1].position,
+        [7.0, 0.0, 1.0]
+    );
     // Flat face normal +Z faces the light: 0.25 + 0.5.
     assert_eq!(v[0].color, [0.75, 0.75, 0.75, 1.0]);
     // The asset's default material follows the quad's.
@@ -403,7 +477,9 @@ fn json_object_kind_gltf_places_the_asset() {
     let missing = json!({"name": "x", "camera": {"eye": [0, 0, 1], "target": [0, 0, 0]},
         "objects": [{"mesh": {"kind": "gltf", "file": "models/none.glb"}}]});
     let p = dir.write("missing.json", missing.to_string().as_bytes());
-    assert!(matches!(oit_scene::load(&p), Err(SceneError::Io { file, .. }) if file.ends_with("none.glb")));
+    assert!(
+        matches!(oit_scene::load(&p), Err(SceneError::Io { file, .. }) if file.ends_with("none.glb"))
+    );
     let scene_oob = json!({"name": "x", "camera": {"eye": [0, 0, 1], "target": [0, 0, 0]},
         "objects": [{"mesh": {"kind": "gltf", "file": "models/tri.gltf", "scene": 4}}]});
     let p = dir.write("oob.json", scene_oob.to_string().as_bytes());
@@ -419,7 +495,12 @@ fn load_dir_picks_up_gltf_files() {
     let text = d.gltf(single_mesh(pos, json!({})));
     dir.write("b.gltf", text.as_bytes());
     dir.write("c.GLB", &glb(&text, None));
-    dir.write("a.json", json!({"name": "a", "camera": {"eye": [0, 0, 1], "target": [0, 0, 0]}, "objects": []}).to_string().as_bytes());
+    dir.write(
+        "a.json",
+        json!({"name": "a", "camera": {"eye": [0, 0, 1], "target": [0, 0, 0]}, "objects": []})
+            .to_string()
+            .as_bytes(),
+    );
     dir.write("notes.txt", b"ignored");
     let scenes = oit_scene::load_dir(&dir.0).unwrap();
     let names: Vec<_> = scenes.iter().map(|(_, s)| s.name.as_str()).collect();
@@ -442,17 +523,28 @@ fn cameras_from_the_asset() {
     let path = dir.write("cams.gltf", text.as_bytes());
     // First camera in node order: node 1's orthographic camera.
     let s = oit_scene::load(&path).unwrap();
-    assert_eq!(s.camera.projection, oit_scene::Projection::Orthographic { height: 6.0 });
+    assert_eq!(
+        s.camera.projection,
+        oit_scene::Projection::Orthographic { height: 6.0 }
+    );
     assert_eq!(s.camera.eye, Vec3::new(0.0, 0.0, 20.0));
     assert_eq!((s.camera.near, s.camera.far), (0.0, 50.0));
     let s = oit_scene::load_with(&path, &LoadOptions { camera: Some(0) }).unwrap();
-    let oit_scene::Projection::Perspective { fov_y_degrees } = s.camera.projection else { panic!() };
+    let oit_scene::Projection::Perspective { fov_y_degrees } = s.camera.projection else {
+        panic!()
+    };
     assert!((fov_y_degrees - 0.5f32.to_degrees()).abs() < 1e-4);
     // Infinite far: a finite far beyond the scene.
     assert!(s.camera.far.is_finite() && s.camera.far > 5.0);
-    let s2 = s.with_resolution(oit_scene::Resolution { width: 512, height: 256 });
+    let s2 = s.with_resolution(oit_scene::Resolution {
+        width: 512,
+        height: 256,
+    });
     assert_eq!(s2.camera.eye, s.camera.eye);
-    let e = problem_at(oit_scene::load_with(&path, &LoadOptions { camera: Some(2) }), "/cameras");
+    let e = problem_at(
+        oit_scene::load_with(&path, &LoadOptions { camera: Some(2) }),
+        "/cameras",
+    );
     assert_eq!(e, Problem::NoSuchItem { index: 2, count: 2 });
 }
 
@@ -469,7 +561,10 @@ fn glb_container_errors() {
     let p = problem_at(load("magic.glb", b"GLTF\x02\0\0\0"), "(glb header)");
     assert!(matches!(p, Problem::GlbStructure { .. }), "{p}");
     let p = problem_at(load("short.glb", &good[..10]), "(glb header)");
-    assert!(p.to_string().contains("shorter than the 12-byte header"), "{p}");
+    assert!(
+        p.to_string().contains("shorter than the 12-byte header"),
+        "{p}"
+    );
     let p = problem_at(load("trunc.glb", &good[..good.len() - 4]), "(glb header)");
     assert!(p.to_string().contains("differs from the file size"), "{p}");
     let mut long_chunk = good.clone();
@@ -478,7 +573,10 @@ fn glb_container_errors() {
     assert!(p.to_string().contains("runs past the end"), "{p}");
     let mut version = good.clone();
     version[4] = 1;
-    assert!(matches!(problem_at(load("v1.glb", &version), "(glb header)"), Problem::GlbStructure { .. }));
+    assert!(matches!(
+        problem_at(load("v1.glb", &version), "(glb header)"),
+        Problem::GlbStructure { .. }
+    ));
 }
 
 #[test]
@@ -495,10 +593,16 @@ fn json_and_schema_errors() {
     assert!(matches!(p, Problem::GltfInvalid { .. }), "{p}");
     // Required extensions that are not modelled.
     let mut doc = single_mesh(pos, json!({}));
-    doc["extensionsRequired"] = json!(["KHR_texture_transform", "KHR_materials_volume", "EXT_meshopt_compression"]);
+    doc["extensionsRequired"] = json!([
+        "KHR_texture_transform",
+        "KHR_materials_volume",
+        "EXT_meshopt_compression"
+    ]);
     let p = problem_at(load_text("required", &d.gltf(doc)), "/extensionsRequired");
     match p {
-        Problem::UnsupportedExtension { names, .. } => assert_eq!(names, "KHR_materials_volume, EXT_meshopt_compression"),
+        Problem::UnsupportedExtension { names, .. } => {
+            assert_eq!(names, "KHR_materials_volume, EXT_meshopt_compression")
+        }
         other => panic!("{other}"),
     }
 }
@@ -506,43 +610,71 @@ fn json_and_schema_errors() {
 #[test]
 fn data_errors() {
     // Missing external buffer file.
-    let doc = json!({"asset": {"version": "2.0"}, "buffers": [{"uri": "nowhere.bin", "byteLength": 4}]});
+    let doc =
+        json!({"asset": {"version": "2.0"}, "buffers": [{"uri": "nowhere.bin", "byteLength": 4}]});
     let p = problem_at(load_text("nofile", &doc.to_string()), "/buffers/0/uri");
-    assert!(matches!(&p, Problem::ExternalData { uri, .. } if uri == "nowhere.bin"), "{p}");
+    assert!(
+        matches!(&p, Problem::ExternalData { uri, .. } if uri == "nowhere.bin"),
+        "{p}"
+    );
     // Buffer shorter than byteLength.
     let doc = json!({"asset": {"version": "2.0"}, "buffers": [{"uri": "data:application/octet-stream;base64,AAAA", "byteLength": 8}]});
-    let p = problem_at(load_text("shortbuf", &doc.to_string()), "/buffers/0/byteLength");
-    assert_eq!(p, Problem::BufferTooShort { expected: 8, actual: 3 });
+    let p = problem_at(
+        load_text("shortbuf", &doc.to_string()),
+        "/buffers/0/byteLength",
+    );
+    assert_eq!(
+        p,
+        Problem::BufferTooShort {
+            expected: 8,
+            actual: 3
+        }
+    );
     // Accessor reaching past its bufferView.
     let mut d = Data::default();
     let pos = d.f32s(&TRI, "VEC3");
     d.accessors[pos]["count"] = json!(4);
-    let p = problem_at(load_text("oob", &d.gltf(single_mesh(pos, json!({})))), "/accessors/0");
+    let p = problem_at(
+        load_text("oob", &d.gltf(single_mesh(pos, json!({})))),
+        "/accessors/0",
+    );
     assert!(matches!(p, Problem::AccessorOutOfBounds { .. }), "{p}");
     // Wrong component type for POSITION.
     let mut d = Data::default();
     let pos = d.u16s(&[0; 9], "VEC3", 3, false);
     d.accessors[pos]["min"] = json!([0, 0, 0]);
     d.accessors[pos]["max"] = json!([0, 0, 0]);
-    let p = problem_at(load_text("type", &d.gltf(single_mesh(pos, json!({})))), "/meshes/0/primitives/0/attributes/POSITION");
+    let p = problem_at(
+        load_text("type", &d.gltf(single_mesh(pos, json!({})))),
+        "/meshes/0/primitives/0/attributes/POSITION",
+    );
     assert!(matches!(p, Problem::AccessorFormat { .. }), "{p}");
     // NaN position.
     let mut d = Data::default();
     let mut v = TRI;
     v[4] = f32::NAN;
     let pos = d.f32s(&v, "VEC3");
-    let p = problem_at(load_text("nan", &d.gltf(single_mesh(pos, json!({})))), "/accessors/0");
+    let p = problem_at(
+        load_text("nan", &d.gltf(single_mesh(pos, json!({})))),
+        "/accessors/0",
+    );
     assert!(matches!(p, Problem::BadValue { .. }), "{p}");
     // Index out of range.
     let mut d = Data::default();
     let pos = d.f32s(&TRI, "VEC3");
     let idx = d.u16s(&[0, 1, 3], "SCALAR", 3, false);
-    let p = problem_at(load_text("index", &d.gltf(single_mesh(pos, json!({"indices": idx})))), "/accessors/1");
+    let p = problem_at(
+        load_text("index", &d.gltf(single_mesh(pos, json!({"indices": idx})))),
+        "/accessors/1",
+    );
     assert_eq!(p, Problem::IndexOutOfRange { index: 3, count: 3 });
     // Points are not triangles.
     let mut d = Data::default();
     let pos = d.f32s(&TRI, "VEC3");
-    let p = problem_at(load_text("points", &d.gltf(single_mesh(pos, json!({"mode": 0})))), "/meshes/0/primitives/0/mode");
+    let p = problem_at(
+        load_text("points", &d.gltf(single_mesh(pos, json!({"mode": 0})))),
+        "/meshes/0/primitives/0/mode",
+    );
     assert!(matches!(p, Problem::UnsupportedPrimitiveMode { .. }), "{p}");
     // Absurd counts are refused before anything is read or allocated: 3e9 indices over a
     // 36-byte bufferView are 1e9 triangles, checked against the cap first.
@@ -552,7 +684,12 @@ fn data_errors() {
     d.accessors.push(json!({"bufferView": 0, "componentType": 5125, "type": "SCALAR", "count": 3_000_000_000u64}));
     doc["meshes"][0]["primitives"][0]["indices"] = json!(1);
     let p = problem_at(load_text("cap", &d.gltf(doc)), "/meshes");
-    assert_eq!(p, Problem::TooManyTriangles { count: 1_000_000_000 });
+    assert_eq!(
+        p,
+        Problem::TooManyTriangles {
+            count: 1_000_000_000
+        }
+    );
     // Unsupported image format.
     let mut d = Data::default();
     let pos = d.f32s(&TRI, "VEC3");
