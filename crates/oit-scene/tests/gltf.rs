@@ -5,7 +5,10 @@ use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 use oit_scene::{AlphaMode, LoadOptions, Problem, Scene, SceneError, Wrap, srgb_to_linear};
-use serde_json::{Value, json};
+use serde_json::json;
+
+mod common;
+use common::build::{Data, TRI, glb, png, single_mesh};
 
 fn asset(rel: &str) -> PathBuf {
     Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../assets")).join(rel)
@@ -36,131 +39,10 @@ impl Drop for Scratch {
     }
 }
 
-fn base64(bytes: &[u8]) -> String {
-    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut out = String::new();
-    for c in bytes.chunks(3) {
-        let n = (u32::from(c[0]) << 16)
-            | (u32::from(*c.get(1).unwrap_or(&0)) << 8)
-            | u32::from(*c.get(2).unwrap_or(&0));
-        for k in 0..4 {
-            if k <= c.len() {
-                out.push(A[(n >> (18 - 6 * k) & 63) as usize] as char);
-            } else {
-                out.push('=');
-            }
-        }
-    }
-    out
-}
-
-/// Binary data plus the bufferViews/accessors that describe it.
-#[derive(Default)]
-struct Data {
-    bytes: Vec<u8>,
-    views: Vec<Value>,
-    accessors: Vec<Value>,
-}
-
-impl Data {
-    /// Appends `bytes` as a new bufferView and an accessor over it; returns the accessor index.
-    fn add(
-        &mut self,
-        bytes: &[u8],
-        component: u32,
-        ty: &str,
-        count: usize,
-        normalized: bool,
-    ) -> usize {
-        while !self.bytes.len().is_multiple_of(4) {
-            self.bytes.push(0);
-        }
-        self.views
-            .push(json!({"buffer": 0, "byteOffset": self.bytes.len(), "byteLength": bytes.len()}));
-        self.bytes.extend_from_slice(bytes);
-        let mut a = json!({"bufferView": self.views.len() - 1, "componentType": component, "type": ty, "count": count});
-        if normalized {
-            a["normalized"] = json!(true);
-        }
-        self.accessors.push(a);
-        self.accessors.len() - 1
-    }
-    fn f32s(&mut self, v: &[f32], ty: &str) -> usize {
-        let n = match ty {
-            "VEC2" => 2,
-            "VEC3" => 3,
-            "VEC4" => 4,
-            _ => 1,
-        };
-        let bytes: Vec<u8> = v.iter().flat_map(|x| x.to_le_bytes()).collect();
-        let a = self.add(&bytes, 5126, ty, v.len() / n, false);
-        if ty == "VEC3" {
-            // POSITION accessors must carry min and max (glTF 2.0, 3.7.2.1).
-            let fold = |f: fn(f32, f32) -> f32, init: f32| -> Vec<f32> {
-                (0..3)
-                    .map(|k| v.iter().skip(k).step_by(3).fold(init, |m, &x| f(m, x)))
-                    .collect()
-            };
-            self.accessors[a]["min"] = json!(fold(f32::min, f32::INFINITY));
-            self.accessors[a]["max"] = json!(fold(f32::max, f32::NEG_INFINITY));
-        }
-        a
-    }
-    fn u16s(&mut self, v: &[u16], ty: &str, count: usize, normalized: bool) -> usize {
-        let bytes: Vec<u8> = v.iter().flat_map(|x| x.to_le_bytes()).collect();
-        self.add(&bytes, 5123, ty, count, normalized)
-    }
-
-    /// A complete glTF JSON document: `doc` plus asset, buffers (as a data URI), views and
-    /// accessors.
-    fn gltf(&self, mut doc: Value) -> String {
-        doc["asset"] = json!({"version": "2.0"});
-        doc["buffers"] = json!([{"byteLength": self.bytes.len(),
-            "uri": format!("data:application/octet-stream;base64,{}", base64(&self.bytes))}]);
-        doc["bufferViews"] = json!(self.views);
-        doc["accessors"] = json!(self.accessors);
-        doc.to_string()
-    }
-}
-
-/// One triangle in the z = 0 plane, counter-clockwise seen from +Z.
-const TRI: [f32; 9] = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
-
-fn single_mesh(positions_accessor: usize, extra: Value) -> Value {
-    let mut prim = json!({"attributes": {"POSITION": positions_accessor}});
-    if let Value::Object(m) = extra {
-        for (k, v) in m {
-            prim[k] = v;
-        }
-    }
-    json!({"meshes": [{"primitives": [prim]}], "nodes": [{"mesh": 0}], "scenes": [{"nodes": [0]}]})
-}
-
 fn load_text(tag: &str, text: &str) -> Result<Scene, SceneError> {
     let dir = Scratch::new(tag);
     let path = dir.write("asset.gltf", text.as_bytes());
     oit_scene::load(&path)
-}
-
-fn glb(json: &str, bin: Option<&[u8]>) -> Vec<u8> {
-    let mut j = json.as_bytes().to_vec();
-    while !j.len().is_multiple_of(4) {
-        j.push(b' ');
-    }
-    let mut out = b"glTF".to_vec();
-    out.extend(2u32.to_le_bytes());
-    out.extend(0u32.to_le_bytes());
-    out.extend((j.len() as u32).to_le_bytes());
-    out.extend(0x4E4F_534Au32.to_le_bytes());
-    out.extend(&j);
-    if let Some(b) = bin {
-        out.extend((b.len() as u32).to_le_bytes());
-        out.extend(0x004E_4942u32.to_le_bytes());
-        out.extend(b);
-    }
-    let len = out.len() as u32;
-    out[8..12].copy_from_slice(&len.to_le_bytes());
-    out
 }
 
 /// Asserts `r` is an `Invalid` error at `path` and returns its problem.
@@ -425,6 +307,174 @@ fn normalized_colours_and_texcoords() {
     assert_eq!(
         v[2].uv,
         [(32768.0f64 / 65535.0) as f32, (16384.0f64 / 65535.0) as f32]
+    );
+}
+
+/// A triangle with uvs (0,0), (1,0), (0,1), material 0 and the given materials, textures,
+/// samplers and images (images as bufferViews holding `pngs`).
+fn textured(
+    pngs: &[Vec<u8>],
+    materials: serde_json::Value,
+    textures: serde_json::Value,
+    samplers: serde_json::Value,
+) -> String {
+    let mut d = Data::default();
+    let pos = d.f32s(&TRI, "VEC3");
+    let uv = d.f32s(&[0.0, 0.0, 1.0, 0.0, 0.0, 1.0], "VEC2");
+    let images: Vec<_> = pngs
+        .iter()
+        .map(|p| json!({"bufferView": d.view(p), "mimeType": "image/png"}))
+        .collect();
+    let mut doc = single_mesh(
+        pos,
+        json!({"attributes": {"POSITION": pos, "TEXCOORD_0": uv}, "material": 0}),
+    );
+    doc["materials"] = materials;
+    doc["textures"] = textures;
+    doc["samplers"] = samplers;
+    doc["images"] = json!(images);
+    d.gltf(doc)
+}
+
+#[test]
+fn image_formats_decode_to_linear_rgba() {
+    let srgb = |c: f64, max: f64| srgb_to_linear(c / max);
+    let cases: Vec<(Vec<u8>, [f32; 4])> = vec![
+        // RGBA8: sRGB colour, linear alpha.
+        (
+            png(1, 1, 6, 8, &[128, 64, 255, 51]),
+            [
+                srgb(128.0, 255.0),
+                srgb(64.0, 255.0),
+                1.0,
+                (51.0f64 / 255.0) as f32,
+            ],
+        ),
+        // RGB8: alpha 1.
+        (
+            png(1, 1, 2, 8, &[10, 20, 30]),
+            [srgb(10.0, 255.0), srgb(20.0, 255.0), srgb(30.0, 255.0), 1.0],
+        ),
+        // Grey+alpha: alpha is the second channel.
+        (
+            png(1, 1, 4, 8, &[200, 100]),
+            [
+                srgb(200.0, 255.0),
+                srgb(200.0, 255.0),
+                srgb(200.0, 255.0),
+                (100.0f64 / 255.0) as f32,
+            ],
+        ),
+        // 16-bit grey: c / 65535.
+        (
+            png(1, 1, 0, 16, &[0x80, 0x00]),
+            [
+                srgb(32768.0, 65535.0),
+                srgb(32768.0, 65535.0),
+                srgb(32768.0, 65535.0),
+                1.0,
+            ],
+        ),
+    ];
+    for (k, (image, want)) in cases.into_iter().enumerate() {
+        let text = textured(
+            &[image],
+            json!([{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}]),
+            json!([{"source": 0}]),
+            json!([]),
+        );
+        let s = load_text(&format!("img{k}"), &text).unwrap();
+        assert_eq!(s.textures.len(), 1);
+        assert_eq!((s.textures[0].width, s.textures[0].height), (1, 1));
+        assert_eq!(s.textures[0].texels[0], want, "case {k}");
+        assert_eq!(s.textures[0].name, "asset.gltf /images/0");
+    }
+}
+
+#[test]
+fn textures_follow_samplers_and_are_shared() {
+    let image = png(2, 1, 6, 8, &[255, 0, 0, 255, 0, 255, 0, 128]);
+    let materials = json!([
+        {"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "baseColorFactor": [1, 0.5, 0.25, 0.8]},
+         "emissiveTexture": {"index": 0}, "emissiveFactor": [1, 0.5, 0],
+         "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4}},
+         "alphaMode": "MASK", "alphaCutoff": 1.5, "doubleSided": true},
+        {"pbrMetallicRoughness": {"baseColorTexture": {"index": 1, "texCoord": 1}}, "alphaMode": "BLEND"}
+    ]);
+    let textures = json!([{"source": 0, "sampler": 0}, {"source": 0}]);
+    let samplers = json!([{"wrapS": 33071, "wrapT": 33648}]);
+    let mut doc: serde_json::Value =
+        serde_json::from_str(&textured(&[image], materials, textures, samplers)).unwrap();
+    doc["extensionsUsed"] = json!(["KHR_materials_emissive_strength"]);
+    let s = load_text("samplers", &doc.to_string()).unwrap();
+    // Same image, two wrap pairs: two textures; base and emissive of material 0 share one.
+    assert_eq!(s.textures.len(), 2);
+    assert_eq!(
+        (s.textures[0].wrap_u, s.textures[0].wrap_v),
+        (Wrap::ClampToEdge, Wrap::MirroredRepeat)
+    );
+    assert_eq!(
+        (s.textures[1].wrap_u, s.textures[1].wrap_v),
+        (Wrap::Repeat, Wrap::Repeat)
+    );
+    let m = s.materials[0];
+    assert_eq!((m.base_texture, m.emissive_texture), (Some(0), Some(0)));
+    assert_eq!(m.base_color, [1.0, 0.5, 0.25]);
+    assert_eq!(m.alpha, 0.8);
+    assert_eq!(m.emissive, [4.0, 2.0, 0.0]);
+    assert_eq!(
+        (m.mode, m.cutoff, m.double_sided),
+        (AlphaMode::Mask, 1.5, true)
+    );
+    assert_eq!(s.materials[1].mode, AlphaMode::Blend);
+    assert_eq!(s.materials[1].base_texture, Some(1));
+    assert!(s.ignored.iter().any(|l| l.contains("texCoord 1 on /materials/1/pbrMetallicRoughness/baseColorTexture")), "{:?}", s.ignored);
+}
+
+#[test]
+fn texture_transform_follows_the_extension_example() {
+    // offset (0, 1), rotation π/2, scale 0.5 maps the unit square onto the lower-left quadrant.
+    let image = png(1, 1, 6, 8, &[255, 255, 255, 255]);
+    let tt =
+        json!({"offset": [0, 1], "rotation": std::f32::consts::FRAC_PI_2, "scale": [0.5, 0.5]});
+    let materials = json!([{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0, "extensions": {"KHR_texture_transform": tt}}}}]);
+    let mut doc: serde_json::Value = serde_json::from_str(&textured(
+        &[image],
+        materials,
+        json!([{"source": 0}]),
+        json!([]),
+    ))
+    .unwrap();
+    doc["extensionsUsed"] = json!(["KHR_texture_transform"]);
+    doc["extensionsRequired"] = json!(["KHR_texture_transform"]);
+    let s = load_text("tt", &doc.to_string()).unwrap();
+    let uv: Vec<[f32; 2]> = s.vertices.iter().map(|v| v.uv).collect();
+    let want = [[0.0, 1.0], [0.0, 0.5], [0.5, 1.0]];
+    for (got, want) in uv.iter().zip(want) {
+        assert!(
+            (got[0] - want[0]).abs() < 1e-6 && (got[1] - want[1]).abs() < 1e-6,
+            "{uv:?}"
+        );
+    }
+    assert!(s.ignored.is_empty(), "{:?}", s.ignored);
+}
+
+#[test]
+fn oversized_textures_are_errors() {
+    let wide = png(8193, 1, 0, 8, &[7u8; 8193]);
+    let text = textured(
+        &[wide],
+        json!([{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}]),
+        json!([{"source": 0}]),
+        json!([]),
+    );
+    let p = problem_at(load_text("wide", &text), "/images/0");
+    assert_eq!(
+        p,
+        Problem::TextureTooLarge {
+            width: 8193,
+            height: 1
+        }
     );
 }
 
