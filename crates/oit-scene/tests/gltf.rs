@@ -771,3 +771,30 @@ fn node_cycles_are_errors_not_hangs() {
     let p = problem_at(load_text("cycle2", &d.gltf(doc)), "/nodes/1");
     assert_eq!(p, Problem::NodeNotTree { node: 1 });
 }
+
+#[test]
+fn inputs_that_panic_inside_gltf_json_are_errors() {
+    // gltf-json 1.4.1 indexes, or unwraps, these before or without validating them.
+    let mut d = Data::default();
+    let pos = d.f32s(&TRI, "VEC3");
+    let doc = single_mesh(9, json!({}));
+    let p = problem_at(
+        load_text("posidx", &d.gltf(doc)),
+        "/meshes/0/primitives/0/attributes",
+    );
+    assert!(matches!(p, Problem::GltfInvalid { .. }), "{p}");
+    let mut doc = single_mesh(pos, json!({}));
+    doc["images"] = json!([{}]);
+    let p = problem_at(load_text("noimg", &d.gltf(doc.clone())), "/images/0");
+    assert!(matches!(p, Problem::GltfInvalid { .. }), "{p}");
+    doc["images"] = json!([{"bufferView": 0}]);
+    let p = problem_at(
+        load_text("nomime", &d.gltf(doc.clone())),
+        "/images/0/mimeType",
+    );
+    assert!(matches!(p, Problem::GltfInvalid { .. }), "{p}");
+    doc["images"] = json!([]);
+    doc["cameras"] = json!([{"type": "orthographic", "perspective": {"yfov": 1, "znear": 1}}]);
+    let p = problem_at(load_text("camtype", &d.gltf(doc)), "/cameras/0");
+    assert!(matches!(p, Problem::GltfInvalid { .. }), "{p}");
+}

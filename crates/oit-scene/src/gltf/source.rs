@@ -138,6 +138,73 @@ pub(super) fn document(cx: &Cx, json: &[u8]) -> Result<Document> {
             },
         ));
     }
+    // gltf-json's own validation indexes `accessors` with the POSITION index before checking
+    // it (mesh.rs, `primitive_validate_hook`), so out-of-range attribute indices are caught here.
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            for index in prim.attributes.values() {
+                if index.value() >= root.accessors.len() {
+                    return Err(cx.err(
+                        format!("/meshes/{m}/primitives/{p}/attributes"),
+                        Problem::GltfInvalid {
+                            message: format!(
+                                "accessor index {} out of range ({} accessors)",
+                                index.value(),
+                                root.accessors.len()
+                            ),
+                        },
+                    ));
+                }
+            }
+        }
+    }
+    // The crate's accessors unwrap these after validation without their being validated.
+    let invalid = |path: String, message: &str| {
+        cx.err(
+            path,
+            Problem::GltfInvalid {
+                message: message.to_string(),
+            },
+        )
+    };
+    for (i, image) in root.images.iter().enumerate() {
+        match (&image.uri, &image.buffer_view, &image.mime_type) {
+            (None, None, _) => {
+                return Err(invalid(
+                    format!("/images/{i}"),
+                    "neither `uri` nor `bufferView`",
+                ));
+            }
+            (Some(_), Some(_), _) => {
+                return Err(invalid(
+                    format!("/images/{i}"),
+                    "both `uri` and `bufferView`",
+                ));
+            }
+            (None, Some(_), None) => {
+                return Err(invalid(
+                    format!("/images/{i}/mimeType"),
+                    "required value missing (an image in a bufferView needs a mimeType)",
+                ));
+            }
+            _ => {}
+        }
+    }
+    for (i, camera) in root.cameras.iter().enumerate() {
+        use gltf::json::camera::Type;
+        use gltf::json::validation::Checked;
+        let ok = match camera.type_ {
+            Checked::Valid(Type::Perspective) => camera.perspective.is_some(),
+            Checked::Valid(Type::Orthographic) => camera.orthographic.is_some(),
+            Checked::Invalid => true, // reported by the validation below
+        };
+        if !ok {
+            return Err(invalid(
+                format!("/cameras/{i}"),
+                "the object its `type` names is missing",
+            ));
+        }
+    }
     Document::from_json(root).map_err(|e| match e {
         gltf::Error::Validation(errors) => {
             let count = errors.len();
