@@ -844,7 +844,7 @@ impl Ctx<'_> {
                     };
                     let placement = Placement {
                         transform: Affine3A::from_translation(offset) * prep.world,
-                        transform_path: derived_path.clone(),
+                        transform_path: Some(derived_path.clone()),
                         light,
                         render_group: obj.render_group,
                         alpha_index: obj.alpha_index,

@@ -518,6 +518,24 @@ fn json_object_kind_gltf_places_the_asset() {
     // The asset's default material follows the quad's.
     assert_eq!(g.material, 1);
 
+    // With NORMAL, the vertex normal is lit (transformed by the inverse transpose): a normal
+    // facing away from the light gets the ambient term only.
+    let mut d = Data::default();
+    let pos = d.f32s(&TRI, "VEC3");
+    let normals = d.f32s(&[0.0, 0.0, -1.0, 0.0, 0.0, -1.0, 0.0, 0.0, 1.0], "VEC3");
+    let doc = single_mesh(
+        pos,
+        json!({"attributes": {"POSITION": pos, "NORMAL": normals}}),
+    );
+    dir.write("models/normals.gltf", d.gltf(doc).as_bytes());
+    let mut lit = scene.clone();
+    lit["objects"][1]["mesh"]["file"] = json!("models/normals.gltf");
+    let path = dir.write("normals.json", lit.to_string().as_bytes());
+    let s = oit_scene::load(&path).unwrap();
+    let v = &s.vertices[s.draws[1].vertex_range()];
+    assert_eq!(v[0].color, [0.25, 0.25, 0.25, 1.0]);
+    assert_eq!(v[2].color, [0.75, 0.75, 0.75, 1.0]);
+
     // `material` on a gltf object is an error; so is a missing file, named by its path.
     let bad = json!({"name": "x", "camera": {"eye": [0, 0, 1], "target": [0, 0, 0]},
         "objects": [{"mesh": {"kind": "gltf", "file": "models/tri.gltf"}, "material": {"alpha": 0.5}}]});

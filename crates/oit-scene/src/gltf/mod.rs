@@ -96,8 +96,9 @@ pub(crate) struct Nodes {
 pub(crate) struct Placement<'a> {
     /// Applied on top of the node hierarchy (the JSON object's transform; identity otherwise).
     pub transform: Affine3A,
-    /// Pointer or path reported when the placement makes a value non-finite.
-    pub transform_path: String,
+    /// Path reported when a value derived from the placement is non-finite (the JSON
+    /// object's `transform`/`instances`); `None` reports the node's pointer instead.
+    pub transform_path: Option<String>,
     pub light: Option<&'a Light>,
     pub render_group: u32,
     pub alpha_index: i32,
@@ -139,6 +140,15 @@ impl UvTransform {
             self.u[0] * uv.x + self.u[1] * uv.y + self.u[2],
             self.v[0] * uv.x + self.v[1] * uv.y + self.v[2],
         )
+    }
+}
+
+impl Placement<'_> {
+    /// Where a non-finite derived value of `node` is reported.
+    fn derived_path(&self, node: usize) -> String {
+        self.transform_path
+            .clone()
+            .unwrap_or_else(|| format!("/nodes/{node}"))
     }
 }
 
@@ -529,7 +539,7 @@ impl Asset {
             let w = outer * world;
             if !w.is_finite() {
                 return Err(self.cx.err(
-                    placement.transform_path.clone(),
+                    placement.derived_path(node),
                     Problem::DerivedNonFinite {
                         what: format!("world matrix of /nodes/{node}"),
                     },
@@ -682,7 +692,7 @@ impl Asset {
                 }
                 if !world_pos[k].is_finite() {
                     return Err(cx.err(
-                        placement.transform_path.clone(),
+                        placement.derived_path(node),
                         Problem::DerivedNonFinite {
                             what: format!("position of /nodes/{node} {pp} vertex {i}"),
                         },
@@ -743,7 +753,7 @@ impl Asset {
                     color = (color.truncate() * lit).extend(color.w);
                     if !color.is_finite() {
                         return Err(cx.err(
-                            placement.transform_path.clone(),
+                            placement.derived_path(node),
                             Problem::DerivedNonFinite {
                                 what: "lit vertex colour".into(),
                             },
@@ -769,7 +779,7 @@ impl Asset {
             .fold(0.0f32, f32::max);
         if !centre.is_finite() || !radius.is_finite() {
             return Err(cx.err(
-                placement.transform_path.clone(),
+                placement.derived_path(node),
                 Problem::DerivedNonFinite {
                     what: format!("bounding sphere of /nodes/{node} {pp}"),
                 },
@@ -1054,7 +1064,7 @@ pub(crate) fn load_file(path: &Path, options: &LoadOptions) -> Result<Scene> {
     let materials = asset.add_materials(&mut scene)?;
     let placement = Placement {
         transform: Affine3A::IDENTITY,
-        transform_path: "/nodes".into(),
+        transform_path: None,
         light: None,
         render_group: 0,
         alpha_index: 0,
