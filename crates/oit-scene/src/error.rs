@@ -129,4 +129,64 @@ pub enum Problem {
     ZeroVector,
     #[error("{count} triangles in total; allowed: at most {MAX_TRIANGLES} triangles per scene")]
     TooManyTriangles { count: u64 },
+
+    // ---- glTF 2.0 (paths are JSON pointers into the asset, e.g. `/meshes/0/primitives/1`) ----
+    #[error(
+        "{message}; allowed: a GLB file (12-byte header `glTF`, version 2, a JSON chunk, an optional BIN chunk, lengths within the file) or glTF JSON"
+    )]
+    GlbStructure { message: String },
+    #[error(
+        "{message}; allowed: a glTF 2.0 document that passes the glTF schema (indices in range, required fields present)"
+    )]
+    GltfInvalid { message: String },
+    #[error(
+        "extension(s) {names} required but not modelled; allowed: required extensions among {supported}"
+    )]
+    UnsupportedExtension { names: String, supported: String },
+    #[error("primitive mode {mode}; allowed: TRIANGLES (4), TRIANGLE_STRIP (5), TRIANGLE_FAN (6)")]
+    UnsupportedPrimitiveMode { mode: String },
+    #[error(
+        "cannot read `{uri}`: {message}; allowed: a readable file relative to the asset, or a base64 `data:` URI"
+    )]
+    ExternalData { uri: String, message: String },
+    #[error(
+        "{actual} bytes of data, fewer than byteLength {expected}; allowed: at least byteLength bytes"
+    )]
+    BufferTooShort { expected: u64, actual: u64 },
+    #[error(
+        "{message}; allowed: accessor and bufferView ranges inside their buffer (byteOffset + (count-1)·stride + element size <= length)"
+    )]
+    AccessorOutOfBounds { message: String },
+    #[error("{found}; allowed: {expected}")]
+    AccessorFormat { found: String, expected: String },
+    #[error(
+        "image format {found}; allowed: PNG (`image/png`, .png) or JPEG (`image/jpeg`, .jpg, .jpeg)"
+    )]
+    UnsupportedImage { found: String },
+    #[error(
+        "cannot decode image: {message}; allowed: a valid PNG or JPEG with 1 to 4 channels of 8, 16 or 32-bit float samples"
+    )]
+    ImageDecode { message: String },
+    #[error("{width}x{height} texels; allowed: 1 to {max} texels per side", max = crate::texture::MAX_TEXTURE_DIMENSION)]
+    TextureTooLarge { width: u32, height: u32 },
+    #[error("{texels} texels of decoded textures in total; allowed: at most {max} texels per scene (1 GiB as RGBA f32)", max = crate::gltf::MAX_TEXELS)]
+    TooManyTexels { texels: u64 },
+    #[error(
+        "index {index} is not below the vertex count {count}; allowed: indices < the POSITION accessor's count"
+    )]
+    IndexOutOfRange { index: u64, count: u64 },
+    #[error("{what} {value}; allowed: {allowed}")]
+    BadValue {
+        what: String,
+        value: String,
+        allowed: String,
+    },
+    #[error("index {index}, but there are {count}; allowed: 0..{count}")]
+    NoSuchItem { index: usize, count: usize },
+    #[error(
+        "node {node} is reached twice from the scene's roots; allowed: nodes forming strict trees (one parent each, no cycles)"
+    )]
+    NodeNotTree { node: usize },
+    #[error("`{field}` is given for a glTF object; allowed: {allowed}")]
+    GltfObjectField { field: String, allowed: String },
 }

@@ -19,7 +19,7 @@ pub const DEFAULT_RESOLUTION: Resolution = Resolution {
 
 /// Valid `kind` values of a mesh, listed in errors.
 pub const MESH_KINDS: &str =
-    "`quad`, `box`, `uv-sphere`, `torus`, `cylinder`, `layers`, `soup`, `billboards`";
+    "`quad`, `box`, `uv-sphere`, `torus`, `cylinder`, `layers`, `soup`, `billboards`, `gltf`";
 
 fn default_resolution() -> [u64; 2] {
     [
@@ -126,8 +126,9 @@ pub(crate) struct RawObject {
     pub mesh: serde_json::Value,
     #[serde(default)]
     pub transform: RawTransform,
+    /// Absent means the default material; must be absent for `"kind": "gltf"` meshes.
     #[serde(default)]
-    pub material: RawMaterial,
+    pub material: Option<RawMaterial>,
     #[serde(default)]
     pub render_group: u32,
     #[serde(default)]
@@ -202,6 +203,17 @@ pub(crate) struct RawInstances {
     pub counts: [u32; 3],
     /// World-space offset between neighbouring instances, added after the object's transform.
     pub spacing: [f32; 3],
+}
+
+/// A `"kind": "gltf"` mesh: a glTF 2.0 asset placed as one object.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct GltfMeshRef {
+    /// `.gltf` or `.glb` path, relative to the scene file's directory.
+    pub file: String,
+    /// Scene index in the asset; the asset's default scene (else 0) when absent.
+    #[serde(default)]
+    pub scene: Option<usize>,
 }
 
 // ---- meshes: one struct per `kind`, parsed from the `mesh` object after reading `kind` ----

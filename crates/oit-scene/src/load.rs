@@ -9,16 +9,41 @@ use serde::de::DeserializeOwned;
 
 use crate::error::{Problem, SceneError};
 use crate::format::{
-    DEFAULT_FOV_Y, MAX_TRIANGLES, MESH_KINDS, RawCamera, RawLighting, RawMaterial, RawMesh,
-    RawObject, RawScene, RawTransform, ScatterMesh,
+    DEFAULT_FOV_Y, GltfMeshRef, MAX_TRIANGLES, MESH_KINDS, RawCamera, RawLighting, RawMaterial,
+    RawMesh, RawObject, RawScene, RawTransform, ScatterMesh,
 };
+use crate::gltf::{Asset, Nodes, Placement};
 use crate::mesh::{self, Facing, Geometry};
 use crate::scene::{Camera, Draw, Material, Projection, Resolution, Scene, Vertex};
 
 type Result<T> = std::result::Result<T, SceneError>;
 
-/// Reads and loads one scene file. Errors name the file as given in `path`.
+/// How to load a file beyond what the file says.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct LoadOptions {
+    /// glTF only: view from `/cameras/N` (as placed by the first node that uses it) instead of
+    /// the asset's first camera in node order. Ignored for the JSON format, whose camera is
+    /// part of the file.
+    pub camera: Option<usize>,
+}
+
+/// Whether `path` names a glTF asset (`.gltf` or `.glb`, any case) rather than a JSON scene.
+pub fn is_gltf_path(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("gltf") || e.eq_ignore_ascii_case("glb"))
+}
+
+/// Reads and loads one scene file: a glTF 2.0 asset (`.gltf`, `.glb`) or the JSON format
+/// otherwise. Errors name the file as given in `path`.
 pub fn load(path: &Path) -> Result<Scene> {
+    load_with(path, &LoadOptions::default())
+}
+
+/// [`load`] with options.
+pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene> {
+    if is_gltf_path(path) {
+        return crate::gltf::load_file(path, options);
+    }
     let file = path.display().to_string();
     let json = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
         file: file.clone(),
@@ -27,7 +52,9 @@ pub fn load(path: &Path) -> Result<Scene> {
     parse(&json, &file)
 }
 
-/// Parses a scene from JSON text. `origin` is the file name used in error messages.
+/// Parses a scene from JSON text. `origin` is the file name used in error messages; files an
+/// object references (`"kind": "gltf"`) are resolved relative to its parent directory if that
+/// exists, else the current directory.
 pub fn parse(json: &str, origin: &str) -> Result<Scene> {
     let cx = Ctx { file: origin, json };
     let mut de = serde_json::Deserializer::from_str(json);
@@ -37,7 +64,7 @@ pub fn parse(json: &str, origin: &str) -> Result<Scene> {
     cx.build(raw)
 }
 
-/// Loads every `*.json` file in `dir` (not recursive), sorted by file name. Stops at the first
+/// Loads every `*.json`, `*.gltf` and `*.glb` file in `dir` (not recursive), sorted by file name. Stops at the first
 /// invalid scene: a broken bundled scene is a bug to fix, not one to skip.
 pub fn load_dir(dir: &Path) -> Result<Vec<(PathBuf, Scene)>> {
     let io = |source| SceneError::Io {
@@ -47,7 +74,8 @@ pub fn load_dir(dir: &Path) -> Result<Vec<(PathBuf, Scene)>> {
     let mut files = Vec::new();
     for entry in std::fs::read_dir(dir).map_err(io)? {
         let path = entry.map_err(io)?.path();
-        if path.is_file() && path.extension().is_some_and(|e| e == "json") {
+        if path.is_file() && (path.extension().is_some_and(|e| e == "json") || is_gltf_path(&path))
+        {
             files.push(path);
         }
     }
@@ -628,10 +656,30 @@ impl Ctx<'_> {
     /// Parses and validates one object and adds its triangles to the running total.
     fn prepare(&self, i: usize, obj: &RawObject, total_triangles: &mut u64) -> Result<Prepared> {
         let p = format!("objects[{i}]");
-        let mesh = self.mesh(&obj.mesh, &format!("{p}.mesh"))?;
-        self.check_mesh(&mesh, &format!("{p}.mesh"))?;
+        let mp = format!("{p}.mesh");
+        let is_gltf = obj.mesh.get("kind").and_then(serde_json::Value::as_str) == Some("gltf");
+        let source = if is_gltf {
+            if obj.material.is_some() {
+                return Err(self.err(
+                    format!("{p}.material"),
+                    Problem::GltfObjectField {
+                        field: "material".into(),
+                        allowed: "no `material` on a gltf object (materials come from the asset)"
+                            .into(),
+                    },
+                ));
+            }
+            MeshSource::Gltf(Box::new(self.gltf_object(&obj.mesh, &mp)?))
+        } else {
+            let mesh = self.mesh(&obj.mesh, &mp)?;
+            self.check_mesh(&mesh, &mp)?;
+            MeshSource::Procedural(mesh)
+        };
         let world = self.transform(&obj.transform, &format!("{p}.transform"))?;
-        let material = self.material(&obj.material, &format!("{p}.material"))?;
+        let material = match &obj.material {
+            Some(m) => self.material(m, &format!("{p}.material"))?,
+            None => self.material(&RawMaterial::default(), &format!("{p}.material"))?,
+        };
         let (counts, spacing) = match &obj.instances {
             None => ([1u32; 3], Vec3::ZERO),
             Some(inst) => {
@@ -648,7 +696,11 @@ impl Ctx<'_> {
         let instances = counts
             .iter()
             .fold(1u64, |a, &c| a.saturating_mul(u64::from(c)));
-        let triangles = mesh::triangle_count(&mesh).saturating_mul(instances);
+        let per_instance = match &source {
+            MeshSource::Procedural(mesh) => mesh::triangle_count(mesh),
+            MeshSource::Gltf(g) => g.triangles,
+        };
+        let triangles = per_instance.saturating_mul(instances);
         *total_triangles = total_triangles.saturating_add(triangles);
         if *total_triangles > MAX_TRIANGLES {
             return Err(self.err(
@@ -659,7 +711,7 @@ impl Ctx<'_> {
             ));
         }
         Ok(Prepared {
-            mesh,
+            source,
             world,
             material,
             counts,
@@ -678,12 +730,16 @@ impl Ctx<'_> {
     ) -> Result<()> {
         let p = format!("objects[{i}]");
         let Prepared {
-            mesh,
+            source,
             world,
             material,
             counts,
             spacing,
         } = prep;
+        let mesh = match source {
+            MeshSource::Procedural(mesh) => mesh,
+            MeshSource::Gltf(g) => return self.place_gltf(&p, obj, g, prep, light, scene),
+        };
         let material_index = scene.materials.len() as u32;
         scene.materials.push(*material);
         let facing = match scene.camera.projection {
@@ -731,6 +787,72 @@ impl Ctx<'_> {
                         material_index,
                         scene,
                     )?;
+                    instance += 1;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Opens the asset a `"kind": "gltf"` mesh names (relative to the scene file's directory)
+    /// and collects the node instances of its scene.
+    fn gltf_object(&self, mesh: &serde_json::Value, p: &str) -> Result<GltfObject> {
+        let mut rest = mesh.as_object().cloned().unwrap_or_default();
+        rest.remove("kind");
+        let r: GltfMeshRef = self.sub(serde_json::Value::Object(rest), p)?;
+        let base = match Path::new(self.file).parent() {
+            Some(d) if !d.as_os_str().is_empty() && d.is_dir() => d.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        let asset = Asset::open(&base.join(&r.file))?;
+        let nodes = asset.nodes(r.scene, |count| {
+            let index = r.scene.unwrap_or(0);
+            self.err(format!("{p}.scene"), Problem::NoSuchItem { index, count })
+        })?;
+        let triangles = asset.triangle_count(&nodes)?;
+        Ok(GltfObject {
+            asset,
+            nodes,
+            triangles,
+        })
+    }
+
+    /// Adds a glTF object's materials (once) and its geometry (per instance).
+    fn place_gltf(
+        &self,
+        p: &str,
+        obj: &RawObject,
+        g: &GltfObject,
+        prep: &Prepared,
+        light: Option<&Light>,
+        scene: &mut Scene,
+    ) -> Result<()> {
+        let materials = g.asset.add_materials(scene)?;
+        let derived_path = if obj.instances.is_some() {
+            format!("{p}.instances")
+        } else {
+            format!("{p}.transform")
+        };
+        let mut instance = 0usize;
+        for iz in 0..prep.counts[2] {
+            for iy in 0..prep.counts[1] {
+                for ix in 0..prep.counts[0] {
+                    let offset = prep.spacing * Vec3::new(ix as f32, iy as f32, iz as f32);
+                    let name_prefix = if obj.instances.is_some() {
+                        format!("{p}.instances[{instance}] ")
+                    } else {
+                        format!("{p} ")
+                    };
+                    let placement = Placement {
+                        transform: Affine3A::from_translation(offset) * prep.world,
+                        transform_path: Some(derived_path.clone()),
+                        light,
+                        render_group: obj.render_group,
+                        alpha_index: obj.alpha_index,
+                        name_prefix,
+                    };
+                    g.asset
+                        .add_geometry(&g.nodes, &materials, &placement, scene)?;
                     instance += 1;
                 }
             }
@@ -842,21 +964,34 @@ impl Ctx<'_> {
 }
 
 /// An object after validation, before its geometry is generated.
-#[derive(Debug)]
 struct Prepared {
-    mesh: RawMesh,
+    source: MeshSource,
     world: Affine3A,
     material: Material,
     counts: [u32; 3],
     spacing: Vec3,
 }
 
+/// Where an object's triangles come from.
+enum MeshSource {
+    Procedural(RawMesh),
+    Gltf(Box<GltfObject>),
+}
+
+/// A `"kind": "gltf"` mesh: the opened asset and the node instances of the chosen scene.
+struct GltfObject {
+    asset: Asset,
+    nodes: Nodes,
+    /// Per instance of the object.
+    triangles: u64,
+}
+
 /// A directional light, ready to bake: `rgb *= ambient + color · max(0, n · to_light)`.
 #[derive(Debug, Clone, Copy)]
-struct Light {
-    to_light: Vec3,
-    color: Vec3,
-    ambient: Vec3,
+pub(crate) struct Light {
+    pub(crate) to_light: Vec3,
+    pub(crate) color: Vec3,
+    pub(crate) ambient: Vec3,
 }
 
 /// serde's Rust type names in words a scene author knows.

@@ -202,9 +202,10 @@ mod tests {
         assert_eq!(Wrap::MirroredRepeat.apply(8, 4), 0);
         assert_eq!(Wrap::ClampToEdge.apply(-7, 4), 0);
         assert_eq!(Wrap::ClampToEdge.apply(7, 4), 3);
-        // Repeat: u and u + 1 sample the same value.
+        // Repeat: u and u + 1 sample the same value (coordinates exact in f32, so the texel
+        // positions u·size − 0.5 are too; 0.3 vs 1.3 differ in the last bit).
         let t = ramp(4, 4, Wrap::Repeat);
-        assert_eq!(t.sample([0.3, 0.6]), t.sample([1.3, -0.4]));
+        assert_eq!(t.sample([0.375, 0.625]), t.sample([1.375, -0.375]));
         // Clamp: beyond the edge is the edge texel.
         let c = ramp(4, 4, Wrap::ClampToEdge);
         assert_eq!(c.sample([5.0, 0.125]), c.texels[3]);

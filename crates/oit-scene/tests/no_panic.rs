@@ -1,5 +1,7 @@
 //! `parse` never panics: random text, mutated bundled scenes and random edits of a valid scene
-//! all come back as `Ok` or `Err`. Sizes stay small so the suite runs in seconds.
+//! all come back as `Ok` or `Err`; neither does loading a glTF asset with flipped bytes, cut
+//! files, edited GLB length fields or edited glTF JSON. Sizes stay small so the suite runs in
+//! seconds.
 
 mod common;
 
@@ -249,5 +251,175 @@ fn fuzz_starting_points_are_valid_scenes() {
     assert_eq!(s.draws.len(), 2 * 4 + 1 + 1);
     for text in small_bundled_texts() {
         oit_scene::parse(&text, "bundled.json").unwrap();
+    }
+}
+
+// ---- glTF: mutated GLB bytes and edited glTF JSON load as `Ok` or `Err`, never panic ----
+
+use common::build::{Data, glb, png};
+
+/// A small valid GLB exercising most of the loader: a two-level node hierarchy with TRS and
+/// matrix, indexed and strip primitives, normalized colours and texcoords, a textured
+/// material with a sampler and a texture transform, and a camera.
+fn small_glb_json() -> (Value, Vec<u8>) {
+    let mut d = Data::default();
+    let pos = d.f32s(
+        &[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0],
+        "VEC3",
+    );
+    let color = d.add(
+        &[255, 0, 0, 255, 0, 255, 0, 128, 0, 0, 255, 64, 9, 9, 9, 9],
+        5121,
+        "VEC4",
+        4,
+        true,
+    );
+    let uv = d.u16s(&[0, 0, 65535, 0, 0, 65535, 65535, 65535], "VEC2", 4, true);
+    let idx = d.u16s(&[0, 1, 2, 2, 1, 3], "SCALAR", 6, false);
+    let image = d.view(&png(
+        2,
+        2,
+        6,
+        8,
+        &[255, 0, 0, 255, 0, 255, 0, 128, 0, 0, 255, 0, 9, 9, 9, 9],
+    ));
+    let attrs = json!({"POSITION": pos, "COLOR_0": color, "TEXCOORD_0": uv});
+    let doc = json!({
+        "scene": 0,
+        "scenes": [{"nodes": [0, 2]}],
+        "nodes": [
+            {"translation": [1, 2, 3], "rotation": [0, 0.6, 0, 0.8], "scale": [1, -2, 1], "children": [1]},
+            {"mesh": 0, "matrix": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,-1,1]},
+            {"camera": 0, "translation": [0, 0, 9]}
+        ],
+        "cameras": [{"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.1}}],
+        "meshes": [{"primitives": [
+            {"attributes": attrs, "indices": idx, "material": 0},
+            {"attributes": attrs, "mode": 5}
+        ]}],
+        "materials": [{"pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 0.5],
+            "baseColorTexture": {"index": 0, "extensions": {"KHR_texture_transform": {"scale": [2, 2]}}}},
+            "alphaMode": "BLEND", "emissiveFactor": [0.1, 0, 0]}],
+        "textures": [{"source": 0, "sampler": 0}],
+        "samplers": [{"wrapS": 33648}],
+        "images": [{"bufferView": image, "mimeType": "image/png"}],
+        "extensionsUsed": ["KHR_texture_transform"],
+    });
+    let mut text: Value = serde_json::from_str(&d.gltf(doc)).unwrap();
+    // In a GLB the buffer is the BIN chunk, not a data URI.
+    text["buffers"] = json!([{"byteLength": d.bytes.len()}]);
+    (text, d.bytes.clone())
+}
+
+/// Pointers into [`small_glb_json`] that the edits below replace.
+const GLTF_POINTERS: &[&str] = &[
+    "/scene",
+    "/scenes/0/nodes",
+    "/nodes/0/scale",
+    "/nodes/0/rotation",
+    "/nodes/0/children",
+    "/nodes/1/matrix",
+    "/nodes/1/mesh",
+    "/nodes/2/camera",
+    "/cameras/0/type",
+    "/cameras/0/perspective",
+    "/cameras/0/perspective/yfov",
+    "/cameras/0/perspective/znear",
+    "/meshes/0/primitives/0/mode",
+    "/meshes/0/primitives/0/indices",
+    "/meshes/0/primitives/1/attributes/POSITION",
+    "/meshes/0/primitives/1/attributes/COLOR_0",
+    "/accessors/0/count",
+    "/accessors/0/byteOffset",
+    "/accessors/1/componentType",
+    "/accessors/1/type",
+    "/accessors/2/normalized",
+    "/accessors/3/count",
+    "/accessors/3/bufferView",
+    "/bufferViews/0/byteLength",
+    "/bufferViews/0/byteOffset",
+    "/bufferViews/1/byteStride",
+    "/bufferViews/4/byteLength",
+    "/buffers/0/byteLength",
+    "/buffers/0/uri",
+    "/materials/0/alphaMode",
+    "/materials/0/alphaCutoff",
+    "/materials/0/pbrMetallicRoughness/baseColorFactor",
+    "/materials/0/pbrMetallicRoughness/baseColorTexture/index",
+    "/materials/0/emissiveFactor",
+    "/images/0/mimeType",
+    "/images/0/uri",
+    "/images/0/bufferView",
+    "/samplers/0/wrapS",
+    "/extensionsRequired",
+];
+
+fn glb_of(doc: &Value, bin: &[u8]) -> Vec<u8> {
+    glb(&doc.to_string(), Some(bin))
+}
+
+/// Loads `bytes` as `<tmp>/<name>` (one file per test, rewritten per case).
+fn load_bytes(name: &str, bytes: &[u8]) -> Result<oit_scene::Scene, oit_scene::SceneError> {
+    let path = std::env::temp_dir().join(format!("oit-nopanic-{}-{name}", std::process::id()));
+    std::fs::write(&path, bytes).unwrap();
+    let r = oit_scene::load(&path);
+    let _ = std::fs::remove_file(&path);
+    r
+}
+
+#[test]
+fn small_glb_is_valid() {
+    let (doc, bin) = small_glb_json();
+    let s = load_bytes("valid.glb", &glb_of(&doc, &bin)).unwrap();
+    // 2 indexed + 2 strip triangles, both primitives drawn.
+    assert_eq!((s.draws.len(), s.triangle_count()), (2, 4));
+    assert_eq!(s.textures.len(), 1);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 150, ..ProptestConfig::default() })]
+
+    #[test]
+    fn mutated_glb_bytes_never_panic(
+        flips in prop::collection::vec((any::<prop::sample::Index>(), any::<u8>()), 0..6),
+        cut in prop::option::of(any::<prop::sample::Index>()),
+    ) {
+        let (doc, bin) = small_glb_json();
+        let mut bytes = glb_of(&doc, &bin);
+        for (at, value) in flips {
+            let i = at.index(bytes.len());
+            bytes[i] = value;
+        }
+        if let Some(c) = cut {
+            let n = c.index(bytes.len());
+            bytes.truncate(n);
+        }
+        let _ = load_bytes("flip.glb", &bytes);
+    }
+
+    #[test]
+    fn edited_glb_length_fields_never_panic(
+        field in prop::sample::select(vec![4usize, 8, 12, 16]),
+        bin_header in any::<bool>(),
+        value in prop::sample::select(vec![0u32, 1, 4, 11, 12, 13, 20, 0x7fff_ffff, u32::MAX, 0x004E_4942]),
+    ) {
+        let (doc, bin) = small_glb_json();
+        let mut bytes = glb_of(&doc, &bin);
+        // Either a header/JSON-chunk field, or the BIN chunk's length or type.
+        let json_len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+        let at = if bin_header { 20 + json_len + (field % 8) } else { field };
+        bytes[at..at + 4].copy_from_slice(&value.to_le_bytes());
+        let _ = load_bytes("len.glb", &bytes);
+    }
+
+    #[test]
+    fn edited_gltf_json_never_panics(
+        edits in prop::collection::vec((prop::sample::select(GLTF_POINTERS), nasty_value()), 1..4)
+    ) {
+        let (mut doc, bin) = small_glb_json();
+        for (pointer, value) in edits {
+            set_lenient(&mut doc, pointer, value);
+        }
+        let _ = load_bytes("edit.glb", &glb_of(&doc, &bin));
     }
 }

@@ -1,6 +1,8 @@
 //! Helpers shared by the integration tests.
 #![allow(dead_code, reason = "each test binary uses a different subset")]
 
+pub mod build;
+
 use glam::{Vec2, Vec3};
 use oit_scene::{Problem, Scene, SceneError};
 use serde_json::{Value, json};
