@@ -29,6 +29,8 @@ enum Command {
         /// A scene file or a directory of scene files.
         #[arg(default_value = "scenes")]
         path: PathBuf,
+        #[command(flatten)]
+        load: LoadArgs,
     },
     /// List every technique with its parameters and defaults.
     Techniques,
@@ -41,6 +43,8 @@ enum Command {
         /// Override the scene's resolution, e.g. 512x512.
         #[arg(long, value_parser = parse_resolution)]
         resolution: Option<Resolution>,
+        #[command(flatten)]
+        load: LoadArgs,
     },
     /// Render one technique on the GPU to a linear EXR and a PNG preview.
     Render {
@@ -52,6 +56,8 @@ enum Command {
         output: Option<PathBuf>,
         #[arg(long, value_parser = parse_resolution)]
         resolution: Option<Resolution>,
+        #[command(flatten)]
+        load: LoadArgs,
         #[command(flatten)]
         gpu: GpuArgs,
     },
@@ -81,6 +87,8 @@ enum Command {
         #[arg(long, default_value = "flip", value_parser = ["flip", "rmse"])]
         metric: String,
         #[command(flatten)]
+        load: LoadArgs,
+        #[command(flatten)]
         gpu: GpuArgs,
     },
     /// Rebuild results.md, the plots and the static HTML report of DIR from its results.json.
@@ -91,6 +99,43 @@ enum Command {
         #[arg(long, default_value = "flip", value_parser = ["flip", "rmse"])]
         metric: String,
     },
+}
+
+#[derive(Debug, Args)]
+struct LoadArgs {
+    /// glTF files loaded directly: view from camera N of the asset (`/cameras/N`) instead of
+    /// its first camera in node order (or a framed one when it has none). JSON scenes have
+    /// their own camera.
+    #[arg(long)]
+    camera: Option<usize>,
+}
+
+impl LoadArgs {
+    fn options(&self) -> oit_scene::LoadOptions {
+        oit_scene::LoadOptions {
+            camera: self.camera,
+        }
+    }
+
+    /// `--camera` only means something for glTF files: refuse it for a lone JSON scene rather
+    /// than ignore it.
+    fn check(&self, paths: &[PathBuf]) -> Result<()> {
+        if self.camera.is_some()
+            && paths
+                .iter()
+                .all(|p| p.is_file() && !oit_scene::is_gltf_path(p))
+        {
+            anyhow::bail!(
+                "--camera applies to .gltf/.glb files; {} has its own camera (set it in the JSON)",
+                paths
+                    .iter()
+                    .map(|p| p.display().to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+        }
+        Ok(())
+    }
 }
 
 #[derive(Debug, Args)]
@@ -153,7 +198,10 @@ fn main() -> ExitCode {
 
 fn run(command: Command) -> Result<()> {
     match command {
-        Command::Scenes { path } => scenes(&path),
+        Command::Scenes { path, load } => {
+            load.check(std::slice::from_ref(&path))?;
+            scenes(&path, &load.options())
+        }
         Command::Techniques => {
             print!("{}", oit_harness::techniques_help());
             Ok(())
@@ -162,14 +210,29 @@ fn run(command: Command) -> Result<()> {
             scene,
             output,
             resolution,
-        } => reference(&scene, output, resolution),
+            load,
+        } => {
+            load.check(std::slice::from_ref(&scene))?;
+            reference(&scene, output, resolution, &load.options())
+        }
         Command::Render {
             scene,
             technique,
             output,
             resolution,
+            load,
             gpu,
-        } => render(&scene, &technique, output, resolution, &gpu),
+        } => {
+            load.check(std::slice::from_ref(&scene))?;
+            render(
+                &scene,
+                &technique,
+                output,
+                resolution,
+                &load.options(),
+                &gpu,
+            )
+        }
         Command::Compare {
             scenes,
             techniques,
@@ -179,8 +242,10 @@ fn run(command: Command) -> Result<()> {
             warmup,
             cache,
             metric,
+            load,
             gpu,
         } => {
+            load.check(&scenes)?;
             let options = oit_harness::CompareOptions {
                 resolution,
                 frames,
@@ -189,7 +254,13 @@ fn run(command: Command) -> Result<()> {
                 cache_dir: cache,
                 context: gpu.options(),
             };
-            compare(&scenes, &techniques, &options, parse_metric(&metric))
+            compare(
+                &scenes,
+                &techniques,
+                &options,
+                &load.options(),
+                parse_metric(&metric),
+            )
         }
         Command::Report { dir, metric } => {
             let results = oit_harness::results::Results::read(&dir.join("results.json"))?;
@@ -209,8 +280,12 @@ fn print_adapter(ctx: &oit_gpu::Context) {
     );
 }
 
-fn load_scene(path: &Path, resolution: Option<Resolution>) -> Result<Scene> {
-    let scene = oit_scene::load(path)?;
+fn load_scene(
+    path: &Path,
+    resolution: Option<Resolution>,
+    load: &oit_scene::LoadOptions,
+) -> Result<Scene> {
+    let scene = oit_scene::load_with(path, load)?;
     Ok(match resolution {
         Some(r) => scene.with_resolution(r),
         None => scene,
@@ -229,8 +304,8 @@ fn progress_bar(len: u64, what: &str) -> ProgressBar {
     bar
 }
 
-fn scenes(path: &Path) -> Result<()> {
-    let entries = oit_harness::load_scenes(&[path.to_path_buf()])?;
+fn scenes(path: &Path, load: &oit_scene::LoadOptions) -> Result<()> {
+    let entries = oit_harness::load_scenes_with(&[path.to_path_buf()], load)?;
     println!(
         "{:<22} {:>9} {:>9} {:>9} {:>7} {:>9} {:>10}",
         "scene", "size", "triangles", "transp.", "draws", "max depth", "mean depth"
@@ -249,6 +324,9 @@ fn scenes(path: &Path) -> Result<()> {
             reference.stats.max_depth_complexity,
             reference.stats.mean_depth_complexity,
         );
+        for line in oit_harness::results::SceneJson::of(s, "").report_lines() {
+            println!("  {line}");
+        }
     }
     Ok(())
 }
@@ -257,8 +335,9 @@ fn reference(
     scene_path: &Path,
     output: Option<PathBuf>,
     resolution: Option<Resolution>,
+    load: &oit_scene::LoadOptions,
 ) -> Result<()> {
-    let scene = load_scene(scene_path, resolution)?;
+    let scene = load_scene(scene_path, resolution, load)?;
     let output = output.unwrap_or_else(|| PathBuf::from(format!("{}-reference.exr", scene.name)));
     let bar = progress_bar(0, &format!("reference {}", scene.name));
     let tick = bar.clone();
@@ -302,9 +381,10 @@ fn render(
     spec: &str,
     output: Option<PathBuf>,
     resolution: Option<Resolution>,
+    load: &oit_scene::LoadOptions,
     gpu: &GpuArgs,
 ) -> Result<()> {
-    let scene = load_scene(scene_path, resolution)?;
+    let scene = load_scene(scene_path, resolution, load)?;
     let ctx = oit_harness::open_context(&gpu.options())?;
     print_adapter(&ctx);
     let spec = oit_harness::parse_spec(spec)?;
@@ -358,12 +438,13 @@ fn compare(
     paths: &[PathBuf],
     specs: &[String],
     options: &oit_harness::CompareOptions,
+    load: &oit_scene::LoadOptions,
     metric: oit_report::Metric,
 ) -> Result<()> {
-    let scenes = oit_harness::load_scenes(paths)?;
+    let scenes = oit_harness::load_scenes_with(paths, load)?;
     if scenes.is_empty() {
         bail!(
-            "no scene files (*.json) found in {}",
+            "no scene files (*.json, *.gltf, *.glb) found in {}",
             paths
                 .iter()
                 .map(|p| p.display().to_string())

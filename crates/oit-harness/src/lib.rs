@@ -166,19 +166,27 @@ pub struct SceneEntry {
     pub scene: Scene,
 }
 
-/// Loads scene files and directories of scene files (`*.json`, sorted by name within a
-/// directory), in the order given.
+/// Loads scene files and directories of scene files (`*.json`, `*.gltf`, `*.glb`, sorted by
+/// name within a directory), in the order given.
 pub fn load_scenes(paths: &[PathBuf]) -> Result<Vec<SceneEntry>, HarnessError> {
+    load_scenes_with(paths, &oit_scene::LoadOptions::default())
+}
+
+/// [`load_scenes`] with `options` (e.g. which glTF camera) applied to every glTF file.
+pub fn load_scenes_with(
+    paths: &[PathBuf],
+    options: &oit_scene::LoadOptions,
+) -> Result<Vec<SceneEntry>, HarnessError> {
     let mut out = Vec::new();
     for path in paths {
         if path.is_dir() {
-            for (path, scene) in oit_scene::load_dir(path)? {
+            for (path, scene) in oit_scene::load_dir_with(path, options)? {
                 out.push(SceneEntry { path, scene });
             }
         } else {
             out.push(SceneEntry {
                 path: path.clone(),
-                scene: oit_scene::load(path)?,
+                scene: oit_scene::load_with(path, options)?,
             });
         }
     }

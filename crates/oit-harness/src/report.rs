@@ -88,6 +88,11 @@ pub fn terminal_table(results: &Results) -> String {
             }
         }
         let _ = writeln!(out, "\n{scene}");
+        if let Some(s) = results.scenes.iter().find(|s| s.scene == scene) {
+            for line in s.report_lines() {
+                let _ = writeln!(out, "  {line}");
+            }
+        }
         for caveat in scene_caveats(&runs) {
             let _ = writeln!(out, "  reference: {caveat}");
         }

@@ -75,7 +75,7 @@ impl SceneJson {
                 mib(self.scene_bytes)
             )
         }];
-        out.extend(self.credits.iter().map(|c| format!("Credits: {c}")));
+        out.extend((self.credits.iter()).map(|c| format!("Credits: {}", c.trim_end_matches('.'))));
         out.extend(self.ignored.iter().map(|i| format!("Not modelled: {i}")));
         out
     }

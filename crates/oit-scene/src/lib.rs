@@ -19,6 +19,6 @@ mod texture;
 pub use error::{Problem, SceneError};
 pub use format::{DEFAULT_RESOLUTION, MAX_TRIANGLES};
 pub use gltf::{GLTF_BACKGROUND, MAX_TEXELS};
-pub use load::{LoadOptions, is_gltf_path, load, load_dir, load_with, parse};
+pub use load::{LoadOptions, is_gltf_path, load, load_dir, load_dir_with, load_with, parse};
 pub use scene::*;
 pub use texture::{MAX_TEXTURE_DIMENSION, MAX_UV, Texture, Wrap, srgb_to_linear};

@@ -67,6 +67,11 @@ pub fn parse(json: &str, origin: &str) -> Result<Scene> {
 /// Loads every `*.json`, `*.gltf` and `*.glb` file in `dir` (not recursive), sorted by file name. Stops at the first
 /// invalid scene: a broken bundled scene is a bug to fix, not one to skip.
 pub fn load_dir(dir: &Path) -> Result<Vec<(PathBuf, Scene)>> {
+    load_dir_with(dir, &LoadOptions::default())
+}
+
+/// [`load_dir`] with `options` applied to every glTF file in it.
+pub fn load_dir_with(dir: &Path, options: &LoadOptions) -> Result<Vec<(PathBuf, Scene)>> {
     let io = |source| SceneError::Io {
         file: dir.display().to_string(),
         source,
@@ -83,7 +88,7 @@ pub fn load_dir(dir: &Path) -> Result<Vec<(PathBuf, Scene)>> {
     files
         .into_iter()
         .map(|p| {
-            let scene = load(&p)?;
+            let scene = load_with(&p, options)?;
             Ok((p, scene))
         })
         .collect()
