@@ -196,3 +196,113 @@ fn exact_techniques_match_the_reference_on_textured_scenes() {
     assert!(compared > 0, "nothing compared");
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
+
+fn repo() -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// The bundled glTF scenes (real assets: textured MASK and BLEND, an OPAQUE texture whose α
+/// must be ignored, lighting through the asset's normals): fragment counts conform, and the
+/// exact techniques equal the reference to 4e-3 outside the pixels rounding decides.
+#[test]
+fn bundled_gltf_scenes_are_exact_for_exact_techniques() {
+    let Some(ctx) = context_or_skip("bundled_gltf_scenes_are_exact_for_exact_techniques") else {
+        return;
+    };
+    let specs = resolve_specs(&[
+        "front-peel:layers=auto".into(),
+        "dual-peel:passes=auto,depth=rg32f".into(),
+    ])
+    .expect("specs");
+    for name in ["gltf-alpha-blend-modes", "gltf-glass-vase"] {
+        let path = repo().join("scenes").join(format!("{name}.json"));
+        let scene = oit_scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+        assert!(!scene.textures.is_empty(), "{name}: textures loaded");
+        assert!(!scene.credits.is_empty(), "{name}: the asset's credit line");
+        let reference = oit_reference::render(&scene, &Default::default());
+        let gpu = GpuScene::upload(&ctx, &scene).expect("upload");
+        let counts = oit_gpu::count_fragments(&ctx, &gpu).expect("count");
+        let cmp = reference.compare_fragment_counts(&counts);
+        assert!(
+            cmp.unexplained.is_empty(),
+            "{name}: {} pixels differ in fragment count beyond the undecided ones",
+            cmp.unexplained.len()
+        );
+        for spec in &specs {
+            let frame = render_once(&ctx, &scene, spec).expect("exact techniques run here");
+            let worst = (frame.image.pixels.iter())
+                .zip(&reference.image.pixels)
+                .enumerate()
+                .filter(|(p, _)| decided(&reference, *p))
+                .flat_map(|(_, (a, b))| {
+                    (0..3).map(move |c| (a[c] - b[c]).abs() / b[c].abs().max(1.0))
+                })
+                .fold(0.0f32, f32::max);
+            println!("{name} {}: max error {worst:e}", spec.canonical());
+            assert!(
+                worst <= 4e-3,
+                "{name} {}: max error {worst:e} outside undecided pixels",
+                spec.canonical()
+            );
+        }
+    }
+}
+
+/// `compare` on a directory holding a JSON scene and a `.glb` runs every technique on both,
+/// and results.json says where the asset came from and what of it is not modelled.
+#[test]
+fn compare_runs_every_technique_on_a_directory_with_a_glb() {
+    let Some(ctx) = context_or_skip("compare_runs_every_technique_on_a_directory_with_a_glb")
+    else {
+        return;
+    };
+    let dir = std::env::temp_dir().join(format!("oit-glb-dir-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let scenes_dir = dir.join("scenes");
+    std::fs::create_dir_all(&scenes_dir).unwrap();
+    let glb = repo().join("assets/GlassVaseFlowers/GlassVaseFlowers.glb");
+    std::fs::copy(&glb, scenes_dir.join("GlassVaseFlowers.glb")).unwrap();
+    std::fs::write(
+        scenes_dir.join("sheet.json"),
+        r#"{"name": "sheet", "camera": {"eye": [0, 0, 3], "target": [0, 0, 0]},
+            "objects": [{"mesh": {"kind": "quad", "size": [1, 1]},
+                         "material": {"alpha": 0.5, "mode": "blend"}}]}"#,
+    )
+    .unwrap();
+    let scenes = oit_harness::load_scenes(std::slice::from_ref(&scenes_dir)).unwrap();
+    let names: Vec<&str> = scenes.iter().map(|e| e.scene.name.as_str()).collect();
+    assert_eq!(names, ["GlassVaseFlowers", "sheet"]);
+    let specs = resolve_specs(&[]).unwrap();
+    assert!(specs.len() >= 10, "every technique: {}", specs.len());
+    let options = oit_harness::CompareOptions {
+        resolution: Some(oit_scene::Resolution {
+            width: 48,
+            height: 48,
+        }),
+        frames: 1,
+        warmup: 0,
+        out_dir: dir.join("out"),
+        cache_dir: Some(dir.join("cache")),
+        context: Default::default(),
+    };
+    let results = oit_harness::compare(&ctx, &scenes, &specs, &options, &|_| {}).unwrap();
+    assert_eq!(results.runs.len(), 2 * specs.len());
+    let failed: Vec<_> = (results.runs.iter())
+        .filter(|r| r.status == oit_harness::results::RunStatus::Failed)
+        .map(|r| format!("{} {}: {:?}", r.scene, r.technique, r.reason))
+        .collect();
+    assert!(failed.is_empty(), "{failed:?}");
+    let vase = (results.scenes.iter())
+        .find(|s| s.scene == "GlassVaseFlowers")
+        .expect("scene entry");
+    assert!(vase.texture_bytes > 0 && vase.scene_bytes > vase.texture_bytes);
+    assert!(vase.credits.iter().any(|c| c.contains("Eric Chadwick")));
+    assert!(
+        (vase.ignored.iter()).any(|i| i.contains("KHR_materials_transmission")),
+        "{:?}",
+        vase.ignored
+    );
+    let markdown = std::fs::read_to_string(dir.join("out/results.md")).unwrap();
+    assert!(markdown.contains("Credits: GlassVaseFlowers.glb: CC0"));
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -433,6 +433,10 @@ impl Fragments for TransparentFragments<'_> {
 // Indexed lane loops: the iterator form (`enumerate().take(n)`) compiled to markedly slower
 // code here (callgrind: +20 % instructions, 3× the mispredicted branches).
 #[allow(clippy::needless_range_loop)]
+#[allow(
+    clippy::too_many_arguments,
+    reason = "the hot per-span entry: plain arguments stay in registers"
+)]
 #[inline(always)]
 fn shade_span(
     tri: &SetupTriangle,

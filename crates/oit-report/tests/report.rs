@@ -7,7 +7,9 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use oit_harness::results::{AdapterJson, GpuMs, Outputs, Results, Run, RunStatus, SCHEMA};
+use oit_harness::results::{
+    AdapterJson, GpuMs, Outputs, Results, Run, RunStatus, SCHEMA, SceneJson,
+};
 use oit_report::{
     Metric, PlotKind, pareto_markdown, pareto_members, plot_data, render_png, render_svg,
 };
@@ -112,6 +114,17 @@ fn results() -> Results {
         },
         runs,
         floors: Vec::new(),
+        scenes: vec![SceneJson {
+            scene: "beta".into(),
+            scene_file: "scenes/beta.json".into(),
+            triangles: 12,
+            scene_bytes: 3 << 20,
+            texture_bytes: 2 << 20,
+            credits: vec!["beta.glb: model by A. Modeller, CC0".into()],
+            ignored: vec![
+                "beta.glb: KHR_materials_transmission in /extensionsUsed: not modelled".into(),
+            ],
+        }],
     }
 }
 
@@ -376,6 +389,12 @@ fn report_page_lists_every_run_and_notes_missing_images() {
     );
     assert!(html.contains("skipped: no &lt;float32&gt; blending"));
     assert!(html.contains("failed: device lost"));
+    // What the scene brought: size on the GPU, its credit line, what is not modelled.
+    assert!(html.contains(
+        "Scene: 12 triangles, 3.0 MiB on the GPU shared by every technique (2.0 MiB of textures)."
+    ));
+    assert!(html.contains("Credits: beta.glb: model by A. Modeller, CC0."));
+    assert!(html.contains("Not modelled: beta.glb: KHR_materials_transmission"));
     assert!(html.contains("<td class=\"note\">dropped layers on 3 px</td>"));
     // Pareto members are bold (class "front"): 5 in alpha, 2 in beta.
     assert_eq!(html.matches("<tr class=\"front\">").count(), 7);

@@ -25,7 +25,7 @@ fn suite() -> BTreeMap<String, Scene> {
         .collect()
 }
 
-const NAMES: [&str; 15] = [
+const NAMES: [&str; 17] = [
     "alpha-099-stack",
     "alpha-extremes",
     "coplanar",
@@ -34,6 +34,8 @@ const NAMES: [&str; 15] = [
     "enderton",
     "faint-haze",
     "foliage-cards",
+    "gltf-alpha-blend-modes",
+    "gltf-glass-vase",
     "hdr-emissive",
     "intersecting-quads",
     "many-layers-64",
