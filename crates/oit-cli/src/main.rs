@@ -324,8 +324,11 @@ fn scenes(path: &Path, load: &oit_scene::LoadOptions) -> Result<()> {
             reference.stats.max_depth_complexity,
             reference.stats.mean_depth_complexity,
         );
-        for line in oit_harness::results::SceneJson::of(s, "").report_lines() {
-            println!("  {line}");
+        // Real content says where it came from and what of it is not modelled.
+        if !(s.textures.is_empty() && s.credits.is_empty() && s.ignored.is_empty()) {
+            for line in oit_harness::results::SceneJson::of(s, "").report_lines() {
+                println!("  {line}");
+            }
         }
     }
     Ok(())
