@@ -10,6 +10,11 @@ struct Camera {
     view_proj: mat4x4<f32>,
 }
 
+// Set per pipeline by `oit_gpu::ScenePipelines` (false for untextured materials): a constant,
+// so the compiler removes the texture code. A runtime branch, even on a uniform, still made
+// every fragment pay for the texel fetches on CPU rasterizers, which run branches masked.
+override TEXTURED: bool = true;
+
 // One entry per `Scene::materials` element (80 bytes, see `oit_gpu::scene::material_words`).
 struct Material {
     // rgb = base colour (linear), a = alpha.
@@ -176,8 +181,12 @@ fn uses_cutoff(mode: u32) -> bool {
 // sorted triangle stream) obey the same rule.
 fn shade(v: VertexOut, front_facing: bool) -> Shaded {
     let m = material_of(v);
-    let t = sample_texture(m.textures.x, m.textures.y, m.wrap, v.uv);
-    let e = sample_texture(m.textures.z, m.textures.w, m.wrap >> 4u, v.uv);
+    var t = vec4<f32>(1.0);
+    var e = vec4<f32>(1.0);
+    if TEXTURED {
+        t = sample_texture(m.textures.x, m.textures.y, m.wrap, v.uv);
+        e = sample_texture(m.textures.z, m.textures.w, m.wrap >> 4u, v.uv);
+    }
     let c = v.color.rgb * m.base_alpha.rgb * t.rgb * m.intensity + m.emissive * e.rgb;
     let alpha = v.color.a * m.base_alpha.a * t.a;
     var s: Shaded;
