@@ -90,6 +90,29 @@ fn decided(reference: &oit_reference::Reference, p: usize) -> bool {
     reference.undecided[p] == 0 && !reference.precision_ties[p]
 }
 
+/// The largest per-channel error of `image` against the reference (relative above 1) over the
+/// pixels rounding does not decide, with its pixel; and how many pixels were compared.
+fn worst_decided_error(
+    image: &oit_scene::LinearImage,
+    reference: &oit_reference::Reference,
+) -> ((f32, usize), u64) {
+    let mut worst = (0.0f32, 0usize);
+    let mut compared = 0;
+    for (p, (a, b)) in image.pixels.iter().zip(&reference.image.pixels).enumerate() {
+        if !decided(reference, p) {
+            continue;
+        }
+        compared += 1;
+        for c in 0..3 {
+            let e = (a[c] - b[c]).abs() / b[c].abs().max(1.0);
+            if e > worst.0 {
+                worst = (e, p);
+            }
+        }
+    }
+    (worst, compared)
+}
+
 /// Fragment counts on the GPU equal the reference's on textured random scenes, except by at
 /// most the undecided fragments of a pixel; and the textures are really read (a scene whose
 /// textures are replaced by white renders differently).
@@ -163,25 +186,8 @@ fn exact_techniques_match_the_reference_on_textured_scenes() {
                     continue;
                 }
             };
-            let mut worst = (0.0f32, 0usize);
-            for (p, (a, b)) in frame
-                .image
-                .pixels
-                .iter()
-                .zip(&reference.image.pixels)
-                .enumerate()
-            {
-                if !decided(&reference, p) {
-                    continue;
-                }
-                compared += 1;
-                for c in 0..3 {
-                    let e = (a[c] - b[c]).abs() / b[c].abs().max(1.0);
-                    if e > worst.0 {
-                        worst = (e, p);
-                    }
-                }
-            }
+            let (worst, compared_here) = worst_decided_error(&frame.image, &reference);
+            compared += compared_here;
             if worst.0 > 4e-3 || frame.stats.pixels_with_dropped_layers > 0 {
                 failures.push(format!(
                     "seed {seed} {}: max error {:e} at pixel {}, dropped layers on {} px",
@@ -230,14 +236,8 @@ fn bundled_gltf_scenes_are_exact_for_exact_techniques() {
         );
         for spec in &specs {
             let frame = render_once(&ctx, &scene, spec).expect("exact techniques run here");
-            let worst = (frame.image.pixels.iter())
-                .zip(&reference.image.pixels)
-                .enumerate()
-                .filter(|(p, _)| decided(&reference, *p))
-                .flat_map(|(_, (a, b))| {
-                    (0..3).map(move |c| (a[c] - b[c]).abs() / b[c].abs().max(1.0))
-                })
-                .fold(0.0f32, f32::max);
+            let ((worst, _), compared) = worst_decided_error(&frame.image, &reference);
+            assert!(compared > 0, "{name}: nothing compared");
             println!("{name} {}: max error {worst:e}", spec.canonical());
             assert!(
                 worst <= 4e-3,
