@@ -90,6 +90,26 @@ fn decided(reference: &oit_reference::Reference, p: usize) -> bool {
     reference.undecided[p] == 0 && !reference.precision_ties[p]
 }
 
+/// Asserts that the GPU's per-pixel fragment counts equal the reference's, except by at most a
+/// pixel's undecided fragments; returns how many pixels needed that tolerance.
+fn counts_conform(
+    ctx: &oit_gpu::Context,
+    scene: &Scene,
+    reference: &oit_reference::Reference,
+    what: &str,
+) -> usize {
+    let gpu = GpuScene::upload(ctx, scene).expect("upload");
+    let counts = oit_gpu::count_fragments(ctx, &gpu).expect("count");
+    let cmp = reference.compare_fragment_counts(&counts);
+    assert!(
+        cmp.unexplained.is_empty(),
+        "{what}: {} pixels differ in fragment count beyond the undecided ones, first {:?}",
+        cmp.unexplained.len(),
+        &cmp.unexplained[..cmp.unexplained.len().min(8)]
+    );
+    cmp.undecided
+}
+
 /// The largest per-channel error of `image` against the reference (relative above 1) over the
 /// pixels rounding does not decide, with its pixel; and how many pixels were compared.
 fn worst_decided_error(
@@ -131,16 +151,7 @@ fn fragment_counts_match_on_textured_random_scenes() {
             .filter(|m| m.mode.uses_cutoff() && m.base_texture.is_some())
             .count();
         let reference = oit_reference::render(&scene, &Default::default());
-        let gpu = GpuScene::upload(&ctx, &scene).expect("upload");
-        let counts = oit_gpu::count_fragments(&ctx, &gpu).expect("count");
-        let cmp = reference.compare_fragment_counts(&counts);
-        assert!(
-            cmp.unexplained.is_empty(),
-            "seed {seed}: {} pixels differ in fragment count beyond the undecided ones, first {:?}",
-            cmp.unexplained.len(),
-            &cmp.unexplained[..cmp.unexplained.len().min(8)]
-        );
-        undecided_pixels += cmp.undecided;
+        undecided_pixels += counts_conform(&ctx, &scene, &reference, &format!("seed {seed}"));
     }
     println!(
         "{textured_cutoffs} textured cutoff materials; {undecided_pixels} pixels differed within their undecided fragments"
@@ -226,14 +237,7 @@ fn bundled_gltf_scenes_are_exact_for_exact_techniques() {
         assert!(!scene.textures.is_empty(), "{name}: textures loaded");
         assert!(!scene.credits.is_empty(), "{name}: the asset's credit line");
         let reference = oit_reference::render(&scene, &Default::default());
-        let gpu = GpuScene::upload(&ctx, &scene).expect("upload");
-        let counts = oit_gpu::count_fragments(&ctx, &gpu).expect("count");
-        let cmp = reference.compare_fragment_counts(&counts);
-        assert!(
-            cmp.unexplained.is_empty(),
-            "{name}: {} pixels differ in fragment count beyond the undecided ones",
-            cmp.unexplained.len()
-        );
+        counts_conform(&ctx, &scene, &reference, name);
         for spec in &specs {
             let frame = render_once(&ctx, &scene, spec).expect("exact techniques run here");
             let ((worst, _), compared) = worst_decided_error(&frame.image, &reference);
