@@ -67,8 +67,10 @@ pub struct TechniqueInfo {
     pub name: &'static str,
     pub description: &'static str,
     pub params: Vec<ParamInfo>,
-    /// Builds the technique from a spec already validated against this entry.
-    pub build: fn(&TechniqueSpec) -> Box<dyn Technique>,
+    /// Builds the technique from a spec. A technique value always holds a valid
+    /// configuration: a spec that does not describe one (hand-built, or of another name) is an
+    /// error here, never a technique that fails later.
+    pub build: fn(&TechniqueSpec) -> Result<Box<dyn Technique>, SpecError>,
 }
 
 impl std::fmt::Debug for TechniqueInfo {
@@ -135,6 +137,15 @@ pub enum SpecError {
         value: String,
         allowed: String,
     },
+    #[error("technique spec {spec:?}: {name} needs parameter {key}; allowed: {allowed}")]
+    Missing {
+        spec: String,
+        name: String,
+        key: String,
+        allowed: String,
+    },
+    #[error("technique spec {spec:?}: not a {expected} spec")]
+    WrongTechnique { spec: String, expected: String },
     #[error("technique spec {spec:?}: {key} given twice")]
     DuplicateKey { spec: String, key: String },
     #[error(
@@ -251,12 +262,72 @@ impl TechniqueSpec {
             name: spec.name.clone(),
             names: names(registry),
         })?;
-        Ok((info.build)(&spec))
+        (info.build)(&spec)
     }
 
     /// A parameter's value (always present for a parsed spec).
     pub fn get(&self, key: &str) -> Option<&str> {
         self.params.get(key).map(String::as_str)
+    }
+
+    /// `Ok` when this is a spec of technique `name` (the first check of every `from_spec`).
+    pub fn expect_name(&self, name: &str) -> Result<(), SpecError> {
+        if self.name == name {
+            Ok(())
+        } else {
+            Err(SpecError::WrongTechnique {
+                spec: self.to_string(),
+                expected: name.to_owned(),
+            })
+        }
+    }
+
+    /// The value of `key` turned into a `T` by `parse`; `allowed` describes the accepted values
+    /// in the error when the key is missing or `parse` refuses it.
+    pub fn value<T>(
+        &self,
+        key: &str,
+        allowed: &str,
+        parse: impl FnOnce(&str) -> Option<T>,
+    ) -> Result<T, SpecError> {
+        let value = self.get(key).ok_or_else(|| SpecError::Missing {
+            spec: self.to_string(),
+            name: self.name.clone(),
+            key: key.to_owned(),
+            allowed: allowed.to_owned(),
+        })?;
+        parse(value).ok_or_else(|| SpecError::BadValue {
+            spec: self.to_string(),
+            key: key.to_owned(),
+            value: value.to_owned(),
+            allowed: allowed.to_owned(),
+        })
+    }
+
+    /// One of the words `names`, turned into a `T` by `parse`.
+    pub fn word<T>(
+        &self,
+        key: &str,
+        names: &[&str],
+        parse: impl FnOnce(&str) -> Option<T>,
+    ) -> Result<T, SpecError> {
+        self.value(key, &names.join(", "), |v| {
+            names.contains(&v).then_some(v).and_then(parse)
+        })
+    }
+
+    /// An integer in `min..=max` written in canonical form (no sign, no leading zeros).
+    pub fn integer(&self, key: &str, min: u64, max: u64) -> Result<u64, SpecError> {
+        self.value(key, &format!("an integer {min}..={max}"), |v| {
+            Allowed::Integer {
+                min,
+                max,
+                words: &[],
+            }
+            .canonical(v)
+            .filter(|c| c == v)
+            .and_then(|c| c.parse().ok())
+        })
     }
 
     pub fn canonical(&self) -> String {
@@ -309,7 +380,7 @@ mod tests {
                 name: "plain",
                 description: "no parameters",
                 params: vec![],
-                build: |s| Box::new(Dummy(s.clone())),
+                build: |s| Ok(Box::new(Dummy(s.clone()))),
             },
             TechniqueInfo {
                 name: "peel",
@@ -332,7 +403,7 @@ mod tests {
                         allowed: Allowed::Values(&["r32f", "rg32f"]),
                     },
                 ],
-                build: |s| Box::new(Dummy(s.clone())),
+                build: |s| Ok(Box::new(Dummy(s.clone()))),
             },
         ]
     }
@@ -416,5 +487,37 @@ mod tests {
         let dup = r[1].params[0].clone();
         r[1].params.push(dup);
         assert!(r[1].validate().is_err());
+    }
+
+    #[test]
+    fn typed_accessors_name_the_key_and_what_is_allowed() {
+        let spec = TechniqueSpec::parse("peel:passes=12", &registry()).unwrap();
+        assert!(spec.expect_name("peel").is_ok());
+        let e = spec.expect_name("plain").unwrap_err();
+        assert!(matches!(e, SpecError::WrongTechnique { .. }), "{e}");
+        assert_eq!(spec.integer("passes", 1, 64), Ok(12));
+        let e = spec.integer("passes", 1, 8).unwrap_err();
+        assert!(
+            e.to_string().contains("1..=8") && e.to_string().contains("\"12\""),
+            "{e}"
+        );
+        let e = spec.integer("layers", 1, 8).unwrap_err();
+        assert!(
+            matches!(e, SpecError::Missing { .. }) && e.to_string().contains("layers"),
+            "{e}"
+        );
+        let depth = spec.word("depth", &["r32f", "rg32f"], |v| Some(v.len()));
+        assert_eq!(depth, Ok(4));
+        let e = spec
+            .word("depth", &["rg32f"], |v| Some(v.len()))
+            .unwrap_err();
+        assert!(
+            matches!(e, SpecError::BadValue { .. }) && e.to_string().contains("rg32f"),
+            "{e}"
+        );
+        // A hand-built spec with a non-canonical integer is refused, not reinterpreted.
+        let mut odd = spec.clone();
+        odd.params.insert("passes".into(), "012".into());
+        assert!(odd.integer("passes", 1, 64).is_err());
     }
 }

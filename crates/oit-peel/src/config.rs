@@ -1,9 +1,8 @@
 //! Technique configurations and their spec strings.
 
 use crate::encoding::DepthEncoding;
-use crate::error::PeelError;
 use oit_gpu::wgpu::TextureFormat;
-use oit_gpu::{Caps, TechniqueSpec, Unsupported};
+use oit_gpu::{Caps, SpecError, TechniqueSpec, Unsupported};
 
 /// How many passes (layers for front peeling) to run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -18,21 +17,17 @@ pub enum PassCount {
 impl PassCount {
     /// Any count a u32 holds parses; whether the adapter can record that many passes is the
     /// technique's `check` (the bound is the adapter's, not the spec's).
-    fn parse(spec: &TechniqueSpec, key: &'static str) -> Result<Self, PeelError> {
+    fn parse(spec: &TechniqueSpec, key: &'static str) -> Result<Self, SpecError> {
         let max = u32::MAX;
-        let value = get(spec, key, &format!("an integer 1..={max}, auto"))?;
-        if value == "auto" {
-            return Ok(PassCount::Auto);
-        }
-        match value.parse::<u32>() {
-            Ok(n) if (1..=max).contains(&n) => Ok(PassCount::Fixed(n)),
-            _ => Err(PeelError::BadValue {
-                spec: spec.to_string(),
-                key,
-                value: value.to_owned(),
-                allowed: format!("an integer 1..={max}, auto"),
-            }),
-        }
+        spec.value(key, &format!("an integer 1..={max}, auto"), |v| {
+            if v == "auto" {
+                return Some(PassCount::Auto);
+            }
+            v.parse::<u32>()
+                .ok()
+                .filter(|n| *n >= 1)
+                .map(PassCount::Fixed)
+        })
     }
 
     fn name(self) -> String {
@@ -147,39 +142,6 @@ impl Tail {
     }
 }
 
-fn get<'s>(
-    spec: &'s TechniqueSpec,
-    key: &'static str,
-    allowed: &str,
-) -> Result<&'s str, PeelError> {
-    spec.get(key).ok_or_else(|| PeelError::Missing {
-        spec: spec.to_string(),
-        technique: if spec.name == "front-peel" {
-            "front-peel"
-        } else {
-            "dual-peel"
-        },
-        key,
-        allowed: allowed.to_owned(),
-    })
-}
-
-fn word<T>(
-    spec: &TechniqueSpec,
-    key: &'static str,
-    names: &[&str],
-    parse: impl Fn(&str) -> Option<T>,
-) -> Result<T, PeelError> {
-    let allowed = names.join(", ");
-    let value = get(spec, key, &allowed)?;
-    parse(value).ok_or_else(|| PeelError::BadValue {
-        spec: spec.to_string(),
-        key,
-        value: value.to_owned(),
-        allowed,
-    })
-}
-
 /// `dual-peel:passes=N|auto,depth=auto|rg32f|rg16f,reverse-z=on|off,tail=drop|wboit,encoding=window|linear|log`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct DualPeelConfig {
@@ -205,23 +167,14 @@ impl Default for DualPeelConfig {
 }
 
 impl DualPeelConfig {
-    pub fn from_spec(spec: &TechniqueSpec) -> Result<Self, PeelError> {
-        if spec.name != "dual-peel" {
-            return Err(PeelError::WrongTechnique {
-                spec: spec.to_string(),
-                expected: "dual-peel",
-            });
-        }
+    pub fn from_spec(spec: &TechniqueSpec) -> Result<Self, SpecError> {
+        spec.expect_name("dual-peel")?;
         Ok(DualPeelConfig {
             passes: PassCount::parse(spec, "passes")?,
-            depth: word(spec, "depth", DepthFormat::NAMES, DepthFormat::parse)?,
-            reverse_z: word(spec, "reverse-z", &["on", "off"], |s| match s {
-                "on" => Some(true),
-                "off" => Some(false),
-                _ => None,
-            })?,
-            tail: word(spec, "tail", Tail::NAMES, Tail::parse)?,
-            encoding: word(spec, "encoding", DepthEncoding::NAMES, DepthEncoding::parse)?,
+            depth: spec.word("depth", DepthFormat::NAMES, DepthFormat::parse)?,
+            reverse_z: spec.word("reverse-z", &["on", "off"], |s| Some(s == "on"))?,
+            tail: spec.word("tail", Tail::NAMES, Tail::parse)?,
+            encoding: spec.word("encoding", DepthEncoding::NAMES, DepthEncoding::parse)?,
         })
     }
 
@@ -259,13 +212,8 @@ impl Default for FrontPeelConfig {
 }
 
 impl FrontPeelConfig {
-    pub fn from_spec(spec: &TechniqueSpec) -> Result<Self, PeelError> {
-        if spec.name != "front-peel" {
-            return Err(PeelError::WrongTechnique {
-                spec: spec.to_string(),
-                expected: "front-peel",
-            });
-        }
+    pub fn from_spec(spec: &TechniqueSpec) -> Result<Self, SpecError> {
+        spec.expect_name("front-peel")?;
         Ok(FrontPeelConfig {
             layers: PassCount::parse(spec, "layers")?,
         })

@@ -12,7 +12,6 @@
 
 use crate::config::{DualPeelConfig, PassCount, Tail};
 use crate::encoding::KeyParams;
-use crate::error::PeelError;
 use crate::gpu::{self, Budget, Control, Counters, DrawList, Options, PeelReport, Termination};
 use oit_gpu::bind;
 use oit_gpu::blend;
@@ -20,7 +19,8 @@ use oit_gpu::pass;
 use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, PREMULTIPLIED_OVER, RenderStats,
-    ScenePipelineDesc, ScenePipelines, Targets, Technique, TechniqueSpec, Unsupported, depth_test,
+    ScenePipelineDesc, ScenePipelines, SpecError, Targets, Technique, TechniqueSpec, Unsupported,
+    depth_test,
 };
 use oit_scene::Resolution;
 use oit_wboit::tail as wboit;
@@ -30,7 +30,7 @@ const EMPTY: f64 = -2.0;
 /// Dual depth peeling. Build it from a spec ([`DualPeel::from_spec`]) or a config.
 #[derive(Debug)]
 pub struct DualPeel {
-    config: Result<DualPeelConfig, PeelError>,
+    config: DualPeelConfig,
     options: Options,
     gpu: Option<Resources>,
     list: Option<DrawList>,
@@ -90,16 +90,15 @@ impl DualPeel {
     }
 
     pub fn with_options(config: DualPeelConfig, options: Options) -> Self {
-        Self::build(Ok(config), options)
+        Self::build(config, options)
     }
 
-    /// A spec that does not describe a dual-peel configuration gives a technique whose
-    /// `check` reports the error.
-    pub fn from_spec(spec: &TechniqueSpec) -> Self {
-        Self::build(DualPeelConfig::from_spec(spec), Options::default())
+    /// Refuses a spec that does not describe a dual-peel configuration.
+    pub fn from_spec(spec: &TechniqueSpec) -> Result<Self, SpecError> {
+        Ok(Self::new(DualPeelConfig::from_spec(spec)?))
     }
 
-    fn build(config: Result<DualPeelConfig, PeelError>, options: Options) -> Self {
+    fn build(config: DualPeelConfig, options: Options) -> Self {
         DualPeel {
             config,
             options,
@@ -112,8 +111,8 @@ impl DualPeel {
         }
     }
 
-    pub fn config(&self) -> Result<DualPeelConfig, PeelError> {
-        self.config.clone()
+    pub fn config(&self) -> DualPeelConfig {
+        self.config
     }
 
     /// Pass-by-pass account of the last frame.
@@ -428,20 +427,11 @@ impl DualPeel {
 
 impl Technique for DualPeel {
     fn spec(&self) -> TechniqueSpec {
-        match &self.config {
-            Ok(c) => c.spec(),
-            Err(_) => TechniqueSpec {
-                name: "dual-peel".to_owned(),
-                params: Default::default(),
-            },
-        }
+        self.config.spec()
     }
 
     fn check(&self, caps: &Caps) -> Result<(), Unsupported> {
-        let config = self
-            .config
-            .as_ref()
-            .map_err(|e| Unsupported::new(e.to_string()))?;
+        let config = self.config;
         config.depth.resolve(caps)?;
         if caps.max_storage_buffers_per_shader_stage == 0 {
             return Err(Unsupported::new(
@@ -468,10 +458,7 @@ impl Technique for DualPeel {
         targets: &Targets,
         timer: &mut GpuTimer,
     ) -> Result<RenderStats, GpuError> {
-        let config = self
-            .config
-            .clone()
-            .map_err(|e| Unsupported::new(e.to_string()))?;
+        let config = self.config;
         let range_format = config.depth.resolve(&ctx.caps)?;
         self.resources(ctx, &config, range_format, targets)?;
         if self.list.as_ref().is_none_or(|l| l.scene_id != scene.id) {

@@ -16,7 +16,6 @@
 
 use crate::config::{FrontPeelConfig, PassCount};
 use crate::encoding::KeyParams;
-use crate::error::PeelError;
 use crate::gpu::{self, Budget, Control, Counters, DrawList, Options, PeelReport, Termination};
 use oit_gpu::bind;
 use oit_gpu::blend;
@@ -24,14 +23,14 @@ use oit_gpu::pass;
 use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, RenderStats, ScenePipelineDesc,
-    ScenePipelines, Targets, Technique, TechniqueSpec, Unsupported, depth_test,
+    ScenePipelines, SpecError, Targets, Technique, TechniqueSpec, Unsupported, depth_test,
 };
 use oit_scene::Resolution;
 
 /// Front-to-back depth peeling.
 #[derive(Debug)]
 pub struct FrontPeel {
-    config: Result<FrontPeelConfig, PeelError>,
+    config: FrontPeelConfig,
     options: Options,
     gpu: Option<Resources>,
     list: Option<DrawList>,
@@ -46,16 +45,15 @@ impl FrontPeel {
     }
 
     pub fn with_options(config: FrontPeelConfig, options: Options) -> Self {
-        Self::build(Ok(config), options)
+        Self::build(config, options)
     }
 
-    /// A spec that does not describe a front-peel configuration gives a technique whose
-    /// `check` reports the error.
-    pub fn from_spec(spec: &TechniqueSpec) -> Self {
-        Self::build(FrontPeelConfig::from_spec(spec), Options::default())
+    /// Refuses a spec that does not describe a front-peel configuration.
+    pub fn from_spec(spec: &TechniqueSpec) -> Result<Self, SpecError> {
+        Ok(Self::new(FrontPeelConfig::from_spec(spec)?))
     }
 
-    fn build(config: Result<FrontPeelConfig, PeelError>, options: Options) -> Self {
+    fn build(config: FrontPeelConfig, options: Options) -> Self {
         FrontPeel {
             config,
             options,
@@ -67,8 +65,8 @@ impl FrontPeel {
         }
     }
 
-    pub fn config(&self) -> Result<FrontPeelConfig, PeelError> {
-        self.config.clone()
+    pub fn config(&self) -> FrontPeelConfig {
+        self.config
     }
 
     /// Pass-by-pass account of the last frame.
@@ -439,19 +437,10 @@ impl FrontPeel {
 
 impl Technique for FrontPeel {
     fn spec(&self) -> TechniqueSpec {
-        match &self.config {
-            Ok(c) => c.spec(),
-            Err(_) => TechniqueSpec {
-                name: "front-peel".to_owned(),
-                params: Default::default(),
-            },
-        }
+        self.config.spec()
     }
 
     fn check(&self, caps: &Caps) -> Result<(), Unsupported> {
-        self.config
-            .as_ref()
-            .map_err(|e| Unsupported::new(e.to_string()))?;
         if caps.max_storage_buffers_per_shader_stage == 0 {
             return Err(Unsupported::new(
                 "the adapter has no storage buffers per shader stage (materials in the vertex stage, peel counters in the fragment stage)",
@@ -462,8 +451,6 @@ impl Technique for FrontPeel {
         }
         let (_, limit) = crate::max_pass_slots(caps);
         self.config
-            .as_ref()
-            .map_err(|e| Unsupported::new(e.to_string()))?
             .layers
             .check("layers", crate::max_front_layers(caps), limit)
     }
@@ -475,10 +462,7 @@ impl Technique for FrontPeel {
         targets: &Targets,
         timer: &mut GpuTimer,
     ) -> Result<RenderStats, GpuError> {
-        let config = self
-            .config
-            .clone()
-            .map_err(|e| Unsupported::new(e.to_string()))?;
+        let config = self.config;
         self.resources(ctx, targets, scene.scene.camera.reverse_z)?;
         if self.list.as_ref().is_none_or(|l| l.scene_id != scene.id) {
             self.list_ledger.clear();

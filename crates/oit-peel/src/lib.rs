@@ -25,14 +25,12 @@
 mod config;
 mod dual;
 mod encoding;
-mod error;
 mod front;
 mod gpu;
 
 pub use config::{DepthFormat, DualPeelConfig, FrontPeelConfig, PassCount, Tail};
 pub use dual::DualPeel;
 pub use encoding::{DepthEncoding, KeyParams, f16_round, half_uniform, peel_key};
-pub use error::PeelError;
 pub use front::FrontPeel;
 pub use gpu::{
     COUNTER_HEADER_WORDS, COUNTER_WORDS_PER_PASS, Options, PeelReport, Termination, max_pass_slots,
@@ -67,7 +65,7 @@ pub fn techniques() -> Vec<TechniqueInfo> {
                     words: &["auto"],
                 },
             }],
-            build: |spec| Box::new(FrontPeel::from_spec(spec)),
+            build: |spec| Ok(Box::new(FrontPeel::from_spec(spec)?)),
         },
         TechniqueInfo {
             name: "dual-peel",
@@ -108,7 +106,7 @@ pub fn techniques() -> Vec<TechniqueInfo> {
                     allowed: Allowed::Values(DepthEncoding::NAMES),
                 },
             ],
-            build: |spec| Box::new(DualPeel::from_spec(spec)),
+            build: |spec| Ok(Box::new(DualPeel::from_spec(spec)?)),
         },
     ]
 }

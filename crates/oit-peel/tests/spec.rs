@@ -1,8 +1,8 @@
 //! Registry entries, canonical specs and errors (no GPU).
 
-use oit_gpu::TechniqueSpec;
+use oit_gpu::{SpecError, TechniqueSpec};
 use oit_peel::{
-    DepthFormat, DualPeel, DualPeelConfig, FrontPeelConfig, PassCount, PeelError, Tail,
+    DepthFormat, DualPeel, DualPeelConfig, FrontPeel, FrontPeelConfig, PassCount, Tail,
 };
 
 #[test]
@@ -62,18 +62,32 @@ fn registry_entries_are_valid_and_canonical() {
 }
 
 #[test]
-fn hand_built_bad_specs_are_reported_by_check() {
+fn hand_built_bad_specs_are_refused_at_construction() {
     let mut spec = TechniqueSpec::parse("dual-peel", &oit_peel::techniques()).unwrap();
     spec.params.insert("passes".into(), "many".into());
     let e = DualPeelConfig::from_spec(&spec).unwrap_err();
     assert!(
-        matches!(e, PeelError::BadValue { key: "passes", .. }),
+        matches!(&e, SpecError::BadValue { key, .. } if key == "passes"),
         "{e}"
     );
     assert!(e.to_string().contains("1..=4294967295, auto"), "{e}");
+    assert!(DualPeel::from_spec(&spec).is_err());
+    spec.params.insert("passes".into(), "3".into());
     spec.params.remove("depth");
-    let t = DualPeel::from_spec(&spec);
-    assert!(t.config().is_err());
+    let e = DualPeel::from_spec(&spec).unwrap_err();
+    assert!(
+        matches!(&e, SpecError::Missing { key, .. } if key == "depth"),
+        "{e}"
+    );
     let e = FrontPeelConfig::from_spec(&spec).unwrap_err();
-    assert!(matches!(e, PeelError::WrongTechnique { .. }), "{e}");
+    assert!(matches!(e, SpecError::WrongTechnique { .. }), "{e}");
+    // The registry's build refuses the same spec instead of building a broken technique.
+    let info = &oit_peel::techniques()[1];
+    assert_eq!(info.name, "dual-peel");
+    assert!((info.build)(&spec).is_err());
+    let front = TechniqueSpec::parse("front-peel:layers=4", &oit_peel::techniques()).unwrap();
+    assert_eq!(
+        FrontPeel::from_spec(&front).unwrap().config().layers,
+        PassCount::Fixed(4)
+    );
 }

@@ -31,13 +31,33 @@ pub fn techniques() -> Vec<TechniqueInfo> {
             name: kind.name(),
             description: kind.description(),
             params: Vec::new(),
-            build: match kind {
-                Kind::Unsorted => |_| Box::new(Blended::new(Kind::Unsorted)),
-                Kind::SortedObject => |_| Box::new(Blended::new(Kind::SortedObject)),
-                Kind::SortedTriangle => |_| Box::new(Blended::new(Kind::SortedTriangle)),
-                Kind::DepthPrepass => |_| Box::new(Blended::new(Kind::DepthPrepass)),
-                Kind::CullSplit => |_| Box::new(Blended::new(Kind::CullSplit)),
-            },
+            build: |spec| Ok(Box::new(Blended::from_spec(spec)?)),
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use oit_gpu::{SpecError, TechniqueSpec};
+
+    #[test]
+    fn every_kind_builds_from_its_own_name_and_nothing_else() {
+        for info in techniques() {
+            info.validate().unwrap();
+            let t = (info.build)(&info.default_spec()).unwrap();
+            assert_eq!(t.spec().to_string(), info.name);
+        }
+        let mut spec = TechniqueSpec::parse("unsorted", &techniques()).unwrap();
+        spec.params.insert("layers".into(), "3".into());
+        let e = Blended::from_spec(&spec).unwrap_err();
+        assert!(matches!(e, SpecError::UnknownKey { .. }), "{e}");
+        spec.params.clear();
+        spec.name = "wboit".into();
+        let e = Blended::from_spec(&spec).unwrap_err();
+        assert!(
+            matches!(e, SpecError::WrongTechnique { .. }) && e.to_string().contains("cull-split"),
+            "{e}"
+        );
+    }
 }

@@ -6,8 +6,8 @@ use oit_gpu::pass;
 use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, CullRule, GpuError, GpuScene, GpuTimer, MemoryLedger, PREMULTIPLIED_OVER,
-    RenderStats, ScenePipelineDesc, ScenePipelines, Targets, Technique, TechniqueSpec, Unsupported,
-    depth_test,
+    RenderStats, ScenePipelineDesc, ScenePipelines, SpecError, Targets, Technique, TechniqueSpec,
+    Unsupported, depth_test,
 };
 use std::collections::BTreeMap;
 use std::time::Instant;
@@ -106,6 +106,26 @@ impl Blended {
             stream: None,
             ledger: MemoryLedger::new(),
         }
+    }
+
+    /// Refuses a spec that names no blended baseline, or gives one a parameter (they have none).
+    pub fn from_spec(spec: &TechniqueSpec) -> Result<Self, SpecError> {
+        let kind = Kind::ALL
+            .into_iter()
+            .find(|k| k.name() == spec.name)
+            .ok_or_else(|| SpecError::WrongTechnique {
+                spec: spec.to_string(),
+                expected: Kind::ALL.map(Kind::name).join(" or "),
+            })?;
+        if let Some(key) = spec.params.keys().next() {
+            return Err(SpecError::UnknownKey {
+                spec: spec.to_string(),
+                name: spec.name.clone(),
+                key: key.clone(),
+                keys: "(none)".to_owned(),
+            });
+        }
+        Ok(Blended::new(kind))
     }
 
     fn pipelines(

@@ -62,7 +62,7 @@ fn registry_is_valid_and_canonical() {
         info.validate().expect("valid registry entry");
         let spec = TechniqueSpec::parse(info.name, &registry).expect("parses");
         assert_eq!(spec.to_string(), info.name);
-        assert_eq!((info.build)(&spec).spec(), spec);
+        assert_eq!((info.build)(&spec).unwrap().spec(), spec);
         assert!(TechniqueSpec::parse(&format!("{}:x=1", info.name), &registry).is_err());
     }
 }

@@ -12,13 +12,13 @@
 //! the resolve blends across the edge (anti-aliasing the reference does not have). Opaque
 //! edges come from the single-sample pass and stay aliased exactly as in the reference.
 
-use crate::config::{A2cConfig, ConfigError};
+use crate::config::A2cConfig;
 use crate::gpu;
 use oit_gpu::pass;
 use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, RenderStats, ScenePipelineDesc,
-    ScenePipelines, Targets, Technique, TechniqueSpec, Unsupported,
+    ScenePipelines, SpecError, Targets, Technique, TechniqueSpec, Unsupported,
 };
 use oit_scene::Resolution;
 
@@ -28,7 +28,7 @@ pub const A2C_WGSL: &str = include_str!("../../../shaders/stochastic_a2c.wgsl");
 /// The `a2c` technique.
 #[derive(Debug)]
 pub struct AlphaToCoverage {
-    config: Result<A2cConfig, ConfigError>,
+    config: A2cConfig,
     gpu: Option<Resources>,
     ledger: MemoryLedger,
 }
@@ -64,19 +64,15 @@ fn multisample_supported(
 impl AlphaToCoverage {
     pub fn new(config: A2cConfig) -> Self {
         AlphaToCoverage {
-            config: Ok(config),
+            config,
             gpu: None,
             ledger: MemoryLedger::new(),
         }
     }
 
-    /// Builds from a spec; an invalid spec gives a technique whose `check` says why.
-    pub fn from_spec(spec: &TechniqueSpec) -> Self {
-        AlphaToCoverage {
-            config: A2cConfig::from_spec(spec),
-            gpu: None,
-            ledger: MemoryLedger::new(),
-        }
+    /// Refuses a spec that does not describe an a2c configuration.
+    pub fn from_spec(spec: &TechniqueSpec) -> Result<Self, SpecError> {
+        Ok(Self::new(A2cConfig::from_spec(spec)?))
     }
 
     /// `Err` with the reason when this device cannot multisample the final colour format and
@@ -184,20 +180,11 @@ impl AlphaToCoverage {
 
 impl Technique for AlphaToCoverage {
     fn spec(&self) -> TechniqueSpec {
-        match &self.config {
-            Ok(c) => c.spec(),
-            Err(_) => TechniqueSpec {
-                name: "a2c".into(),
-                params: Default::default(),
-            },
-        }
+        self.config.spec()
     }
 
     fn check(&self, caps: &Caps) -> Result<(), Unsupported> {
-        let config = self
-            .config
-            .as_ref()
-            .map_err(|e| Unsupported::new(format!("the spec is invalid: {e}")))?;
+        let config = self.config;
         if caps.max_storage_buffers_per_shader_stage == 0 {
             return Err(Unsupported::new(
                 "the adapter has no storage buffers in vertex shaders (scene materials)",
@@ -225,9 +212,7 @@ impl Technique for AlphaToCoverage {
         targets: &Targets,
         timer: &mut GpuTimer,
     ) -> Result<RenderStats, GpuError> {
-        let config = *self.config.as_ref().map_err(|e| {
-            GpuError::Unsupported(Unsupported::new(format!("the spec is invalid: {e}")))
-        })?;
+        let config = self.config;
         self.prepare(ctx, scene, targets, config.samples)?;
         let r = self.gpu.as_ref().expect("resources prepared above");
         let seed_group = r.seed.bind_group(ctx, targets);

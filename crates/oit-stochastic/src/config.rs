@@ -1,6 +1,6 @@
 //! Parameters of the two techniques, read from a validated [`TechniqueSpec`].
 
-use oit_gpu::{Allowed, ParamInfo, TechniqueSpec};
+use oit_gpu::{Allowed, ParamInfo, SpecError, TechniqueSpec};
 
 /// Where a fragment's survival threshold comes from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -135,26 +135,6 @@ pub struct A2cConfig {
     pub samples: u32,
 }
 
-/// A spec that does not describe a configuration of these techniques (only possible when a
-/// spec is built by hand instead of parsed against [`crate::techniques`]).
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-pub enum ConfigError {
-    #[error("technique spec {spec:?}: expected technique {expected:?}")]
-    WrongName {
-        spec: String,
-        expected: &'static str,
-    },
-    #[error(
-        "technique spec {spec:?}: {key} is missing or {value:?} is not allowed; allowed: {allowed}"
-    )]
-    BadValue {
-        spec: String,
-        key: &'static str,
-        value: String,
-        allowed: String,
-    },
-}
-
 pub(crate) fn stochastic_params() -> Vec<ParamInfo> {
     vec![
         ParamInfo {
@@ -191,51 +171,19 @@ pub(crate) fn a2c_params() -> Vec<ParamInfo> {
     }]
 }
 
-fn value<'s>(
-    spec: &'s TechniqueSpec,
-    key: &'static str,
-    allowed: &[&str],
-) -> Result<&'s str, ConfigError> {
-    match spec.get(key) {
-        Some(v) if allowed.contains(&v) => Ok(v),
-        other => Err(ConfigError::BadValue {
-            spec: spec.to_string(),
-            key,
-            value: other.unwrap_or("").to_owned(),
-            allowed: allowed.join(", "),
-        }),
-    }
-}
-
 impl StochasticConfig {
-    pub fn from_spec(spec: &TechniqueSpec) -> Result<Self, ConfigError> {
-        if spec.name != "stochastic" {
-            return Err(ConfigError::WrongName {
-                spec: spec.to_string(),
-                expected: "stochastic",
-            });
-        }
-        let p = value(spec, "pattern", Pattern::NAMES)?;
-        let pattern = Pattern::ALL
-            .into_iter()
-            .find(|x| x.name() == p)
-            .unwrap_or(Pattern::Blue);
-        let seed = match value(spec, "seed", Seed::NAMES)? {
-            "none" => Seed::None,
-            "primitive" => Seed::Primitive,
-            _ => Seed::Object,
-        };
-        let spp_text = spec.get("spp").unwrap_or("");
-        let spp = spp_text
-            .parse::<u32>()
-            .ok()
-            .filter(|n| (1..=MAX_SPP).contains(&u64::from(*n)))
-            .ok_or_else(|| ConfigError::BadValue {
-                spec: spec.to_string(),
-                key: "spp",
-                value: spp_text.to_owned(),
-                allowed: format!("an integer 1..={MAX_SPP}"),
-            })?;
+    pub fn from_spec(spec: &TechniqueSpec) -> Result<Self, SpecError> {
+        spec.expect_name("stochastic")?;
+        let pattern = spec.word("pattern", Pattern::NAMES, |p| {
+            Pattern::ALL.into_iter().find(|x| x.name() == p)
+        })?;
+        let seed = spec.word("seed", Seed::NAMES, |s| match s {
+            "none" => Some(Seed::None),
+            "primitive" => Some(Seed::Primitive),
+            "object" => Some(Seed::Object),
+            _ => None,
+        })?;
+        let spp = spec.integer("spp", 1, MAX_SPP)? as u32;
         Ok(StochasticConfig { pattern, seed, spp })
     }
 
@@ -255,18 +203,9 @@ impl StochasticConfig {
 }
 
 impl A2cConfig {
-    pub fn from_spec(spec: &TechniqueSpec) -> Result<Self, ConfigError> {
-        if spec.name != "a2c" {
-            return Err(ConfigError::WrongName {
-                spec: spec.to_string(),
-                expected: "a2c",
-            });
-        }
-        let samples = if value(spec, "samples", &["4", "8"])? == "8" {
-            8
-        } else {
-            4
-        };
+    pub fn from_spec(spec: &TechniqueSpec) -> Result<Self, SpecError> {
+        spec.expect_name("a2c")?;
+        let samples = spec.word("samples", &["4", "8"], |s| s.parse().ok())?;
         Ok(A2cConfig { samples })
     }
 

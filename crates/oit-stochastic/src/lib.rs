@@ -27,7 +27,7 @@ pub mod pattern;
 mod stochastic;
 
 pub use a2c::AlphaToCoverage;
-pub use config::{A2cConfig, ConfigError, MAX_SPP, Pattern, Seed, StochasticConfig};
+pub use config::{A2cConfig, MAX_SPP, Pattern, Seed, StochasticConfig};
 pub use stochastic::Stochastic;
 
 use oit_gpu::TechniqueInfo;
@@ -39,13 +39,13 @@ pub fn techniques() -> Vec<TechniqueInfo> {
             name: "stochastic",
             description: "dithered alpha test: fragments survive when alpha exceeds a white/blue-noise/Bayer/hashed threshold and are written opaque with depth; spp frames averaged",
             params: config::stochastic_params(),
-            build: |s| Box::new(Stochastic::from_spec(s)),
+            build: |s| Ok(Box::new(Stochastic::from_spec(s)?)),
         },
         TechniqueInfo {
             name: "a2c",
             description: "MSAA alpha-to-coverage: opaque writes with depth, alpha turned into a sample mask by the driver, samples resolved",
             params: config::a2c_params(),
-            build: |s| Box::new(AlphaToCoverage::from_spec(s)),
+            build: |s| Ok(Box::new(AlphaToCoverage::from_spec(s)?)),
         },
     ]
 }
@@ -53,7 +53,7 @@ pub fn techniques() -> Vec<TechniqueInfo> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use oit_gpu::TechniqueSpec;
+    use oit_gpu::{SpecError, TechniqueSpec};
 
     #[test]
     fn registry_parses_and_round_trips() {
@@ -140,17 +140,23 @@ mod tests {
             e.to_string().contains("spp") && e.to_string().contains("1..=128"),
             "{e}"
         );
-        // The technique still builds and says why it cannot run.
-        let t = Stochastic::from_spec(&spec);
-        let caps_err = t.config_error().unwrap();
-        assert!(caps_err.contains("spp"), "{caps_err}");
+        // The technique is refused at construction, not built to fail later.
+        let e = Stochastic::from_spec(&spec).unwrap_err();
+        assert!(e.to_string().contains("spp"), "{e}");
+        spec.params.remove("seed");
+        spec.params.insert("spp".into(), "3".into());
+        let e = Stochastic::from_spec(&spec).unwrap_err();
+        assert!(
+            matches!(&e, SpecError::Missing { key, .. } if key == "seed"),
+            "{e}"
+        );
         let wrong = TechniqueSpec {
             name: "a2c".into(),
             params: Default::default(),
         };
         assert!(matches!(
             StochasticConfig::from_spec(&wrong),
-            Err(ConfigError::WrongName { .. })
+            Err(SpecError::WrongTechnique { .. })
         ));
         let e = A2cConfig::from_spec(&wrong).unwrap_err();
         assert!(e.to_string().contains("samples"), "{e}");

@@ -1,6 +1,6 @@
 //! `stochastic:pattern=…,seed=…,spp=N`: dithered alpha testing, optionally averaged over frames.
 
-use crate::config::{ConfigError, Pattern, Seed, StochasticConfig};
+use crate::config::{Pattern, Seed, StochasticConfig};
 use crate::gpu;
 use crate::pattern;
 use oit_gpu::bind;
@@ -8,7 +8,7 @@ use oit_gpu::pass;
 use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, RenderStats, ScenePipelineDesc,
-    ScenePipelines, Targets, Technique, TechniqueSpec, Unsupported,
+    ScenePipelines, SpecError, Targets, Technique, TechniqueSpec, Unsupported,
 };
 use oit_scene::Resolution;
 
@@ -30,7 +30,7 @@ const HALF_SUM_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 /// The `stochastic` technique.
 #[derive(Debug)]
 pub struct Stochastic {
-    config: Result<StochasticConfig, ConfigError>,
+    config: StochasticConfig,
     gpu: Option<Resources>,
     ledger: MemoryLedger,
     /// Use the half-float running mean even where Rgba32Float is renderable.
@@ -65,22 +65,16 @@ struct FrameResources {
 impl Stochastic {
     pub fn new(config: StochasticConfig) -> Self {
         Stochastic {
-            config: Ok(config),
+            config,
             gpu: None,
             ledger: MemoryLedger::new(),
             force_half_sums: false,
         }
     }
 
-    /// Builds from a spec; a spec that is not a valid configuration gives a technique whose
-    /// `check` reports why (specs parsed against [`crate::techniques`] are always valid).
-    pub fn from_spec(spec: &TechniqueSpec) -> Self {
-        Stochastic {
-            config: StochasticConfig::from_spec(spec),
-            gpu: None,
-            ledger: MemoryLedger::new(),
-            force_half_sums: false,
-        }
+    /// Refuses a spec that does not describe a stochastic configuration.
+    pub fn from_spec(spec: &TechniqueSpec) -> Result<Self, SpecError> {
+        Ok(Self::new(StochasticConfig::from_spec(spec)?))
     }
 
     /// Averages frames as a running mean in Rgba16Float (what adapters that cannot render
@@ -100,13 +94,8 @@ impl Stochastic {
         }
     }
 
-    /// The configuration error, if the spec was not valid.
-    pub fn config_error(&self) -> Option<String> {
-        self.config.as_ref().err().map(ToString::to_string)
-    }
-
-    pub fn config(&self) -> Option<StochasticConfig> {
-        self.config.as_ref().ok().copied()
+    pub fn config(&self) -> StochasticConfig {
+        self.config
     }
 
     /// The per-frame uniform entries (`struct Dither` at `stride`-byte offsets).
@@ -440,20 +429,11 @@ pub(crate) fn table_len(pattern: Pattern) -> usize {
 
 impl Technique for Stochastic {
     fn spec(&self) -> TechniqueSpec {
-        match &self.config {
-            Ok(c) => c.spec(),
-            Err(_) => TechniqueSpec {
-                name: "stochastic".into(),
-                params: Default::default(),
-            },
-        }
+        self.config.spec()
     }
 
     fn check(&self, caps: &Caps) -> Result<(), Unsupported> {
-        let config = self
-            .config
-            .as_ref()
-            .map_err(|e| Unsupported::new(format!("the spec is invalid: {e}")))?;
+        let config = self.config;
         if caps.max_storage_buffers_per_shader_stage == 0 {
             return Err(Unsupported::new(
                 "the adapter has no storage buffers in vertex shaders (scene materials)",
@@ -480,9 +460,7 @@ impl Technique for Stochastic {
         targets: &Targets,
         timer: &mut GpuTimer,
     ) -> Result<RenderStats, GpuError> {
-        let config = *self.config.as_ref().map_err(|e| {
-            GpuError::Unsupported(Unsupported::new(format!("the spec is invalid: {e}")))
-        })?;
+        let config = self.config;
         self.prepare(ctx, scene, targets, &config)?;
         let r = self.gpu.as_ref().expect("resources prepared above");
         let order = gpu::reversed_transparent_draws(scene);

@@ -591,8 +591,10 @@ fn half_float_running_mean_agrees_with_f32_sum() {
         &oit_stochastic::techniques(),
     )
     .expect("spec");
-    let mut full = oit_stochastic::Stochastic::from_spec(&spec);
-    let mut half = oit_stochastic::Stochastic::from_spec(&spec).with_half_float_sums();
+    let mut full = oit_stochastic::Stochastic::from_spec(&spec).expect("valid spec");
+    let mut half = oit_stochastic::Stochastic::from_spec(&spec)
+        .expect("valid spec")
+        .with_half_float_sums();
     assert_eq!(half.sum_format(&ctx.caps), wgpu::TextureFormat::Rgba16Float);
     let a = bench.render_with(&mut full);
     let b = bench.render_with(&mut half);

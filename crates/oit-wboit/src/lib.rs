@@ -48,13 +48,13 @@ pub fn techniques() -> Vec<TechniqueInfo> {
                     allowed: Allowed::Values(tail::RevealFormat::NAMES),
                 },
             ],
-            build: |spec| Box::new(Wboit::new(Config::from_spec(spec))),
+            build: |spec| Ok(Box::new(Wboit::new(Config::from_spec(spec)?))),
         },
         TechniqueInfo {
             name: "weighted-average",
             description: "weighted average (Bavoil & Myers 2008): (sum C, sum alpha) and a fragment count n, T = (1 - sum alpha / n)^n",
             params: Vec::new(),
-            build: |_| Box::new(Wboit::new(Config::Average)),
+            build: |spec| Ok(Box::new(Wboit::new(Config::from_spec(spec)?))),
         },
     ]
 }
@@ -82,7 +82,19 @@ mod tests {
             "wboit:accum=rgba32f,reveal=r8,weight=eq7"
         );
         let defaults = TechniqueSpec::parse("wboit", &registry).unwrap();
-        assert_eq!(Config::from_spec(&defaults), Config::DEFAULT);
+        assert_eq!(Config::from_spec(&defaults), Ok(Config::DEFAULT));
+        // A hand-built spec with a missing or unknown value is refused, not defaulted.
+        let mut bad = defaults.clone();
+        bad.params.insert("weight".into(), "eq11".into());
+        let e = Config::from_spec(&bad).unwrap_err();
+        assert!(
+            e.to_string().contains("weight") && e.to_string().contains("eq10"),
+            "{e}"
+        );
+        bad.params.remove("weight");
+        assert!((registry[0].build)(&bad).is_err());
+        bad.name = "front-peel".into();
+        assert!(Config::from_spec(&bad).is_err());
         let t = TechniqueSpec::build("weighted-average", &registry).unwrap();
         assert_eq!(t.spec().to_string(), "weighted-average");
         let e = TechniqueSpec::parse("wboit:weight=eq11", &registry).unwrap_err();

@@ -8,7 +8,7 @@ use oit_gpu::pass;
 use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, RenderStats, ScenePipelineDesc,
-    ScenePipelines, Targets, Technique, TechniqueSpec, Unsupported, depth_test,
+    ScenePipelines, SpecError, Targets, Technique, TechniqueSpec, Unsupported, depth_test,
 };
 
 /// The accumulation pass (shaders/wboit_accum.wgsl; includes common.wgsl and the tail).
@@ -151,26 +151,17 @@ impl Config {
         }
     }
 
-    /// From a spec already validated against [`crate::techniques`]; unknown values fall back to
-    /// the defaults (they cannot occur after validation).
-    pub fn from_spec(spec: &TechniqueSpec) -> Config {
+    /// Refuses a spec that is neither `wboit` with every parameter nor `weighted-average`.
+    pub fn from_spec(spec: &TechniqueSpec) -> Result<Config, SpecError> {
         if spec.name == "weighted-average" {
-            return Config::Average;
+            return Ok(Config::Average);
         }
-        Config::Weighted {
-            weight: spec
-                .get("weight")
-                .and_then(Weight::parse)
-                .unwrap_or(Weight::Range),
-            accum: spec
-                .get("accum")
-                .and_then(AccumFormat::parse)
-                .unwrap_or(tail::DEFAULT_ACCUM),
-            reveal: spec
-                .get("reveal")
-                .and_then(RevealFormat::parse)
-                .unwrap_or(tail::DEFAULT_REVEAL),
-        }
+        spec.expect_name("wboit")?;
+        Ok(Config::Weighted {
+            weight: spec.word("weight", Weight::NAMES, Weight::parse)?,
+            accum: spec.word("accum", AccumFormat::NAMES, AccumFormat::parse)?,
+            reveal: spec.word("reveal", RevealFormat::NAMES, RevealFormat::parse)?,
+        })
     }
 
     fn formats(&self) -> (CompositeMode, AccumFormat, RevealFormat) {
