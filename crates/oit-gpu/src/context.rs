@@ -132,6 +132,10 @@ pub struct Caps {
     /// Per-format features beyond the WebGPU baseline are usable.
     pub adapter_specific_format_features: bool,
     pub dual_source_blending: bool,
+    /// `SHADER_INT64` with `SHADER_INT64_ATOMIC_ALL_OPS`: 64-bit storage atomics whose result
+    /// the shader may read (a k-buffer's `atomicMin` insertion needs the old value). Vulkan and
+    /// DX12 only; never GL.
+    pub int64_atomics: bool,
     pub max_texture_dimension_2d: u32,
     pub max_color_attachments: u32,
     pub max_color_attachment_bytes_per_sample: u32,
@@ -160,6 +164,8 @@ impl Caps {
             adapter_specific_format_features: features
                 .contains(Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES),
             dual_source_blending: features.contains(Features::DUAL_SOURCE_BLENDING),
+            int64_atomics: features
+                .contains(Features::SHADER_INT64 | Features::SHADER_INT64_ATOMIC_ALL_OPS),
             max_texture_dimension_2d: limits.max_texture_dimension_2d,
             max_color_attachments: limits.max_color_attachments,
             max_color_attachment_bytes_per_sample: limits.max_color_attachment_bytes_per_sample,
@@ -287,7 +293,9 @@ const WANTED_FEATURES: Features = Features::FLOAT32_BLENDABLE
     .union(Features::TIMESTAMP_QUERY_INSIDE_PASSES)
     .union(Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES)
     .union(Features::DUAL_SOURCE_BLENDING)
-    .union(Features::DEPTH32FLOAT_STENCIL8);
+    .union(Features::DEPTH32FLOAT_STENCIL8)
+    .union(Features::SHADER_INT64)
+    .union(Features::SHADER_INT64_ATOMIC_ALL_OPS);
 
 /// The GPU: adapter, device, queue and what they can do.
 #[derive(Debug)]
