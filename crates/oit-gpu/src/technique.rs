@@ -19,6 +19,9 @@ pub struct RenderStats {
     pub layers_peeled: u64,
     /// Pixels where a bounded technique dropped at least one transparent layer.
     pub pixels_with_dropped_layers: u64,
+    /// Pixels where a bounded technique composited some layers by an approximate rule (e.g. a
+    /// linked list's averaged tail behind its sort window) instead of dropping them.
+    pub pixels_with_approximated_layers: u64,
 }
 
 /// A transparency technique. It renders the transparent draws of a [`GpuScene`] over the opaque

@@ -146,6 +146,10 @@ pub struct Stats {
     pub geometry_passes: u32,
     pub layers_peeled: u64,
     pub pixels_with_dropped_layers: u64,
+    /// Pixels where some layers were composited by an approximate tail rule (absent in
+    /// results written before the field existed).
+    #[serde(default)]
+    pub pixels_with_approximated_layers: u64,
 }
 
 /// Files written for one run, relative to the output directory.
@@ -242,6 +246,12 @@ impl Stats {
             out.push(format!(
                 "dropped layers on {} px",
                 self.pixels_with_dropped_layers
+            ));
+        }
+        if self.pixels_with_approximated_layers > 0 {
+            out.push(format!(
+                "tail approximated on {} px",
+                self.pixels_with_approximated_layers
             ));
         }
         out

@@ -253,6 +253,7 @@ fn run_one(
         geometry_passes: frame.geometry_passes,
         layers_peeled: frame.layers_peeled,
         pixels_with_dropped_layers: frame.pixels_with_dropped_layers,
+        pixels_with_approximated_layers: frame.pixels_with_approximated_layers,
     };
     Ok(Run {
         scene: scene.name.clone(),

@@ -1,0 +1,296 @@
+//! The node formats and the tail rule, line-comparable with shaders/linked_list_node.wgsl: tests
+//! predict the GPU's composite from these.
+
+/// Largest rgb9e5 value ((511/512) · 2^16).
+pub const RGB9E5_MAX: f32 = 65408.0;
+const UNORM24_MAX: f32 = 16_777_215.0;
+
+/// How a stored fragment is packed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum NodeFormat {
+    /// 16 B: the window depth's f32 bits, premultiplied colour and α as binary16.
+    F32,
+    /// 12 B (Bevy's layout): unorm24 depth with unorm8 α in one word, rgb9e5 colour.
+    Packed,
+}
+
+impl NodeFormat {
+    pub const NAMES: &'static [&'static str] = &["f32", "packed"];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            NodeFormat::F32 => "f32",
+            NodeFormat::Packed => "packed",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<Self> {
+        match s {
+            "f32" => Some(NodeFormat::F32),
+            "packed" => Some(NodeFormat::Packed),
+            _ => None,
+        }
+    }
+
+    /// Bytes of one node in the pool (the `next` index included).
+    pub fn bytes(self) -> u64 {
+        match self {
+            NodeFormat::F32 => 16,
+            NodeFormat::Packed => 12,
+        }
+    }
+}
+
+/// A node in registers: `key` orders front to back (smaller is nearer), ties by `c0`, `c1`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub struct Node {
+    pub key: u32,
+    pub c0: u32,
+    pub c1: u32,
+}
+
+/// What a node decodes to: premultiplied colour and coverage.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Fragment {
+    pub color: [f32; 3],
+    pub alpha: f32,
+}
+
+fn ldexp(x: f32, e: i32) -> f32 {
+    x * 2f32.powi(e)
+}
+
+/// Shared-exponent RGB with the exponent from the f32 bits (no log2 rounding).
+pub fn pack_rgb9e5(c: [f32; 3]) -> u32 {
+    let rc = c.map(|x| x.clamp(0.0, RGB9E5_MAX));
+    let m = rc[0].max(rc[1].max(rc[2]));
+    let e_floor = (((m.to_bits() >> 23) & 0xff) as i32 - 127).max(-16);
+    let mut e_shared = e_floor + 16;
+    let mut scale = ldexp(1.0, 24 - e_shared);
+    if (m * scale + 0.5).floor() >= 512.0 {
+        e_shared += 1;
+        scale *= 0.5;
+    }
+    let q = rc.map(|x| (x * scale + 0.5).floor() as u32);
+    q[0] | (q[1] << 9) | (q[2] << 18) | ((e_shared as u32) << 27)
+}
+
+pub fn unpack_rgb9e5(w: u32) -> [f32; 3] {
+    let scale = ldexp(1.0, (w >> 27) as i32 - 24);
+    [w & 511, (w >> 9) & 511, (w >> 18) & 511].map(|q| q as f32 * scale)
+}
+
+fn pack2x16float(a: f32, b: f32) -> u32 {
+    u32::from(half::f16::from_f32(a).to_bits())
+        | (u32::from(half::f16::from_f32(b).to_bits()) << 16)
+}
+
+fn unpack2x16float(w: u32) -> [f32; 2] {
+    [
+        half::f16::from_bits(w as u16).to_f32(),
+        half::f16::from_bits((w >> 16) as u16).to_f32(),
+    ]
+}
+
+pub fn pack_node(format: NodeFormat, color: [f32; 3], alpha: f32, z: f32, reverse_z: bool) -> Node {
+    match format {
+        NodeFormat::Packed => {
+            let mut d = (z.clamp(0.0, 1.0) * UNORM24_MAX + 0.5) as u32;
+            if reverse_z {
+                d = 16_777_215 - d;
+            }
+            Node {
+                key: (d << 8) | (alpha.clamp(0.0, 1.0) * 255.0 + 0.5) as u32,
+                c0: pack_rgb9e5(color),
+                c1: 0,
+            }
+        }
+        NodeFormat::F32 => {
+            // +0 for -0: the sign bit would sort it farthest.
+            let mut bits = z.to_bits() & 0x7fff_ffff;
+            if reverse_z {
+                bits = !bits;
+            }
+            Node {
+                key: bits,
+                c0: pack2x16float(color[0], color[1]),
+                c1: pack2x16float(color[2], alpha),
+            }
+        }
+    }
+}
+
+pub fn unpack_node(format: NodeFormat, n: Node) -> Fragment {
+    match format {
+        NodeFormat::Packed => Fragment {
+            color: unpack_rgb9e5(n.c0),
+            alpha: (n.key & 255) as f32 / 255.0,
+        },
+        NodeFormat::F32 => {
+            let rg = unpack2x16float(n.c0);
+            let ba = unpack2x16float(n.c1);
+            Fragment {
+                color: [rg[0], rg[1], ba[0]],
+                alpha: ba[1],
+            }
+        }
+    }
+}
+
+/// Fragments behind the sort window, composited as one layer: coverage 1 − Π(1 − α) exactly,
+/// colour the α-weighted average of their colours.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Tail {
+    pub color: [f32; 3],
+    pub alpha_sum: f32,
+    pub transmittance: f32,
+    pub count: u32,
+}
+
+impl Tail {
+    pub const EMPTY: Tail = Tail {
+        color: [0.0; 3],
+        alpha_sum: 0.0,
+        transmittance: 1.0,
+        count: 0,
+    };
+
+    pub fn with(self, f: Fragment) -> Tail {
+        Tail {
+            color: [0, 1, 2].map(|i| self.color[i] + f.color[i]),
+            alpha_sum: self.alpha_sum + f.alpha,
+            transmittance: self.transmittance * (1.0 - f.alpha),
+            count: self.count + 1,
+        }
+    }
+
+    pub fn resolve(self) -> Fragment {
+        let alpha = 1.0 - self.transmittance;
+        let color = if self.alpha_sum > 0.0 {
+            self.color.map(|c| c * (alpha / self.alpha_sum))
+        } else {
+            [0.0; 3]
+        };
+        Fragment { color, alpha }
+    }
+}
+
+/// The resolve of one pixel's fragments (`fs_resolve`): the `sort_max` nearest composited front
+/// to back, the rest by the tail rule (`None`: dropped). Returns premultiplied colour and
+/// transmittance, and whether the tail was used.
+pub fn resolve(
+    format: NodeFormat,
+    nodes: &[Node],
+    sort_max: usize,
+    average_tail: bool,
+) -> ([f32; 3], f32, bool) {
+    let mut sorted = nodes.to_vec();
+    sorted.sort();
+    let (window, rest) = sorted.split_at(sort_max.min(sorted.len()));
+    let mut c = [0.0f32; 3];
+    let mut t = 1.0f32;
+    for n in window {
+        let f = unpack_node(format, *n);
+        c = [0, 1, 2].map(|i| c[i] + t * f.color[i]);
+        t *= 1.0 - f.alpha;
+    }
+    if average_tail && !rest.is_empty() {
+        let tail = rest
+            .iter()
+            .fold(Tail::EMPTY, |acc, n| acc.with(unpack_node(format, *n)));
+        let f = tail.resolve();
+        c = [0, 1, 2].map(|i| c[i] + t * f.color[i]);
+        t *= 1.0 - f.alpha;
+    }
+    (c, t, !rest.is_empty())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    #[test]
+    fn rgb9e5_known_values() {
+        assert_eq!(unpack_rgb9e5(pack_rgb9e5([0.0; 3])), [0.0; 3]);
+        assert_eq!(
+            unpack_rgb9e5(pack_rgb9e5([1.0, 0.5, 0.25])),
+            [1.0, 0.5, 0.25]
+        );
+        assert_eq!(unpack_rgb9e5(pack_rgb9e5([RGB9E5_MAX; 3])), [RGB9E5_MAX; 3]);
+        // Above the largest value clamps; negative colour clamps to 0 (premultiplied colours of
+        // the rendering model are never negative).
+        assert_eq!(
+            unpack_rgb9e5(pack_rgb9e5([1e9, -1.0, 0.0]))[..2],
+            [RGB9E5_MAX, 0.0]
+        );
+        // 511.5/512 rounds up into the next exponent.
+        let w = pack_rgb9e5([1.0 - 1.0 / 1024.0, 0.0, 0.0]);
+        assert_eq!(unpack_rgb9e5(w)[0], 1.0);
+    }
+
+    proptest! {
+        #[test]
+        fn rgb9e5_error_is_bounded_by_half_a_step_of_the_largest_channel(
+            r in 0.0f32..60000.0, g in 0.0f32..1.0, b in 0.0f32..4.0, scale in -20i32..0
+        ) {
+            let c = [r, g, b].map(|x| x * 2f32.powi(scale));
+            let m = c[0].max(c[1]).max(c[2]);
+            let d = unpack_rgb9e5(pack_rgb9e5(c));
+            // One step is m / 256 at worst (the mantissa of the largest channel is ≥ 256);
+            // below 2^-16 the smallest exponent's step 2^-24 applies.
+            let step = (m / 256.0).max(2f32.powi(-24));
+            for i in 0..3 {
+                prop_assert!((d[i] - c[i]).abs() <= 0.5 * step * 1.0001, "{c:?} -> {d:?}");
+            }
+        }
+
+        #[test]
+        fn keys_order_nodes_as_depth_does(z1 in 0.0f32..=1.0, z2 in 0.0f32..=1.0, reverse in any::<bool>()) {
+            for format in [NodeFormat::F32, NodeFormat::Packed] {
+                let a = pack_node(format, [0.5; 3], 0.5, z1, reverse);
+                let b = pack_node(format, [0.5; 3], 0.5, z2, reverse);
+                let a_nearer = if reverse { z1 > z2 } else { z1 < z2 };
+                if format == NodeFormat::F32 {
+                    prop_assert_eq!(a.key < b.key, a_nearer);
+                } else {
+                    // 24-bit depth: nearer never sorts farther (equal keys may tie).
+                    prop_assert!(!a_nearer || a.key <= b.key);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn negative_zero_sorts_as_zero() {
+        let a = pack_node(NodeFormat::F32, [0.0; 3], 0.5, -0.0, false);
+        let b = pack_node(NodeFormat::F32, [0.0; 3], 0.5, 1e-30, false);
+        assert!(a.key < b.key);
+    }
+
+    #[test]
+    fn resolve_composites_front_to_back_and_averages_the_tail() {
+        let f = NodeFormat::F32;
+        let near = pack_node(f, [0.5, 0.0, 0.0], 0.5, 0.2, false);
+        let mid = pack_node(f, [0.0, 0.25, 0.0], 0.25, 0.5, false);
+        let far = pack_node(f, [0.0, 0.0, 0.75], 0.75, 0.8, false);
+        // Any arrival order gives the same result.
+        let (c, t, tail) = resolve(f, &[far, near, mid], 3, true);
+        assert_eq!(resolve(f, &[mid, far, near], 3, true), (c, t, tail));
+        assert!(!tail);
+        assert_eq!(c, [0.5, 0.5 * 0.25, 0.5 * 0.75 * 0.75]);
+        assert_eq!(t, 0.5 * 0.75 * 0.25);
+        // Window of 1: the two far layers become one averaged layer with exact coverage.
+        let (c1, t1, tail1) = resolve(f, &[far, near, mid], 1, true);
+        assert!(tail1);
+        assert_eq!(t1, t);
+        let cov = 1.0 - 0.75 * 0.25;
+        let expect = [0.5, 0.5 * 0.25 / 1.0 * cov, 0.5 * 0.75 / 1.0 * cov];
+        for i in 0..3 {
+            assert!((c1[i] - expect[i]).abs() < 1e-6, "{c1:?} vs {expect:?}");
+        }
+        // Dropped: only the nearest remains.
+        let (c2, t2, _) = resolve(f, &[far, near, mid], 1, false);
+        assert_eq!((c2, t2), ([0.5, 0.0, 0.0], 0.5));
+    }
+}
