@@ -889,8 +889,10 @@ mod tests {
     /// Monotone non-increasing in depth, in [0, 1], on stacks of 2-8 layers with mixed
     /// alphas, on 32 layers of α = 0.99 (absorbance 4.6 each), a 256-layer α = 1/512 haze and
     /// layers from a 1e7 depth range through the log warp (two of them 0.05 % apart). Measured
-    /// worst increase: below 1e-4 for fp32 bias, 3e-3 for fp16 bias (the bound is monotone in
-    /// exact arithmetic; increases are f32 rounding in the factorisation).
+    /// worst increase over a 201-step sweep: power moments 1.2e-7 (f32 rounding; bound 1e-6);
+    /// trigonometric moments 2.6e-2 on the mixed stacks and 6.9e-2 (trig3) on the 1e7 stack,
+    /// whose nearest and farthest layers sit on either side of the wrapping zone, 0.1π apart
+    /// on the circle: the root weights change with the query there (bound 8e-2).
     #[test]
     fn monotone_bounded_and_finite_on_hard_stacks() {
         let mut stacks: Vec<Vec<(f32, f32)>> = Vec::new();
@@ -918,7 +920,7 @@ mod tests {
                 .collect(),
         );
         for r in all_resolves() {
-            let tol = if r.moment_bias > 1e-5 { 5e-3 } else { 2e-4 };
+            let tol = if r.kind.is_trig() { 8e-2 } else { 1e-6 };
             for stack in &stacks {
                 let (b0, b) = sums(r.kind, stack);
                 let worst = worst_increase(&r, b0, &b);
