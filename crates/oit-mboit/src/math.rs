@@ -11,6 +11,12 @@
 //! query), interpolate those weights with a polynomial and take its expectation under the
 //! moments. The expectation is the absorbance in front of the query as a fraction of b0.
 
+#![allow(
+    clippy::needless_range_loop,
+    clippy::manual_swap,
+    reason = "indexed loops and swaps written as in the WGSL, to stay line-comparable with it"
+)]
+
 use glam::Vec2;
 
 /// Absorbance A = −ln(1 − α) of one fragment is clamped to this (α → 1 would be infinite).
@@ -121,18 +127,12 @@ pub fn bias(kind: MomentKind, storage: Storage) -> (f32, [f32; 8]) {
     match (storage, kind) {
         (Storage::F32, Power4) => (5e-7, [0.0, 0.375, 0.0, 0.375, 0.0, 0.0, 0.0, 0.0]),
         (Storage::F32, Power6) => (5e-6, [0.0, 0.48, 0.0, 0.451, 0.0, 0.45, 0.0, 0.0]),
-        (Storage::F32, Power8) => (
-            5e-5,
-            [0.0, 0.75, 0.0, 0.676667, 0.0, 0.63, 0.0, 0.600303],
-        ),
+        (Storage::F32, Power8) => (5e-5, [0.0, 0.75, 0.0, 0.676667, 0.0, 0.63, 0.0, 0.600303]),
         (Storage::F32, Trig2) => (4e-7, [0.0; 8]),
         (Storage::F32, Trig3) => (8e-7, [0.0; 8]),
         (Storage::F32, Trig4) => (1.5e-6, [0.0; 8]),
         (Storage::F16, Power4) => (6e-5, [0.0, 0.628, 0.0, 0.628, 0.0, 0.0, 0.0, 0.0]),
-        (Storage::F16, Power6) => (
-            6e-4,
-            [0.0, 0.5566, 0.0, 0.489, 0.0, 0.47869382, 0.0, 0.0],
-        ),
+        (Storage::F16, Power6) => (6e-4, [0.0, 0.5566, 0.0, 0.489, 0.0, 0.478_693_8, 0.0, 0.0]),
         (Storage::F16, Power8) => (
             2.5e-3,
             [0.0, 0.424749, 0.0, 0.224078, 0.0, 0.153692, 0.0, 0.129004],
@@ -337,7 +337,12 @@ pub fn solve_quartic(c0: f32, c1: f32, c2: f32, c3: f32, c4: f32) -> [f32; 4] {
     let b = c2 / c4;
     let c = c1 / c4;
     let d = c0 / c4;
-    let ys = solve_cubic(c * c + a * a * d - a * b * c, b * b + a * c - 4.0 * d, -2.0 * b, 1.0);
+    let ys = solve_cubic(
+        c * c + a * a * d - a * b * c,
+        b * b + a * c - 4.0 * d,
+        -2.0 * b,
+        1.0,
+    );
     let y = ys[0].min(ys[1]).min(ys[2]);
     let s = (a * a - 4.0 * y).max(0.0).sqrt();
     let mut big_g = 0.5 * (a + s);
@@ -610,7 +615,13 @@ fn absorbance_power(n: usize, m: &[f32; 9], zw: f32, overestimation: f32) -> f32
 
 /// Fraction of b0 absorbed in front of warped depth `zw` from trigonometric moments
 /// t[k] = b_k/b0 (t[0] = 1, biased), Toeplitz order n.
-fn absorbance_trig(n: usize, t: &[Vec2; 5], zw: f32, overestimation: f32, wrapping: [f32; 4]) -> f32 {
+fn absorbance_trig(
+    n: usize,
+    t: &[Vec2; 5],
+    zw: f32,
+    overestimation: f32,
+    wrapping: [f32; 4],
+) -> f32 {
     // LDLᴴ of the Hermitian Toeplitz matrix B[i][j] = t[i − j] (t[−k] = conj t[k]).
     let mut l = [[Vec2::ZERO; 5]; 5];
     let mut dg = [0.0f32; 5];
@@ -752,7 +763,10 @@ mod tests {
     fn real_solvers_find_known_roots() {
         // (x − 0.3)(x + 0.7) = x² + 0.4x − 0.21, scaled by 3.
         let r = sorted(solve_quadratic(-0.63, 1.2, 3.0));
-        assert!((r[0] + 0.7).abs() < 1e-6 && (r[1] - 0.3).abs() < 1e-6, "{r:?}");
+        assert!(
+            (r[0] + 0.7).abs() < 1e-6 && (r[1] - 0.3).abs() < 1e-6,
+            "{r:?}"
+        );
         // 2(x + 0.9)(x − 0.1)(x − 0.8) = 2x³ − 0.66x − 0.144·… expanded below.
         let roots = [-0.9f32, 0.1, 0.8];
         let (e1, e2, e3) = (0.0f32, -0.9 * 0.1 - 0.9 * 0.8 + 0.1 * 0.8, -0.9 * 0.1 * 0.8);
@@ -924,7 +938,11 @@ mod tests {
             for stack in &stacks {
                 let (b0, b) = sums(r.kind, stack);
                 let worst = worst_increase(&r, b0, &b);
-                assert!(worst <= tol, "{r:?} {} layers: increase {worst}", stack.len());
+                assert!(
+                    worst <= tol,
+                    "{r:?} {} layers: increase {worst}",
+                    stack.len()
+                );
             }
         }
     }

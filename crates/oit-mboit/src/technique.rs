@@ -294,7 +294,14 @@ impl Mboit {
                 .enumerate()
                 .map(|(i, &f)| {
                     ledger
-                        .create_texture_2d(&ctx.device, &format!("mboit moments {i}"), res, f, usage, 1)
+                        .create_texture_2d(
+                            &ctx.device,
+                            &format!("mboit moments {i}"),
+                            res,
+                            f,
+                            usage,
+                            1,
+                        )
                         .create_view(&Default::default())
                 })
                 .collect();
@@ -358,8 +365,12 @@ impl Mboit {
                     write_mask: wgpu::ColorWrites::ALL,
                 })
             };
-            let mut moment_targets: Vec<Option<wgpu::ColorTargetState>> =
-                self.config.moment_formats().into_iter().map(additive).collect();
+            let mut moment_targets: Vec<Option<wgpu::ColorTargetState>> = self
+                .config
+                .moment_formats()
+                .into_iter()
+                .map(additive)
+                .collect();
             moment_targets.resize(3, None);
             let layout = |label, groups: &[Option<&wgpu::BindGroupLayout>]| {
                 ctx.device
@@ -408,7 +419,11 @@ impl Mboit {
         Ok(())
     }
 
-    fn composite_pipeline(&mut self, ctx: &Context, format: wgpu::TextureFormat) -> wgpu::RenderPipeline {
+    fn composite_pipeline(
+        &mut self,
+        ctx: &Context,
+        format: wgpu::TextureFormat,
+    ) -> wgpu::RenderPipeline {
         if let Some((f, p)) = &self.composite
             && *f == format
         {
@@ -526,7 +541,13 @@ impl Technique for Mboit {
                 .map(|v| pass::color(v, clear))
                 .collect();
             attachments.resize(3, None);
-            let mut p = pass::begin(&mut encoder, "mboit moments", &attachments, depth(), ts.writes());
+            let mut p = pass::begin(
+                &mut encoder,
+                "mboit moments",
+                &attachments,
+                depth(),
+                ts.writes(),
+            );
             scene.bind(&mut p);
             p.set_bind_group(1, &shared.params_group, &[]);
             for &i in &draws {
@@ -539,7 +560,13 @@ impl Technique for Mboit {
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         {
             let attachments = [pass::color(&pixels.accum_view, clear)];
-            let mut p = pass::begin(&mut encoder, "mboit resolve", &attachments, depth(), ts.writes());
+            let mut p = pass::begin(
+                &mut encoder,
+                "mboit resolve",
+                &attachments,
+                depth(),
+                ts.writes(),
+            );
             scene.bind(&mut p);
             p.set_bind_group(1, &shared.params_group, &[]);
             p.set_bind_group(2, &pixels.resolve_group, &[]);

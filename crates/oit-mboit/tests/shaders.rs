@@ -33,14 +33,23 @@ fn passes_and_composite_validate() {
     validate("mboit_math.wgsl", oit_mboit::MATH_WGSL);
     for (name, value) in [
         ("MBOIT_MAX_ABSORBANCE", oit_mboit::math::MAX_ABSORBANCE),
-        ("MBOIT_MAX_TRANSMITTANCE", oit_mboit::math::MAX_TRANSMITTANCE),
+        (
+            "MBOIT_MAX_TRANSMITTANCE",
+            oit_mboit::math::MAX_TRANSMITTANCE,
+        ),
         ("MBOIT_MIN_B0", oit_mboit::math::MIN_B0),
     ] {
         let line = oit_mboit::MATH_WGSL
             .lines()
             .find(|l| l.starts_with(&format!("const {name}: f32 = ")))
             .unwrap_or_else(|| panic!("{name} missing"));
-        let v: f32 = line.rsplit(' ').next().unwrap().trim_end_matches(';').parse().unwrap();
+        let v: f32 = line
+            .rsplit(' ')
+            .next()
+            .unwrap()
+            .trim_end_matches(';')
+            .parse()
+            .unwrap();
         assert_eq!(v, value, "{name}");
     }
 }
