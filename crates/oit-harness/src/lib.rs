@@ -56,6 +56,7 @@ pub fn registry() -> Vec<TechniqueInfo> {
     all.extend(oit_peel::techniques());
     all.extend(oit_wboit::techniques());
     all.extend(oit_stochastic::techniques());
+    all.extend(oit_mboit::techniques());
     all.extend(oit_linked_list::techniques());
     all
 }
