@@ -1,0 +1,132 @@
+// k-buffer on 64-bit atomics (NVIDIA's "Loop64"): one geometry pass keeps each pixel's K
+// nearest fragments, sorted, in K u64 slots; the fragment a full pixel pushes out (the farthest
+// of the K + 1) goes to the tail targets by hardware blending. Needs
+// SHADER_INT64_ATOMIC_ALL_OPS: the insertion reads the value atomicMax returns.
+//
+// A slot is (nearness | unorm8 α) << 32 | rgb9e5 premultiplied colour, where nearness is the f32
+// bits of the distance from the far plane in window depth (z under reverse-Z, 1 − z otherwise,
+// exact for z ≥ 0.5) with the low 8 mantissa bits replaced by α: larger is nearer, to 2^-15 of
+// the value, and the cleared value 0 is "empty" (every stored fragment is strictly nearer than
+// the far plane, so its nearness is > 0).
+#include "common.wgsl"
+#include "linked_list_node.wgsl"
+
+struct KParams {
+    width: u32,
+    k: u32,
+    // 1 when window depth 1 is near.
+    reverse_z: u32,
+    // 0 drop, 1 average.
+    tail: u32,
+}
+
+@group(1) @binding(0) var<uniform> params: KParams;
+@group(1) @binding(1) var<storage, read_write> slots: array<atomic<u64>>;
+// [0] pixels that dropped a tail; [1] pixels whose tail was averaged.
+@group(1) @binding(2) var<storage, read_write> counters: array<atomic<u32>, 4>;
+@group(1) @binding(3) var opaque_depth: texture_2d<f32>;
+// Resolve only: (Σ C, Σ α) and Π(1 − α) of the tail.
+@group(1) @binding(4) var tail_sum: texture_2d<f32>;
+@group(1) @binding(5) var tail_transmittance: texture_2d<f32>;
+
+fn nearer(z: f32, than: f32) -> bool {
+    if params.reverse_z != 0u {
+        return z > than;
+    }
+    return z < than;
+}
+
+fn to_slot(color: vec3<f32>, alpha: f32, z: f32) -> u64 {
+    var d = 1.0 - z;
+    if params.reverse_z != 0u {
+        d = z;
+    }
+    let a8 = u32(clamp(alpha, 0.0, 1.0) * 255.0 + 0.5);
+    let hi = (bitcast<u32>(d) & 0xFFFFFF00u) | a8;
+    return (u64(hi) << 32u) | u64(pack_rgb9e5(color));
+}
+
+fn from_slot(s: u64) -> Fragment {
+    var f: Fragment;
+    f.color = unpack_rgb9e5(u32(s & 0xFFFFFFFFlu));
+    f.alpha = f32(u32(s >> 32u) & 255u) / 255.0;
+    return f;
+}
+
+struct TailOut {
+    // Added: (C, α) of the fragment pushed out, or 0.
+    @location(0) sum: vec4<f32>,
+    // Multiplied in as (1 − src): α of the fragment pushed out, or 0.
+    @location(1) transmittance: vec4<f32>,
+}
+
+// The opaque test is the shader's own (the pass has no depth attachment): the atomics are side
+// effects, which a late depth test would not undo.
+@fragment
+fn fs_insert(v: VertexOut, @builtin(front_facing) front_facing: bool) -> TailOut {
+    let s = shade(v, front_facing);
+    let px = vec2<u32>(v.clip.xy);
+    let z = v.clip.z;
+    if !s.keep || !nearer(z, textureLoad(opaque_depth, px, 0).x) {
+        discard;
+    }
+    let base = (px.y * params.width + px.x) * params.k;
+    var cur = to_slot(s.color, s.alpha, z);
+    for (var i = 0u; i < params.k; i += 1u) {
+        let old = atomicMax(&slots[base + i], cur);
+        if old == 0lu {
+            // Landed in an empty slot: nothing is pushed out.
+            cur = 0lu;
+            break;
+        }
+        // The slot keeps the nearer (larger); carry the farther on.
+        cur = select(cur, old, old < cur);
+    }
+    var out: TailOut;
+    out.sum = vec4<f32>(0.0);
+    out.transmittance = vec4<f32>(0.0);
+    if cur != 0lu {
+        let f = from_slot(cur);
+        out.sum = vec4<f32>(f.color, f.alpha);
+        out.transmittance = vec4<f32>(f.alpha);
+    }
+    return out;
+}
+
+@vertex
+fn vs_fullscreen(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
+    let x = f32(i32(i & 1u) * 4 - 1);
+    let y = f32(i32(i >> 1u) * 4 - 1);
+    return vec4<f32>(x, y, 0.0, 1.0);
+}
+
+// The K slots front to back, then the tail as one layer (coverage 1 − Π(1 − α), the α-weighted
+// mean colour) or nothing; (C, 1 − T) blended premultiplied OVER onto the final colour.
+@fragment
+fn fs_resolve(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
+    let px = vec2<u32>(position.xy);
+    let base = (px.y * params.width + px.x) * params.k;
+    var c = vec3<f32>(0.0);
+    var t = 1.0;
+    for (var i = 0u; i < params.k; i += 1u) {
+        let s = atomicLoad(&slots[base + i]);
+        if s == 0lu {
+            break;
+        }
+        let f = from_slot(s);
+        c += t * f.color;
+        t *= 1.0 - f.alpha;
+    }
+    let sum = textureLoad(tail_sum, px, 0);
+    if sum.a > 0.0 {
+        if params.tail == 1u {
+            let tail_t = textureLoad(tail_transmittance, px, 0).r;
+            c += t * sum.rgb * ((1.0 - tail_t) / sum.a);
+            t *= tail_t;
+            atomicAdd(&counters[1], 1u);
+        } else {
+            atomicAdd(&counters[0], 1u);
+        }
+    }
+    return vec4<f32>(c, 1.0 - t);
+}
