@@ -92,7 +92,8 @@ fn fs_insert(v: VertexOut, @builtin(front_facing) front_facing: bool) -> @locati
     let node = pack_node(s.color, s.alpha, z, params.reverse_z != 0u);
     let next = atomicExchange(&heads[p], index + 1u);
     store_node(index, node, next);
-    discard;
+    // Nothing is written to the attachment (its write mask is empty).
+    return vec4<f32>(0.0);
 }
 
 @vertex

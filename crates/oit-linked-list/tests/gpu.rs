@@ -520,3 +520,25 @@ fn the_kbuffer_matches_its_cpu_twin_and_counts_its_memory() {
         .to_string();
     assert!(e.contains("k-buffer slots") && e.contains("at most"), "{e}");
 }
+
+#[test]
+fn the_gl_backend_refuses_both_techniques_with_the_reason() {
+    let Ok(ctx) = Context::new(&oit_gpu::ContextOptions {
+        backend: oit_gpu::Backend::Gl,
+        adapter: None,
+    }) else {
+        eprintln!("skipped the_gl_backend_refuses_both_techniques_with_the_reason: no GL adapter");
+        return;
+    };
+    let e = LinkedList::new(LinkedListConfig::default())
+        .check(&ctx.caps)
+        .unwrap_err();
+    assert!(
+        e.reason.contains("GL backend") && e.reason.contains("one node"),
+        "{e}"
+    );
+    let e = KBuffer::new(KBufferConfig::default())
+        .check(&ctx.caps)
+        .unwrap_err();
+    assert!(e.reason.contains("64-bit"), "{e}");
+}
