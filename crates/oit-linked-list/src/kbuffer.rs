@@ -4,12 +4,13 @@
 //! slot format and the resolve are twinned here for tests.
 
 use crate::config::TailRule;
+use crate::frame::Counters;
 use crate::node::{Fragment, pack_rgb9e5, unpack_rgb9e5};
 use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, FullscreenDesc, GpuError, GpuScene, GpuTimer, MemoryLedger, PREMULTIPLIED_OVER,
     RenderStats, ScenePipelineDesc, ScenePipelines, SpecError, Targets, Technique, TechniqueSpec,
-    Unsupported, bind, blend, fullscreen_pipeline, pass, read_buffer_u32,
+    Unsupported, bind, blend, fullscreen_pipeline, pass,
 };
 use oit_scene::Resolution;
 
@@ -124,8 +125,7 @@ struct Resources {
     key: (Resolution, wgpu::TextureFormat),
     params: wgpu::Buffer,
     slots: wgpu::Buffer,
-    counters: wgpu::Buffer,
-    readback: wgpu::Buffer,
+    counters: Counters,
     tail_sum: wgpu::TextureView,
     tail_t: wgpu::TextureView,
     insert_layout: wgpu::BindGroupLayout,
@@ -199,16 +199,6 @@ impl KBuffer {
             wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         );
         let slots = buffer("k-buffer slots", slot_bytes, storage);
-        let counters = buffer(
-            "k-buffer counters",
-            16,
-            storage | wgpu::BufferUsages::COPY_SRC,
-        );
-        let readback = buffer(
-            "k-buffer counters readback",
-            16,
-            wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        );
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
         let tail_sum = self
             .ledger
@@ -305,12 +295,12 @@ impl KBuffer {
                 multisample: Default::default(),
             },
         );
+        let counters = Counters::new(ctx, &mut self.ledger, "k-buffer");
         self.gpu = Some(Resources {
             key,
             params,
             slots,
             counters,
-            readback,
             tail_sum,
             tail_t,
             insert_layout: layout,
@@ -367,7 +357,7 @@ impl Technique for KBuffer {
             entries: &[
                 entry(0, r.params.as_entire_binding()),
                 entry(1, r.slots.as_entire_binding()),
-                entry(2, r.counters.as_entire_binding()),
+                entry(2, r.counters.buffer.as_entire_binding()),
                 entry(3, wgpu::BindingResource::TextureView(&targets.depth_view)),
             ],
         });
@@ -377,14 +367,14 @@ impl Technique for KBuffer {
             entries: &[
                 entry(0, r.params.as_entire_binding()),
                 entry(1, r.slots.as_entire_binding()),
-                entry(2, r.counters.as_entire_binding()),
+                entry(2, r.counters.buffer.as_entire_binding()),
                 entry(4, wgpu::BindingResource::TextureView(&r.tail_sum)),
                 entry(5, wgpu::BindingResource::TextureView(&r.tail_t)),
             ],
         });
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         encoder.clear_buffer(&r.slots, 0, None);
-        encoder.clear_buffer(&r.counters, 0, None);
+        r.counters.clear(&mut encoder);
         {
             let ts = timer.pass("k-buffer insert");
             let mut p = pass::begin(
@@ -403,18 +393,15 @@ impl Technique for KBuffer {
                 scene.draw(&mut p, &r.insert, i);
             }
         }
-        let ts = timer.pass("k-buffer resolve");
-        pass::fullscreen(
-            &mut encoder,
-            "k-buffer resolve",
-            &targets.color_view,
+        let c = r.counters.resolve_and_read(
+            ctx,
+            encoder,
+            timer,
+            scene,
+            targets,
             &r.resolve,
-            &[(&scene.bind_group, &[]), (&resolve_group, &[])],
-            ts.writes(),
-        );
-        encoder.copy_buffer_to_buffer(&r.counters, 0, &r.readback, 0, 16);
-        timer.submit(ctx, encoder)?;
-        let c = read_buffer_u32(ctx, &r.readback, "k-buffer counters")?;
+            &resolve_group,
+        )?;
         Ok(RenderStats {
             geometry_passes: 1,
             pixels_with_dropped_layers: u64::from(c[0]),

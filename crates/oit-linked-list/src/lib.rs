@@ -16,6 +16,7 @@
 //! which the resolve composites behind the slots with the same averaged-tail rule (or drops).
 
 mod config;
+mod frame;
 pub mod kbuffer;
 mod list;
 pub mod node;

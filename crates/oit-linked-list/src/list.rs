@@ -1,12 +1,13 @@
 //! The `linked-list` technique: insert pass, resolve pass, per-pixel accounting.
 
 use crate::config::{LinkedListConfig, TailRule};
+use crate::frame::Counters;
 use crate::node::NodeFormat;
 use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, FullscreenDesc, GpuError, GpuScene, GpuTimer, MemoryLedger, PREMULTIPLIED_OVER,
     RenderStats, ScenePipelineDesc, ScenePipelines, SpecError, Targets, Technique, TechniqueSpec,
-    Unsupported, bind, fullscreen_pipeline, pass, read_buffer_u32,
+    Unsupported, bind, fullscreen_pipeline, pass,
 };
 use oit_scene::Resolution;
 
@@ -62,8 +63,7 @@ struct Resources {
     heads: wgpu::Buffer,
     lost: wgpu::Buffer,
     nodes: wgpu::Buffer,
-    counters: wgpu::Buffer,
-    readback: wgpu::Buffer,
+    counters: Counters,
     layout: wgpu::BindGroupLayout,
     insert: ScenePipelines,
     resolve: wgpu::RenderPipeline,
@@ -145,16 +145,6 @@ impl LinkedList {
         let heads = buffer("linked-list heads", pixels * 4, storage);
         let lost = buffer("linked-list lost fragments", pixels * 4, storage);
         let nodes = buffer("linked-list node pool", pool_bytes, storage);
-        let counters = buffer(
-            "linked-list counters",
-            16,
-            storage | wgpu::BufferUsages::COPY_SRC,
-        );
-        let readback = buffer(
-            "linked-list counters readback",
-            16,
-            wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        );
         let fragment = wgpu::ShaderStages::FRAGMENT;
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("linked-list"),
@@ -209,6 +199,7 @@ impl LinkedList {
                 multisample: Default::default(),
             },
         );
+        let counters = Counters::new(ctx, &mut self.ledger, "linked-list");
         self.gpu = Some(Resources {
             key,
             capacity,
@@ -217,7 +208,6 @@ impl LinkedList {
             lost,
             nodes,
             counters,
-            readback,
             layout,
             insert,
             resolve,
@@ -281,7 +271,7 @@ impl Technique for LinkedList {
                 },
                 wgpu::BindGroupEntry {
                     binding: 3,
-                    resource: r.counters.as_entire_binding(),
+                    resource: r.counters.buffer.as_entire_binding(),
                 },
                 wgpu::BindGroupEntry {
                     binding: 4,
@@ -296,7 +286,7 @@ impl Technique for LinkedList {
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         encoder.clear_buffer(&r.heads, 0, None);
         encoder.clear_buffer(&r.lost, 0, None);
-        encoder.clear_buffer(&r.counters, 0, None);
+        r.counters.clear(&mut encoder);
         {
             let ts = timer.pass("linked-list insert");
             let mut p = pass::begin(
@@ -312,18 +302,9 @@ impl Technique for LinkedList {
                 scene.draw(&mut p, &r.insert, i);
             }
         }
-        let ts = timer.pass("linked-list resolve");
-        pass::fullscreen(
-            &mut encoder,
-            "linked-list resolve",
-            &targets.color_view,
-            &r.resolve,
-            &[(&scene.bind_group, &[]), (&group, &[])],
-            ts.writes(),
-        );
-        encoder.copy_buffer_to_buffer(&r.counters, 0, &r.readback, 0, 16);
-        timer.submit(ctx, encoder)?;
-        let c = read_buffer_u32(ctx, &r.readback, "linked-list counters")?;
+        let c = r
+            .counters
+            .resolve_and_read(ctx, encoder, timer, scene, targets, &r.resolve, &group)?;
         self.last = FrameCounts {
             fragments: u64::from(c[0]),
             pixels_dropped: u64::from(c[1]),
