@@ -17,7 +17,6 @@ mod technique;
 pub use math::{MomentKind, Resolve, Storage, transmittance_at};
 pub use technique::{
     ACCUM_WGSL, COMPOSITE_WGSL, Config, MATH_WGSL, Mboit, params_words, transparent_depth_interval,
-    view_depth_terms, view_distance,
 };
 
 use oit_gpu::{Allowed, ParamInfo, TechniqueInfo};

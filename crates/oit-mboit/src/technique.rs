@@ -9,7 +9,7 @@ use oit_gpu::{
     ScenePipelines, SpecError, Targets, Technique, TechniqueSpec, Unsupported, bind, blend,
     depth_test, pass,
 };
-use oit_scene::{Projection, Resolution, Scene};
+use oit_scene::{Resolution, Scene};
 
 /// The reconstruction (shaders/mboit_math.wgsl; no bindings, no includes).
 pub const MATH_WGSL: &str = include_str!("../../../shaders/mboit_math.wgsl");
@@ -105,55 +105,15 @@ impl Config {
 /// Bytes of the uniform block `MboitParams`.
 const PARAMS_BYTES: u64 = 80;
 
-/// The view-depth interval of the scene's transparent geometry (vertex view distances),
-/// clamped to the camera's near and far planes: the bounds of the log warp.
+/// The log warp's bounds: the transparent geometry's view-depth interval; the log needs z > 0,
+/// and an orthographic camera may put its near plane at 0.
 pub fn transparent_depth_interval(scene: &Scene) -> (f32, f32) {
-    let cam = &scene.camera;
-    let mut lo = f32::INFINITY;
-    let mut hi = f32::NEG_INFINITY;
-    for d in &scene.draws {
-        if !scene.material_of(d).mode.is_transparent() {
-            continue;
-        }
-        for v in &scene.vertices[d.vertex_range()] {
-            let z = -cam.view.transform_point3(glam::Vec3::from(v.position)).z;
-            lo = lo.min(z);
-            hi = hi.max(z);
-        }
-    }
-    // The log needs z > 0: an orthographic camera may put its near plane at 0.
-    let near = cam.near.max(1e-6);
-    let far = cam.far.max(near);
-    if lo > hi || lo.is_nan() || hi.is_nan() {
-        return (near, far);
-    }
-    let lo = lo.clamp(near, far);
-    (lo, hi.clamp(lo, far))
-}
-
-/// Projection terms that turn window depth into view distance (a = proj[2][2], b = proj[3][2]).
-pub fn view_depth_terms(scene: &Scene) -> (f32, f32, bool) {
-    let c = &scene.camera;
-    (
-        c.proj.z_axis.z,
-        c.proj.w_axis.z,
-        matches!(c.projection, Projection::Orthographic { .. }),
-    )
-}
-
-/// CPU twin of `view_distance` in shaders/mboit_accum.wgsl.
-pub fn view_distance(scene: &Scene, window_z: f32) -> f32 {
-    let (a, b, ortho) = view_depth_terms(scene);
-    if ortho {
-        (b - window_z) / a
-    } else {
-        b / (window_z + a)
-    }
+    scene.transparent_view_depth_interval(1e-6)
 }
 
 /// The contents of the `MboitParams` uniform for `scene`.
 pub fn params_words(config: &Config, scene: &Scene) -> [u32; 20] {
-    let (a, b, ortho) = view_depth_terms(scene);
+    let (a, b, ortho) = scene.camera.view_depth_terms();
     let (z_min, z_max) = transparent_depth_interval(scene);
     let (ln_z_min, scale) = math::warp_terms(z_min, z_max);
     let r = config.resolve();

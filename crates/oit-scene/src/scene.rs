@@ -346,7 +346,57 @@ pub struct Scene {
     pub credits: Vec<String>,
 }
 
+impl Camera {
+    /// The terms that turn window depth back into view distance: `(a, b, ortho)` with a =
+    /// proj[2][2], b = proj[3][2] of the f32 projection (the shaders' `view_distance` twins take
+    /// them as uniforms).
+    pub fn view_depth_terms(&self) -> (f32, f32, bool) {
+        (
+            self.proj.z_axis.z,
+            self.proj.w_axis.z,
+            matches!(self.projection, Projection::Orthographic { .. }),
+        )
+    }
+
+    /// View distance of a window depth: CPU twin of the shaders' `view_distance`.
+    pub fn view_distance(&self, window_z: f32) -> f32 {
+        let (a, b, ortho) = self.view_depth_terms();
+        if ortho {
+            (b - window_z) / a
+        } else {
+            b / (window_z + a)
+        }
+    }
+}
+
 impl Scene {
+    /// The view-distance interval `[near, far]` of the transparent vertices, clipped to the
+    /// camera's near (at least `min_near`) and far planes; the whole frustum when there are
+    /// none. Vertices rather than bounding spheres: a screen-filling quad's sphere reaches far
+    /// in front of and behind the quad.
+    pub fn transparent_view_depth_interval(&self, min_near: f32) -> (f32, f32) {
+        let cam = &self.camera;
+        let mut lo = f32::INFINITY;
+        let mut hi = f32::NEG_INFINITY;
+        for d in &self.draws {
+            if !self.material_of(d).mode.is_transparent() {
+                continue;
+            }
+            for v in &self.vertices[d.vertex_range()] {
+                let z = -cam.view.transform_point3(Vec3::from(v.position)).z;
+                lo = lo.min(z);
+                hi = hi.max(z);
+            }
+        }
+        let near = cam.near.max(min_near);
+        let far = cam.far.max(near);
+        if lo > hi || lo.is_nan() || hi.is_nan() {
+            return (near, far);
+        }
+        let lo = lo.clamp(near, far);
+        (lo, hi.clamp(lo, far))
+    }
+
     pub fn material_of(&self, draw: &Draw) -> &Material {
         &self.materials[draw.material as usize]
     }

@@ -576,3 +576,56 @@ fn scatter_normals_match_their_counter_clockwise_winding() {
         assert!(lit > 20, "{kind}: only {lit} lit triangles");
     }
 }
+
+/// Two transparent layers at view distances 6 and 8 (and an opaque one at 9 that must not
+/// count): the interval is theirs, window depths invert to them, and an interval with no
+/// transparent geometry is the frustum.
+#[test]
+fn transparent_view_depth_interval_and_view_distance() {
+    for (ortho, reverse_z) in [(false, true), (false, false), (true, true)] {
+        let projection = if ortho {
+            r#""orthographic": {"height": 2}"#
+        } else {
+            r#""fov_y": 60"#
+        };
+        let layer = |z: f64, mode: &str| {
+            format!(
+                r#"{{"mesh": {{"kind": "layers", "count": 1, "spacing": 0.1, "size": [1, 1],
+                    "color_from": [1, 1, 1], "color_to": [1, 1, 1], "alpha_from": 0.5, "alpha_to": 0.5}},
+                  "transform": {{"translate": [0, 0, {z}]}}, "material": {{"mode": "{mode}"}}}}"#
+            )
+        };
+        let json = format!(
+            r#"{{"name": "interval", "resolution": [8, 8],
+                "camera": {{"eye": [0, 0, 10], "target": [0, 0, 0], {projection},
+                            "near": 0.5, "far": 30}}, "reverse_z": {reverse_z},
+                "objects": [{}, {}, {}]}}"#,
+            layer(4.0, "blend"),
+            layer(2.0, "blend"),
+            layer(1.0, "opaque")
+        );
+        let scene = oit_scene::parse(&json, "interval").unwrap_or_else(|e| panic!("{e}"));
+        let (lo, hi) = scene.transparent_view_depth_interval(1e-6);
+        assert!(
+            (lo - 6.0).abs() < 1e-4 && (hi - 8.0).abs() < 1e-4,
+            "{lo} {hi}"
+        );
+        let cam = &scene.camera;
+        for d in [0.5f32, 6.0, 8.0, 29.0] {
+            let clip = cam.proj * glam::Vec4::new(0.0, 0.0, -d, 1.0);
+            let back = cam.view_distance(clip.z / clip.w);
+            assert!(
+                (back - d).abs() <= 1e-4 * d,
+                "{d} -> {back} (ortho {ortho}, reverse {reverse_z})"
+            );
+        }
+        let mut opaque_only = scene.clone();
+        opaque_only
+            .draws
+            .retain(|d| !scene.material_of(d).mode.is_transparent());
+        assert_eq!(
+            opaque_only.transparent_view_depth_interval(1e-6),
+            (0.5, 30.0)
+        );
+    }
+}

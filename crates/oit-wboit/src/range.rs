@@ -58,7 +58,7 @@ pub struct RangeParams {
 
 impl RangeParams {
     pub fn of(scene: &Scene) -> RangeParams {
-        let (z_near, z_far) = transparent_depth_interval(scene);
+        let (z_near, z_far) = scene.transparent_view_depth_interval(f32::MIN_POSITIVE);
         RangeParams {
             z_near,
             z_far,
@@ -117,33 +117,6 @@ pub fn color_scale(scene: &Scene) -> f32 {
     }
     // 2^127 is the largest power of two in f32.
     2f32.powi((largest.log2().ceil() as i32).min(127))
-}
-
-/// The view-distance interval `[near, far]` of the scene's transparent vertices, clipped to the
-/// camera's near and far planes (the whole frustum when there are none). Vertices rather than
-/// the draws' bounding spheres: a screen-filling quad's sphere reaches far in front of and
-/// behind the quad, which would spend most of the weight curve on empty depth.
-pub fn transparent_depth_interval(scene: &Scene) -> (f32, f32) {
-    let cam = &scene.camera;
-    let mut lo = f32::INFINITY;
-    let mut hi = f32::NEG_INFINITY;
-    for d in &scene.draws {
-        if !scene.material_of(d).mode.is_transparent() {
-            continue;
-        }
-        for v in &scene.vertices[d.vertex_range()] {
-            let z = -cam.view.transform_point3(glam::Vec3::from(v.position)).z;
-            lo = lo.min(z);
-            hi = hi.max(z);
-        }
-    }
-    let near = cam.near.max(f32::MIN_POSITIVE);
-    let far = cam.far.max(near);
-    if lo > hi || lo.is_nan() || hi.is_nan() {
-        return (near, far);
-    }
-    let lo = lo.clamp(near, far);
-    (lo, hi.clamp(lo, far))
 }
 
 /// The steepest fall fp16 allows for `scene`: α·w of its faintest transparent fragment must

@@ -20,7 +20,7 @@ use oit_gpu::blend;
 use oit_gpu::pass;
 use oit_gpu::wgpu;
 use oit_gpu::{Context, GpuError, GpuTimer, MemoryLedger, Targets, Unsupported};
-use oit_scene::{Camera, Projection, Resolution, Scene};
+use oit_scene::{Resolution, Scene};
 use std::sync::Mutex;
 
 /// WGSL with no bindings and no includes (shaders/wboit_tail.wgsl). It defines:
@@ -397,7 +397,7 @@ impl AccumTargets {
     pub fn prepare(&mut self, scene: &Scene) -> Vec<(&'static str, f64)> {
         let range = RangeParams::of(scene);
         self.set_color_scale(range.color_scale);
-        let (a, b, ortho) = view_depth_terms(&scene.camera);
+        let (a, b, ortho) = scene.camera.view_depth_terms();
         vec![
             ("wboit_z_near", f64::from(range.z_near)),
             ("wboit_z_far", f64::from(range.z_far)),
@@ -511,30 +511,11 @@ pub fn composite(
     timer.submit(ctx, encoder)
 }
 
-/// The terms that turn window depth back into view distance: `(a, b, ortho)` with a =
-/// proj[2][2], b = proj[3][2] of the camera's f32 projection (see `wboit_view_distance`).
-pub fn view_depth_terms(camera: &Camera) -> (f32, f32, bool) {
-    (
-        camera.proj.z_axis.z,
-        camera.proj.w_axis.z,
-        matches!(camera.projection, Projection::Orthographic { .. }),
-    )
-}
-
-/// CPU twin of `wboit_view_distance`.
-pub fn view_distance(camera: &Camera, window_z: f32) -> f32 {
-    let (a, b, ortho) = view_depth_terms(camera);
-    if ortho {
-        (b - window_z) / a
-    } else {
-        b / (window_z + a)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use glam::Vec3;
+    use oit_scene::{Camera, Projection};
 
     /// `view_distance` inverts the camera's own projection for every projection kind.
     #[test]
@@ -570,7 +551,7 @@ mod tests {
             for dist in [0.2f32, 1.0, 5.0, 30.0, 90.0] {
                 let clip = cam.clip(cam.eye + forward * dist + side * 0.1);
                 let window_z = clip.z / clip.w;
-                let back = view_distance(&cam, window_z);
+                let back = cam.view_distance(window_z);
                 assert!(
                     (back - dist).abs() <= 2e-3 * dist.max(1.0),
                     "{projection:?} reverse_z={reverse_z}: {dist} -> z {window_z} -> {back}"

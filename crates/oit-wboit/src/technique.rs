@@ -3,7 +3,7 @@
 
 use crate::guards::GuardCounts;
 use crate::range::RangeParams;
-use crate::tail::{self, AccumFormat, AccumTargets, CompositeMode, RevealFormat, view_depth_terms};
+use crate::tail::{self, AccumFormat, AccumTargets, CompositeMode, RevealFormat};
 use oit_gpu::pass;
 use oit_gpu::wgpu;
 use oit_gpu::{
@@ -331,7 +331,7 @@ impl Technique for Wboit {
     ) -> Result<RenderStats, GpuError> {
         self.ensure(ctx, scene)?;
         let s = &scene.scene;
-        let (a, b, ortho) = view_depth_terms(&s.camera);
+        let (a, b, ortho) = s.camera.view_depth_terms();
         let range = self.range(scene);
         // The weighted average accumulates unweighted colour, unscaled.
         let (weight, color_scale) = match self.config {
