@@ -543,6 +543,9 @@ fn the_gl_backend_refuses_both_techniques_with_the_reason() {
     assert!(e.reason.contains("64-bit"), "{e}");
 }
 
+/// Builds a fresh technique (one per draw order, so no state carries over).
+type Maker = Box<dyn Fn() -> Box<dyn Technique>>;
+
 /// Content nobody placed by hand (`oit_scene::random`: soups, intersecting planes, clipping,
 /// standard- and reverse-Z, orthographic): with room for every fragment both techniques equal
 /// the reference on every decidable pixel, in both draw orders.
@@ -560,7 +563,7 @@ fn both_techniques_are_exact_on_seeded_random_scenes_when_nothing_overflows() {
         let skip = undecidable(&ctx, &scene, &reference);
         let pixels = scene.resolution.pixel_count() as u64;
         let layers = reference.stats.max_depth_complexity;
-        let mut techniques: Vec<(String, Box<dyn Fn() -> Box<dyn Technique>>)> = Vec::new();
+        let mut techniques: Vec<(String, Maker)> = Vec::new();
         let config = ample(&reference, pixels);
         if u64::from(layers) <= oit_linked_list::MAX_SORT {
             techniques.push((
