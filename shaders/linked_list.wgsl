@@ -127,9 +127,18 @@ fn fs_resolve(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> 
                 continue;
             }
         }
-        // Insertion sort, nearest first.
+        // Insertion sort, nearest first. The guard is its own `if`: Mesa's GLSL compiler (llvmpipe
+        // GL, Mesa 22.3) miscompiles the guarded read of `window[j - 1u]` when guard and read share
+        // one condition (`j > 0u && ...` or `j == 0u || ...`), leaving every slot but the first
+        // unwritten.
         var j = count;
-        while j > 0u && node_before(incoming, window[j - 1u]) {
+        loop {
+            if j == 0u {
+                break;
+            }
+            if !node_before(incoming, window[j - 1u]) {
+                break;
+            }
             window[j] = window[j - 1u];
             j -= 1u;
         }

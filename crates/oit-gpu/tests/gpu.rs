@@ -104,15 +104,8 @@ fn context_reports_adapter_and_caps() {
 
 #[test]
 fn gl_adapter_caps() {
-    let ctx = match Context::new(&ContextOptions {
-        backend: Backend::Gl,
-        adapter: None,
-    }) {
-        Ok(c) => c,
-        Err(e) => {
-            println!("skipped gl_adapter_caps: no GL adapter here: {e}");
-            return;
-        }
+    let Some(ctx) = oit_gpu::testing::gl_context_or_skip("gl_adapter_caps") else {
+        return;
     };
     let info = ctx.adapter_info();
     println!(
@@ -444,12 +437,8 @@ fn caps_depth_copies_match_the_backend() {
     if let Some(ctx) = context_or_skip("caps_depth_copies_match_the_backend") {
         check(&ctx);
     }
-    match Context::new(&ContextOptions {
-        backend: Backend::Gl,
-        adapter: None,
-    }) {
-        Ok(gl) => check(&gl),
-        Err(e) => println!("GL part skipped: no GL adapter here: {e}"),
+    if let Some(gl) = oit_gpu::testing::gl_context_or_skip("GL part") {
+        check(&gl);
     }
 }
 

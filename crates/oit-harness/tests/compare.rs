@@ -223,16 +223,8 @@ fn unknown_option_is_rejected_before_any_gpu_work() {
 fn a_technique_the_adapter_cannot_run_is_skipped_with_its_reason_and_the_rest_run() {
     // llvmpipe's GL adapter cannot blend into Rg32Float: `dual-peel:depth=rg32f` must be
     // recorded as skipped, with the reason, while the other techniques still run.
-    let options = oit_gpu::ContextOptions {
-        backend: oit_gpu::Backend::Gl,
-        adapter: None,
-    };
-    let ctx = match oit_gpu::Context::new(&options) {
-        Ok(ctx) => ctx,
-        Err(e) => {
-            println!("skipped: no GL adapter here (install libegl-mesa0 libgl1-mesa-dri): {e}");
-            return;
-        }
+    let Some(ctx) = oit_gpu::testing::gl_context_or_skip("GL compare") else {
+        return;
     };
     if ctx
         .caps
@@ -249,7 +241,13 @@ fn a_technique_the_adapter_cannot_run_is_skipped_with_its_reason_and_the_rest_ru
         "sorted-object".to_string(),
     ])
     .unwrap();
-    let options = one_frame_at_32px(&out, options);
+    let options = one_frame_at_32px(
+        &out,
+        oit_gpu::ContextOptions {
+            backend: oit_gpu::Backend::Gl,
+            adapter: None,
+        },
+    );
     let results = compare(&ctx, &scenes, &specs, &options, &|_| {}).unwrap();
     assert_eq!(results.runs.len(), 2);
     let skipped = &results.runs[0];

@@ -222,11 +222,6 @@ impl Technique for LinkedList {
     }
 
     fn check(&self, caps: &Caps) -> Result<(), Unsupported> {
-        if caps.is_gl() {
-            return Err(Unsupported::new(
-                "on wgpu's GL backend the lists come out one node long (measured on llvmpipe GL 4.5, Mesa 22.3: each pixel shows only its last-drawn fragment, sorted-quads RMSE 0.094 and order dependence 0.37, while the GLSL naga emits links with atomicExchange as on Vulkan); refused rather than run wrong",
-            ));
-        }
         if caps.max_storage_buffers_per_shader_stage < 4 {
             return Err(Unsupported::new(format!(
                 "linked lists need 4 storage buffers in the fragment stage; the adapter allows {}",

@@ -2,7 +2,7 @@
 //! CPU twin (`oit_linked_list::node`). Skips with a message when there is no adapter (fails in
 //! CI with OIT_REQUIRE_GPU=1).
 
-use oit_gpu::testing::context_or_skip;
+use oit_gpu::testing::{context_or_skip, gl_context_or_skip};
 use oit_gpu::{ColorFormat, Context, GpuScene, GpuTimer, RenderStats, Targets, Technique};
 use oit_linked_list::node::{self, NodeFormat};
 use oit_linked_list::{LinkedList, LinkedListConfig, TailRule};
@@ -100,23 +100,42 @@ fn ample(reference: &oit_reference::Reference, pixels: u64) -> LinkedListConfig 
 
 #[test]
 fn an_ample_pool_equals_the_reference_on_every_bundled_scene_in_both_draw_orders() {
-    let Some(ctx) = context_or_skip("linked_list_ample_pool") else {
-        return;
-    };
+    if let Some(ctx) = context_or_skip("linked_list_ample_pool") {
+        ample_pool_equals_the_reference(&ctx);
+    }
+}
+
+/// The GL backend too (llvmpipe GL in CI): the resolve's insertion sort once came out one node
+/// long there (a Mesa miscompile, see shaders/linked_list.wgsl), which only this catches.
+#[test]
+fn an_ample_pool_equals_the_reference_on_the_gl_backend() {
+    if let Some(ctx) = gl_context_or_skip("linked_list_ample_pool_gl") {
+        ample_pool_equals_the_reference(&ctx);
+    }
+}
+
+fn ample_pool_equals_the_reference(ctx: &Context) {
     let mut failures = Vec::new();
     for name in bundled_names() {
+        // GL takes clip z through [-1, 1] (naga's ADJUST_COORDINATE_SPACE, then the window
+        // transform back), which rounds the standard-Z depths of depth-range's far pairs (0.1 %
+        // apart at 1000 and 50000) otherwise than the convention the reference models:
+        // front-peel on GL merges them too (RMSE 0.099 there, 2.0e-4 on Vulkan).
+        if ctx.caps.is_gl() && name == "depth-range" {
+            continue;
+        }
         let scene = scene(&name);
         let reference = oit_reference::render(&scene, &Default::default());
-        let skip = undecidable(&ctx, &scene, &reference);
+        let skip = undecidable(ctx, &scene, &reference);
         let skipped = skip.iter().filter(|s| **s).count();
         let pixels = RES.pixel_count() as u64;
         let config = ample(&reference, pixels);
         let mut list = LinkedList::new(config);
-        let (image, stats) = render(&ctx, &scene, &mut list, ColorFormat::Rgba16Float);
+        let (image, stats) = render(ctx, &scene, &mut list, ColorFormat::Rgba16Float);
         let counts = list.last_counts();
         let mut reversed_list = LinkedList::new(config);
         let (reversed, _) = render(
-            &ctx,
+            ctx,
             &scene.with_reversed_draw_order(),
             &mut reversed_list,
             ColorFormat::Rgba16Float,
@@ -522,25 +541,18 @@ fn the_kbuffer_matches_its_cpu_twin_and_counts_its_memory() {
 }
 
 #[test]
-fn the_gl_backend_refuses_both_techniques_with_the_reason() {
-    let Ok(ctx) = Context::new(&oit_gpu::ContextOptions {
-        backend: oit_gpu::Backend::Gl,
-        adapter: None,
-    }) else {
-        eprintln!("skipped the_gl_backend_refuses_both_techniques_with_the_reason: no GL adapter");
+fn the_gl_backend_refuses_the_k_buffer_with_the_reason() {
+    let Some(ctx) = gl_context_or_skip("gl_refuses_the_k_buffer") else {
         return;
     };
-    let e = LinkedList::new(LinkedListConfig::default())
-        .check(&ctx.caps)
-        .unwrap_err();
-    assert!(
-        e.reason.contains("GL backend") && e.reason.contains("one node"),
-        "{e}"
-    );
+    assert!(!ctx.caps.int64_atomics, "llvmpipe GL has no 64-bit atomics");
     let e = KBuffer::new(KBufferConfig::default())
         .check(&ctx.caps)
         .unwrap_err();
     assert!(e.reason.contains("64-bit"), "{e}");
+    LinkedList::new(LinkedListConfig::default())
+        .check(&ctx.caps)
+        .expect("the list runs on GL");
 }
 
 /// Builds a fresh technique (one per draw order, so no state carries over).

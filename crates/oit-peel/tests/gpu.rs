@@ -4,7 +4,7 @@
 
 mod common;
 use common::*;
-use oit_gpu::{Backend, Context, ContextOptions, GpuScene, Technique};
+use oit_gpu::{GpuScene, Technique};
 use oit_peel::{
     DepthEncoding, DepthFormat, DualPeel, DualPeelConfig, FrontPeel, FrontPeelConfig, Options,
     PassCount, Tail, Termination,
@@ -368,11 +368,7 @@ fn coplanar_behaviour_is_deterministic_and_as_documented() {
 
 #[test]
 fn gl_backend_falls_back_to_rg16f() {
-    let Ok(ctx) = Context::new(&ContextOptions {
-        backend: Backend::Gl,
-        adapter: None,
-    }) else {
-        eprintln!("skipped gl_backend_falls_back_to_rg16f: no GL adapter");
+    let Some(ctx) = oit_gpu::testing::gl_context_or_skip("gl_backend_falls_back_to_rg16f") else {
         return;
     };
     let rg32 = build("dual-peel:depth=rg32f");

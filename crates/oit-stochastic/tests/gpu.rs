@@ -629,15 +629,9 @@ fn gl_backend_matches_the_default_backend() {
     let Some(ctx) = context_or_skip("gl_backend_matches_the_default_backend") else {
         return;
     };
-    let gl = match Context::new(&oit_gpu::ContextOptions {
-        backend: oit_gpu::Backend::Gl,
-        adapter: None,
-    }) {
-        Ok(gl) => gl,
-        Err(e) => {
-            eprintln!("skipped gl_backend_matches_the_default_backend: no GL adapter: {e}");
-            return;
-        }
+    let Some(gl) = oit_gpu::testing::gl_context_or_skip("gl_backend_matches_the_default_backend")
+    else {
+        return;
     };
     let scene = scene_named("sorted-quads", RES);
     let reference = oit_reference::render(&scene, &Default::default());
