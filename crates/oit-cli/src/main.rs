@@ -26,7 +26,7 @@ struct Cli {
 enum Command {
     /// List scenes with triangle counts and depth complexity (from the reference).
     Scenes {
-        /// A scene file or a directory of scene files.
+        /// A scene file (.json, .gltf, .glb) or a directory of them.
         #[arg(default_value = "scenes")]
         path: PathBuf,
         #[command(flatten)]
@@ -36,8 +36,11 @@ enum Command {
     Techniques,
     /// Render the exact CPU reference of a scene to a linear EXR (RGBA + `layers`) and a PNG preview.
     Reference {
+        /// The scene file (.json, .gltf, .glb).
         scene: PathBuf,
-        /// Output EXR; a PNG preview is written beside it.
+        /// Output EXR (must end in .exr); a PNG preview is written beside it (same name, .png).
+        /// Default: NAME-reference.exr in the working directory, NAME the scene's name made
+        /// file-safe.
         #[arg(short, long)]
         output: Option<PathBuf>,
         /// Override the scene's resolution, e.g. 512x512.
@@ -48,12 +51,16 @@ enum Command {
     },
     /// Render one technique on the GPU to a linear EXR and a PNG preview.
     Render {
+        /// The scene file (.json, .gltf, .glb).
         scene: PathBuf,
         /// Technique spec, `name[:key=value,...]` (see `oit techniques`).
         #[arg(short, long)]
         technique: String,
+        /// Output EXR (must end in .exr); a PNG preview is written beside it (same name, .png).
+        /// Default: NAME-TECHNIQUE.exr in the working directory, both made file-safe.
         #[arg(short, long)]
         output: Option<PathBuf>,
+        /// Override the scene's resolution, e.g. 512x512.
         #[arg(long, value_parser = parse_resolution)]
         resolution: Option<Resolution>,
         #[command(flatten)]
@@ -63,26 +70,43 @@ enum Command {
     },
     /// Run techniques on scenes, diff against the reference, write results.json, results.md, EXR and PNG.
     Compare {
-        /// Scene files or directories of scene files.
+        /// Scene files (.json, .gltf, .glb) or directories of them.
         #[arg(required = true)]
         scenes: Vec<PathBuf>,
-        /// Technique specs; every technique at its defaults when none is given.
+        /// Technique spec `name[:key=value,...]`, repeatable; every technique at its defaults
+        /// when none is given. A sweep runs several: a value list `stochastic:spp=1,4,16`, an
+        /// integer range `dual-peel:passes=1..8`, several swept keys give every combination
+        /// (at most 4096 specs per sweep).
         #[arg(short, long = "technique")]
         techniques: Vec<String>,
-        /// Output directory.
+        /// Output directory: results.json, results.md, report.html, plots/ and one folder per
+        /// scene; nothing is written outside it.
         #[arg(long, default_value = "out")]
         out: PathBuf,
+        /// Override every scene's resolution, e.g. 512x512.
         #[arg(long, value_parser = parse_resolution)]
         resolution: Option<Resolution>,
-        /// Timed frames per run.
-        #[arg(long, default_value_t = 20)]
+        /// Timed frames per run (at least 1).
+        #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u32).range(1..))]
         frames: u32,
         /// Untimed warm-up frames per run.
         #[arg(long, default_value_t = 3)]
         warmup: u32,
-        /// Where computed references are cached (keyed by scene content and resolution).
-        #[arg(long)]
+        /// Where computed references are cached (keyed by scene content and resolution; each
+        /// file checksummed). Default: $OIT_CACHE_DIR, else $XDG_CACHE_HOME/oit-lab/references,
+        /// else ~/.cache/oit-lab/references.
+        #[arg(long, conflicts_with = "no_cache")]
         cache: Option<PathBuf>,
+        /// Compute every reference, read and write no cache.
+        #[arg(long)]
+        no_cache: bool,
+        /// Keep the runs of OUT/results.json made from identical inputs (scene content,
+        /// technique, resolution, frames, warm-up, adapter) and run only the rest.
+        #[arg(long)]
+        resume: bool,
+        /// Refuse comparisons of more runs (scenes × techniques) than this.
+        #[arg(long, default_value_t = 2000)]
+        max_runs: u64,
         /// Error axis of the plots and Pareto fronts.
         #[arg(long, default_value = "flip", value_parser = ["flip", "rmse"])]
         metric: String,
@@ -190,10 +214,27 @@ fn main() -> ExitCode {
     match run(cli.command) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("oit: error: {e:#}");
+            eprintln!("oit: error: {}", one_line(&e));
             ExitCode::FAILURE
         }
     }
+}
+
+/// The error and its causes on one line, each cause once: most messages already end with their
+/// cause's text (`file: cannot read: No such file…`), which `{:#}` would repeat.
+fn one_line(e: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if line.contains(&text) {
+            continue;
+        }
+        if !line.is_empty() {
+            line.push_str(": ");
+        }
+        line.push_str(&text);
+    }
+    line
 }
 
 fn run(command: Command) -> Result<()> {
@@ -241,17 +282,26 @@ fn run(command: Command) -> Result<()> {
             frames,
             warmup,
             cache,
+            no_cache,
+            resume,
+            max_runs,
             metric,
             load,
             gpu,
         } => {
             load.check(&scenes)?;
+            let cache = match (no_cache, cache) {
+                (true, _) => oit_harness::ReferenceCache::Off,
+                (false, Some(dir)) => oit_harness::ReferenceCache::Dir(dir),
+                (false, None) => oit_harness::ReferenceCache::Default,
+            };
             let options = oit_harness::CompareOptions {
                 resolution,
                 frames,
                 warmup,
                 out_dir: out,
-                cache_dir: cache,
+                cache,
+                resume,
                 context: gpu.options(),
             };
             compare(
@@ -260,6 +310,7 @@ fn run(command: Command) -> Result<()> {
                 &options,
                 &load.options(),
                 parse_metric(&metric),
+                max_runs,
             )
         }
         Command::Report { dir, metric } => {
@@ -292,12 +343,66 @@ fn load_scene(
     })
 }
 
+/// The scenes of `paths`, or an error when there are none (an empty folder is a mistake).
+fn load_some_scenes(
+    paths: &[PathBuf],
+    load: &oit_scene::LoadOptions,
+) -> Result<Vec<oit_harness::SceneEntry>> {
+    let scenes = oit_harness::load_scenes_with(paths, load)?;
+    if scenes.is_empty() {
+        bail!(
+            "no scene files (*.json, *.gltf, *.glb) found in {}",
+            paths
+                .iter()
+                .map(|p| p.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    Ok(scenes)
+}
+
+/// Where `reference` and `render` write: `output` or the default name, refused when it is not
+/// an `.exr` path or when it or its PNG preview would replace the scene file being read.
+fn output_paths(
+    output: Option<PathBuf>,
+    default_stem: &str,
+    scene: &Path,
+) -> Result<(PathBuf, PathBuf)> {
+    let exr = output.unwrap_or_else(|| PathBuf::from(format!("{default_stem}.exr")));
+    if !exr
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"))
+    {
+        bail!(
+            "{}: the output must be an .exr path (the PNG preview is written beside it)",
+            exr.display()
+        );
+    }
+    let png = exr.with_extension("png");
+    let same = |a: &Path, b: &Path| match (a.canonicalize(), b.canonicalize()) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => false,
+    };
+    for target in [&exr, &png] {
+        if same(target, scene) {
+            bail!(
+                "{}: would replace the scene being read; choose another output",
+                target.display()
+            );
+        }
+    }
+    Ok((exr, png))
+}
+
 fn progress_bar(len: u64, what: &str) -> ProgressBar {
     let bar = ProgressBar::new(len);
     bar.set_style(
-        ProgressStyle::with_template("{msg:>24} [{bar:32}] {pos}/{len} {elapsed_precise}")
-            .expect("static template")
-            .progress_chars("=> "),
+        ProgressStyle::with_template(
+            "{msg:>24} [{bar:32}] {pos}/{len} {elapsed_precise} (about {eta} left)",
+        )
+        .expect("static template")
+        .progress_chars("=> "),
     );
     bar.set_message(what.to_owned());
     bar.enable_steady_tick(Duration::from_millis(200));
@@ -305,7 +410,7 @@ fn progress_bar(len: u64, what: &str) -> ProgressBar {
 }
 
 fn scenes(path: &Path, load: &oit_scene::LoadOptions) -> Result<()> {
-    let entries = oit_harness::load_scenes_with(&[path.to_path_buf()], load)?;
+    let entries = load_some_scenes(&[path.to_path_buf()], load)?;
     println!(
         "{:<22} {:>9} {:>9} {:>9} {:>7} {:>9} {:>10}",
         "scene", "size", "triangles", "transp.", "draws", "max depth", "mean depth"
@@ -341,7 +446,8 @@ fn reference(
     load: &oit_scene::LoadOptions,
 ) -> Result<()> {
     let scene = load_scene(scene_path, resolution, load)?;
-    let output = output.unwrap_or_else(|| PathBuf::from(format!("{}-reference.exr", scene.name)));
+    let default = format!("{}-reference", oit_harness::file_stem(&scene.name));
+    let (output, png) = output_paths(output, &default, scene_path)?;
     let bar = progress_bar(0, &format!("reference {}", scene.name));
     let tick = bar.clone();
     let progress: oit_reference::Progress =
@@ -356,9 +462,7 @@ fn reference(
     let reference = oit_reference::try_render(&scene, &options)
         .with_context(|| format!("reference of {}", scene_path.display()))?;
     bar.finish_and_clear();
-    oit_harness::write_reference_exr(&output, &reference)
-        .with_context(|| format!("writing {}", output.display()))?;
-    let png = output.with_extension("png");
+    oit_harness::write_reference_exr(&output, &reference)?;
     oit_metrics::write_png_preview(&png, &reference.image)?;
     let st = &reference.stats;
     println!(
@@ -391,19 +495,31 @@ fn render(
     let ctx = oit_harness::open_context(&gpu.options())?;
     print_adapter(&ctx);
     let spec = oit_harness::parse_spec(spec)?;
-    let output = output.unwrap_or_else(|| {
-        PathBuf::from(format!(
-            "{}-{}.exr",
-            scene.name,
-            oit_harness::file_stem(&spec.canonical())
-        ))
-    });
-    let frame = oit_harness::render_once(&ctx, &scene, &spec)?;
+    let default = format!(
+        "{}-{}",
+        oit_harness::file_stem(&scene.name),
+        oit_harness::file_stem(&spec.canonical())
+    );
+    let (output, png) = output_paths(output, &default, scene_path)?;
+    // One call with no steps to count: a spinner with the time so far (a deep peel can take
+    // minutes on a CPU adapter).
+    let spinner = ProgressBar::new_spinner();
+    spinner.set_style(
+        ProgressStyle::with_template("{spinner} {msg} {elapsed_precise}").expect("static template"),
+    );
+    spinner.set_message(format!(
+        "rendering {} with {}",
+        scene.name,
+        spec.canonical()
+    ));
+    spinner.enable_steady_tick(Duration::from_millis(200));
+    let frame = oit_harness::render_once(&ctx, &scene, &spec);
+    spinner.finish_and_clear();
+    let frame = frame?;
     oit_metrics::write_exr(
         &output,
         &[oit_metrics::ExrLayer::new("render", &frame.image)],
     )?;
-    let png = output.with_extension("png");
     oit_metrics::write_png_preview(&png, &frame.image)?;
     println!(
         "{} with {}: {} ({})",
@@ -443,25 +559,45 @@ fn compare(
     options: &oit_harness::CompareOptions,
     load: &oit_scene::LoadOptions,
     metric: oit_report::Metric,
+    max_runs: u64,
 ) -> Result<()> {
-    let scenes = oit_harness::load_scenes_with(paths, load)?;
-    if scenes.is_empty() {
+    let scenes = load_some_scenes(paths, load)?;
+    // Specs are validated (and sweeps bounded) before the GPU is opened.
+    let specs = oit_harness::resolve_specs(specs)?;
+    let runs = (scenes.len() as u64) * (specs.len() as u64);
+    if runs > max_runs {
         bail!(
-            "no scene files (*.json, *.gltf, *.glb) found in {}",
-            paths
-                .iter()
-                .map(|p| p.display().to_string())
-                .collect::<Vec<_>>()
-                .join(", ")
+            "{runs} runs ({} scenes × {} techniques) is more than --max-runs {max_runs}; raise it to run them all",
+            scenes.len(),
+            specs.len()
         );
     }
     let ctx = oit_harness::open_context(&options.context)?;
     print_adapter(&ctx);
-    let specs = oit_harness::resolve_specs(specs)?;
-    let bar = progress_bar((scenes.len() * specs.len()) as u64, "compare");
-    let results = oit_harness::compare(&ctx, &scenes, &specs, options, &|msg: &str| {
-        bar.set_message(msg.to_owned());
-        bar.inc(1);
+    eprintln!(
+        "{runs} runs ({} scenes × {} techniques), {} timed + {} warm-up frames each{}",
+        scenes.len(),
+        specs.len(),
+        options.frames,
+        options.warmup,
+        if options.resume {
+            "; finished runs of the earlier results are kept"
+        } else {
+            ""
+        }
+    );
+    let bar = progress_bar(runs, "compare");
+    let results = oit_harness::compare(&ctx, &scenes, &specs, options, &|event| match event {
+        oit_harness::Event::RunDone {
+            scene,
+            technique,
+            resumed,
+        } => {
+            let kept = if resumed { " (kept)" } else { "" };
+            bar.set_message(format!("{scene} {technique}{kept}"));
+            bar.inc(1);
+        }
+        oit_harness::Event::Warning(line) => bar.println(format!("warning: {line}")),
     })?;
     bar.finish_and_clear();
     print!("{}", oit_harness::report::terminal_table(&results));

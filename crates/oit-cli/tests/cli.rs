@@ -270,3 +270,173 @@ fn compare_writes_the_report_and_report_rebuilds_it() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `reference` refuses outputs that would replace its input or lose the EXR to the preview,
+/// and a special file (a FIFO) at the output path; the default name of a scene named like a
+/// path stays in the working directory.
+#[test]
+fn outputs_never_replace_inputs_special_files_or_leave_the_working_directory() {
+    let dir = temp_dir("outputs");
+    let scene = dir.join("scene.json");
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/enderton.json"),
+    )
+    .unwrap();
+    let escape = dir.join("escaped");
+    let renamed = text.replacen(
+        "\"name\": \"enderton\"",
+        &format!("\"name\": {:?}", escape.display().to_string()),
+        1,
+    );
+    assert_ne!(renamed, text, "enderton.json names itself");
+    std::fs::write(&scene, &renamed).unwrap();
+    let run = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_oit"))
+            .current_dir(&dir)
+            .args(args)
+            .args(["--resolution", "16x16"])
+            .output()
+            .unwrap()
+    };
+    for (output, expect) in [
+        ("scene.json", "must be an .exr"),
+        ("x.png", "must be an .exr"),
+        ("scene.exr", "would replace the scene"),
+    ] {
+        // scene.exr's preview, scene.png, is not the scene; make the input the .png case.
+        let out = run(&["reference", "scene.json", "-o", output]);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        if output == "scene.exr" {
+            assert!(out.status.success(), "{stderr}");
+            continue;
+        }
+        assert_eq!(out.status.code(), Some(1), "{output}: {stderr}");
+        assert!(stderr.contains(expect), "{output}: {stderr}");
+    }
+    assert_eq!(std::fs::read_to_string(&scene).unwrap(), renamed);
+    // The preview would replace a scene file named like it.
+    std::fs::copy(&scene, dir.join("view.png")).unwrap();
+    let out = run(&["reference", "view.png", "-o", "view.exr"]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("would replace the scene"));
+
+    let fifo = dir.join("pipe.exr");
+    assert!(
+        Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap()
+            .success()
+    );
+    let out = run(&["reference", "scene.json", "-o", "pipe.exr"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("FIFO"), "{stderr}");
+
+    // Default output: the file-safe name, in the working directory.
+    let out = run(&["reference", "scene.json"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stem = oit_harness::file_stem(&escape.display().to_string());
+    assert!(dir.join(format!("{stem}-reference.exr")).is_file());
+    assert!(!escape.exists() && !dir.join("escaped-reference.exr").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// An I/O error names its cause once (it was printed twice), on one line.
+#[test]
+fn a_missing_file_is_one_line_with_its_cause_once() {
+    let out = oit()
+        .args(["reference", "scenes/no-such-scene.json"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
+    assert_eq!(stderr.matches("No such file").count(), 1, "{stderr}");
+}
+
+/// `scenes` on a folder without scenes is an error, as `compare` is; `--frames 0` is a usage
+/// error, not one frame; a sweep too large is refused before the GPU is opened.
+#[test]
+fn empty_folders_zero_frames_and_huge_sweeps_are_errors() {
+    let dir = temp_dir("empty");
+    let out = oit().arg("scenes").arg(&dir).output().unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no scene files"));
+
+    let out = oit()
+        .args(["compare", "scenes/enderton.json", "--frames", "0", "--out"])
+        .arg(dir.join("out"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("frames"));
+
+    let start = std::time::Instant::now();
+    let out = oit()
+        .args([
+            "compare",
+            "scenes/enderton.json",
+            "-t",
+            "unsorted:a=1..1000,b=1..1000,c=1..1000",
+            "--out",
+        ])
+        .arg(dir.join("out"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(start.elapsed().as_secs() < 10, "{:?}", start.elapsed());
+    let out = oit()
+        .args([
+            "compare",
+            "scenes",
+            "-t",
+            "stochastic:spp=1..64",
+            "--max-runs",
+            "100",
+            "--out",
+        ])
+        .arg(dir.join("out"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("--max-runs 100"), "{stderr}");
+    assert!(
+        !dir.join("out").exists(),
+        "nothing written for a refused comparison"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Every argument of every command says what it is (`--help` has no bare flags).
+#[test]
+fn every_argument_has_a_description() {
+    for command in [
+        "scenes",
+        "techniques",
+        "reference",
+        "render",
+        "compare",
+        "report",
+    ] {
+        let out = oit().args([command, "--help"]).output().unwrap();
+        let help = String::from_utf8_lossy(&out.stdout);
+        for line in help.lines() {
+            let t = line.trim_start();
+            if (t.starts_with('-') || t.starts_with('<') || t.starts_with('['))
+                && line.starts_with("  ")
+            {
+                let described = t.split("  ").filter(|p| !p.trim().is_empty()).count() >= 2;
+                assert!(
+                    described,
+                    "`oit {command}`: `{t}` has no description\n{help}"
+                );
+            }
+        }
+    }
+}

@@ -1,10 +1,12 @@
 //! On-disk cache of CPU references, keyed by scene content and resolution, so a comparison
 //! computes each reference once even across invocations.
 //!
-//! Format (little endian): magic `OITREF01`, width u32, height u32, stats JSON length u32, stats
+//! Format (little endian): magic `OITREF03`, the inputs' hash u64 ([`inputs_hash`]: scene content,
+//! resolution, reference output version), width u32, height u32, stats JSON length u32, stats
 //! JSON, then width·height RGBA f32 pixels, layer counts u32, fragment counts u32, undecided
-//! counts u32, precision-tie flags u8 (0 or 1). Written
-//! atomically; a file that does not parse is recomputed, never trusted.
+//! counts u32, precision-tie flags u8 (0 or 1), and last a checksum u64 (FNV-1a of every byte
+//! before it). Written atomically. A file whose checksum, inputs or layout do not match is never
+//! trusted: it is recomputed with a one-line warning ([`CacheOutcome::Recomputed`]).
 
 use std::path::{Path, PathBuf};
 
@@ -13,7 +15,7 @@ use oit_scene::{LinearImage, Scene};
 
 use crate::HarnessError;
 
-const MAGIC: &[u8; 8] = b"OITREF02";
+const MAGIC: &[u8; 8] = b"OITREF03";
 
 /// The default cache directory: `$OIT_CACHE_DIR`, else `$XDG_CACHE_HOME/oit-lab/references`,
 /// else `$HOME/.cache/oit-lab/references`, else `.oit-cache` in the working directory.
@@ -42,29 +44,83 @@ pub fn key_path(dir: &Path, scene: &Scene) -> PathBuf {
     ))
 }
 
-/// The cached reference, or a freshly computed one (then stored). `compute` runs only on a miss.
+/// Where a reference came from. The last two deserve a warning where people look.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum CacheOutcome {
+    /// Read from the cache, checksum and inputs verified.
+    Hit,
+    /// Not in the cache: computed and stored.
+    Computed,
+    /// A cached file was there but could not be trusted (`why`): computed again and replaced.
+    Recomputed { why: String },
+    /// Computed, but the cache could not store it (`why`, e.g. an unwritable folder): the
+    /// comparison goes on without the cache.
+    NotStored { why: String },
+}
+
+impl CacheOutcome {
+    /// The one-line warning this outcome deserves, if any.
+    pub fn warning(&self, scene: &str) -> Option<String> {
+        match self {
+            CacheOutcome::Hit | CacheOutcome::Computed => None,
+            CacheOutcome::Recomputed { why } => Some(format!(
+                "cached reference of {scene} not trusted ({why}): recomputed"
+            )),
+            CacheOutcome::NotStored { why } => Some(format!(
+                "reference of {scene} not cached ({why}): continuing without the cache"
+            )),
+        }
+    }
+}
+
+/// The hash a cached file must carry: the scene's content, its resolution and the reference's
+/// output version (the file name has them too, but a renamed or copied file must not pass).
+pub fn inputs_hash(scene: &Scene) -> u64 {
+    let mut bytes = Vec::with_capacity(20);
+    bytes.extend_from_slice(&scene.content_hash().to_le_bytes());
+    bytes.extend_from_slice(&scene.resolution.width.to_le_bytes());
+    bytes.extend_from_slice(&scene.resolution.height.to_le_bytes());
+    bytes.extend_from_slice(&oit_reference::OUTPUT_VERSION.to_le_bytes());
+    crate::fnv1a64(&bytes)
+}
+
+/// The cached reference, or a freshly computed one (then stored). `compute` runs only when no
+/// trustworthy file exists. A cache that cannot be written never fails the comparison.
 pub fn reference(
     dir: &Path,
     scene: &Scene,
     compute: impl FnOnce() -> Result<Reference, HarnessError>,
-) -> Result<(Reference, bool), HarnessError> {
+) -> Result<(Reference, CacheOutcome), HarnessError> {
     let path = key_path(dir, scene);
-    if let Ok(bytes) = std::fs::read(&path)
-        && let Some(reference) = decode(&bytes, scene)
-    {
-        return Ok((reference, true));
-    }
+    let distrust = match std::fs::read(&path) {
+        Ok(bytes) => match decode(&bytes, scene) {
+            Ok(reference) => return Ok((reference, CacheOutcome::Hit)),
+            Err(why) => Some(why),
+        },
+        Err(_) => None,
+    };
     let reference = compute()?;
-    std::fs::create_dir_all(dir).map_err(|e| HarnessError::io(dir, e))?;
-    oit_metrics::write_atomic_bytes(&path, &encode(&reference)).map_err(HarnessError::from)?;
-    Ok((reference, false))
+    let stored = std::fs::create_dir_all(dir)
+        .map_err(|e| format!("cannot create {}: {e}", dir.display()))
+        .and_then(|()| {
+            oit_metrics::remove_stale_temporaries(dir);
+            oit_metrics::write_atomic_bytes(&path, &encode(&reference, scene))
+                .map_err(|e| e.to_string())
+        });
+    let outcome = match (stored, distrust) {
+        (Err(why), _) => CacheOutcome::NotStored { why },
+        (Ok(()), Some(why)) => CacheOutcome::Recomputed { why },
+        (Ok(()), None) => CacheOutcome::Computed,
+    };
+    Ok((reference, outcome))
 }
 
-fn encode(r: &Reference) -> Vec<u8> {
+fn encode(r: &Reference, scene: &Scene) -> Vec<u8> {
     let stats = serde_json::to_vec(&r.stats).expect("stats serialize");
     let n = r.image.pixels.len();
-    let mut out = Vec::with_capacity(24 + stats.len() + n * 24);
+    let mut out = Vec::with_capacity(40 + stats.len() + n * 29);
     out.extend_from_slice(MAGIC);
+    out.extend_from_slice(&inputs_hash(scene).to_le_bytes());
     out.extend_from_slice(&r.image.width.to_le_bytes());
     out.extend_from_slice(&r.image.height.to_le_bytes());
     out.extend_from_slice(&(stats.len() as u32).to_le_bytes());
@@ -78,19 +134,34 @@ fn encode(r: &Reference) -> Vec<u8> {
         out.extend_from_slice(&v.to_le_bytes());
     }
     out.extend(r.precision_ties.iter().map(|&t| u8::from(t)));
+    let checksum = crate::fnv1a64(&out);
+    out.extend_from_slice(&checksum.to_le_bytes());
     out
 }
 
-fn decode(bytes: &[u8], scene: &Scene) -> Option<Reference> {
+/// The reference in `bytes`, or why it cannot be trusted.
+fn decode(bytes: &[u8], scene: &Scene) -> Result<Reference, String> {
+    if bytes.len() < 16 || &bytes[..8] != MAGIC {
+        return Err("not a reference file of this format".into());
+    }
+    let (body, sum) = bytes.split_at(bytes.len() - 8);
+    let stored = u64::from_le_bytes(sum.try_into().expect("8 bytes"));
+    if crate::fnv1a64(body) != stored {
+        return Err("checksum mismatch: the file was altered or cut".into());
+    }
+    if u64::from_le_bytes(body[8..16].try_into().expect("8 bytes")) != inputs_hash(scene) {
+        return Err("made from other inputs".into());
+    }
+    decode_body(&body[16..], scene).ok_or_else(|| "malformed contents".into())
+}
+
+fn decode_body(bytes: &[u8], scene: &Scene) -> Option<Reference> {
     let mut at = 0usize;
     let mut take = |n: usize| -> Option<&[u8]> {
         let s = bytes.get(at..at + n)?;
         at += n;
         Some(s)
     };
-    if take(8)? != MAGIC {
-        return None;
-    }
     let u32_at = |s: &[u8]| u32::from_le_bytes(s.try_into().expect("4 bytes"));
     let width = u32_at(take(4)?);
     let height = u32_at(take(4)?);
@@ -155,18 +226,18 @@ mod tests {
     fn encode_decode_round_trip_is_exact_and_checks_size() {
         let scene = oit_scene::parse(SCENE, "cache-test.json").unwrap();
         let reference = oit_reference::render(&scene, &Default::default());
-        let bytes = encode(&reference);
-        assert_eq!(decode(&bytes, &scene), Some(reference.clone()));
+        let bytes = encode(&reference, &scene);
+        assert_eq!(decode(&bytes, &scene), Ok(reference.clone()));
         // Another resolution, a truncated file or trailing bytes are misses, never wrong data.
         let other = scene.with_resolution(oit_scene::Resolution {
             width: 8,
             height: 8,
         });
-        assert_eq!(decode(&bytes, &other), None);
-        assert_eq!(decode(&bytes[..bytes.len() - 1], &scene), None);
+        assert!(decode(&bytes, &other).is_err());
+        assert!(decode(&bytes[..bytes.len() - 1], &scene).is_err());
         let mut longer = bytes.clone();
         longer.push(0);
-        assert_eq!(decode(&longer, &scene), None);
+        assert!(decode(&longer, &scene).is_err());
     }
 
     #[test]
@@ -174,17 +245,79 @@ mod tests {
         let scene = oit_scene::parse(SCENE, "cache-test.json").unwrap();
         let dir = std::env::temp_dir().join(format!("oit-cache-unit-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
-        let (first, hit) = reference(&dir, &scene, || {
+        let (first, outcome) = reference(&dir, &scene, || {
             Ok(oit_reference::render(&scene, &Default::default()))
         })
         .unwrap();
-        assert!(!hit);
-        let (second, hit) = reference(&dir, &scene, || panic!("must not recompute")).unwrap();
-        assert!(hit);
+        assert_eq!(outcome, CacheOutcome::Computed);
+        let (second, outcome) = reference(&dir, &scene, || panic!("must not recompute")).unwrap();
+        assert_eq!(outcome, CacheOutcome::Hit);
         assert_eq!(first, second);
         // A changed scene (different content hash) is a different entry.
         let moved = scene.with_reversed_draw_order();
         assert_ne!(key_path(&dir, &moved), key_path(&dir, &scene));
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// A cached file whose pixels were altered (same length) is never used: it is recomputed,
+    /// with the reason, and replaced by a good one.
+    #[test]
+    fn an_altered_file_is_recomputed_with_a_warning() {
+        let scene = oit_scene::parse(SCENE, "cache-test.json").unwrap();
+        let dir = std::env::temp_dir().join(format!("oit-cache-altered-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let good = oit_reference::render(&scene, &Default::default());
+        reference(&dir, &scene, || Ok(good.clone())).unwrap();
+        let path = key_path(&dir, &scene);
+        let mut bytes = std::fs::read(&path).unwrap();
+        let pixel = bytes.len() - 8 - 16 * 8 * 13 - 100;
+        bytes[pixel] ^= 0x40;
+        std::fs::write(&path, &bytes).unwrap();
+        let (r, outcome) = reference(&dir, &scene, || Ok(good.clone())).unwrap();
+        assert_eq!(r, good);
+        let CacheOutcome::Recomputed { why } = &outcome else {
+            panic!("altered file trusted: {outcome:?}");
+        };
+        assert!(why.contains("checksum"), "{why}");
+        assert!(
+            outcome
+                .warning("cache-test")
+                .unwrap()
+                .contains("cache-test")
+        );
+        let (_, outcome) = reference(&dir, &scene, || panic!("replaced file is good")).unwrap();
+        assert_eq!(outcome, CacheOutcome::Hit);
+        // Another scene's file under this scene's name fails the inputs check.
+        let other = scene.with_reversed_draw_order();
+        let r_other = oit_reference::render(&other, &Default::default());
+        std::fs::write(&path, encode(&r_other, &other)).unwrap();
+        let (_, outcome) = reference(&dir, &scene, || Ok(good.clone())).unwrap();
+        assert!(
+            matches!(&outcome, CacheOutcome::Recomputed { why } if why.contains("other inputs")),
+            "{outcome:?}"
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// A cache folder that cannot be created leaves the reference usable and says why.
+    #[test]
+    fn an_unwritable_cache_never_fails_the_comparison() {
+        let scene = oit_scene::parse(SCENE, "cache-test.json").unwrap();
+        let file = std::env::temp_dir().join(format!("oit-cache-blocked-{}", std::process::id()));
+        std::fs::write(&file, b"a file where the folder should be").unwrap();
+        let good = oit_reference::render(&scene, &Default::default());
+        let (r, outcome) = reference(&file.join("sub"), &scene, || Ok(good.clone())).unwrap();
+        assert_eq!(r, good);
+        assert!(
+            matches!(&outcome, CacheOutcome::NotStored { .. }),
+            "{outcome:?}"
+        );
+        assert!(
+            outcome
+                .warning("cache-test")
+                .unwrap()
+                .contains("without the cache")
+        );
+        let _ = std::fs::remove_file(&file);
     }
 }

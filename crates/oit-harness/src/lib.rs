@@ -15,7 +15,9 @@ use std::path::{Path, PathBuf};
 use oit_gpu::{Context, ContextOptions, TechniqueInfo, TechniqueSpec};
 use oit_scene::{Resolution, Scene};
 
-pub use run::{CompareOptions, RenderedFrame, compare, render_once};
+pub use run::{
+    CompareOptions, Event, LOCK_FILE, ReferenceCache, RenderedFrame, compare, render_once,
+};
 
 /// Errors of the harness. Each names the file it concerns.
 #[derive(Debug, thiserror::Error)]
@@ -28,6 +30,9 @@ pub enum HarnessError {
     },
     #[error("{}: {message}", path.display())]
     Invalid { path: PathBuf, message: String },
+    /// Options that make no comparison (e.g. zero timed frames, a sweep too large).
+    #[error("{0}")]
+    Options(String),
     #[error(transparent)]
     Scene(#[from] oit_scene::SceneError),
     #[error(transparent)]
@@ -66,8 +71,14 @@ pub fn parse_spec(text: &str) -> Result<TechniqueSpec, HarnessError> {
     Ok(TechniqueSpec::parse(text, &registry())?)
 }
 
+/// Most specs one `-t` sweep may expand to: a typo such as `a=1..1000,b=1..1000` must be an
+/// error, not a billion strings.
+pub const MAX_SWEEP_SPECS: u64 = 4096;
+
 /// The specs to run: the given ones (parsed, deduplicated by canonical string, in order), or
-/// every technique at its defaults when none is given.
+/// every technique at its defaults when none is given. Every key and value of a sweep is
+/// validated on its own before the sweep is expanded, and a sweep larger than
+/// [`MAX_SWEEP_SPECS`] is refused before anything is built.
 pub fn resolve_specs(texts: &[String]) -> Result<Vec<TechniqueSpec>, HarnessError> {
     let registry = registry();
     let mut specs: Vec<TechniqueSpec> = Vec::new();
@@ -75,6 +86,20 @@ pub fn resolve_specs(texts: &[String]) -> Result<Vec<TechniqueSpec>, HarnessErro
         specs = registry.iter().map(TechniqueInfo::default_spec).collect();
     }
     for text in texts {
+        if let Some((name, axes)) = sweep_axes(text) {
+            let mut count: u64 = 1;
+            for (key, values) in &axes {
+                for value in values {
+                    TechniqueSpec::parse(&format!("{name}:{key}={value}"), &registry)?;
+                }
+                count = count.saturating_mul(values.len() as u64);
+            }
+            if count > MAX_SWEEP_SPECS {
+                return Err(HarnessError::Options(format!(
+                    "`{text}` expands to {count} technique specs; at most {MAX_SWEEP_SPECS} per sweep (narrow the lists or ranges)"
+                )));
+            }
+        }
         for one in expand_sweep(text) {
             let spec = TechniqueSpec::parse(&one, &registry)?;
             if !specs.iter().any(|s| s.canonical() == spec.canonical()) {
@@ -85,28 +110,35 @@ pub fn resolve_specs(texts: &[String]) -> Result<Vec<TechniqueSpec>, HarnessErro
     Ok(specs)
 }
 
-/// Expands a sweep into single specs, in parameter order: a value list `spp=1,4,16` (a token
-/// without `=` continues the previous key's list) and an integer range `passes=1..8`
-/// (inclusive). Several swept keys give their cartesian product, the first key varying
-/// slowest. Text without sweeps comes back unchanged; validation is left to the spec parser.
-pub fn expand_sweep(text: &str) -> Vec<String> {
-    let Some((name, params)) = text.split_once(':') else {
-        return vec![text.to_owned()];
-    };
-    let mut keys: Vec<(String, Vec<String>)> = Vec::new();
+/// One swept key and its values.
+type SweepAxis = (String, Vec<String>);
+
+/// A sweep's technique name and its keys with their values (lists and ranges expanded), in
+/// order; `None` for text without parameters or with a leading token that has no `=`.
+fn sweep_axes(text: &str) -> Option<(&str, Vec<SweepAxis>)> {
+    let (name, params) = text.split_once(':')?;
+    let mut keys: Vec<SweepAxis> = Vec::new();
     for token in params.split(',') {
         match token.split_once('=') {
             Some((k, v)) => keys.push((k.to_owned(), vec![v.to_owned()])),
-            None => match keys.last_mut() {
-                Some((_, values)) => values.push(token.to_owned()),
-                // A leading token without `=`: let the parser report it as written.
-                None => return vec![text.to_owned()],
-            },
+            None => keys.last_mut()?.1.push(token.to_owned()),
         }
     }
     for (_, values) in &mut keys {
         *values = values.iter().flat_map(|v| expand_range(v)).collect();
     }
+    Some((name, keys))
+}
+
+/// Expands a sweep into single specs, in parameter order: a value list `spp=1,4,16` (a token
+/// without `=` continues the previous key's list) and an integer range `passes=1..8`
+/// (inclusive). Several swept keys give their cartesian product, the first key varying
+/// slowest. Text without sweeps comes back unchanged; validation is left to the spec parser
+/// ([`resolve_specs`] validates and bounds a sweep before expanding it).
+pub fn expand_sweep(text: &str) -> Vec<String> {
+    let Some((name, keys)) = sweep_axes(text) else {
+        return vec![text.to_owned()];
+    };
     let mut out = vec![String::new()];
     for (key, values) in &keys {
         out = out
@@ -205,15 +237,63 @@ pub fn at_resolution(scene: &Scene, resolution: Option<Resolution>) -> Scene {
 
 /// A file-name-safe stem for a scene name or canonical technique string:
 /// `dual-peel:passes=5,tail=wboit` → `dual-peel_passes-5_tail-wboit`.
+///
+/// A scene's name is data, not a path: the stem has no separators, never starts with `.` (so
+/// never `.` or `..`), is never empty, never one of the names `compare` writes itself
+/// ([`RESERVED_STEMS`]) or a Windows device name, and has at most [`MAX_STEM_CHARS`] characters
+/// (longer text keeps its start and gains a hash of the whole, so distinct texts stay distinct).
 pub fn file_stem(text: &str) -> String {
-    text.chars()
+    let mut stem: String = text
+        .chars()
         .map(|c| match c {
             ':' | ',' => '_',
             '=' => '-',
             c if c.is_ascii_alphanumeric() || c == '-' || c == '_' || c == '.' => c,
             _ => '_',
         })
-        .collect()
+        .collect();
+    if stem.starts_with('.') {
+        stem.replace_range(..1, "_");
+    }
+    if stem.is_empty() {
+        stem.push_str("unnamed");
+    }
+    let lower = stem.to_ascii_lowercase();
+    let device = lower.split('.').next().unwrap_or_default();
+    let windows_device = matches!(device, "con" | "prn" | "aux" | "nul")
+        || ((device.starts_with("com") || device.starts_with("lpt"))
+            && device.len() == 4
+            && device.as_bytes()[3].is_ascii_digit());
+    if RESERVED_STEMS.contains(&lower.as_str()) || windows_device {
+        stem.push('_');
+    }
+    if stem.chars().count() > MAX_STEM_CHARS {
+        let keep: String = stem.chars().take(MAX_STEM_CHARS - 17).collect();
+        stem = format!("{keep}-{:016x}", fnv1a64(text.as_bytes()));
+    }
+    stem
+}
+
+/// Names `compare` writes in its output folder: no scene or technique stem may take them.
+pub const RESERVED_STEMS: &[&str] = &[
+    "results.json",
+    "results.md",
+    "report.html",
+    "plots",
+    "cache",
+    "reference.exr",
+    "reference.png",
+    "lock",
+];
+
+/// Longest stem [`file_stem`] returns (file systems allow 255 bytes; suffixes need room).
+pub const MAX_STEM_CHARS: usize = 120;
+
+/// FNV-1a, 64 bit: a stable hash for names and checksums (the same on every platform and build).
+pub fn fnv1a64(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
+    })
 }
 
 /// Writes a reference as a linear EXR: layer `reference` (RGBA) plus single channels `layers`
@@ -245,6 +325,37 @@ mod tests {
             "dual-peel_passes-5_tail-wboit"
         );
         assert_eq!(file_stem("a/b c"), "a_b_c");
+    }
+
+    /// Names that are paths, hidden files, empty, reserved or device names never become one.
+    #[test]
+    fn scene_names_never_become_paths_or_reserved_names() {
+        for (name, stem) in [
+            ("/tmp/x", "_tmp_x"),
+            ("..", "_."),
+            (".", "_"),
+            ("../../etc/passwd", "_._.._etc_passwd"),
+            (".hidden", "_hidden"),
+            ("", "unnamed"),
+            ("results.json", "results.json_"),
+            ("PLOTS", "PLOTS_"),
+            ("nul", "nul_"),
+            ("com1.txt", "com1.txt_"),
+            ("c:\\windows", "c__windows"),
+        ] {
+            assert_eq!(file_stem(name), stem, "{name:?}");
+        }
+        for name in ["a", "x/../..", "..", "/", "\u{0}", "résumé", "\n"] {
+            let stem = file_stem(name);
+            assert!(
+                !stem.contains(['/', '\\', '\0']) && !stem.starts_with('.') && !stem.is_empty(),
+                "{name:?} → {stem:?}"
+            );
+        }
+        let long_a = "a".repeat(300);
+        let long_b = format!("{}b", "a".repeat(299));
+        assert_eq!(file_stem(&long_a).chars().count(), MAX_STEM_CHARS);
+        assert_ne!(file_stem(&long_a), file_stem(&long_b));
     }
 
     #[test]
@@ -280,6 +391,27 @@ mod tests {
         );
         // Not a range: left for the spec parser to judge.
         assert_eq!(expand_sweep("x:a=3..1"), ["x:a=3..1"]);
+    }
+
+    /// A huge sweep is refused before it is expanded, and a bad key or value is named before
+    /// anything is multiplied out (this once grew to 9.2 GB before any validation).
+    #[test]
+    fn sweeps_are_validated_and_bounded_before_they_expand() {
+        let start = std::time::Instant::now();
+        let err = resolve_specs(&["linked-list:nodes-per-pixel=1..1024,sort-max=1..128".into()])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("131072") && err.contains("at most 4096"),
+            "{err}"
+        );
+        let err = resolve_specs(&["unsorted:a=1..1000,b=1..1000,c=1..1000".into()])
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains('a') && err.contains("unsorted"), "{err}");
+        assert!(start.elapsed().as_secs() < 5, "{:?}", start.elapsed());
+        let ok = resolve_specs(&["stochastic:spp=1..64".into()]).unwrap();
+        assert_eq!(ok.len(), 64);
     }
 
     #[test]

@@ -214,6 +214,24 @@ pub struct Run {
     pub precision_tie_pixels: Option<u64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub outputs: Option<Outputs>,
+    /// What the run was made from; `oit compare --resume` reuses a run only when these, the
+    /// technique, the resolution and the adapter are all the same (absent in older files: such
+    /// runs are never reused).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub inputs: Option<RunInputs>,
+    /// Taken from an earlier `oit compare` by `--resume` (its cost ratios were recomputed
+    /// against this comparison's floor and baseline when the scene had new runs).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub resumed: bool,
+}
+
+/// The inputs of a run beyond its scene name, technique and resolution.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct RunInputs {
+    /// `Scene::content_hash` of the scene as rendered (resolution applied), hex.
+    pub scene_hash: String,
+    pub frames: u32,
+    pub warmup: u32,
 }
 
 /// What in a scene's reference rounding decides, one short phrase each; empty when nothing.
@@ -297,6 +315,8 @@ impl Run {
             undecided_pixels: None,
             precision_tie_pixels: None,
             outputs: None,
+            inputs: None,
+            resumed: false,
         }
     }
 }

@@ -10,23 +10,36 @@ use oit_gpu::{
 use oit_scene::{LinearImage, Resolution, Scene};
 
 use crate::results::{
-    AdapterJson, FloorJson, GpuMs, Outputs, PassMs, Results, Run, RunStatus, SCHEMA, SceneJson,
-    Stats,
+    AdapterJson, FloorJson, GpuMs, Outputs, PassMs, Results, Run, RunInputs, RunStatus, SCHEMA,
+    SceneJson, Stats,
 };
 use crate::{HarnessError, SceneEntry, at_resolution, file_stem, registry};
+
+/// Where `compare` keeps computed references.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum ReferenceCache {
+    /// [`crate::cache::default_dir`].
+    Default,
+    /// This folder.
+    Dir(PathBuf),
+    /// No cache: every reference is computed (`--no-cache`).
+    Off,
+}
 
 /// How `compare` runs.
 #[derive(Debug, Clone)]
 pub struct CompareOptions {
     /// Overrides every scene's own resolution.
     pub resolution: Option<Resolution>,
-    /// Timed frames per run (median, min and max are reported).
+    /// Timed frames per run (median, min and max are reported); at least 1.
     pub frames: u32,
     /// Untimed frames first: pipelines compile and caches fill on the first frame.
     pub warmup: u32,
     pub out_dir: PathBuf,
-    /// Reference cache; [`crate::cache::default_dir`] when `None`.
-    pub cache_dir: Option<PathBuf>,
+    pub cache: ReferenceCache,
+    /// Reuse the runs of `out_dir/results.json` made from identical inputs (see
+    /// [`crate::results::RunInputs`]) instead of running them again.
+    pub resume: bool,
     pub context: ContextOptions,
 }
 
@@ -37,10 +50,24 @@ impl Default for CompareOptions {
             frames: 20,
             warmup: 3,
             out_dir: PathBuf::from("out"),
-            cache_dir: None,
+            cache: ReferenceCache::Default,
+            resume: false,
             context: ContextOptions::default(),
         }
     }
+}
+
+/// What `compare` reports while it works.
+#[derive(Debug, Clone, Copy)]
+pub enum Event<'a> {
+    /// A run is done (rendered, skipped, failed, or taken from the earlier results).
+    RunDone {
+        scene: &'a str,
+        technique: &'a str,
+        resumed: bool,
+    },
+    /// One line people must see (e.g. a cached reference that was not trusted).
+    Warning(&'a str),
 }
 
 /// One rendered image and what it cost.
@@ -78,20 +105,40 @@ pub fn render_once(
 }
 
 /// Runs every technique on every scene; writes `results.json`, `results.md` and per-run EXR
-/// and PNG files under `options.out_dir`. `progress` is called once per finished run.
+/// and PNG files under `options.out_dir`, and nothing outside it. `results.json` and
+/// `results.md` are rewritten (atomically) after every run, so an interrupted comparison keeps
+/// what it finished and `--resume` can continue it. Two comparisons never share an output
+/// folder (a lock file), and no two scenes or techniques share an output file.
 pub fn compare(
     ctx: &Context,
     scenes: &[SceneEntry],
     specs: &[TechniqueSpec],
     options: &CompareOptions,
-    progress: &dyn Fn(&str),
+    on_event: &dyn Fn(Event<'_>),
 ) -> Result<Results, HarnessError> {
+    if options.frames == 0 {
+        return Err(HarnessError::Options(
+            "frames must be at least 1 (the timed frames of every run)".into(),
+        ));
+    }
+    check_unique_outputs(scenes, specs)?;
     let out = &options.out_dir;
     std::fs::create_dir_all(out).map_err(|e| HarnessError::io(out, e))?;
-    let cache_dir = options
-        .cache_dir
-        .clone()
-        .unwrap_or_else(crate::cache::default_dir);
+    let _lock = OutputLock::acquire(out)?;
+    oit_metrics::remove_stale_temporaries(out);
+    // Read before anything is written: results.json is rewritten after every run.
+    let earlier = if options.resume {
+        earlier_results(out, ctx)?
+    } else {
+        None
+    };
+    let (earlier_runs, earlier_floors) =
+        earlier.map_or((Vec::new(), Vec::new()), |e| (e.runs, e.floors));
+    let cache_dir = match &options.cache {
+        ReferenceCache::Default => Some(crate::cache::default_dir()),
+        ReferenceCache::Dir(d) => Some(d.clone()),
+        ReferenceCache::Off => None,
+    };
     let mut results = Results {
         schema: SCHEMA.to_owned(),
         adapter: AdapterJson::of(ctx),
@@ -103,62 +150,257 @@ pub fn compare(
         let scene = at_resolution(&entry.scene, options.resolution);
         let scene_file = entry.path.display().to_string();
         results.scenes.push(SceneJson::of(&scene, &scene_file));
-        let (reference, _cached) = crate::cache::reference(&cache_dir, &scene, || {
+        let compute = || {
             Ok(oit_reference::try_render(
                 &scene,
                 &oit_reference::ReferenceOptions::default(),
             )?)
-        })?;
+        };
+        let reference = match &cache_dir {
+            Some(dir) => {
+                let (reference, outcome) = crate::cache::reference(dir, &scene, compute)?;
+                if let Some(warning) = outcome.warning(&scene.name) {
+                    on_event(Event::Warning(&warning));
+                }
+                reference
+            }
+            None => compute()?,
+        };
         let scene_dir = out.join(file_stem(&scene.name));
         std::fs::create_dir_all(&scene_dir).map_err(|e| HarnessError::io(&scene_dir, e))?;
+        oit_metrics::remove_stale_temporaries(&scene_dir);
         // The reference once per scene, for reports that show it beside every render.
         crate::write_reference_exr(&scene_dir.join("reference.exr"), &reference)?;
         oit_metrics::write_png_preview(&scene_dir.join("reference.png"), &reference.image)?;
         let forward = GpuScene::upload(ctx, &scene)?;
         let reversed = GpuScene::upload(ctx, &scene.with_reversed_draw_order())?;
         let targets = Targets::new(ctx, scene.resolution, ColorFormat::Rgba16Float)?;
+        let inputs = RunInputs {
+            scene_hash: format!("{:016x}", scene.content_hash()),
+            frames: options.frames,
+            warmup: options.warmup,
+        };
         let first_run = results.runs.len();
+        let mut all_resumed = true;
         for spec in specs {
             let canonical = spec.canonical();
-            let run = run_one(
-                ctx,
-                &scene,
-                &scene_file,
-                &forward,
-                &reversed,
-                &targets,
-                spec,
-                &reference,
-                options,
-                out,
-            )
-            .unwrap_or_else(|e| {
-                Run::not_rendered(
-                    &scene.name,
-                    &scene_file,
-                    &canonical,
-                    res(&scene),
-                    RunStatus::Failed,
-                    e.to_string(),
-                )
-            });
+            let resumed = earlier_runs
+                .iter()
+                .find(|r| reusable(r, &scene, &canonical, &inputs, out))
+                .cloned();
+            let run = match resumed {
+                Some(mut run) => {
+                    run.resumed = true;
+                    run.scene_file.clone_from(&scene_file);
+                    run
+                }
+                None => {
+                    all_resumed = false;
+                    let mut run = run_one(
+                        ctx,
+                        &scene,
+                        &scene_file,
+                        &forward,
+                        &reversed,
+                        &targets,
+                        spec,
+                        &reference,
+                        options,
+                        out,
+                    )
+                    .unwrap_or_else(|e| {
+                        Run::not_rendered(
+                            &scene.name,
+                            &scene_file,
+                            &canonical,
+                            res(&scene),
+                            RunStatus::Failed,
+                            e.to_string(),
+                        )
+                    });
+                    run.inputs = Some(inputs.clone());
+                    run
+                }
+            };
+            let was_resumed = run.resumed;
             results.runs.push(run);
-            progress(&format!("{} {}", scene.name, canonical));
+            write_outputs(out, &results)?;
+            on_event(Event::RunDone {
+                scene: &scene.name,
+                technique: &canonical,
+                resumed: was_resumed,
+            });
         }
-        fill_costs(&mut results.runs[first_run..], || {
-            // `unsorted` was not requested: time it anyway, so every cost has its baseline.
-            let spec = TechniqueSpec::parse("unsorted", &registry()).ok()?;
-            let mut t = build(&spec).ok()?;
-            time_frames(ctx, &forward, t.as_mut(), &targets, options)
-                .ok()
-                .map(|(ms, _, _)| ms.median)
-        });
-        let floor = time_floor(ctx, &scene, &forward, &targets, options)?;
-        fill_floor_costs(&mut results.runs[first_run..], floor.gpu_ms.median);
-        results.floors.push(floor);
+        let earlier_floor = earlier_floors
+            .iter()
+            .find(|f| f.scene == scene.name && f.resolution == res(&scene));
+        match earlier_floor.filter(|_| all_resumed) {
+            // Every run came from the earlier comparison: its ratios and floor stand together.
+            Some(floor) => results.floors.push(floor.clone()),
+            None => {
+                fill_costs(&mut results.runs[first_run..], || {
+                    // `unsorted` was not requested: time it anyway, so every cost has its baseline.
+                    let spec = TechniqueSpec::parse("unsorted", &registry()).ok()?;
+                    let mut t = build(&spec).ok()?;
+                    time_frames(ctx, &forward, t.as_mut(), &targets, options)
+                        .ok()
+                        .map(|(ms, _, _)| ms.median)
+                });
+                let floor = time_floor(ctx, &scene, &forward, &targets, options)?;
+                fill_floor_costs(&mut results.runs[first_run..], floor.gpu_ms.median);
+                results.floors.push(floor);
+            }
+        }
+        write_outputs(out, &results)?;
     }
-    write_outputs(out, &results)?;
     Ok(results)
+}
+
+/// Refuses scenes or techniques whose outputs would land on the same files: one scene's
+/// renders would silently replace another's.
+fn check_unique_outputs(
+    scenes: &[SceneEntry],
+    specs: &[TechniqueSpec],
+) -> Result<(), HarnessError> {
+    let mut seen: Vec<(String, &SceneEntry)> = Vec::new();
+    for entry in scenes {
+        // Case-insensitive: some file systems fold case.
+        let stem = file_stem(&entry.scene.name).to_lowercase();
+        if let Some((_, first)) = seen
+            .iter()
+            .find(|(s, e)| *s == stem || e.scene.name == entry.scene.name)
+        {
+            return Err(HarnessError::Invalid {
+                path: entry.path.clone(),
+                message: format!(
+                    "scene name `{}` would write to the same output folder as `{}` from {}; give every scene of a comparison its own `name`",
+                    entry.scene.name,
+                    first.scene.name,
+                    first.path.display()
+                ),
+            });
+        }
+        seen.push((stem, entry));
+    }
+    let mut stems: Vec<(String, String)> = Vec::new();
+    for spec in specs {
+        let canonical = spec.canonical();
+        let stem = file_stem(&canonical).to_lowercase();
+        if let Some((_, first)) = stems.iter().find(|(s, _)| *s == stem) {
+            return Err(HarnessError::Options(format!(
+                "techniques `{first}` and `{canonical}` would write to the same files"
+            )));
+        }
+        stems.push((stem, canonical));
+    }
+    Ok(())
+}
+
+/// The lock file that keeps two comparisons out of one output folder. Removed on drop; one left
+/// by a process that no longer runs is taken over.
+struct OutputLock {
+    path: PathBuf,
+}
+
+/// The lock's file name inside the output folder (hidden: no stem starts with `.`).
+pub const LOCK_FILE: &str = ".oit-compare.lock";
+
+impl OutputLock {
+    fn acquire(out: &Path) -> Result<OutputLock, HarnessError> {
+        let path = out.join(LOCK_FILE);
+        for _ in 0..2 {
+            match std::fs::OpenOptions::new()
+                .write(true)
+                .create_new(true)
+                .open(&path)
+            {
+                Ok(mut file) => {
+                    use std::io::Write;
+                    let _ = write!(file, "{}", std::process::id());
+                    return Ok(OutputLock { path });
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
+                    let holder = std::fs::read_to_string(&path)
+                        .ok()
+                        .and_then(|t| t.trim().parse::<u32>().ok());
+                    match holder {
+                        Some(pid) if process_runs(pid) => {
+                            return Err(HarnessError::Invalid {
+                                path: out.to_path_buf(),
+                                message: format!(
+                                    "another `oit compare` (pid {pid}) is writing to this folder; wait for it or choose another --out"
+                                ),
+                            });
+                        }
+                        // Left by a process that was killed: take it over.
+                        _ => {
+                            let _ = std::fs::remove_file(&path);
+                        }
+                    }
+                }
+                Err(e) => return Err(HarnessError::io(&path, e)),
+            }
+        }
+        Err(HarnessError::Invalid {
+            path: path.clone(),
+            message: "could not take the output folder's lock".into(),
+        })
+    }
+}
+
+impl Drop for OutputLock {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.path);
+    }
+}
+
+/// Whether a process with this id runs (Linux `/proc`; elsewhere every holder counts as alive,
+/// so a stale lock there is removed by hand).
+fn process_runs(pid: u32) -> bool {
+    let proc_dir = Path::new("/proc");
+    if !proc_dir.join("self").exists() {
+        return true;
+    }
+    pid != std::process::id() && proc_dir.join(pid.to_string()).exists()
+}
+
+/// The earlier comparison in `out` whose runs `--resume` may reuse: none when there is no
+/// results.json; an error when it exists but cannot be read or comes from another adapter.
+fn earlier_results(out: &Path, ctx: &Context) -> Result<Option<Results>, HarnessError> {
+    let path = out.join("results.json");
+    if !path.exists() {
+        return Ok(None);
+    }
+    let earlier = Results::read(&path)?;
+    let adapter = AdapterJson::of(ctx);
+    if earlier.adapter != adapter {
+        return Err(HarnessError::Invalid {
+            path,
+            message: format!(
+                "--resume: made on {} ({}), this comparison runs on {} ({}); timings of two adapters do not mix — choose another --out",
+                earlier.adapter.name, earlier.adapter.backend, adapter.name, adapter.backend
+            ),
+        });
+    }
+    Ok(Some(earlier))
+}
+
+/// An earlier run stands for this one: same scene content, technique, resolution, frames and
+/// warm-up, it finished (a failed run is tried again) and its files are all there.
+fn reusable(run: &Run, scene: &Scene, canonical: &str, inputs: &RunInputs, out: &Path) -> bool {
+    run.scene == scene.name
+        && run.technique == canonical
+        && run.resolution == res(scene)
+        && run.inputs.as_ref() == Some(inputs)
+        && match run.status {
+            RunStatus::Ok => run.outputs.as_ref().is_some_and(|o| {
+                [&o.exr, &o.render_png, &o.diff_png]
+                    .iter()
+                    .all(|f| out.join(f).is_file())
+            }),
+            RunStatus::Skipped => true,
+            RunStatus::Failed => false,
+        }
 }
 
 /// Times the scene's floor ([`oit_gpu::Floor`]) with the same frames and warm-up as a run.
@@ -276,6 +518,8 @@ fn run_one(
         precision_tie_pixels: Some(reference.stats.precision_tie_pixels),
         stats: Some(stats),
         outputs: Some(outputs),
+        inputs: None,
+        resumed: false,
     })
 }
 
@@ -292,7 +536,7 @@ fn time_frames(
     for _ in 0..options.warmup {
         render_frame(ctx, scene, technique, targets, &mut timer)?;
     }
-    let frames = options.frames.max(1);
+    let frames = options.frames;
     let mut totals = Vec::with_capacity(frames as usize);
     let mut cpu = Vec::with_capacity(frames as usize);
     let mut per_pass: Vec<(String, Vec<f64>)> = Vec::new();

@@ -250,7 +250,7 @@ fn knife_edge_cutoffs_are_undecided_and_reported() {
         frames: 1,
         warmup: 0,
         out_dir: dir.join("out"),
-        cache_dir: Some(dir.join("cache")),
+        cache: oit_harness::ReferenceCache::Dir(dir.join("cache")),
         ..CompareOptions::default()
     };
     let specs = resolve_specs(&["unsorted".into(), "sorted-object".into()]).expect("specs");

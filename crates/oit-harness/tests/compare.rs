@@ -30,7 +30,8 @@ fn one_frame_at_32px(out: &Path, context: oit_gpu::ContextOptions) -> CompareOpt
         frames: 1,
         warmup: 0,
         out_dir: out.to_path_buf(),
-        cache_dir: Some(out.join("cache")),
+        cache: oit_harness::ReferenceCache::Dir(out.join("cache")),
+        resume: false,
         context,
     }
 }
@@ -66,12 +67,15 @@ fn compare_suite_writes_complete_results() {
         frames: 2,
         warmup: 1,
         out_dir: out.clone(),
-        cache_dir: Some(cache.clone()),
+        cache: oit_harness::ReferenceCache::Dir(cache.clone()),
+        resume: false,
         context: Default::default(),
     };
     let runs_done = std::sync::atomic::AtomicUsize::new(0);
-    let results = compare(&ctx, &scenes, &specs, &options, &|_| {
-        runs_done.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let results = compare(&ctx, &scenes, &specs, &options, &|event| {
+        if let oit_harness::Event::RunDone { .. } = event {
+            runs_done.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        }
     })
     .unwrap();
     assert_eq!(runs_done.into_inner(), scenes.len() * specs.len());

@@ -286,7 +286,8 @@ fn compare_runs_every_technique_on_a_directory_with_a_glb() {
         frames: 1,
         warmup: 0,
         out_dir: dir.join("out"),
-        cache_dir: Some(dir.join("cache")),
+        cache: oit_harness::ReferenceCache::Dir(dir.join("cache")),
+        resume: false,
         context: Default::default(),
     };
     let results = oit_harness::compare(&ctx, &scenes, &specs, &options, &|_| {}).unwrap();

@@ -67,6 +67,7 @@ where
         std::process::id(),
         TEMP_COUNTER.fetch_add(1, Ordering::Relaxed)
     );
+    refuse_non_regular(path)?;
     let tmp = dir.join(tmp_name);
     let file = OpenOptions::new()
         .write(true)
@@ -85,9 +86,95 @@ where
         .map_err(|e| write_error(path)(e.into_error()))?;
     file.sync_all().map_err(write_error(path))?;
     drop(file);
+    // Again just before the rename: the target may have been replaced meanwhile.
+    refuse_non_regular(path)?;
     fs::rename(&guard.path, path).map_err(write_error(path))?;
     guard.armed = false;
     Ok(())
+}
+
+/// Only a regular file (or nothing) may be replaced: a rename over `/dev/null`, a FIFO, a socket
+/// or a symbolic link would silently turn it into a regular file (or detach the link).
+fn refuse_non_regular(path: &Path) -> Result<(), MetricsError> {
+    match fs::symlink_metadata(path) {
+        Ok(meta) if !meta.file_type().is_file() => Err(MetricsError::InvalidOutput {
+            path: path.to_path_buf(),
+            what: format!(
+                "exists and is {}, not a regular file; refusing to replace it (give a file path)",
+                describe_file_type(&meta.file_type())
+            ),
+        }),
+        _ => Ok(()),
+    }
+}
+
+fn describe_file_type(t: &fs::FileType) -> &'static str {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if t.is_char_device() || t.is_block_device() {
+            return "a device";
+        }
+        if t.is_fifo() {
+            return "a FIFO";
+        }
+        if t.is_socket() {
+            return "a socket";
+        }
+    }
+    if t.is_dir() {
+        "a directory"
+    } else if t.is_symlink() {
+        "a symbolic link"
+    } else {
+        "not a regular file"
+    }
+}
+
+/// Removes the temporary files [`write_atomic`] leaves in `dir` when its process was killed
+/// mid-write (`.NAME.PID-N.tmp` whose PID is not running, or, where that cannot be checked,
+/// older than a day). Returns how many were removed; a directory that cannot be read removes
+/// nothing.
+pub fn remove_stale_temporaries(dir: &Path) -> usize {
+    let Ok(entries) = fs::read_dir(dir) else {
+        return 0;
+    };
+    let mut removed = 0;
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        let Some(pid) = temporary_pid(&name.to_string_lossy()) else {
+            continue;
+        };
+        if pid == std::process::id() || !is_stale(pid, &entry) {
+            continue;
+        }
+        if entry.file_type().is_ok_and(|t| t.is_file()) && fs::remove_file(entry.path()).is_ok() {
+            removed += 1;
+        }
+    }
+    removed
+}
+
+/// The PID in a temporary name `.NAME.PID-N.tmp`.
+fn temporary_pid(name: &str) -> Option<u32> {
+    let inner = name.strip_prefix('.')?.strip_suffix(".tmp")?;
+    let (_, tail) = inner.rsplit_once('.')?;
+    let (pid, n) = tail.split_once('-')?;
+    n.parse::<u64>().ok()?;
+    pid.parse().ok()
+}
+
+fn is_stale(pid: u32, entry: &fs::DirEntry) -> bool {
+    let proc_dir = Path::new("/proc");
+    if proc_dir.join("self").exists() {
+        return !proc_dir.join(pid.to_string()).exists();
+    }
+    entry
+        .metadata()
+        .and_then(|m| m.modified())
+        .ok()
+        .and_then(|t| t.elapsed().ok())
+        .is_some_and(|age| age.as_secs() > 24 * 3600)
 }
 
 /// [`write_atomic`] of a byte slice.

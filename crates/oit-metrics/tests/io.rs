@@ -347,3 +347,50 @@ fn unwritable_targets_are_errors_naming_the_path() {
     let err = write_atomic_bytes(&dir.join("no/such/dir/f.png"), b"x").unwrap_err();
     assert!(err.to_string().contains("f.png"), "{err}");
 }
+
+/// A FIFO, a symbolic link or a directory at the target is refused before anything is written:
+/// a rename would turn it into a regular file (as `-o /dev/null` once did to the device node).
+#[cfg(unix)]
+#[test]
+fn only_a_regular_file_is_ever_replaced() {
+    use std::os::unix::fs::FileTypeExt;
+    let dir = scratch("atomic_non_regular");
+    let fifo = dir.join("pipe.exr");
+    let made = std::process::Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .expect("mkfifo runs");
+    assert!(made.success());
+    let err = write_atomic_bytes(&fifo, b"x").unwrap_err().to_string();
+    assert!(err.contains("pipe.exr") && err.contains("a FIFO"), "{err}");
+    assert!(fs::symlink_metadata(&fifo).unwrap().file_type().is_fifo());
+
+    let target = dir.join("target.bin");
+    write_atomic_bytes(&target, b"kept").unwrap();
+    let link = dir.join("link.bin");
+    std::os::unix::fs::symlink(&target, &link).unwrap();
+    let err = write_atomic_bytes(&link, b"new").unwrap_err().to_string();
+    assert!(err.contains("symbolic link"), "{err}");
+    assert!(
+        fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink()
+    );
+    assert_eq!(fs::read(&target).unwrap(), b"kept");
+    assert_eq!(entries(&dir), ["link.bin", "pipe.exr", "target.bin"]);
+}
+
+/// The `.tmp` a killed writer leaves is removed by the next run; a live writer's is kept.
+#[test]
+fn stale_temporaries_of_dead_writers_are_removed() {
+    let dir = scratch("atomic_stale");
+    // PIDs stop at 2^22 on Linux: 999999999 never runs.
+    fs::write(dir.join(".ref.oitref.999999999-3.tmp"), b"partial").unwrap();
+    let live = format!(".ref.oitref.{}-7.tmp", std::process::id());
+    fs::write(dir.join(&live), b"in progress").unwrap();
+    fs::write(dir.join("ref.oitref"), b"complete").unwrap();
+    fs::write(dir.join(".hidden.tmp"), b"not ours").unwrap();
+    assert_eq!(oit_metrics::remove_stale_temporaries(&dir), 1);
+    assert_eq!(entries(&dir), [".hidden.tmp", live.as_str(), "ref.oitref"]);
+}
