@@ -394,3 +394,45 @@ fn stale_temporaries_of_dead_writers_are_removed() {
     assert_eq!(oit_metrics::remove_stale_temporaries(&dir), 1);
     assert_eq!(entries(&dir), [".hidden.tmp", live.as_str(), "ref.oitref"]);
 }
+
+/// A reader racing the writer only ever sees a complete file at the target: the old contents
+/// or the new, never a prefix (a "write in place" or "copy instead of rename" would fail this).
+#[test]
+fn a_racing_reader_never_sees_a_partial_file() {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    let dir = scratch("atomic_race");
+    let path = dir.join("results.json");
+    let versions: Vec<Vec<u8>> = (0..8u8)
+        .map(|v| vec![b'a' + v; 256 * 1024 + usize::from(v) * 4099])
+        .collect();
+    write_atomic_bytes(&path, &versions[0]).unwrap();
+    let done = AtomicBool::new(false);
+    let reads = std::thread::scope(|s| {
+        let reader = s.spawn(|| {
+            let mut reads = 0u32;
+            while !done.load(Ordering::Relaxed) || reads < 50 {
+                let bytes = fs::read(&path).expect("the target always exists");
+                let complete = versions.iter().any(|v| *v == bytes);
+                assert!(complete, "partial file: {} bytes", bytes.len());
+                reads += 1;
+            }
+            reads
+        });
+        for round in 0..40 {
+            let v = &versions[round % versions.len()];
+            write_atomic(&path, |w| {
+                // In pieces, so a non-atomic writer would expose prefixes.
+                for chunk in v.chunks(8192) {
+                    w.write_all(chunk)?;
+                    w.flush()?;
+                }
+                Ok(())
+            })
+            .unwrap();
+        }
+        done.store(true, Ordering::Relaxed);
+        reader.join().unwrap()
+    });
+    assert!(reads >= 50, "{reads}");
+    assert_eq!(entries(&dir), ["results.json"]);
+}
