@@ -636,6 +636,55 @@ mod tests {
         assert_eq!(median(&mut [4.0, 1.0, 2.0, 3.0]), 2.5);
     }
 
+    fn ok_run(technique: &str, median: f64) -> Run {
+        let mut run = Run::not_rendered(
+            "s",
+            "s.json",
+            technique,
+            [1, 1],
+            RunStatus::Ok,
+            String::new(),
+        );
+        run.reason = None;
+        run.gpu_ms = Some(GpuMs {
+            median,
+            min: median,
+            max: median,
+            frames: 1,
+            source: "timestamp".into(),
+        });
+        run
+    }
+
+    /// cost × unsorted and cost × floor are the run's time over the baseline's, never the
+    /// inverse; runs that did not render get none.
+    #[test]
+    fn costs_divide_the_run_by_its_baseline() {
+        let mut runs = vec![
+            ok_run("unsorted", 2.0),
+            ok_run("front-peel", 10.0),
+            Run::not_rendered(
+                "s",
+                "s.json",
+                "k-buffer",
+                [1, 1],
+                RunStatus::Skipped,
+                "x".into(),
+            ),
+        ];
+        fill_costs(&mut runs, || panic!("unsorted ran: not measured again"));
+        assert_eq!(runs[0].cost_vs_unsorted, Some(1.0));
+        assert_eq!(runs[1].cost_vs_unsorted, Some(5.0));
+        assert_eq!(runs[2].cost_vs_unsorted, None);
+        fill_floor_costs(&mut runs, 0.5);
+        assert_eq!(runs[1].cost_vs_floor, Some(20.0));
+        assert_eq!(runs[2].cost_vs_floor, None);
+        // Without `unsorted` among the runs, the baseline is measured.
+        let mut alone = vec![ok_run("wboit", 3.0)];
+        fill_costs(&mut alone, || Some(1.5));
+        assert_eq!(alone[0].cost_vs_unsorted, Some(2.0));
+    }
+
     #[test]
     fn order_difference_is_max_abs_and_nan_is_infinite() {
         let a = LinearImage::new(2, 1, [0.5, 0.5, 0.5, 1.0]);
