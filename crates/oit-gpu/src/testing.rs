@@ -46,13 +46,16 @@ pub fn gl_context_or_skip(test_name: &str) -> Option<Context> {
 /// shader, includes resolved), so it calls that shader's own functions — the formulas a CPU
 /// twin mirrors — with the constants the passes use. The kernel's buffers sit at group 0,
 /// bindings 100 and 101 (free in every pass shader). `uniform`: bytes for a uniform at group 1,
-/// binding 0, for functions that read one (e.g. a pass's parameter block).
+/// binding 0, for functions that read one (e.g. a pass's parameter block). `constants`: values
+/// of the shader's `override` constants, as a pass pipeline sets them. A `u32` result comes
+/// back bit for bit through `bitcast<f32>(…)` and `f32::to_bits`.
 pub fn eval_f32(
     ctx: &Context,
     source: &str,
     expr: &str,
     inputs: &[[f32; 4]],
     uniform: Option<&[u8]>,
+    constants: &[(&str, f64)],
 ) -> Result<Vec<f32>, crate::GpuError> {
     use wgpu::util::DeviceExt;
     let code = format!(
@@ -76,7 +79,10 @@ pub fn eval_f32(
         layout: None,
         module: &module,
         entry_point: Some("kernel_main"),
-        compilation_options: Default::default(),
+        compilation_options: wgpu::PipelineCompilationOptions {
+            constants,
+            ..Default::default()
+        },
         cache: None,
     });
     let flat: Vec<f32> = inputs.iter().flatten().copied().collect();

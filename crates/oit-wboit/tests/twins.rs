@@ -78,7 +78,8 @@ fn every_weight_on_the_gpu_equals_its_cpu_twin() {
     let mut failures = Vec::new();
     for weight in Weight::ALL {
         let expr = format!("weight({}u, x.x, x.y, x.z)", weight.index());
-        let gpu = eval_f32(&ctx, &source, &expr, &inputs, Some(&uniform)).expect("kernel runs");
+        let gpu =
+            eval_f32(&ctx, &source, &expr, &inputs, Some(&uniform), &[]).expect("kernel runs");
         let tolerance = if weight == Weight::Range {
             EXP2_TOLERANCE
         } else {
@@ -206,7 +207,7 @@ fn view_distance_on_the_gpu_equals_the_camera_twin() {
         let windows: Vec<f32> = (1..200).map(|i| i as f32 / 200.0).collect();
         let inputs: Vec<[f32; 4]> = windows.iter().map(|&w| [w, a, b, 0.0]).collect();
         let expr = format!("wboit_view_distance(x.x, x.y, x.z, {ortho})");
-        let gpu = eval_f32(&ctx, &source, &expr, &inputs, None).expect("kernel runs");
+        let gpu = eval_f32(&ctx, &source, &expr, &inputs, None, &[]).expect("kernel runs");
         for (w, g) in windows.iter().zip(&gpu) {
             let cpu = camera.view_distance(*w);
             assert!(
