@@ -51,7 +51,9 @@ fn unpack_rgb9e5(w: u32) -> vec3<f32> {
 fn pack_node(color: vec3<f32>, alpha: f32, z: f32, reverse_z: bool) -> Node {
     var n: Node;
     if PACKED {
-        var d = u32(clamp(z, 0.0, 1.0) * UNORM24_MAX + 0.5);
+        // z = 1 gives 2^24 - 0.5 + 0.5, which f32 rounds to 2^24: clamp to 24 bits (else the
+        // key wraps, and a fragment on the reverse-Z near plane sorts farthest).
+        var d = min(u32(clamp(z, 0.0, 1.0) * UNORM24_MAX + 0.5), 16777215u);
         if reverse_z {
             d = 16777215u - d;
         }

@@ -95,7 +95,8 @@ fn unpack2x16float(w: u32) -> [f32; 2] {
 pub fn pack_node(format: NodeFormat, color: [f32; 3], alpha: f32, z: f32, reverse_z: bool) -> Node {
     match format {
         NodeFormat::Packed => {
-            let mut d = (z.clamp(0.0, 1.0) * UNORM24_MAX + 0.5) as u32;
+            // z = 1 rounds to 2^24 in f32: clamp to 24 bits (see linked_list_node.wgsl).
+            let mut d = ((z.clamp(0.0, 1.0) * UNORM24_MAX + 0.5) as u32).min(16_777_215);
             if reverse_z {
                 d = 16_777_215 - d;
             }
@@ -209,6 +210,18 @@ pub fn resolve(
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    /// z = 1 (the reverse-Z near plane, the standard far plane) stays inside 24 bits: found by
+    /// the GPU twin test, where it wrapped and sorted the nearest fragment farthest.
+    #[test]
+    fn packed_depth_at_one_stays_in_24_bits() {
+        let near = pack_node(NodeFormat::Packed, [1.0; 3], 1.0, 1.0, true);
+        let next = pack_node(NodeFormat::Packed, [1.0; 3], 1.0, 0.999, true);
+        assert_eq!(near.key >> 8, 0);
+        assert!(near.key < next.key);
+        let far = pack_node(NodeFormat::Packed, [1.0; 3], 0.0, 1.0, false);
+        assert_eq!(far.key, 0xffff_ff00);
+    }
 
     #[test]
     fn rgb9e5_known_values() {

@@ -1,0 +1,123 @@
+//! The node encodings of shaders/linked_list_node.wgsl against their CPU twin
+//! (`oit_linked_list::node`), on the GPU: `pack_node` in both formats and depth directions and
+//! `pack_rgb9e5`, word for word, over colours from 0 through HDR to beyond the rgb9e5 range,
+//! coverages at the unorm8 rounding edges and depths across [0, 1]. cargo-mutants does not
+//! mutate WGSL: a constant changed on one side only fails here.
+
+use oit_gpu::testing::{context_or_skip, eval_f32};
+use oit_linked_list::node::{self, NodeFormat};
+
+const NODE_WGSL: &str = include_str!("../../../shaders/linked_list_node.wgsl");
+
+/// One 16-bit half of a u32 result, exactly representable as f32 (no NaN bit patterns).
+fn halves(expr: &str) -> [String; 2] {
+    [
+        format!("f32(({expr}) & 0xffffu)"),
+        format!("f32(({expr}) >> 16u)"),
+    ]
+}
+
+fn run_words(
+    ctx: &oit_gpu::Context,
+    expr: &str,
+    inputs: &[[f32; 4]],
+    constants: &[(&str, f64)],
+) -> Vec<u32> {
+    let [lo, hi] = halves(expr);
+    let lo = eval_f32(ctx, NODE_WGSL, &lo, inputs, None, constants).expect("kernel runs");
+    let hi = eval_f32(ctx, NODE_WGSL, &hi, inputs, None, constants).expect("kernel runs");
+    lo.iter()
+        .zip(&hi)
+        .map(|(l, h)| *l as u32 | ((*h as u32) << 16))
+        .collect()
+}
+
+fn inputs() -> Vec<[f32; 4]> {
+    let channels = [
+        0.0, 1e-6, 0.003, 0.25, 0.5, 0.999, 1.0, 3.7, 250.0, 65408.0, 1e6,
+    ];
+    let depths = [0.0, 1e-7, 0.1, 0.333_333_3, 0.5, 0.9, 0.999_999, 1.0];
+    let mut out = Vec::new();
+    for (i, &r) in channels.iter().enumerate() {
+        for &g in &channels[i % 3..] {
+            let b = channels[(i * 7 + 3) % channels.len()];
+            for &z in &depths {
+                out.push([r, g, b, z]);
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn pack_node_on_the_gpu_equals_its_cpu_twin_word_for_word() {
+    let Some(ctx) = context_or_skip("linked_list_node_twins") else {
+        return;
+    };
+    let inputs = inputs();
+    let mut failures = Vec::new();
+    for format in [NodeFormat::F32, NodeFormat::Packed] {
+        let constants = [("PACKED", f64::from(u8::from(format == NodeFormat::Packed)))];
+        for reverse_z in [false, true] {
+            // 0.5/255 and 1.5/255 sit on unorm8 rounding edges.
+            for alpha in [0.0f32, 0.5 / 255.0, 1.5 / 255.0, 0.37, 0.5, 1.0] {
+                let call = format!("pack_node(x.xyz, {alpha:?}, x.w, {reverse_z})");
+                let words = [
+                    run_words(&ctx, &format!("{call}.key"), &inputs, &constants),
+                    run_words(&ctx, &format!("{call}.c0"), &inputs, &constants),
+                    run_words(&ctx, &format!("{call}.c1"), &inputs, &constants),
+                ];
+                for (i, x) in inputs.iter().enumerate() {
+                    let cpu = node::pack_node(format, [x[0], x[1], x[2]], alpha, x[3], reverse_z);
+                    let gpu = [words[0][i], words[1][i], words[2][i]];
+                    if gpu != [cpu.key, cpu.c0, cpu.c1] {
+                        failures.push(format!(
+                            "{format:?} reverse_z {reverse_z} α {alpha} colour {:?} z {}: GPU {gpu:08x?} CPU {:08x?}",
+                            &x[..3],
+                            x[3],
+                            [cpu.key, cpu.c0, cpu.c1]
+                        ));
+                    }
+                }
+            }
+        }
+    }
+    let count = failures.len();
+    failures.truncate(20);
+    assert!(
+        failures.is_empty(),
+        "{count} mismatches:\n{}",
+        failures.join("\n")
+    );
+}
+
+#[test]
+fn rgb9e5_on_the_gpu_equals_its_cpu_twin() {
+    let Some(ctx) = context_or_skip("rgb9e5_twin") else {
+        return;
+    };
+    let inputs = inputs();
+    let gpu = run_words(&ctx, "pack_rgb9e5(x.xyz)", &inputs, &[]);
+    for (x, g) in inputs.iter().zip(&gpu) {
+        assert_eq!(
+            *g,
+            node::pack_rgb9e5([x[0], x[1], x[2]]),
+            "colour {:?}",
+            &x[..3]
+        );
+    }
+    // And back: unpack of the packed words (exact f32 values on both sides).
+    for channel in 0..3 {
+        let expr = format!("unpack_rgb9e5(pack_rgb9e5(x.xyz))[{channel}]");
+        let gpu = eval_f32(&ctx, NODE_WGSL, &expr, &inputs, None, &[]).expect("kernel runs");
+        for (x, g) in inputs.iter().zip(&gpu) {
+            let cpu = node::unpack_rgb9e5(node::pack_rgb9e5([x[0], x[1], x[2]]))[channel];
+            assert_eq!(
+                g.to_bits(),
+                cpu.to_bits(),
+                "colour {:?} channel {channel}",
+                &x[..3]
+            );
+        }
+    }
+}
