@@ -14,9 +14,49 @@ use oit_scene::Resolution;
 /// Builds a fresh technique (one per draw order, so no state carries over).
 type Maker = Box<dyn Fn() -> Box<dyn Technique>>;
 
-const RMSE: f64 = 1e-3;
-const MAX: f64 = 4e-3;
-const ORDER: f64 = 1e-4;
+/// Error bounds of exact peeling per bundled scene at 128² (f32 accumulator): 4× the worst of
+/// front and dual peeling as measured on lavapipe (llvmpipe 15, Mesa 22.3), plus 1e-7 (a few
+/// f32 ulps) so an exact 0 has room for another adapter's rounding. Measured (rmse, max), worst
+/// of the two techniques: alpha-099-stack 1.7e-11 / 2.9e-11, alpha-extremes 8.4e-9 / 6.0e-8,
+/// concave-self 1.7e-8 / 1.2e-7, depth-range 2.3e-8 / 6.0e-8, enderton 0 / 0, faint-haze
+/// 1.2e-7 / 6.0e-7, foliage-cards 2.7e-8 / 3.0e-7, gltf-alpha-blend-modes 4.7e-6 / 2.7e-4
+/// (textured α on cutoff edges), gltf-glass-vase 3.5e-7 / 4.2e-5, hdr-emissive 3.4e-6 /
+/// 3.1e-5 (radiance up to 1000), intersecting-quads 2.2e-8 / 1.8e-7, many-layers-64 9.9e-8 /
+/// 1.2e-7, opaque-interleaved 7.5e-8 / 3.3e-6, particles 3.2e-8 / 1.8e-7, quad-through-sphere
+/// 1.1e-8 / 6.0e-8, sorted-quads 1.3e-8 / 6.0e-8. (Before: one bound, rmse 1e-3 and max 4e-3,
+/// 130–10⁸× above these.)
+const MEASURED: [(&str, f64, f64); 16] = [
+    ("alpha-099-stack", 1.7e-11, 2.9e-11),
+    ("alpha-extremes", 8.4e-9, 6.0e-8),
+    ("concave-self", 1.7e-8, 1.2e-7),
+    ("depth-range", 2.3e-8, 6.0e-8),
+    ("enderton", 0.0, 0.0),
+    ("faint-haze", 1.2e-7, 6.0e-7),
+    ("foliage-cards", 2.7e-8, 3.0e-7),
+    ("gltf-alpha-blend-modes", 4.7e-6, 2.7e-4),
+    ("gltf-glass-vase", 3.5e-7, 4.2e-5),
+    ("hdr-emissive", 3.4e-6, 3.1e-5),
+    ("intersecting-quads", 2.2e-8, 1.8e-7),
+    ("many-layers-64", 9.9e-8, 1.2e-7),
+    ("opaque-interleaved", 7.5e-8, 3.3e-6),
+    ("particles", 3.2e-8, 1.8e-7),
+    ("quad-through-sphere", 1.1e-8, 6.0e-8),
+    ("sorted-quads", 1.3e-8, 6.0e-8),
+];
+
+/// (rmse, max) bounds of `scene` ([`MEASURED`] × 4 + 1e-7). A scene without a measurement
+/// fails: measure it and add it.
+fn bounds(scene: &str) -> (f64, f64) {
+    let (_, rmse, max) = MEASURED
+        .iter()
+        .find(|(n, ..)| *n == scene)
+        .unwrap_or_else(|| panic!("{scene}: no measured peeling error in MEASURED; add it"));
+    (4.0 * rmse + 1e-7, 4.0 * max + 1e-7)
+}
+
+/// Peeling composites every layer in depth order whatever the draw order: exactly the same
+/// image (measured 0 on every scene).
+const ORDER: f64 = 0.0;
 
 fn dual(passes: PassCount, tail: Tail) -> DualPeel {
     DualPeel::new(DualPeelConfig {
@@ -86,7 +126,8 @@ fn auto_equals_the_reference_on_every_bundled_scene_in_both_draw_orders() {
                 stats.layers_peeled,
                 reference.stats.composited_fragments
             );
-            if e.rmse > RMSE || e.max_abs > MAX || order > ORDER {
+            let (rmse_bound, max_bound) = bounds(&name);
+            if e.rmse > rmse_bound || e.max_abs > max_bound || order > ORDER {
                 failures.push(format!(
                     "{name} {label}: rmse {:.2e} max {:.2e} order dependence {order:.2e}",
                     e.rmse, e.max_abs
@@ -181,13 +222,14 @@ fn fixed_passes_peel_exactly_2n_layers_and_the_wboit_tail_beats_dropping() {
                 e.rmse
             );
         } else {
+            let (rmse_bound, max_bound) = bounds("many-layers-64");
             assert!(
-                e.rmse <= RMSE && e.max_abs <= MAX,
-                "passes=32 reaches the reference"
+                e.rmse <= rmse_bound && e.max_abs <= max_bound,
+                "passes=32 reaches the reference: {e:?}"
             );
             assert!(
-                et.rmse <= RMSE && et.max_abs <= MAX,
-                "nothing left for the tail at passes=32"
+                et.rmse <= rmse_bound && et.max_abs <= max_bound,
+                "nothing left for the tail at passes=32: {et:?}"
             );
         }
     }
