@@ -75,8 +75,9 @@ pub struct ReferenceOptions {
     /// Bytes the render may use for its binning and for the working storage of the tiles in
     /// flight, all worker threads together ([`Self::DEFAULT_MEMORY_BUDGET`] says what that
     /// covers and what not). Each thread's tiles get an equal share; a tile whose fragments
-    /// exceed it is rendered in slices (same output, bit for bit). A pixel whose fragments
-    /// alone exceed the budget is [`ReferenceError::PixelOverBudget`].
+    /// exceed it is rendered after the others, alone with the whole budget, in slices that
+    /// run in parallel (same output, bit for bit). A pixel whose fragments alone exceed the
+    /// budget is [`ReferenceError::PixelOverBudget`], found before any slice is rendered.
     pub memory_budget: u64,
 }
 
@@ -93,21 +94,28 @@ impl Default for ReferenceOptions {
 impl ReferenceOptions {
     pub const DEFAULT_TILE_SIZE: u32 = 32;
     pub const MAX_TILE_SIZE: u32 = 1024;
-    /// 2 GiB. **Counted:** the bins (4 bytes per triangle–tile overlap, 8 per tile) and every
-    /// worker's tile scratch: 37 bytes per pixel of state, 28 per covered transparent fragment
-    /// (key, colour, sorted index), 12 per covered row of a transparent triangle, 8 per
-    /// fragment of the tile's longest pixel list (sort buffers), and while a tile is sliced
-    /// 4 bytes per pixel of counts. **Not counted** (proportional to the input or the
-    /// resolution, bounded by the loader's caps): the scene itself; the set-up triangles, 440
-    /// bytes per triangle reaching the screen (a clipped triangle becomes up to 7), briefly
-    /// twice while they are collected, plus 8 bytes per input triangle: 1.8 GB for the loader's
-    /// 4 M unclipped triangles; the outputs, 29 bytes per pixel: 1.9 GB at 8192².
+    /// 2 GiB.
     ///
-    /// Why 2 GiB: the deepest realistic tiles take a few MiB (particles at 2048² peak near
-    /// 0.5 MiB a tile, 64 full-screen layers near 2 MiB), so nothing realistic is sliced; one
-    /// pixel may hold 41 M fragments (52 bytes each alone), ten times the loader's triangle
-    /// cap, so no loadable scene fails for its depth alone; and with the worst uncounted
-    /// memory it stays within an 8 GiB CI runner.
+    /// **Counted** (allocated capacity, a reallocation's old and new block both): the bins,
+    /// 4 bytes per triangle–tile overlap and 8 per tile; and the scratch of every tile or
+    /// slice in flight: 37 bytes per pixel of state, 28 per covered transparent fragment (key,
+    /// colour, sorted index), 12 per covered row of a transparent triangle, 12 per fragment of
+    /// the longest pixel list (sort buffers), and for a tile rendered in slices 4 bytes per
+    /// pixel of counts and 29 per pixel of each slice's outputs. A pixel alone thus needs
+    /// about 90 bytes plus 52 per covered transparent fragment, beside its tile's counts.
+    ///
+    /// **Not counted** (proportional to the input or the resolution, bounded by the loader's
+    /// caps): the scene (36 bytes per vertex: 432 MB for 4 M triangles); the set-up triangles,
+    /// 328 bytes per triangle reaching the screen (clipping can make up to 7 of one) plus 8
+    /// per input triangle, and up to twice that while they are collected: 1.3 GB, 2.7 GB
+    /// during setup, for 4 M unclipped triangles; the outputs, 29 bytes per pixel: 1.9 GB at
+    /// 8192².
+    ///
+    /// Why 2 GiB: the deepest bundled tiles take under 4 MB at once (faint-haze; particles
+    /// near 1 MB), so nothing realistic is sliced even with 64 threads sharing it; one pixel
+    /// can hold 41 M fragments, ten times the loader's triangle cap, so no loadable scene
+    /// fails for its depth alone; and the worst loadable scene (2 M full-screen layers, 4 M
+    /// triangles) peaks at 3.7 GB resident (crate README), within a 4 GB limit.
     pub const DEFAULT_MEMORY_BUDGET: u64 = 2 << 30;
 }
 
@@ -226,10 +234,11 @@ pub struct ReferenceStats {
     pub sort_seconds: f64,
     /// Thread time compositing and writing pixels.
     pub composite_seconds: f64,
-    /// Most scratch storage one worker thread held for a tile: per-pixel state, stored
-    /// fragments, spans, sort buffers, slicing counts (bytes, allocated capacity). At most the
-    /// thread's share of [`ReferenceOptions::memory_budget`], or all of it that the binning
-    /// leaves for a tile rendered alone after the others.
+    /// Most storage one tile held on one worker (bytes, allocated capacity): its per-pixel
+    /// state, stored fragments, spans and sort buffers, or for a tile rendered in slices its
+    /// counts plus one slice's scratch and outputs. At most a thread's share of
+    /// [`ReferenceOptions::memory_budget`] for a tile at once; for a sliced tile the counts
+    /// plus a share of the rest, or all of it when its slices run one at a time.
     pub peak_tile_bytes: u64,
     /// Tiles rendered in slices because their fragments did not fit the budget at once.
     #[serde(default)]
@@ -436,10 +445,10 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
     drop(cursor);
     let binning_done = Instant::now();
 
-    // What the tiles may hold: all of it for one tile alone, an equal share per thread while
-    // they run in parallel. A tile that does not fit its share is deferred and rendered alone
-    // afterwards (only a pixel beyond the whole budget fails), so whether a scene renders does
-    // not depend on the number of threads.
+    // What the tiles may hold: an equal share per thread while they run in parallel. A tile
+    // that does not fit its share at once is deferred and rendered alone afterwards, in
+    // slices, with all of it (only a pixel beyond the whole budget fails), so whether a scene
+    // renders does not depend on the number of threads.
     let tile_budget = options.memory_budget - reserved;
     let threads = rayon::current_num_threads();
     let share = tile_budget / threads as u64;
@@ -498,8 +507,8 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
             available: tile_budget - counts,
             budget: options.memory_budget,
         },
-        // Only when even the counts do not fit the whole tile budget, which the binning
-        // check rules out.
+        // Not returned by a tile rendered alone: the binning check leaves it room for its
+        // counts and a pixel's state.
         TileFailure::Defer => ReferenceError::MemoryBudget {
             budget: options.memory_budget,
             minimum: reserved + tile_minimum,
@@ -566,12 +575,11 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
     if let Some((_, e)) = failure.into_inner().unwrap() {
         return Err(e);
     }
-    // Deferred tiles one at a time, each with the whole tile budget (the parallel scratches
-    // are gone by now).
+    // Deferred tiles one at a time, each with the whole tile budget (the scratches of the
+    // parallel pass are gone by now), in slices that run in parallel.
     let mut stats = stats;
     let mut deferred = deferred.into_inner().unwrap();
     deferred.sort_unstable();
-    let mut scratch = Scratch::default();
     for t in deferred {
         let ty = t / tiles_x;
         let rows = ty * band..((ty + 1) * band).min(w * height as usize);
@@ -585,20 +593,11 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
             stride: w,
             x_offset: rect.x0 as usize,
         };
-        let s = raster::render_tile(
-            &ctx,
-            bin_of(t),
-            rect,
-            &mut scratch,
-            out,
-            tile_budget,
-            tile_budget,
-        )
-        .map_err(pixel_error)?;
+        let s = raster::render_tile_sliced(&ctx, bin_of(t), rect, out, tile_budget)
+            .map_err(pixel_error)?;
         stats = stats.merge(s);
         report();
     }
-    drop(scratch);
 
     let seconds = start.elapsed().as_secs_f64();
     let pixels = scene.resolution.pixel_count() as f64;

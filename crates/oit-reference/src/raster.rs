@@ -1,7 +1,10 @@
 //! Per-tile rasterization, sorting and compositing. All storage lives in a reusable [`Scratch`]
 //! sized by the tile, never by the frame.
 
+use std::sync::Mutex;
 use std::time::{Duration, Instant};
+
+use rayon::iter::{ParallelBridge, ParallelIterator};
 
 use oit_scene::{Material, Shaded, Texels, Texture};
 
@@ -146,11 +149,11 @@ fn count_bytes(width: u64, height: u64) -> u64 {
 }
 
 /// The least memory a `width`×`height` tile can be rendered in: its per-pixel state, or its
-/// slicing counts and one pixel's state, whichever is more (so any tile without fragments
-/// fits, and one with fragments fits when each of its pixels does).
+/// slicing counts and one pixel's state and outputs, whichever is more (so any tile without
+/// fragments fits, and one with fragments fits when each of its pixels does).
 pub(crate) fn tile_minimum_bytes(width: u32, height: u32) -> u64 {
     let (w, h) = (u64::from(width), u64::from(height));
-    rect_bytes(w * h, 0, 0, 0).max(count_bytes(w, h) + rect_bytes(1, 0, 0, 0))
+    rect_bytes(w * h, 0, 0, 0).max(count_bytes(w, h) + rect_bytes(1, 0, 0, 0) + OUTPUT_BYTES)
 }
 
 impl Scratch {
@@ -910,23 +913,6 @@ pub(crate) struct TileOutput<'a> {
     pub x_offset: usize,
 }
 
-impl TileOutput<'_> {
-    /// The outputs of `rect`, a part of `tile` whose outputs these are.
-    fn part(&mut self, tile: TileRect, rect: TileRect) -> TileOutput<'_> {
-        TileOutput {
-            image: &mut *self.image,
-            layers: &mut *self.layers,
-            fragments: &mut *self.fragments,
-            undecided: &mut *self.undecided,
-            precision_ties: &mut *self.precision_ties,
-            stride: self.stride,
-            x_offset: self.x_offset
-                + (rect.y0 - tile.y0) as usize * self.stride
-                + (rect.x0 - tile.x0) as usize,
-        }
-    }
-}
-
 /// What the tiles share: the set-up triangles, textures, plane depths, depth convention and
 /// background.
 pub(crate) struct TileContext<'a> {
@@ -940,7 +926,7 @@ pub(crate) struct TileContext<'a> {
 /// Why [`render_tile`] did not render a tile.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum TileFailure {
-    /// It fits `hard_limit` but not `limit`: render it again with more memory.
+    /// It does not fit `limit` at once: render it alone, in slices.
     Defer,
     /// The pixel (frame coordinates) alone needs more than `hard_limit`: its covered
     /// transparent fragments and the bytes it needs beside the tile's counts (`reserved`).
@@ -953,61 +939,148 @@ pub(crate) enum TileFailure {
     },
 }
 
-/// Renders one tile with its scratch storage bounded by `limit` bytes ([`Scratch::bytes`]).
+/// Renders one tile at once with its scratch storage bounded by `limit` bytes
+/// ([`Scratch::bytes`]), the outputs untouched when it fails.
 ///
-/// The whole tile at once when its fragments fit; otherwise the transparent coverage is
-/// counted per pixel (nothing stored) and the tile rendered in slices, bands of rows, runs of
-/// a row or single pixels, each re-rasterizing the tile's triangles and fitting `limit` beside
-/// the counts. Every pixel's result depends only on its own fragments, so the image is the
-/// same bit for bit. [`TileFailure::Pixel`] when one pixel needs more than `hard_limit` (the
-/// first in row-major order), [`TileFailure::Defer`] when it fits `hard_limit` but not
-/// `limit`; the outputs are untouched then.
-#[allow(clippy::too_many_arguments)]
+/// When its fragments do not fit, the transparent coverage is counted per pixel (nothing
+/// stored): [`TileFailure::Pixel`] when one pixel needs more than `hard_limit` (the first in
+/// row-major order), else [`TileFailure::Defer`]: the tile is for [`render_tile_sliced`].
 pub(crate) fn render_tile(
     ctx: &TileContext<'_>,
     bin: &[u32],
     tile: TileRect,
     scratch: &mut Scratch,
-    mut out: TileOutput<'_>,
+    out: TileOutput<'_>,
     limit: u64,
     hard_limit: u64,
 ) -> Result<TileStats, TileFailure> {
     scratch.high_water = scratch.bytes();
-    if let Some(stats) = render_rect(ctx, bin, tile, scratch, out.part(tile, tile), limit, None) {
+    if let Some(stats) = render_rect(ctx, bin, tile, scratch, out, limit, None) {
         return Ok(stats);
     }
-    let result = render_sliced(ctx, bin, tile, scratch, &mut out, limit, hard_limit);
     scratch.release();
-    result.map(|stats| TileStats {
-        peak_tile_bytes: scratch.high_water,
-        ..stats
-    })
+    let checked = count_tile(ctx, bin, tile, scratch, limit, hard_limit);
+    scratch.release();
+    checked.and(Err(TileFailure::Defer))
 }
 
-/// The slow path of [`render_tile`]: count, check every pixel, render in slices.
-fn render_sliced(
+/// Output bytes per pixel of a slice, rendered into its own buffers: image, layers, fragment
+/// and undecided counts, tie flag.
+const OUTPUT_BYTES: u64 = (size_of::<[f32; 4]>() + 3 * size_of::<u32>() + size_of::<bool>()) as u64;
+
+/// Renders a tile alone in slices, bands of rows, runs of a row or single pixels, each
+/// re-rasterizing the tile's triangles; the transparent coverage is counted per pixel first
+/// (nothing stored) to plan them. Every pixel's result depends only on its own fragments, so
+/// the output is the same bit for bit as at once.
+///
+/// The counts and the slices in flight stay within `budget`: the slices run in parallel, each
+/// worker within an equal share of what the counts leave, when every pixel fits such a share,
+/// else one at a time with all of it. [`TileFailure::Pixel`] when a pixel needs more than
+/// `budget`.
+pub(crate) fn render_tile_sliced(
+    ctx: &TileContext<'_>,
+    bin: &[u32],
+    tile: TileRect,
+    mut out: TileOutput<'_>,
+    budget: u64,
+) -> Result<TileStats, TileFailure> {
+    let t_start = Instant::now();
+    let mut counter = Scratch::default();
+    let largest = count_tile(ctx, bin, tile, &mut counter, budget, budget)?;
+    let reserved = counter.bytes();
+    let counted = Instant::now();
+    let threads = rayon::current_num_threads() as u64;
+    let share = (budget - reserved) / threads;
+    let (limit, parallel) = if largest <= share {
+        (share, threads > 1)
+    } else {
+        (budget - reserved, false)
+    };
+    let out_tile = tile;
+    let out = Mutex::new(&mut out);
+    let render = |s: &mut Scratch, (rect, spans): (TileRect, u64)| -> TileStats {
+        let n = (rect.width * rect.height) as usize;
+        let mut image = vec![[0.0; 4]; n];
+        let mut layers = vec![0; n];
+        let mut fragments = vec![0; n];
+        let mut undecided = vec![0; n];
+        let mut precision_ties = vec![false; n];
+        let local = TileOutput {
+            image: &mut image,
+            layers: &mut layers,
+            fragments: &mut fragments,
+            undecided: &mut undecided,
+            precision_ties: &mut precision_ties,
+            stride: rect.width as usize,
+            x_offset: 0,
+        };
+        // The slice's own outputs are part of its share.
+        let limit = limit - n as u64 * OUTPUT_BYTES;
+        let stats = render_rect(ctx, bin, rect, s, local, limit, Some(spans as usize))
+            .expect("a slice planned within the limit fits it");
+        let mut out = out.lock().unwrap_or_else(|e| e.into_inner());
+        let w = rect.width as usize;
+        for row in 0..rect.height as usize {
+            let o = out.x_offset
+                + (rect.y0 - out_tile.y0) as usize * out.stride
+                + row * out.stride
+                + (rect.x0 - out_tile.x0) as usize;
+            let l = row * w..(row + 1) * w;
+            out.image[o..o + w].copy_from_slice(&image[l.clone()]);
+            out.layers[o..o + w].copy_from_slice(&layers[l.clone()]);
+            out.fragments[o..o + w].copy_from_slice(&fragments[l.clone()]);
+            out.undecided[o..o + w].copy_from_slice(&undecided[l.clone()]);
+            out.precision_ties[o..o + w].copy_from_slice(&precision_ties[l]);
+        }
+        TileStats {
+            peak_tile_bytes: stats.peak_tile_bytes + n as u64 * OUTPUT_BYTES,
+            ..stats
+        }
+    };
+    let slices = Slices::new(&counter, tile, limit);
+    let mut stats = if parallel {
+        slices
+            .par_bridge()
+            .map_init(Scratch::default, render)
+            .reduce(TileStats::default, TileStats::merge)
+    } else {
+        let mut scratch = Scratch::default();
+        slices
+            .map(|slice| render(&mut scratch, slice))
+            .fold(TileStats::default(), TileStats::merge)
+    };
+    // The counting pass is rasterization too; the counts are held beside every slice.
+    stats.raster += counted - t_start;
+    stats.peak_tile_bytes += reserved;
+    stats.sliced_tiles = 1;
+    Ok(stats)
+}
+
+/// Counts the covered transparent fragments per pixel of `tile` and its spans per row into
+/// `s.counts` and `s.row_spans`, within `limit`, and checks that every pixel fits alone beside
+/// them: the bytes the largest one needs, [`TileFailure::Pixel`] for the first over
+/// `hard_limit`, [`TileFailure::Defer`] when the counts do not fit `limit`.
+fn count_tile(
     ctx: &TileContext<'_>,
     bin: &[u32],
     tile: TileRect,
     s: &mut Scratch,
-    out: &mut TileOutput<'_>,
     limit: u64,
     hard_limit: u64,
-) -> Result<TileStats, TileFailure> {
-    let t_start = Instant::now();
+) -> Result<u64, TileFailure> {
     let (w, h) = (tile.width as usize, tile.height as usize);
-    s.release();
     let mut want = [Want::Fresh(0); BUFFERS];
     want[COUNTS] = Want::Fresh(h * (w + 1));
     want[COUNTS + 1] = Want::Fresh(h);
     if !s.ensure(want, limit) {
         return Err(TileFailure::Defer);
     }
-    // Covered transparent fragments per pixel and spans per row, from the same coverage as
-    // the rendering pass; per row a difference array (+1 at a span's first pixel, −1 after
-    // its end) summed afterwards, so each span costs O(1). Wrapping: the sums are < 2^32
-    // (at most one fragment per triangle and pixel).
+    // The same coverage as the rendering pass; per row a difference array (+1 at a span's
+    // first pixel, −1 after its end) summed afterwards, so each span costs O(1). Wrapping: the
+    // sums are < 2^32 (at most one fragment per triangle and pixel).
+    s.counts.clear();
     s.counts.resize(h * (w + 1), 0);
+    s.row_spans.clear();
     s.row_spans.resize(h, 0);
     for &t in bin {
         let tri = &ctx.triangles[t as usize];
@@ -1028,12 +1101,11 @@ fn render_sliced(
         }
     }
     let reserved = s.bytes();
-    let count = |s: &Scratch, row: usize, x: usize| u64::from(s.counts[row * (w + 1) + x]);
-    let mut defer = false;
+    let mut largest = 0;
     for row in 0..h {
         for x in 0..w {
-            let c = count(s, row, x);
-            let bytes = rect_bytes(1, c, c, c);
+            let c = u64::from(s.counts[row * (w + 1) + x]);
+            let bytes = rect_bytes(1, c, c, c) + OUTPUT_BYTES;
             if reserved + bytes > hard_limit {
                 return Err(TileFailure::Pixel {
                     x: tile.x0 + x as u32,
@@ -1043,92 +1115,107 @@ fn render_sliced(
                     reserved,
                 });
             }
-            defer |= reserved + bytes > limit;
+            largest = largest.max(bytes);
         }
     }
-    if defer {
-        return Err(TileFailure::Defer);
-    }
-    let counted = Instant::now();
-    let mut stats = TileStats {
-        sliced_tiles: 1,
-        ..TileStats::default()
-    };
-    let available = limit - reserved;
-    // Slot indices are u32 (a pixel has fewer: one per triangle).
-    let fits = |pixels, slots, spans, longest| {
-        slots <= u64::from(u32::MAX) && rect_bytes(pixels, slots, spans, longest) <= available
-    };
-    // Greedy slices: as many whole rows as fit; a row that does not fit alone is cut into runs
-    // of pixels (each pixel fits, checked above). A rectangle's spans are at most its rows'
-    // spans, and a run's at most its fragments too (each span covers one of them).
-    let mut render = |s: &mut Scratch, rect: TileRect, spans: u64| {
-        let stats_rect = render_rect(
-            ctx,
-            bin,
-            rect,
-            s,
-            out.part(tile, rect),
+    Ok(largest)
+}
+
+/// The slices of a counted tile ([`count_tile`]), greedily: as many whole rows as fit `limit`,
+/// and a row that does not fit alone cut into runs of pixels (each pixel fits, checked by the
+/// caller). Yields each slice with a bound on its spans: a rectangle's spans are at most its
+/// rows' spans, and a run's at most its fragments too (each span covers one of them).
+struct Slices<'a> {
+    counts: &'a [u32],
+    row_spans: &'a [u32],
+    tile: TileRect,
+    limit: u64,
+    row: usize,
+    x: usize,
+}
+
+impl<'a> Slices<'a> {
+    fn new(counter: &'a Scratch, tile: TileRect, limit: u64) -> Self {
+        Slices {
+            counts: &counter.counts,
+            row_spans: &counter.row_spans,
+            tile,
             limit,
-            Some(spans as usize),
-        )
-        .expect("a slice planned within the limit fits it");
-        stats = stats.merge(stats_rect);
-    };
-    let mut row = 0;
-    while row < h {
-        let (mut rows, mut slots, mut spans, mut longest) = (0, 0, 0, 0);
-        while row + rows < h {
-            let r = row + rows;
-            let row_slots: u64 = (0..w).map(|x| count(s, r, x)).sum();
-            let row_longest = (0..w).map(|x| count(s, r, x)).max().unwrap_or(0);
-            let (sl, sp, lo) = (
-                slots + row_slots,
-                spans + u64::from(s.row_spans[r]),
-                longest.max(row_longest),
-            );
-            if !fits(((rows + 1) * w) as u64, sl, sp, lo) {
-                break;
-            }
-            (rows, slots, spans, longest) = (rows + 1, sl, sp, lo);
+            row: 0,
+            x: 0,
         }
-        if rows > 0 {
-            let rect = TileRect {
-                x0: tile.x0,
-                y0: tile.y0 + row as u32,
-                width: tile.width,
-                height: rows as u32,
-            };
-            render(s, rect, spans);
-            row += rows;
-            continue;
+    }
+
+    /// Whether a slice of these numbers and its outputs fit; slot indices are u32.
+    fn fits(&self, pixels: u64, slots: u64, spans: u64, longest: u64) -> bool {
+        slots <= u64::from(u32::MAX)
+            && rect_bytes(pixels, slots, spans, longest) + pixels * OUTPUT_BYTES <= self.limit
+    }
+
+    fn count_at(&self, row: usize, x: usize) -> u64 {
+        u64::from(self.counts[row * (self.tile.width as usize + 1) + x])
+    }
+}
+
+impl Iterator for Slices<'_> {
+    type Item = (TileRect, u64);
+
+    fn next(&mut self) -> Option<(TileRect, u64)> {
+        let (w, h) = (self.tile.width as usize, self.tile.height as usize);
+        if self.row == h {
+            return None;
         }
-        let row_spans = u64::from(s.row_spans[row]);
-        let mut x = 0;
-        while x < w {
-            let (mut len, mut slots, mut longest) = (0, 0, 0);
-            while x + len < w {
-                let c = count(s, row, x + len);
-                let (sl, lo) = (slots + c, longest.max(c));
-                if !fits(len as u64 + 1, sl, sl.min(row_spans), lo) {
+        let (row, x) = (self.row, self.x);
+        if x == 0 {
+            let (mut rows, mut slots, mut spans, mut longest) = (0, 0, 0, 0);
+            while row + rows < h {
+                let r = row + rows;
+                let row_slots: u64 = (0..w).map(|x| self.count_at(r, x)).sum();
+                let row_longest = (0..w).map(|x| self.count_at(r, x)).max().unwrap_or(0);
+                let (sl, sp, lo) = (
+                    slots + row_slots,
+                    spans + u64::from(self.row_spans[r]),
+                    longest.max(row_longest),
+                );
+                if !self.fits(((rows + 1) * w) as u64, sl, sp, lo) {
                     break;
                 }
-                (len, slots, longest) = (len + 1, sl, lo);
+                (rows, slots, spans, longest) = (rows + 1, sl, sp, lo);
             }
-            let rect = TileRect {
-                x0: tile.x0 + x as u32,
-                y0: tile.y0 + row as u32,
-                width: len as u32,
-                height: 1,
-            };
-            render(s, rect, slots.min(row_spans));
-            x += len;
+            if rows > 0 {
+                self.row += rows;
+                let rect = TileRect {
+                    x0: self.tile.x0,
+                    y0: self.tile.y0 + row as u32,
+                    width: self.tile.width,
+                    height: rows as u32,
+                };
+                return Some((rect, spans));
+            }
         }
-        row += 1;
+        let row_spans = u64::from(self.row_spans[row]);
+        let (mut len, mut slots, mut longest) = (0, 0, 0);
+        while x + len < w {
+            let c = self.count_at(row, x + len);
+            let (sl, lo) = (slots + c, longest.max(c));
+            if !self.fits(len as u64 + 1, sl, sl.min(row_spans), lo) {
+                break;
+            }
+            (len, slots, longest) = (len + 1, sl, lo);
+        }
+        assert!(len > 0, "every pixel fits alone");
+        self.x += len;
+        if self.x == w {
+            (self.row, self.x) = (row + 1, 0);
+        }
+        let rect = TileRect {
+            x0: self.tile.x0 + x as u32,
+            y0: self.tile.y0 + row as u32,
+            width: len as u32,
+            height: 1,
+        };
+        Some((rect, slots.min(row_spans)))
     }
-    // The counting pass is rasterization too.
-    stats.raster += counted - t_start;
-    Ok(stats)
 }
 
 /// Covered transparent fragments of the first `n` pixels, before the prefix sum.

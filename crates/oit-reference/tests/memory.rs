@@ -186,8 +186,8 @@ fn tiles_over_the_budget_render_in_slices_bit_identically() {
         "a tile at once takes {} bytes",
         full.stats.peak_tile_bytes
     );
-    // 2 threads: each runs its tiles in half the budget. 8: a share is below one tile's
-    // state, so every tile is deferred and rendered alone with the whole budget.
+    // Every tile is over a thread's share at once, so each is rendered alone afterwards, its
+    // slices in parallel (on 8 threads a share is even below a tile's per-pixel state).
     for threads in [1, 2, 8] {
         let r = render_on(threads, &scene, SMALL_BUDGET).expect("renders in slices");
         let what = format!("{threads} threads");
@@ -198,13 +198,6 @@ fn tiles_over_the_budget_render_in_slices_bit_identically() {
             "{what}: a tile held {} bytes, over the budget of {SMALL_BUDGET}",
             r.stats.peak_tile_bytes
         );
-        if threads == 2 {
-            assert!(
-                r.stats.peak_tile_bytes <= SMALL_BUDGET / 2,
-                "{what}: a tile held {} bytes, over its thread's share",
-                r.stats.peak_tile_bytes
-            );
-        }
     }
 }
 
