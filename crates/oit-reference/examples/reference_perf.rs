@@ -139,6 +139,7 @@ fn main() {
     let options = ReferenceOptions {
         tile_size,
         progress: None,
+        ..Default::default()
     };
     println!(
         "oit-reference perf: {} rayon threads, tile {} px, best of 3",
@@ -189,6 +190,7 @@ fn main() {
         let o = ReferenceOptions {
             tile_size,
             progress: None,
+            ..Default::default()
         };
         row(
             &format!("layers-64 tile {tile_size}"),

@@ -29,14 +29,16 @@
 //! **Memory.** Triangles are set up once and their indices binned to square screen tiles; tiles
 //! are rendered in parallel (rayon), each with per-thread scratch arrays sized by the tile's
 //! fragments, so the peak fragment storage depends on the tile, not on the frame
-//! ([`ReferenceStats::peak_tile_bytes`]).
+//! ([`ReferenceStats::peak_tile_bytes`]). The binning and the tiles in flight stay within
+//! [`ReferenceOptions::memory_budget`]: a tile whose fragments do not fit is rendered in
+//! slices, and a pixel that cannot fit alone is an error, not an abort.
 
 mod composite;
 mod raster;
 mod setup;
 
-use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use oit_scene::{LinearImage, Scene};
@@ -55,13 +57,14 @@ pub const OUTPUT_VERSION: u32 = 3;
 /// Most input triangles a scene may have (ranks are u32 sort keys).
 pub const MAX_TRIANGLES: u32 = u32::MAX - 1;
 
-use raster::{Scratch, TileOutput, TileRect, TileStats};
+use raster::{Scratch, TileFailure, TileOutput, TileRect, TileStats};
 use setup::SetupTriangle;
 
 /// Progress callback: `(tiles done, tiles total)`. Called from worker threads after each tile.
 pub type Progress = Arc<dyn Fn(usize, usize) + Send + Sync>;
 
-/// How to run the reference. `Default` gives 32-pixel tiles and no progress reporting.
+/// How to run the reference. `Default` gives 32-pixel tiles, the default memory budget and no
+/// progress reporting.
 #[derive(Clone)]
 pub struct ReferenceOptions {
     /// Edge of the square screen tiles in pixels (1..=1024). Smaller tiles keep a tile's
@@ -69,6 +72,13 @@ pub struct ReferenceOptions {
     pub tile_size: u32,
     /// Called after every tile with (done, total); the CLI drives a progress bar with it.
     pub progress: Option<Progress>,
+    /// Bytes the render may use for its binning and for the working storage of the tiles in
+    /// flight, all worker threads together ([`Self::DEFAULT_MEMORY_BUDGET`] says what that
+    /// covers and what not). Each thread's tiles get an equal share; a tile whose fragments
+    /// exceed it is rendered after the others, alone with the whole budget, in slices that
+    /// run in parallel (same output, bit for bit). A pixel whose fragments alone exceed the
+    /// budget is [`ReferenceError::PixelOverBudget`], found before any slice is rendered.
+    pub memory_budget: u64,
 }
 
 impl Default for ReferenceOptions {
@@ -76,6 +86,7 @@ impl Default for ReferenceOptions {
         Self {
             tile_size: Self::DEFAULT_TILE_SIZE,
             progress: None,
+            memory_budget: Self::DEFAULT_MEMORY_BUDGET,
         }
     }
 }
@@ -83,6 +94,29 @@ impl Default for ReferenceOptions {
 impl ReferenceOptions {
     pub const DEFAULT_TILE_SIZE: u32 = 32;
     pub const MAX_TILE_SIZE: u32 = 1024;
+    /// 2 GiB.
+    ///
+    /// **Counted** (allocated capacity, a reallocation's old and new block both): the bins,
+    /// 4 bytes per triangle–tile overlap and 8 per tile; and the scratch of every tile or
+    /// slice in flight: 37 bytes per pixel of state, 28 per covered transparent fragment (key,
+    /// colour, sorted index), 12 per covered row of a transparent triangle, 12 per fragment of
+    /// the longest pixel list (sort buffers), and for a tile rendered in slices 4 bytes per
+    /// pixel of counts and 29 per pixel of each slice's outputs. A pixel alone thus needs
+    /// about 90 bytes plus 52 per covered transparent fragment, beside its tile's counts.
+    ///
+    /// **Not counted** (proportional to the input or the resolution, bounded by the loader's
+    /// caps): the scene (36 bytes per vertex: 432 MB for 4 M triangles); the set-up triangles,
+    /// 328 bytes per triangle reaching the screen (clipping can make up to 7 of one) plus 8
+    /// per input triangle, and up to twice that while they are collected: 1.3 GB, 2.7 GB
+    /// during setup, for 4 M unclipped triangles; the outputs, 29 bytes per pixel: 1.9 GB at
+    /// 8192².
+    ///
+    /// Why 2 GiB: the deepest bundled tiles take under 4 MB at once (faint-haze; particles
+    /// near 1 MB), so nothing realistic is sliced even with 64 threads sharing it; one pixel
+    /// can hold 41 M fragments, ten times the loader's triangle cap, so no loadable scene
+    /// fails for its depth alone; and the worst loadable scene (2 M full-screen layers, 4 M
+    /// triangles) peaks at 3.7 GB resident (crate README), within a 4 GB limit.
+    pub const DEFAULT_MEMORY_BUDGET: u64 = 2 << 30;
 }
 
 impl std::fmt::Debug for ReferenceOptions {
@@ -90,6 +124,7 @@ impl std::fmt::Debug for ReferenceOptions {
         f.debug_struct("ReferenceOptions")
             .field("tile_size", &self.tile_size)
             .field("progress", &self.progress.as_ref().map(|_| "callback"))
+            .field("memory_budget", &self.memory_budget)
             .finish()
     }
 }
@@ -199,14 +234,23 @@ pub struct ReferenceStats {
     pub sort_seconds: f64,
     /// Thread time compositing and writing pixels.
     pub composite_seconds: f64,
-    /// Largest storage any one tile held: per-pixel state plus its stored fragments (bytes).
+    /// Most storage one tile held on one worker (bytes, allocated capacity): its per-pixel
+    /// state, stored fragments, spans and sort buffers, or for a tile rendered in slices its
+    /// counts plus one slice's scratch and outputs. At most a thread's share of
+    /// [`ReferenceOptions::memory_budget`] for a tile at once; for a sliced tile the counts
+    /// plus a share of the rest, or all of it when its slices run one at a time.
     pub peak_tile_bytes: u64,
+    /// Tiles rendered in slices because their fragments did not fit the budget at once.
+    #[serde(default)]
+    pub sliced_tiles: u64,
     pub tile_size: u32,
     pub tiles: u64,
     pub threads: usize,
 }
 
-/// Why a scene cannot be rendered. The loader never produces these; hand-built scenes can.
+/// Why a scene cannot be rendered. The loader never produces the input errors; hand-built
+/// scenes can. The last three are about [`ReferenceOptions::memory_budget`]: any scene can
+/// exceed a small enough budget.
 #[derive(Debug, thiserror::Error, PartialEq, Eq)]
 pub enum ReferenceError {
     #[error("resolution {width}x{height}: width and height must be in 1..={max}")]
@@ -239,13 +283,42 @@ pub enum ReferenceError {
     },
     #[error("{0} triangles: at most {max} are supported", max = MAX_TRIANGLES)]
     TooManyTriangles(u64),
+    #[error(
+        "memory budget of {budget} bytes: the per-pixel state of one {width}x{height} tile needs at least {minimum}; raise it with --memory-budget"
+    )]
+    MemoryBudget {
+        budget: u64,
+        minimum: u64,
+        width: u32,
+        height: u32,
+    },
+    #[error(
+        "binning needs {bytes} bytes for {overlaps} triangle-tile overlaps and one tile's state, more than the memory budget of {budget} bytes (and at most 4294967295 overlaps are supported); raise it with --memory-budget or use larger tiles"
+    )]
+    BinningOverBudget {
+        overlaps: u64,
+        bytes: u64,
+        budget: u64,
+    },
+    #[error(
+        "pixel ({x}, {y}) holds {fragments} transparent fragments, which need {bytes} bytes to sort and composite, more than the {available} bytes the memory budget of {budget} bytes leaves after binning and the tile's counts; raise it with --memory-budget"
+    )]
+    PixelOverBudget {
+        x: u32,
+        y: u32,
+        fragments: u32,
+        bytes: u64,
+        available: u64,
+        budget: u64,
+    },
 }
 
 /// Renders the exact reference.
 ///
 /// # Panics
 /// When the scene breaks the invariants [`oit_scene`]'s loader guarantees (see
-/// [`ReferenceError`]) or the options are out of range; use [`try_render`] for hand-built input.
+/// [`ReferenceError`]), the options are out of range or the scene does not fit the memory
+/// budget; use [`try_render`] for hand-built input or a budget it may exceed.
 pub fn render(scene: &Scene, options: &ReferenceOptions) -> Reference {
     match try_render(scene, options) {
         Ok(r) => r,
@@ -253,7 +326,8 @@ pub fn render(scene: &Scene, options: &ReferenceOptions) -> Reference {
     }
 }
 
-/// [`render`] that reports invalid input as an error instead of panicking.
+/// [`render`] that reports invalid input, or a scene beyond the memory budget, as an error
+/// instead of panicking.
 pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference, ReferenceError> {
     let start = Instant::now();
     validate(scene, options)?;
@@ -326,6 +400,24 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
             (y0 / tile) as usize..=(y1 / tile) as usize,
         )
     };
+    // Checked before anything is allocated: the overlaps are a product of triangles and tiles
+    // (4 M full-screen triangles at 1024² would take 16 GiB), and bin offsets are u32.
+    let overlaps: u64 = triangles
+        .iter()
+        .map(|t| {
+            let (xs, ys) = tile_range(t);
+            (xs.count() * ys.count()) as u64
+        })
+        .sum();
+    let tile_minimum = raster::tile_minimum_bytes(tile.min(width), tile.min(height));
+    let reserved = overlaps * 4 + (tile_count as u64 + 1) * 8;
+    if overlaps > u64::from(u32::MAX) || reserved + tile_minimum > options.memory_budget {
+        return Err(ReferenceError::BinningOverBudget {
+            overlaps,
+            bytes: reserved + tile_minimum,
+            budget: options.memory_budget,
+        });
+    }
     let mut bin_start = vec![0u32; tile_count + 1];
     for t in &triangles {
         let (xs, ys) = tile_range(t);
@@ -350,7 +442,16 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
             }
         }
     }
+    drop(cursor);
     let binning_done = Instant::now();
+
+    // What the tiles may hold: an equal share per thread while they run in parallel. A tile
+    // that does not fit its share at once is deferred and rendered alone afterwards, in
+    // slices, with all of it (only a pixel beyond the whole budget fails), so whether a scene
+    // renders does not depend on the number of threads.
+    let tile_budget = options.memory_budget - reserved;
+    let threads = rayon::current_num_threads();
+    let share = tile_budget / threads as u64;
 
     let w = width as usize;
     // Every pixel is written by its tile. Zeroed allocations get their pages lazily, so the
@@ -365,9 +466,56 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
     let mut fragments = vec![0u32; scene.resolution.pixel_count()];
     let mut undecided = vec![0u32; scene.resolution.pixel_count()];
     let mut precision_ties = vec![false; scene.resolution.pixel_count()];
-    let background = scene.background.map(f64::from);
-    let reverse_z = scene.camera.reverse_z;
+    let ctx = raster::TileContext {
+        triangles: &triangles,
+        textures: &scene.textures,
+        planes: &plane_depths,
+        reverse_z: scene.camera.reverse_z,
+        background: scene.background.map(f64::from),
+    };
     let done = AtomicUsize::new(0);
+    let tile_rect = |t: usize, band_height: u32| TileRect {
+        x0: (t % tiles_x) as u32 * tile,
+        y0: (t / tiles_x) as u32 * tile,
+        width: tile.min(width - (t % tiles_x) as u32 * tile),
+        height: band_height,
+    };
+    let bin_of = |t: usize| &bins[bin_start[t] as usize..bin_start[t + 1] as usize];
+    let report = || {
+        let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+        if let Some(progress) = &options.progress {
+            progress(d, tile_count);
+        }
+    };
+    // The first tile (in index order) with a pixel beyond the budget: tiles after it are
+    // skipped, tiles before it still run, so the error names the same pixel on every run.
+    let first_failure = AtomicUsize::new(usize::MAX);
+    let failure = Mutex::new(None);
+    let deferred = Mutex::new(Vec::new());
+    let pixel_error = |f: TileFailure| match f {
+        TileFailure::Pixel {
+            x,
+            y,
+            fragments,
+            bytes,
+            reserved: counts,
+        } => ReferenceError::PixelOverBudget {
+            x,
+            y,
+            fragments,
+            bytes,
+            available: tile_budget - counts,
+            budget: options.memory_budget,
+        },
+        // Not returned by a tile rendered alone: the binning check leaves it room for its
+        // counts and a pixel's state.
+        TileFailure::Defer => ReferenceError::MemoryBudget {
+            budget: options.memory_budget,
+            minimum: reserved + tile_minimum,
+            width: tile.min(width),
+            height: tile.min(height),
+        },
+    };
     let band = tile as usize * w;
     let stats = image
         .pixels
@@ -383,14 +531,11 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
                 let mut stats = TileStats::default();
                 let band_height = (img.len() / w) as u32;
                 for tx in 0..tiles_x {
-                    let rect = TileRect {
-                        x0: tx as u32 * tile,
-                        y0: ty as u32 * tile,
-                        width: tile.min(width - tx as u32 * tile),
-                        height: band_height,
-                    };
                     let t = ty * tiles_x + tx;
-                    let bin = &bins[bin_start[t] as usize..bin_start[t + 1] as usize];
+                    if t > first_failure.load(Ordering::Relaxed) {
+                        break;
+                    }
+                    let rect = tile_rect(t, band_height);
                     let out = TileOutput {
                         image: &mut *img,
                         layers: &mut *lay,
@@ -400,27 +545,59 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
                         stride: w,
                         x_offset: rect.x0 as usize,
                     };
-                    let s = raster::render_tile(
-                        &triangles,
-                        &scene.textures,
-                        &plane_depths,
-                        bin,
+                    match raster::render_tile(
+                        &ctx,
+                        bin_of(t),
                         rect,
-                        reverse_z,
-                        background,
                         scratch,
                         out,
-                    );
-                    stats = stats.merge(s);
-                    let d = done.fetch_add(1, Ordering::Relaxed) + 1;
-                    if let Some(progress) = &options.progress {
-                        progress(d, tile_count);
+                        share,
+                        tile_budget,
+                    ) {
+                        Ok(s) => {
+                            stats = stats.merge(s);
+                            report();
+                        }
+                        Err(TileFailure::Defer) => deferred.lock().unwrap().push(t),
+                        Err(f) => {
+                            first_failure.fetch_min(t, Ordering::Relaxed);
+                            let mut slot = failure.lock().unwrap();
+                            if slot.as_ref().is_none_or(|(u, _)| t < *u) {
+                                *slot = Some((t, pixel_error(f)));
+                            }
+                        }
                     }
                 }
                 stats
             },
         )
         .reduce(TileStats::default, TileStats::merge);
+    if let Some((_, e)) = failure.into_inner().unwrap() {
+        return Err(e);
+    }
+    // Deferred tiles one at a time, each with the whole tile budget (the scratches of the
+    // parallel pass are gone by now), in slices that run in parallel.
+    let mut stats = stats;
+    let mut deferred = deferred.into_inner().unwrap();
+    deferred.sort_unstable();
+    for t in deferred {
+        let ty = t / tiles_x;
+        let rows = ty * band..((ty + 1) * band).min(w * height as usize);
+        let rect = tile_rect(t, (rows.len() / w) as u32);
+        let out = TileOutput {
+            image: &mut image.pixels[rows.clone()],
+            layers: &mut layers[rows.clone()],
+            fragments: &mut fragments[rows.clone()],
+            undecided: &mut undecided[rows.clone()],
+            precision_ties: &mut precision_ties[rows],
+            stride: w,
+            x_offset: rect.x0 as usize,
+        };
+        let s = raster::render_tile_sliced(&ctx, bin_of(t), rect, out, tile_budget)
+            .map_err(pixel_error)?;
+        stats = stats.merge(s);
+        report();
+    }
 
     let seconds = start.elapsed().as_secs_f64();
     let pixels = scene.resolution.pixel_count() as f64;
@@ -453,6 +630,7 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
         sort_seconds: stats.sort.as_secs_f64(),
         composite_seconds: stats.composite.as_secs_f64(),
         peak_tile_bytes: stats.peak_tile_bytes,
+        sliced_tiles: stats.sliced_tiles,
         tile_size: tile,
         tiles: tile_count as u64,
         threads: rayon::current_num_threads(),
@@ -479,6 +657,19 @@ fn validate(scene: &Scene, options: &ReferenceOptions) -> Result<(), ReferenceEr
     }
     if options.tile_size == 0 || options.tile_size > ReferenceOptions::MAX_TILE_SIZE {
         return Err(ReferenceError::TileSize(options.tile_size));
+    }
+    let (width, height) = (
+        options.tile_size.min(r.width),
+        options.tile_size.min(r.height),
+    );
+    let minimum = raster::tile_minimum_bytes(width, height);
+    if options.memory_budget < minimum {
+        return Err(ReferenceError::MemoryBudget {
+            budget: options.memory_budget,
+            minimum,
+            width,
+            height,
+        });
     }
     for (i, m) in scene.materials.iter().enumerate() {
         for t in [m.base_texture, m.emissive_texture].into_iter().flatten() {

@@ -1,7 +1,10 @@
 //! Per-tile rasterization, sorting and compositing. All storage lives in a reusable [`Scratch`]
 //! sized by the tile, never by the frame.
 
+use std::sync::Mutex;
 use std::time::{Duration, Instant};
+
+use rayon::iter::{ParallelBridge, ParallelIterator};
 
 use oit_scene::{Material, Shaded, Texels, Texture};
 
@@ -27,6 +30,9 @@ struct Span {
 /// cutoff discard and the opaque depth test only remove fragments), the prefix sum gives each
 /// pixel its slots `start[p]..start[p + 1]`, and the shading pass appends at `end[p]`. Keys and
 /// colours are separate arrays so that sorting only touches keys and 4-byte indices.
+///
+/// Every buffer's capacity is set through [`Scratch::ensure`] before it is filled, so that the
+/// sum of all capacities ([`Scratch::bytes`]) never exceeds the limit the tile runs under.
 #[derive(Debug, Default)]
 pub(crate) struct Scratch {
     opaque_key: Vec<u64>,
@@ -48,7 +54,64 @@ pub(crate) struct Scratch {
     perm: Vec<u32>,
     merge_buffer: Vec<u32>,
     runs: Vec<usize>,
+    /// Only while a tile is rendered in slices: per row `w + 1` covered-transparent counts
+    /// (a difference array until summed), and spans per row.
+    counts: Vec<u32>,
+    row_spans: Vec<u32>,
+    /// Most bytes held since the tile started, the transient of a reallocation included.
+    high_water: u64,
 }
+
+/// A scratch buffer as [`Scratch::ensure`] sees it: a `Vec` of any element type.
+trait Buffer {
+    fn len(&self) -> usize;
+    fn capacity(&self) -> usize;
+    fn element_bytes(&self) -> usize;
+    fn shrink_to(&mut self, capacity: usize);
+    /// Frees the contents and allocates exactly `capacity` (no copy of the old contents).
+    fn replace(&mut self, capacity: usize);
+    /// Grows to exactly `capacity`, keeping the contents (a reallocation may copy them).
+    fn grow(&mut self, capacity: usize);
+}
+
+impl<T> Buffer for Vec<T> {
+    fn len(&self) -> usize {
+        Vec::len(self)
+    }
+    fn capacity(&self) -> usize {
+        Vec::capacity(self)
+    }
+    fn element_bytes(&self) -> usize {
+        size_of::<T>()
+    }
+    fn shrink_to(&mut self, capacity: usize) {
+        self.truncate(capacity);
+        Vec::shrink_to(self, capacity);
+    }
+    fn replace(&mut self, capacity: usize) {
+        *self = Vec::new();
+        self.reserve_exact(capacity);
+    }
+    fn grow(&mut self, capacity: usize) {
+        self.reserve_exact(capacity - Vec::len(self));
+    }
+}
+
+/// What a buffer must hold at an [`Scratch::ensure`] point.
+#[derive(Debug, Clone, Copy)]
+enum Want {
+    /// Its contents are needed: keep them and make room for at least this many elements.
+    Keep(usize),
+    /// Its contents are not needed: room for this many elements.
+    Fresh(usize),
+}
+
+/// Buffers of [`Scratch::buffers`]: the per-pixel state, the spans, the per-slot arrays, the
+/// sort buffers and the slicing counts, in that order.
+const BUFFERS: usize = 16;
+const START: usize = 5;
+const SPANS: usize = 7;
+const COUNTS: usize = 14;
 
 /// Bytes of per-pixel state a tile keeps besides its fragment lists: opaque key and colour,
 /// fragment count, undecided count, list start and end, tie flag.
@@ -57,6 +120,163 @@ const PER_PIXEL_BYTES: u64 =
 
 /// Bytes per transparent fragment slot: key, colour and sorted-order index.
 const PER_SLOT_BYTES: u64 = (size_of::<u64>() + size_of::<[f32; 4]>() + size_of::<u32>()) as u64;
+
+/// Bytes per recorded span.
+const SPAN_BYTES: u64 = size_of::<Span>() as u64;
+
+/// Entries of the merge sort's run list for a list of `n`: every run but the last holds at
+/// least two keys (keys are unique), plus the leading 0. Short lists never use it.
+fn runs_needed(n: usize) -> usize {
+    if n > SHORT_LIST { n / 2 + 2 } else { 0 }
+}
+
+/// Exact scratch bytes to render a rectangle of `pixels` pixels holding `slots` covered
+/// transparent fragments in `spans` row spans, the longest pixel list `longest`: what
+/// [`render_rect`] reserves with the same numbers.
+fn rect_bytes(pixels: u64, slots: u64, spans: u64, longest: u64) -> u64 {
+    // Per slot the sort may need the list's permutation and the merge buffer (4 + 4 bytes).
+    pixels * PER_PIXEL_BYTES
+        + size_of::<u32>() as u64
+        + slots * PER_SLOT_BYTES
+        + spans * SPAN_BYTES
+        + longest * 2 * size_of::<u32>() as u64
+        + runs_needed(longest as usize) as u64 * size_of::<usize>() as u64
+}
+
+/// Bytes of the counts a sliced `width`×`height` tile keeps while its slices render.
+fn count_bytes(width: u64, height: u64) -> u64 {
+    (height * (width + 1) + height) * size_of::<u32>() as u64
+}
+
+/// The least memory a `width`×`height` tile can be rendered in: its per-pixel state, or its
+/// slicing counts and one pixel's state and outputs, whichever is more (so any tile without
+/// fragments fits, and one with fragments fits when each of its pixels does).
+pub(crate) fn tile_minimum_bytes(width: u32, height: u32) -> u64 {
+    let (w, h) = (u64::from(width), u64::from(height));
+    rect_bytes(w * h, 0, 0, 0).max(count_bytes(w, h) + rect_bytes(1, 0, 0, 0) + OUTPUT_BYTES)
+}
+
+impl Scratch {
+    fn buffers(&mut self) -> [&mut dyn Buffer; BUFFERS] {
+        [
+            &mut self.opaque_key,
+            &mut self.opaque_color,
+            &mut self.all_count,
+            &mut self.undecided,
+            &mut self.tie,
+            &mut self.start,
+            &mut self.end,
+            &mut self.spans,
+            &mut self.keys,
+            &mut self.colors,
+            &mut self.order,
+            &mut self.perm,
+            &mut self.merge_buffer,
+            &mut self.runs,
+            &mut self.counts,
+            &mut self.row_spans,
+        ]
+    }
+
+    /// Bytes allocated: the sum of all buffer capacities.
+    pub(crate) fn bytes(&mut self) -> u64 {
+        self.buffers()
+            .iter()
+            .map(|b| (b.capacity() * b.element_bytes()) as u64)
+            .sum()
+    }
+
+    /// Frees every buffer.
+    fn release(&mut self) {
+        *self = Scratch {
+            high_water: self.high_water,
+            ..Scratch::default()
+        };
+    }
+
+    /// Sets capacities so that every buffer can hold what `want` asks, without the sum of
+    /// capacities exceeding `limit`, even while a kept buffer is reallocated (old and new
+    /// allocation both count then). Grows by doubling where that fits, else exactly; frees
+    /// what is not wanted when even that does not fit. False (capacities possibly reduced)
+    /// when `want` cannot fit. Out of line: called a few times per tile, not per fragment.
+    #[inline(never)]
+    fn ensure(&mut self, want: [Want; BUFFERS], limit: u64) -> bool {
+        let mut buffers = self.buffers();
+        let mut need = [0u64; BUFFERS];
+        let mut size = [0u64; BUFFERS];
+        let mut cap = [0u64; BUFFERS];
+        for (i, b) in buffers.iter().enumerate() {
+            size[i] = b.element_bytes() as u64;
+            cap[i] = b.capacity() as u64;
+            need[i] = match want[i] {
+                Want::Keep(n) => n.max(b.len()) as u64,
+                Want::Fresh(n) => n as u64,
+            };
+        }
+        if need.iter().zip(&cap).all(|(n, c)| n <= c) {
+            return true;
+        }
+        // Bytes after growing to `target` (keeping larger capacities unless `shrink`), and the
+        // peak while the largest kept buffer is reallocated.
+        let footprint = |target: &[u64; BUFFERS], shrink: bool| {
+            let mut total = 0;
+            let mut copy = 0;
+            for i in 0..BUFFERS {
+                let c = if shrink {
+                    target[i]
+                } else {
+                    target[i].max(cap[i])
+                };
+                total += c * size[i];
+                if matches!(want[i], Want::Keep(_)) && target[i] > cap[i] {
+                    copy = copy.max(cap[i] * size[i]);
+                }
+            }
+            total + copy
+        };
+        let doubled: [u64; BUFFERS] = std::array::from_fn(|i| {
+            if need[i] > cap[i] {
+                need[i].max(2 * cap[i])
+            } else {
+                need[i]
+            }
+        });
+        let before: u64 = (0..BUFFERS).map(|i| cap[i] * size[i]).sum();
+        let (target, shrink, peak) = if footprint(&doubled, false) <= limit {
+            (doubled, false, footprint(&doubled, false))
+        } else if footprint(&need, false) <= limit {
+            (need, false, footprint(&need, false))
+        } else if footprint(&need, true) <= limit {
+            (need, true, before.max(footprint(&need, true)))
+        } else {
+            return false;
+        };
+        if shrink {
+            for (i, b) in buffers.iter_mut().enumerate() {
+                if cap[i] > target[i] {
+                    if matches!(want[i], Want::Fresh(_)) {
+                        b.replace(target[i] as usize);
+                    } else {
+                        b.shrink_to(target[i] as usize);
+                    }
+                }
+            }
+        }
+        // Fresh buffers first: they free before they allocate.
+        for (i, b) in buffers.iter_mut().enumerate() {
+            if matches!(want[i], Want::Fresh(_)) && (b.capacity() as u64) < target[i] {
+                b.replace(target[i] as usize);
+            }
+        }
+        for (i, b) in buffers.iter_mut().enumerate() {
+            if matches!(want[i], Want::Keep(_)) && (b.capacity() as u64) < target[i] {
+                b.grow(target[i] as usize);
+            }
+        }
+        self.high_water = self.high_water.max(peak);
+        true
+    }
+}
 
 /// Statistics of one tile or band, summed.
 #[derive(Debug, Default, Clone, Copy)]
@@ -73,6 +293,8 @@ pub(crate) struct TileStats {
     pub sort: Duration,
     pub composite: Duration,
     pub peak_tile_bytes: u64,
+    /// Tiles rendered in slices because their fragments did not fit at once.
+    pub sliced_tiles: u64,
 }
 
 impl TileStats {
@@ -89,6 +311,7 @@ impl TileStats {
         self.sort += o.sort;
         self.composite += o.composite;
         self.peak_tile_bytes = self.peak_tile_bytes.max(o.peak_tile_bytes);
+        self.sliced_tiles += o.sliced_tiles;
         self
     }
 }
@@ -686,26 +909,364 @@ pub(crate) struct TileOutput<'a> {
     pub precision_ties: &'a mut [bool],
     /// Row stride of the slices (the frame width).
     pub stride: usize,
-    /// Row of the tile's first line inside the slices.
+    /// Index of the tile's top-left pixel inside the slices.
     pub x_offset: usize,
 }
 
-/// Renders one tile: opaque pass into a tile depth/colour buffer; transparent coverage pass
-/// (row spans, per-pixel slot counts); transparent shading pass keeping only fragments
-/// strictly in front of the opaque depth, appended to their pixel's list; per-pixel sort by
-/// key; f64 front-to-back compositing.
-#[allow(clippy::too_many_arguments)]
+/// What the tiles share: the set-up triangles, textures, plane depths, depth convention and
+/// background.
+pub(crate) struct TileContext<'a> {
+    pub triangles: &'a [SetupTriangle],
+    pub textures: &'a [Texture],
+    pub planes: &'a [f64],
+    pub reverse_z: bool,
+    pub background: [f64; 3],
+}
+
+/// Why [`render_tile`] did not render a tile.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum TileFailure {
+    /// It does not fit `limit` at once: render it alone, in slices.
+    Defer,
+    /// The pixel (frame coordinates) alone needs more than `hard_limit`: its covered
+    /// transparent fragments and the bytes it needs beside the tile's counts (`reserved`).
+    Pixel {
+        x: u32,
+        y: u32,
+        fragments: u32,
+        bytes: u64,
+        reserved: u64,
+    },
+}
+
+/// Renders one tile at once with its scratch storage bounded by `limit` bytes
+/// ([`Scratch::bytes`]), the outputs untouched when it fails.
+///
+/// When its fragments do not fit, the transparent coverage is counted per pixel (nothing
+/// stored): [`TileFailure::Pixel`] when one pixel needs more than `hard_limit` (the first in
+/// row-major order), else [`TileFailure::Defer`]: the tile is for [`render_tile_sliced`].
 pub(crate) fn render_tile(
-    triangles: &[SetupTriangle],
-    textures: &[Texture],
-    planes: &[f64],
+    ctx: &TileContext<'_>,
     bin: &[u32],
     tile: TileRect,
-    reverse_z: bool,
-    background: [f64; 3],
     scratch: &mut Scratch,
     out: TileOutput<'_>,
-) -> TileStats {
+    limit: u64,
+    hard_limit: u64,
+) -> Result<TileStats, TileFailure> {
+    scratch.high_water = scratch.bytes();
+    if let Some(stats) = render_rect(ctx, bin, tile, scratch, out, limit, None) {
+        return Ok(stats);
+    }
+    scratch.release();
+    let checked = count_tile(ctx, bin, tile, scratch, limit, hard_limit);
+    scratch.release();
+    checked.and(Err(TileFailure::Defer))
+}
+
+/// Output bytes per pixel of a slice, rendered into its own buffers: image, layers, fragment
+/// and undecided counts, tie flag.
+const OUTPUT_BYTES: u64 = (size_of::<[f32; 4]>() + 3 * size_of::<u32>() + size_of::<bool>()) as u64;
+
+/// Renders a tile alone in slices, bands of rows, runs of a row or single pixels, each
+/// re-rasterizing the tile's triangles; the transparent coverage is counted per pixel first
+/// (nothing stored) to plan them. Every pixel's result depends only on its own fragments, so
+/// the output is the same bit for bit as at once.
+///
+/// The counts and the slices in flight stay within `budget`: the slices run in parallel, each
+/// worker within an equal share of what the counts leave, when every pixel fits such a share,
+/// else one at a time with all of it. [`TileFailure::Pixel`] when a pixel needs more than
+/// `budget`.
+pub(crate) fn render_tile_sliced(
+    ctx: &TileContext<'_>,
+    bin: &[u32],
+    tile: TileRect,
+    mut out: TileOutput<'_>,
+    budget: u64,
+) -> Result<TileStats, TileFailure> {
+    let t_start = Instant::now();
+    let mut counter = Scratch::default();
+    let largest = count_tile(ctx, bin, tile, &mut counter, budget, budget)?;
+    let reserved = counter.bytes();
+    let counted = Instant::now();
+    let threads = rayon::current_num_threads() as u64;
+    let share = (budget - reserved) / threads;
+    let (limit, parallel) = if largest <= share {
+        (share, threads > 1)
+    } else {
+        (budget - reserved, false)
+    };
+    let out_tile = tile;
+    let out = Mutex::new(&mut out);
+    let render = |s: &mut Scratch, (rect, spans): (TileRect, u64)| -> TileStats {
+        let n = (rect.width * rect.height) as usize;
+        let mut image = vec![[0.0; 4]; n];
+        let mut layers = vec![0; n];
+        let mut fragments = vec![0; n];
+        let mut undecided = vec![0; n];
+        let mut precision_ties = vec![false; n];
+        let local = TileOutput {
+            image: &mut image,
+            layers: &mut layers,
+            fragments: &mut fragments,
+            undecided: &mut undecided,
+            precision_ties: &mut precision_ties,
+            stride: rect.width as usize,
+            x_offset: 0,
+        };
+        // The slice's own outputs are part of its share.
+        let limit = limit - n as u64 * OUTPUT_BYTES;
+        let stats = render_rect(ctx, bin, rect, s, local, limit, Some(spans as usize))
+            .expect("a slice planned within the limit fits it");
+        let mut out = out.lock().unwrap_or_else(|e| e.into_inner());
+        let w = rect.width as usize;
+        for row in 0..rect.height as usize {
+            let o = out.x_offset
+                + (rect.y0 - out_tile.y0) as usize * out.stride
+                + row * out.stride
+                + (rect.x0 - out_tile.x0) as usize;
+            let l = row * w..(row + 1) * w;
+            out.image[o..o + w].copy_from_slice(&image[l.clone()]);
+            out.layers[o..o + w].copy_from_slice(&layers[l.clone()]);
+            out.fragments[o..o + w].copy_from_slice(&fragments[l.clone()]);
+            out.undecided[o..o + w].copy_from_slice(&undecided[l.clone()]);
+            out.precision_ties[o..o + w].copy_from_slice(&precision_ties[l]);
+        }
+        TileStats {
+            peak_tile_bytes: stats.peak_tile_bytes + n as u64 * OUTPUT_BYTES,
+            ..stats
+        }
+    };
+    let slices = Slices::new(&counter, tile, limit);
+    let mut stats = if parallel {
+        slices
+            .par_bridge()
+            .map_init(Scratch::default, render)
+            .reduce(TileStats::default, TileStats::merge)
+    } else {
+        let mut scratch = Scratch::default();
+        slices
+            .map(|slice| render(&mut scratch, slice))
+            .fold(TileStats::default(), TileStats::merge)
+    };
+    // The counting pass is rasterization too; the counts are held beside every slice.
+    stats.raster += counted - t_start;
+    stats.peak_tile_bytes += reserved;
+    stats.sliced_tiles = 1;
+    Ok(stats)
+}
+
+/// Counts the covered transparent fragments per pixel of `tile` and its spans per row into
+/// `s.counts` and `s.row_spans`, within `limit`, and checks that every pixel fits alone beside
+/// them: the bytes the largest one needs, [`TileFailure::Pixel`] for the first over
+/// `hard_limit`, [`TileFailure::Defer`] when the counts do not fit `limit`.
+fn count_tile(
+    ctx: &TileContext<'_>,
+    bin: &[u32],
+    tile: TileRect,
+    s: &mut Scratch,
+    limit: u64,
+    hard_limit: u64,
+) -> Result<u64, TileFailure> {
+    let (w, h) = (tile.width as usize, tile.height as usize);
+    let mut want = [Want::Fresh(0); BUFFERS];
+    want[COUNTS] = Want::Fresh(h * (w + 1));
+    want[COUNTS + 1] = Want::Fresh(h);
+    if !s.ensure(want, limit) {
+        return Err(TileFailure::Defer);
+    }
+    // The same coverage as the rendering pass; per row a difference array (+1 at a span's
+    // first pixel, −1 after its end) summed afterwards, so each span costs O(1). Wrapping: the
+    // sums are < 2^32 (at most one fragment per triangle and pixel).
+    s.counts.clear();
+    s.counts.resize(h * (w + 1), 0);
+    s.row_spans.clear();
+    s.row_spans.resize(h, 0);
+    for &t in bin {
+        let tri = &ctx.triangles[t as usize];
+        if tri.transparent {
+            for_each_span(tri, tile, |row, first, end| {
+                let b = row as usize * (w + 1);
+                s.counts[b + first as usize] = s.counts[b + first as usize].wrapping_add(1);
+                s.counts[b + end as usize] = s.counts[b + end as usize].wrapping_sub(1);
+                s.row_spans[row as usize] += 1;
+            });
+        }
+    }
+    for row in s.counts.chunks_exact_mut(w + 1) {
+        let mut sum = 0u32;
+        for c in row {
+            sum = sum.wrapping_add(*c);
+            *c = sum;
+        }
+    }
+    let reserved = s.bytes();
+    let mut largest = 0;
+    for row in 0..h {
+        for x in 0..w {
+            let c = u64::from(s.counts[row * (w + 1) + x]);
+            let bytes = rect_bytes(1, c, c, c) + OUTPUT_BYTES;
+            if reserved + bytes > hard_limit {
+                return Err(TileFailure::Pixel {
+                    x: tile.x0 + x as u32,
+                    y: tile.y0 + row as u32,
+                    fragments: c as u32,
+                    bytes,
+                    reserved,
+                });
+            }
+            largest = largest.max(bytes);
+        }
+    }
+    Ok(largest)
+}
+
+/// The slices of a counted tile ([`count_tile`]), greedily: as many whole rows as fit `limit`,
+/// and a row that does not fit alone cut into runs of pixels (each pixel fits, checked by the
+/// caller). Yields each slice with a bound on its spans: a rectangle's spans are at most its
+/// rows' spans, and a run's at most its fragments too (each span covers one of them).
+struct Slices<'a> {
+    counts: &'a [u32],
+    row_spans: &'a [u32],
+    tile: TileRect,
+    limit: u64,
+    row: usize,
+    x: usize,
+}
+
+impl<'a> Slices<'a> {
+    fn new(counter: &'a Scratch, tile: TileRect, limit: u64) -> Self {
+        Slices {
+            counts: &counter.counts,
+            row_spans: &counter.row_spans,
+            tile,
+            limit,
+            row: 0,
+            x: 0,
+        }
+    }
+
+    /// Whether a slice of these numbers and its outputs fit; slot indices are u32.
+    fn fits(&self, pixels: u64, slots: u64, spans: u64, longest: u64) -> bool {
+        slots <= u64::from(u32::MAX)
+            && rect_bytes(pixels, slots, spans, longest) + pixels * OUTPUT_BYTES <= self.limit
+    }
+
+    fn count_at(&self, row: usize, x: usize) -> u64 {
+        u64::from(self.counts[row * (self.tile.width as usize + 1) + x])
+    }
+}
+
+impl Iterator for Slices<'_> {
+    type Item = (TileRect, u64);
+
+    fn next(&mut self) -> Option<(TileRect, u64)> {
+        let (w, h) = (self.tile.width as usize, self.tile.height as usize);
+        if self.row == h {
+            return None;
+        }
+        let (row, x) = (self.row, self.x);
+        if x == 0 {
+            let (mut rows, mut slots, mut spans, mut longest) = (0, 0, 0, 0);
+            while row + rows < h {
+                let r = row + rows;
+                let row_slots: u64 = (0..w).map(|x| self.count_at(r, x)).sum();
+                let row_longest = (0..w).map(|x| self.count_at(r, x)).max().unwrap_or(0);
+                let (sl, sp, lo) = (
+                    slots + row_slots,
+                    spans + u64::from(self.row_spans[r]),
+                    longest.max(row_longest),
+                );
+                if !self.fits(((rows + 1) * w) as u64, sl, sp, lo) {
+                    break;
+                }
+                (rows, slots, spans, longest) = (rows + 1, sl, sp, lo);
+            }
+            if rows > 0 {
+                self.row += rows;
+                let rect = TileRect {
+                    x0: self.tile.x0,
+                    y0: self.tile.y0 + row as u32,
+                    width: self.tile.width,
+                    height: rows as u32,
+                };
+                return Some((rect, spans));
+            }
+        }
+        let row_spans = u64::from(self.row_spans[row]);
+        let (mut len, mut slots, mut longest) = (0, 0, 0);
+        while x + len < w {
+            let c = self.count_at(row, x + len);
+            let (sl, lo) = (slots + c, longest.max(c));
+            if !self.fits(len as u64 + 1, sl, sl.min(row_spans), lo) {
+                break;
+            }
+            (len, slots, longest) = (len + 1, sl, lo);
+        }
+        assert!(len > 0, "every pixel fits alone");
+        self.x += len;
+        if self.x == w {
+            (self.row, self.x) = (row + 1, 0);
+        }
+        let rect = TileRect {
+            x0: self.tile.x0 + x as u32,
+            y0: self.tile.y0 + row as u32,
+            width: len as u32,
+            height: 1,
+        };
+        Some((rect, slots.min(row_spans)))
+    }
+}
+
+/// Covered transparent fragments of the first `n` pixels, before the prefix sum.
+fn counted_slots(s: &Scratch, n: usize) -> u64 {
+    s.start[1..=n].iter().map(|&c| u64::from(c)).sum()
+}
+
+/// Makes room for `rows` more spans in the coverage pass of [`render_rect`], unless what the
+/// rectangle has counted so far (its state, spans and a slot per covered transparent fragment)
+/// already exceeds `limit`: then it is given up early, before recording the rest.
+#[cold]
+#[inline(never)]
+fn grow_spans(
+    s: &mut Scratch,
+    want: &mut [Want; BUFFERS],
+    rows: usize,
+    n: usize,
+    limit: u64,
+) -> bool {
+    let spans = s.spans.len() + rows;
+    if rect_bytes(n as u64, counted_slots(s, n), spans as u64, 0) > limit {
+        return false;
+    }
+    want[SPANS] = Want::Keep(spans);
+    s.ensure(*want, limit)
+}
+
+/// Renders a rectangle of a tile: opaque pass into a depth/colour buffer; transparent coverage
+/// pass (row spans, per-pixel slot counts); transparent shading pass keeping only fragments
+/// strictly in front of the opaque depth, appended to their pixel's list; per-pixel sort by
+/// key; f64 front-to-back compositing.
+///
+/// None, with the outputs untouched, when its storage would exceed `limit`. With `spans`, the
+/// span buffer is reserved for that many at once (a slice's count, so that it never grows
+/// while in use); otherwise it grows as coverage is recorded.
+fn render_rect(
+    ctx: &TileContext<'_>,
+    bin: &[u32],
+    tile: TileRect,
+    scratch: &mut Scratch,
+    out: TileOutput<'_>,
+    limit: u64,
+    spans: Option<usize>,
+) -> Option<TileStats> {
+    let TileContext {
+        triangles,
+        textures,
+        planes,
+        reverse_z,
+        background,
+    } = *ctx;
     let t_start = Instant::now();
     let n = (tile.width * tile.height) as usize;
     let tile_w = tile.width as usize;
@@ -713,6 +1274,16 @@ pub(crate) fn render_tile(
     // The far plane is what the depth buffer is cleared to, and every depth test is strict: a
     // fragment exactly at far is covered (counted) but never visible, opaque or transparent.
     let far = far_key(reverse_z);
+    // Room for the per-pixel state (and the spans of a slice); nothing else is needed yet.
+    let mut want = [Want::Fresh(0); BUFFERS];
+    want[..SPANS].fill(Want::Fresh(n));
+    want[START] = Want::Fresh(n + 1);
+    want[SPANS] = Want::Fresh(spans.unwrap_or(0));
+    want[COUNTS] = Want::Keep(0);
+    want[COUNTS + 1] = Want::Keep(0);
+    if !s.ensure(want, limit) {
+        return None;
+    }
     s.opaque_key.clear();
     s.opaque_key.resize(n, far);
     s.opaque_color.clear();
@@ -725,14 +1296,38 @@ pub(crate) fn render_tile(
     s.tie.resize(n, false);
     s.start.clear();
     s.start.resize(n + 1, 0);
+    // Filled after the coverage pass; empty until then, as `ensure` counts what it holds.
+    s.end.clear();
     s.spans.clear();
     let mut stats = TileStats::default();
+    // From here on the per-pixel state and the counts are in use.
+    want[..SPANS].fill(Want::Keep(0));
+    want[SPANS] = Want::Keep(0);
+    // Each transparent triangle adds at most a span per row. `room` counts the triangles the
+    // span buffer surely holds, so that neither a triangle nor a span needs a capacity check;
+    // a slice's buffer was reserved for all of its spans.
+    let rows = tile.height as usize;
+    let mut room = if spans.is_some() {
+        usize::MAX
+    } else {
+        s.spans.capacity() / rows
+    };
 
     // Opaque (and mask) triangles first: they define the depth transparent fragments must beat.
     // Transparent triangles only record their spans and count the slots they may need.
     for &t in bin {
         let tri = &triangles[t as usize];
         if tri.transparent {
+            if room == 0 {
+                room = (s.spans.capacity() - s.spans.len()) / rows;
+                if room == 0 {
+                    if !grow_spans(s, &mut want, rows, n, limit) {
+                        return None;
+                    }
+                    room = (s.spans.capacity() - s.spans.len()) / rows;
+                }
+            }
+            room -= 1;
             for_each_span(tri, tile, |row, first, end| {
                 s.spans.push(Span {
                     triangle: t,
@@ -762,13 +1357,33 @@ pub(crate) fn render_tile(
             shade_span(tri, textures, tile, row, first, end, reverse_z, &mut sink);
         });
     }
+    // Slot indices are u32; only a tile with millions of spans can have more slots.
+    if s.spans.len() as u64 * u64::from(tile.width) > u64::from(u32::MAX)
+        && counted_slots(s, n) > u64::from(u32::MAX)
+    {
+        return None;
+    }
     // Each covered pixel counts as a fragment unless the cutoff discards it (counted below).
+    let mut longest = 0;
     for p in 0..n {
-        s.all_count[p] += s.start[p + 1];
+        let count = s.start[p + 1];
+        longest = longest.max(count);
+        s.all_count[p] += count;
         s.start[p + 1] += s.start[p];
     }
-    let slots = s.start[n] as usize;
-    s.end.clear();
+    let (slots, longest) = (s.start[n] as usize, longest as usize);
+    want[SPANS] = Want::Keep(0);
+    want[SPANS + 1..COUNTS].copy_from_slice(&[
+        Want::Fresh(slots),
+        Want::Fresh(slots),
+        Want::Fresh(slots),
+        Want::Fresh(longest),
+        Want::Fresh(longest),
+        Want::Fresh(runs_needed(longest)),
+    ]);
+    if !s.ensure(want, limit) {
+        return None;
+    }
     s.end.extend_from_slice(&s.start[..n]);
     // Every slot below `end[p]` is written before it is read; the fill only sizes the arrays.
     s.keys.resize(slots, 0);
@@ -884,12 +1499,8 @@ pub(crate) fn render_tile(
     stats.raster = t_raster - t_start;
     stats.sort = t_sort - t_raster;
     stats.composite = t_end - t_sort;
-    stats.peak_tile_bytes = n as u64 * PER_PIXEL_BYTES
-        + size_of::<u32>() as u64
-        + slots as u64 * PER_SLOT_BYTES
-        + (s.spans.len() * size_of::<Span>()) as u64
-        + (s.perm.capacity() + s.merge_buffer.capacity()) as u64 * size_of::<u32>() as u64;
-    stats
+    stats.peak_tile_bytes = s.high_water;
+    Some(stats)
 }
 
 /// Whether `keys[perm[0]] < keys[perm[1]] < …` (`perm` indexes `keys`). Branch-free over the

@@ -299,6 +299,7 @@ fn progress_reports_every_tile_and_tile_size_does_not_change_the_image() {
             c.fetch_add(1, Ordering::SeqCst);
             m.fetch_max(done, Ordering::SeqCst);
         })),
+        ..Default::default()
     };
     let a = render(&scene, &opts);
     assert_eq!(calls.load(Ordering::SeqCst), 35);
@@ -310,6 +311,7 @@ fn progress_reports_every_tile_and_tile_size_does_not_change_the_image() {
             &ReferenceOptions {
                 tile_size,
                 progress: None,
+                ..Default::default()
             },
         );
         assert_eq!(a.image, b.image, "tile size {tile_size}");

@@ -1,11 +1,13 @@
 //! Peak memory depends on the tile, not on the frame: a particles-like scene at 2048×2048.
+//! The memory budget: tiles beyond it render in slices with the same output, a pixel beyond it
+//! and a budget below one tile's state are errors.
 
 mod common;
 
 use common::*;
 use glam::Vec3;
-use oit_reference::{ReferenceOptions, render};
-use oit_scene::{Camera, Projection, Resolution, Scene};
+use oit_reference::{Reference, ReferenceError, ReferenceOptions, render, try_render};
+use oit_scene::{AlphaMode, Camera, Projection, Resolution, Scene};
 
 /// 10 000 camera-facing billboards (two triangles each) scattered in a view frustum, from a
 /// fixed-seed generator so the numbers below are reproducible.
@@ -108,4 +110,193 @@ fn particles_at_2048_stay_within_a_per_tile_bound() {
         r.stats.peak_tile_bytes
     );
     assert!(r.stats.peak_tile_bytes * 50 < frame_bytes);
+}
+
+/// Renders on a pool of `threads` workers (the budget is shared among them).
+fn render_on(threads: usize, scene: &Scene, budget: u64) -> Result<Reference, ReferenceError> {
+    let options = ReferenceOptions {
+        memory_budget: budget,
+        ..ReferenceOptions::default()
+    };
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("a thread pool")
+        .install(|| try_render(scene, &options))
+}
+
+fn assert_same_output(a: &Reference, b: &Reference, what: &str) {
+    // Bit patterns: the image must be identical, not merely equal as floats.
+    let bits = |r: &Reference| -> Vec<u32> {
+        r.image
+            .pixels
+            .iter()
+            .flat_map(|p| p.map(f32::to_bits))
+            .collect()
+    };
+    assert!(bits(a) == bits(b), "{what}: image differs");
+    assert_eq!(a.layers, b.layers, "{what}: layers");
+    assert_eq!(a.fragments, b.fragments, "{what}: fragments");
+    assert_eq!(a.undecided, b.undecided, "{what}: undecided");
+    assert_eq!(a.precision_ties, b.precision_ties, "{what}: precision ties");
+    assert_eq!(
+        a.stats.fragments, b.stats.fragments,
+        "{what}: fragment total"
+    );
+}
+
+/// 400 full-screen layers in shuffled depth order with varied colours, an opaque quad in the
+/// middle of the stack over part of the screen and a mask-blend one: 64×64, deep enough that a
+/// 32-pixel tile's fragments (about 11 MiB) are far over a 256 KiB budget.
+fn deep_stack() -> Scene {
+    let mut b = SceneBuilder::new(64, 64).background([0.1, 0.2, 0.3]);
+    for i in 0..400u32 {
+        let z = -(((i * 37) % 400) as f32) * 0.05;
+        let t = i as f32 / 400.0;
+        let alpha = 0.02 + 0.3 * ((i * 7) % 11) as f32 / 10.0;
+        b.quad(blend([t, 1.0 - t, 0.5], alpha), fullscreen(z), white());
+    }
+    b.quad(
+        opaque([0.9, 0.8, 0.1]),
+        rect(-0.6, -0.8, 0.3, 0.4, -10.0),
+        white(),
+    );
+    // Mask-blend with α interpolated from 0.2 to 0.9: discards on part of it.
+    let [p, q, r, t] = rect(0.1, -0.3, 0.9, 0.9, -4.0);
+    let alpha = |a: f32| [0.2, 0.9, 0.9, a];
+    b.colored_triangles(
+        material([1.0; 3], 1.0, AlphaMode::MaskBlend),
+        &[
+            [(p, alpha(0.2)), (q, alpha(0.9)), (r, alpha(0.9))],
+            [(p, alpha(0.2)), (r, alpha(0.9)), (t, alpha(0.2))],
+        ],
+    );
+    b.build()
+}
+
+const SMALL_BUDGET: u64 = 256 << 10;
+
+#[test]
+fn tiles_over_the_budget_render_in_slices_bit_identically() {
+    let scene = deep_stack();
+    let full = render(&scene, &ReferenceOptions::default());
+    assert_eq!(full.stats.sliced_tiles, 0, "the default budget holds it");
+    assert!(
+        full.stats.peak_tile_bytes > 10 * SMALL_BUDGET,
+        "a tile at once takes {} bytes",
+        full.stats.peak_tile_bytes
+    );
+    // Every tile is over a thread's share at once, so each is rendered alone afterwards, its
+    // slices in parallel (on 8 threads a share is even below a tile's per-pixel state).
+    for threads in [1, 2, 8] {
+        let r = render_on(threads, &scene, SMALL_BUDGET).expect("renders in slices");
+        let what = format!("{threads} threads");
+        assert_same_output(&full, &r, &what);
+        assert_eq!(r.stats.sliced_tiles, 4, "{what}: every tile is sliced");
+        assert!(
+            r.stats.peak_tile_bytes <= SMALL_BUDGET,
+            "{what}: a tile held {} bytes, over the budget of {SMALL_BUDGET}",
+            r.stats.peak_tile_bytes
+        );
+    }
+}
+
+#[test]
+fn a_pixel_over_the_budget_is_an_error_naming_it() {
+    // Three full-screen layers, and 6 000 tiny quads over pixel (5, 9) only: 6 003 fragments
+    // there, about 312 KB to sort and composite, over a 256 KiB budget.
+    let mut b = SceneBuilder::new(64, 64);
+    for z in [-1.0, -2.0, -3.0] {
+        b.quad(blend([0.5, 0.5, 0.9], 0.3), fullscreen(z), white());
+    }
+    let (x, y) = (
+        world_of_window_x(5.5, 64) as f64,
+        world_of_window_y(9.5, 64) as f64,
+    );
+    let h = 0.3 * 2.0 / 64.0;
+    let quads: Vec<[Vec3; 3]> = (0..6000)
+        .flat_map(|i| {
+            let z = -5.0 - i as f32 * 0.01;
+            let [a, b, c, d] = rect(
+                (x - h) as f32,
+                (y - h) as f32,
+                (x + h) as f32,
+                (y + h) as f32,
+                z,
+            );
+            [[a, b, c], [a, c, d]]
+        })
+        .collect();
+    b.triangles(blend([0.9, 0.1, 0.1], 0.1), &quads, white());
+    let scene = b.build();
+    let fits = render(&scene, &ReferenceOptions::default());
+    assert_eq!(fits.fragments[9 * 64 + 5], 6003);
+
+    for threads in [1, 2, 4] {
+        let e = render_on(threads, &scene, SMALL_BUDGET).expect_err("pixel (5, 9) cannot fit");
+        let ReferenceError::PixelOverBudget {
+            x,
+            y,
+            fragments,
+            bytes,
+            available,
+            budget,
+        } = e
+        else {
+            panic!("{threads} threads: expected PixelOverBudget, got {e:?}");
+        };
+        assert_eq!((x, y, fragments, budget), (5, 9, 6003, SMALL_BUDGET));
+        // Key, colour, sorted index, span and sort buffers per fragment.
+        assert!(bytes >= 6003 * 48 && bytes > available && available < budget);
+        let message = e.to_string();
+        assert!(
+            !message.contains('\n')
+                && message.contains("pixel (5, 9)")
+                && message.contains("6003")
+                && message.contains(&bytes.to_string())
+                && message.contains(&SMALL_BUDGET.to_string())
+                && message.contains("--memory-budget"),
+            "{message}"
+        );
+    }
+}
+
+#[test]
+fn a_budget_below_one_tile_state_is_rejected() {
+    let mut b = SceneBuilder::new(64, 48);
+    b.quad(blend([0.5; 3], 0.5), fullscreen(-1.0), white());
+    let scene = b.build();
+    let options = |memory_budget| ReferenceOptions {
+        memory_budget,
+        ..ReferenceOptions::default()
+    };
+    let e = try_render(&scene, &options(0)).expect_err("a budget of 0");
+    let ReferenceError::MemoryBudget {
+        budget: 0,
+        minimum,
+        width: 32,
+        height: 32,
+    } = e
+    else {
+        panic!("expected MemoryBudget for a 32x32 tile, got {e:?}");
+    };
+    // At least the opaque key and colour, counts, list bounds and tie flag of each pixel.
+    assert!(minimum >= 32 * 32 * 37, "{minimum}");
+    assert!(e.to_string().contains("--memory-budget"), "{e}");
+    assert!(matches!(
+        try_render(&scene, &options(minimum - 1)),
+        Err(ReferenceError::MemoryBudget { .. })
+    ));
+    // Just enough for the tile state renders (binning needs a little more than the tile).
+    let e = try_render(&scene, &options(minimum)).expect_err("no room for the bins");
+    assert!(
+        matches!(e, ReferenceError::BinningOverBudget { overlaps, .. } if overlaps > 0),
+        "{e:?}"
+    );
+    let tight = try_render(&scene, &options(minimum + 4096)).expect("fits");
+    assert_same_output(
+        &render(&scene, &ReferenceOptions::default()),
+        &tight,
+        "tight",
+    );
 }
