@@ -46,6 +46,10 @@ enum Command {
         /// Override the scene's resolution, e.g. 512x512.
         #[arg(long, value_parser = parse_resolution)]
         resolution: Option<Resolution>,
+        /// Memory the reference may hold for fragments, in MiB (default 2048); a scene that
+        /// needs more for one pixel fails naming that pixel.
+        #[arg(long, value_name = "MIB", default_value_t = 2048, value_parser = clap::value_parser!(u64).range(1..))]
+        memory_budget: u64,
         #[command(flatten)]
         load: LoadArgs,
     },
@@ -107,6 +111,10 @@ enum Command {
         /// Refuse comparisons of more runs (scenes × techniques) than this.
         #[arg(long, default_value_t = 2000)]
         max_runs: u64,
+        /// Memory the reference may hold for fragments, in MiB (default 2048); a scene that
+        /// needs more for one pixel fails naming that pixel.
+        #[arg(long, value_name = "MIB", default_value_t = 2048, value_parser = clap::value_parser!(u64).range(1..))]
+        memory_budget: u64,
         /// Error axis of the plots and Pareto fronts.
         #[arg(long, default_value = "flip", value_parser = ["flip", "rmse"])]
         metric: String,
@@ -251,10 +259,17 @@ fn run(command: Command) -> Result<()> {
             scene,
             output,
             resolution,
+            memory_budget,
             load,
         } => {
             load.check(std::slice::from_ref(&scene))?;
-            reference(&scene, output, resolution, &load.options())
+            reference(
+                &scene,
+                output,
+                resolution,
+                mib(memory_budget),
+                &load.options(),
+            )
         }
         Command::Render {
             scene,
@@ -285,6 +300,7 @@ fn run(command: Command) -> Result<()> {
             no_cache,
             resume,
             max_runs,
+            memory_budget,
             metric,
             load,
             gpu,
@@ -301,6 +317,7 @@ fn run(command: Command) -> Result<()> {
                 warmup,
                 out_dir: out,
                 cache,
+                reference_memory_budget: mib(memory_budget),
                 resume,
                 context: gpu.options(),
             };
@@ -439,10 +456,16 @@ fn scenes(path: &Path, load: &oit_scene::LoadOptions) -> Result<()> {
     Ok(())
 }
 
+/// MiB to bytes (the flag's unit), saturating.
+fn mib(value: u64) -> u64 {
+    value.saturating_mul(1 << 20)
+}
+
 fn reference(
     scene_path: &Path,
     output: Option<PathBuf>,
     resolution: Option<Resolution>,
+    memory_budget: u64,
     load: &oit_scene::LoadOptions,
 ) -> Result<()> {
     let scene = load_scene(scene_path, resolution, load)?;
@@ -457,6 +480,7 @@ fn reference(
         });
     let options = oit_reference::ReferenceOptions {
         progress: Some(progress),
+        memory_budget,
         ..Default::default()
     };
     let reference = oit_reference::try_render(&scene, &options)

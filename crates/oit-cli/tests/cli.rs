@@ -440,3 +440,42 @@ fn every_argument_has_a_description() {
         }
     }
 }
+
+/// A reference that cannot fit its memory budget fails with one line naming the budget, fast.
+#[test]
+fn a_reference_over_its_memory_budget_is_one_clear_line() {
+    let dir = temp_dir("budget");
+    // 60 000 screen-filling layers on 8×8 pixels: every pixel needs more than 1 MiB.
+    let scene = dir.join("deep.json");
+    std::fs::write(
+        &scene,
+        r#"{"name": "deep", "description": "", "resolution": [8, 8],
+        "camera": {"eye": [0, 0, 5], "target": [0, 0, 0], "up": [0, 1, 0], "fov_y": 45, "near": 0.1, "far": 100},
+        "background": [0, 0, 0],
+        "objects": [{"mesh": {"kind": "quad", "size": [20, 20]},
+            "material": {"base_color": [1, 1, 1], "alpha": 0.01, "mode": "blend"},
+            "instances": {"counts": [1, 1, 60000], "spacing": [0, 0, -0.0001]}}]}"#,
+    )
+    .unwrap();
+    let exr = dir.join("never.exr");
+    let start = std::time::Instant::now();
+    let out = oit()
+        .arg("reference")
+        .arg(&scene)
+        .args(["--memory-budget", "1", "-o"])
+        .arg(&exr)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
+    assert!(
+        stderr.contains("pixel (0, 0)")
+            && stderr.contains("60000")
+            && stderr.contains("--memory-budget"),
+        "{stderr}"
+    );
+    assert!(!exr.exists());
+    assert!(start.elapsed().as_secs() < 30, "{:?}", start.elapsed());
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -37,6 +37,8 @@ pub struct CompareOptions {
     pub warmup: u32,
     pub out_dir: PathBuf,
     pub cache: ReferenceCache,
+    /// Bytes the reference may hold for fragments (`oit_reference::ReferenceOptions`).
+    pub reference_memory_budget: u64,
     /// Reuse the runs of `out_dir/results.json` made from identical inputs (see
     /// [`crate::results::RunInputs`]) instead of running them again.
     pub resume: bool,
@@ -51,6 +53,7 @@ impl Default for CompareOptions {
             warmup: 3,
             out_dir: PathBuf::from("out"),
             cache: ReferenceCache::Default,
+            reference_memory_budget: oit_reference::ReferenceOptions::DEFAULT_MEMORY_BUDGET,
             resume: false,
             context: ContextOptions::default(),
         }
@@ -153,7 +156,10 @@ pub fn compare(
         let compute = || {
             Ok(oit_reference::try_render(
                 &scene,
-                &oit_reference::ReferenceOptions::default(),
+                &oit_reference::ReferenceOptions {
+                    memory_budget: options.reference_memory_budget,
+                    ..Default::default()
+                },
             )?)
         };
         let reference = match &cache_dir {

@@ -31,6 +31,7 @@ fn one_frame_at_32px(out: &Path, context: oit_gpu::ContextOptions) -> CompareOpt
         warmup: 0,
         out_dir: out.to_path_buf(),
         cache: oit_harness::ReferenceCache::Dir(out.join("cache")),
+        reference_memory_budget: oit_reference::ReferenceOptions::DEFAULT_MEMORY_BUDGET,
         resume: false,
         context,
     }
@@ -68,6 +69,7 @@ fn compare_suite_writes_complete_results() {
         warmup: 1,
         out_dir: out.clone(),
         cache: oit_harness::ReferenceCache::Dir(cache.clone()),
+        reference_memory_budget: oit_reference::ReferenceOptions::DEFAULT_MEMORY_BUDGET,
         resume: false,
         context: Default::default(),
     };

@@ -48,6 +48,7 @@ fn options(out: &Path, frames: u32) -> CompareOptions {
         warmup: 0,
         out_dir: out.to_path_buf(),
         cache: ReferenceCache::Off,
+        reference_memory_budget: oit_reference::ReferenceOptions::DEFAULT_MEMORY_BUDGET,
         resume: false,
         context: Default::default(),
     }
