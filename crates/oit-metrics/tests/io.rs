@@ -412,7 +412,7 @@ fn a_racing_reader_never_sees_a_partial_file() {
             let mut reads = 0u32;
             while !done.load(Ordering::Relaxed) || reads < 50 {
                 let bytes = fs::read(&path).expect("the target always exists");
-                let complete = versions.iter().any(|v| *v == bytes);
+                let complete = versions.contains(&bytes);
                 assert!(complete, "partial file: {} bytes", bytes.len());
                 reads += 1;
             }
