@@ -85,14 +85,7 @@ pub fn mutants(args: &[String]) -> Result<()> {
         let out = Path::new("target/mutants").join(name);
         println!("xtask mutants: {name}, shard {shard}");
         let status = Command::new(&cargo)
-            .args([
-                "mutants",
-                "--in-place",
-                "--no-shuffle",
-                "-j",
-                "1",
-                "--package",
-            ])
+            .args(["mutants", "--in-place", "--no-shuffle", "--package"])
             .arg(name)
             .arg("--test-package")
             .arg(name)
