@@ -83,6 +83,7 @@ pub fn mutants(args: &[String]) -> Result<()> {
     );
     for name in &crates {
         let out = Path::new("target/mutants").join(name);
+        std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
         println!("xtask mutants: {name}, shard {shard}");
         let status = Command::new(&cargo)
             .args(["mutants", "--in-place", "--no-shuffle", "--package"])
