@@ -14,6 +14,7 @@ mod mesh;
 pub mod random;
 mod rng;
 mod scene;
+mod strict;
 mod texture;
 
 pub use error::{Problem, SceneError};
