@@ -68,6 +68,14 @@ pub fn parse(json: &str, origin: &str) -> Result<Scene> {
     cx.build(raw)
 }
 
+/// Loads a glTF 2.0 asset (glTF JSON or GLB) from memory, as [`load`] loads a `.gltf` or
+/// `.glb` file. `origin` names it in errors and draw names; a `.glb` extension makes a file
+/// without the `glTF` magic an error rather than JSON, and relative URIs resolve against its
+/// parent directory.
+pub fn parse_gltf(bytes: &[u8], origin: &str, options: &LoadOptions) -> Result<Scene> {
+    crate::gltf::load_bytes(Path::new(origin), bytes, options)
+}
+
 /// Loads every `*.json`, `*.gltf` and `*.glb` file in `dir` (not recursive), sorted by file name. Stops at the first
 /// invalid scene: a broken bundled scene is a bug to fix, not one to skip.
 pub fn load_dir(dir: &Path) -> Result<Vec<(PathBuf, Scene)>> {

@@ -287,3 +287,107 @@ fn a_utf8_byte_order_mark_is_skipped() {
     let (_, problem) = common::fail_text(&format!("{} \u{feff}", &text));
     assert!(matches!(problem, Problem::Syntax { .. }), "{problem:?}");
 }
+
+// ---- glTF: the same rules for the asset's JSON ----
+
+use common::build::{Data, TRI, single_mesh};
+use oit_scene::{LoadOptions, SceneError};
+
+/// A one-triangle glTF JSON asset with an embedded buffer.
+fn small_gltf() -> Value {
+    let mut d = Data::default();
+    let pos = d.f32s(&TRI, "VEC3");
+    let mut doc = single_mesh(pos, json!({"mode": 4}));
+    doc["materials"] = json!([{"pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 0.5]}, "alphaMode": "BLEND"}]);
+    doc["meshes"][0]["primitives"][0]["material"] = json!(0);
+    doc["cameras"] = json!([{"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.1}}]);
+    serde_json::from_str(&d.gltf(doc)).unwrap()
+}
+
+fn load_gltf(text: &str) -> Result<oit_scene::Scene, SceneError> {
+    oit_scene::parse_gltf(text.as_bytes(), "asset.gltf", &LoadOptions::default())
+}
+
+#[test]
+fn gltf_objects_given_as_arrays_are_errors_at_their_pointer() {
+    assert_eq!(
+        load_gltf(&small_gltf().to_string())
+            .unwrap()
+            .triangle_count(),
+        1
+    );
+    for (pointer, form, field) in [
+        ("/asset", json!(["2.0"]), "version"),
+        ("/nodes/0", json!([0]), "mesh"),
+        (
+            "/cameras/0/perspective",
+            json!([1.0, 0.8, 100, 0.1]),
+            "yfov",
+        ),
+        (
+            "/materials/0/pbrMetallicRoughness",
+            json!([[1, 1, 1, 1]]),
+            "baseColorFactor",
+        ),
+    ] {
+        let err = load_gltf(&with(small_gltf(), pointer, form).to_string()).unwrap_err();
+        assert_eq!(err.path(), Some(pointer), "{err}");
+        let Some(Problem::WrongType { found, expected }) = err.problem() else {
+            panic!("{pointer}: {err:?}")
+        };
+        assert!(found.contains("array"), "{err}");
+        assert!(expected.contains(&format!("`{field}`")), "{err}");
+        assert!(rust_words(&err.to_string()).is_empty(), "{err}");
+    }
+}
+
+#[test]
+fn gltf_wrong_types_are_named_at_their_pointer_in_json_terms() {
+    let base = small_gltf();
+    let mut all = Vec::new();
+    pointers(&base, String::new(), &mut all);
+    let mut bad = Vec::new();
+    let mut typed = 0;
+    for pointer in all.iter().filter(|p| !p.is_empty()) {
+        let original = base.pointer(pointer).unwrap();
+        for edit in [
+            json!(-1),
+            json!(1.5),
+            json!("x"),
+            json!(true),
+            json!([]),
+            json!({}),
+        ] {
+            if std::mem::discriminant(&edit) == std::mem::discriminant(original) {
+                continue;
+            }
+            let Err(err) = load_gltf(&with(base.clone(), pointer, edit.clone()).to_string()) else {
+                continue; // glTF ignores unknown extension settings and the like
+            };
+            let line = err.to_string();
+            if !rust_words(&line).is_empty() || line.contains('\n') || !line.contains("; allowed: ")
+            {
+                bad.push(format!("{pointer} = {edit}: {line}"));
+            }
+            if let Some(Problem::WrongType { .. }) = err.problem() {
+                typed += 1;
+                if !err.path().unwrap().starts_with(pointer.as_str()) {
+                    bad.push(format!("{pointer} = {edit}: wrong path: {line}"));
+                }
+            }
+        }
+    }
+    assert!(typed > 100, "only {typed} type errors");
+    assert!(
+        bad.is_empty(),
+        "{} bad messages:\n{}",
+        bad.len(),
+        bad.join("\n")
+    );
+}
+
+#[test]
+fn a_utf8_byte_order_mark_before_gltf_json_is_skipped() {
+    let text = format!("\u{feff}{}", small_gltf());
+    assert_eq!(load_gltf(&text).unwrap().triangle_count(), 1);
+}
