@@ -113,12 +113,7 @@ fn json_path(prefix: &str, path: &serde_path_to_error::Path) -> String {
     for seg in path {
         match seg {
             Segment::Seq { index } => out.push_str(&format!("[{index}]")),
-            Segment::Map { key } | Segment::Enum { variant: key } => {
-                if !out.is_empty() {
-                    out.push('.');
-                }
-                out.push_str(key);
-            }
+            Segment::Map { key } | Segment::Enum { variant: key } => push_key(&mut out, key),
             // Where serde cannot tell (e.g. inside a syntax error), the line and column say it.
             Segment::Unknown => {}
         }
@@ -130,15 +125,39 @@ fn json_path(prefix: &str, path: &serde_path_to_error::Path) -> String {
     }
 }
 
-/// Appends `.field` unless the path already ends with it.
-fn with_field(path: &str, field: &str) -> String {
-    if path.ends_with(&format!(".{field}")) || path == field {
-        path.to_string()
-    } else if path == "(root)" {
-        field.to_string()
+/// Appends a member to a path: `.key`, or `["key"]` (a JSON string) for a key that is empty or
+/// has characters other than letters, digits, `_` and `-`, so the path stays unambiguous and on
+/// one line.
+fn push_key(path: &mut String, key: &str) {
+    let plain = !key.is_empty()
+        && key
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-');
+    if plain {
+        if !path.is_empty() {
+            path.push('.');
+        }
+        path.push_str(key);
     } else {
-        format!("{path}.{field}")
+        path.push('[');
+        path.push_str(&serde_json::Value::from(key).to_string());
+        path.push(']');
     }
+}
+
+/// Appends the member `field` unless the path already ends with it.
+fn with_field(path: &str, field: &str) -> String {
+    let mut full = if path == "(root)" {
+        String::new()
+    } else {
+        path.to_string()
+    };
+    let before = full.len();
+    push_key(&mut full, field);
+    let member = &full[before..];
+    let already = (member.starts_with(['.', '[']) && path.ends_with(member))
+        || path == member.trim_start_matches('.');
+    if already { path.to_string() } else { full }
 }
 
 /// The text between the first pair of backticks in `s`, and what follows it.

@@ -44,6 +44,15 @@ struct StructSeed<V> {
     fields: &'static [&'static str],
 }
 
+/// A visitor's `expecting` as a `Display`.
+struct Expecting<'a, V>(&'a V);
+
+impl<'de, V: Visitor<'de>> fmt::Display for Expecting<'_, V> {
+    fn fmt(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        self.0.expecting(f)
+    }
+}
+
 /// `` `a`, `b`, `c` ``.
 fn backticked(names: &[&str]) -> String {
     names
@@ -163,8 +172,17 @@ macro_rules! forward_visit {
 impl<'de, V: Visitor<'de>> Visitor<'de> for StrictVisitor<V> {
     type Value = V::Value;
 
+    /// The inner visitor's words, except a derive's `struct Name` (a struct with flattened
+    /// fields is read through `deserialize_map`, so [`StructVisitor`] never sees it).
     fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-        self.0.expecting(f)
+        let words = Expecting(&self.0).to_string();
+        if words.starts_with("struct ") {
+            f.write_str("an object")
+        } else if words.starts_with("enum ") {
+            f.write_str("one of the documented values")
+        } else {
+            f.write_str(&words)
+        }
     }
 
     forward_visit!(

@@ -279,6 +279,42 @@ fn unknown_fields_and_enum_forms_are_named_in_json_terms() {
 }
 
 #[test]
+fn odd_keys_are_quoted_in_paths_and_messages_stay_on_one_line() {
+    // Found by the fuzzer: an empty key gave an empty path, a tab in a key a two-part line.
+    let cases = [
+        ("", json!(1), "[\"\"]"),
+        ("/camera/f\tov_y", json!(45), "camera[\"f\\tov_y\"]"),
+        (
+            "/objects/0/material/a\nb",
+            json!(1),
+            "objects[0].material[\"a\\nb\"]",
+        ),
+        (
+            "/objects/0/material/a.b",
+            json!(1),
+            "objects[0].material[\"a.b\"]",
+        ),
+    ];
+    for (pointer, value, want) in cases {
+        let v = if pointer.is_empty() {
+            let mut v = every_struct();
+            v[""] = value;
+            v
+        } else {
+            with(every_struct(), pointer, value)
+        };
+        let err = oit_scene::parse(&v.to_string(), "keys.json").unwrap_err();
+        assert_eq!(err.path(), Some(want), "{err}");
+        assert!(
+            matches!(err.problem(), Some(Problem::UnknownField { .. })),
+            "{err:?}"
+        );
+        let line = err.to_string();
+        assert!(!line.chars().any(char::is_control), "{line:?}");
+    }
+}
+
+#[test]
 fn a_utf8_byte_order_mark_is_skipped() {
     let text = every_struct().to_string();
     let scene = oit_scene::parse(&format!("\u{feff}{text}"), "bom.json").unwrap();
@@ -298,7 +334,8 @@ fn small_gltf() -> Value {
     let mut d = Data::default();
     let pos = d.f32s(&TRI, "VEC3");
     let mut doc = single_mesh(pos, json!({"mode": 4}));
-    doc["materials"] = json!([{"pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 0.5]}, "alphaMode": "BLEND"}]);
+    doc["materials"] = json!([{"pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 0.5]}, "alphaMode": "BLEND",
+        "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 2}}}]);
     doc["meshes"][0]["primitives"][0]["material"] = json!(0);
     doc["cameras"] = json!([{"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.1}}]);
     serde_json::from_str(&d.gltf(doc)).unwrap()
