@@ -4,10 +4,12 @@
 //! and glTF 2.0 assets (`.gltf`, `.glb`, also placeable as JSON objects of kind `gltf`),
 //! validate every value (errors name file, JSON path and what is allowed) and flatten the file
 //! into a [`Scene`]: procedural meshes generated, instancing expanded, transforms applied,
-//! billboards turned to the camera and lighting baked into vertex colours.
+//! billboards turned to the camera and lighting baked into vertex colours. [`fuzz`] fuzzes
+//! both loaders against their documented invariants.
 
 mod error;
 mod format;
+pub mod fuzz;
 mod gltf;
 mod load;
 mod mesh;

@@ -1,0 +1,120 @@
+//! Long fuzz runs of the scene and glTF loaders (`cargo xtask fuzz` builds and runs this in
+//! release). Every finding's input is written to the crash corpus, which the test suite
+//! replays.
+//!
+//! `fuzz [--inputs N] [--minutes M] [--seed S] [--threads T] [--corpus DIR]`: stops after N
+//! inputs or M minutes, whichever comes first (default: 1 minute); exits 1 on any finding.
+//! `fuzz --show S` prints input S (its file name, text and what the checks say) instead.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Duration;
+
+use oit_scene::fuzz::{self, Fixtures, Options};
+
+fn main() -> ExitCode {
+    match run() {
+        Ok(clean) if clean => ExitCode::SUCCESS,
+        Ok(_) => ExitCode::FAILURE,
+        Err(e) => {
+            eprintln!("fuzz: error: {e}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn run() -> Result<bool, String> {
+    let mut options = Options {
+        seed: 0,
+        inputs: None,
+        duration: None,
+        threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
+    };
+    let mut corpus = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/fuzz-corpus"));
+    let mut args = std::env::args().skip(1);
+    while let Some(flag) = args.next() {
+        let mut value = || args.next().ok_or_else(|| format!("`{flag}` needs a value"));
+        let number = |v: String| {
+            v.parse::<f64>()
+                .ok()
+                .filter(|x| x.is_finite() && *x >= 0.0)
+                .ok_or_else(|| format!("`{flag} {v}`: expected a non-negative number"))
+        };
+        match flag.as_str() {
+            "--inputs" => options.inputs = Some(number(value()?)? as u64),
+            "--minutes" => {
+                options.duration = Some(Duration::from_secs_f64(number(value()?)? * 60.0))
+            }
+            "--seed" => options.seed = number(value()?)? as u64,
+            "--threads" => options.threads = (number(value()?)? as usize).max(1),
+            "--corpus" => corpus = PathBuf::from(value()?),
+            "--show" => return show(number(value()?)? as u64),
+            other => {
+                return Err(format!(
+                    "unknown argument `{other}`; allowed: --inputs N, --minutes M, --seed S, --threads T, --corpus DIR, --show S"
+                ));
+            }
+        }
+    }
+    if options.inputs.is_none() && options.duration.is_none() {
+        options.duration = Some(Duration::from_secs(60));
+    }
+    println!(
+        "fuzz: seed {}, {} threads, up to {} inputs / {} s; findings go to {}",
+        options.seed,
+        options.threads,
+        options.inputs.map_or("unlimited".into(), |n| n.to_string()),
+        options
+            .duration
+            .map_or("unlimited".into(), |d| format!("{:.0}", d.as_secs_f64())),
+        corpus.display()
+    );
+    let fixtures = Fixtures::new().map_err(|e| format!("cannot write the fixtures: {e}"))?;
+    let started = std::time::Instant::now();
+    let report = fuzz::run(&options, &fixtures, &|done| {
+        let rate = done as f64 / started.elapsed().as_secs_f64().max(1e-9);
+        eprint!("\rfuzz: {done} inputs, {rate:.0}/s   ");
+    });
+    eprintln!();
+    println!(
+        "fuzz: {} inputs in {:.1} s ({:.0} inputs/s): {} accepted, {} rejected, {} failed; slowest {:.1} ms (seed {})",
+        report.inputs,
+        report.elapsed.as_secs_f64(),
+        report.inputs_per_second(),
+        report.accepted,
+        report.rejected,
+        report.failed,
+        report.slowest.0.as_secs_f64() * 1e3,
+        report.slowest.1
+    );
+    for f in &report.findings {
+        let path = fuzz::save(&f.input, &corpus)
+            .map_err(|e| format!("cannot write to {}: {e}", corpus.display()))?;
+        println!(
+            "finding: {} (seed {}): {}\n  saved as {}",
+            f.signature,
+            f.seed.unwrap_or_default(),
+            f.detail,
+            path.display()
+        );
+    }
+    if report.findings.is_empty() {
+        println!("fuzz: no findings");
+    }
+    Ok(report.findings.is_empty())
+}
+
+/// Prints input `seed` and what [`fuzz::check`] says of it.
+fn show(seed: u64) -> Result<bool, String> {
+    let input = fuzz::Input::generate(seed);
+    let fixtures = Fixtures::new().map_err(|e| format!("cannot write the fixtures: {e}"))?;
+    let started = std::time::Instant::now();
+    let result = fuzz::check(&input, &fixtures);
+    println!("{} ({} bytes)", input.file_name(), input.bytes.len());
+    println!("{}", String::from_utf8_lossy(&input.bytes));
+    println!(
+        "{:.1} ms: {result:?}",
+        started.elapsed().as_secs_f64() * 1e3
+    );
+    Ok(result.is_ok())
+}
