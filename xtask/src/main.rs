@@ -10,9 +10,9 @@
 //!   (oit-gpu's `conformance` example).
 //! - `cargo xtask goldens`: rewrites `reference/` (the 64×64 golden references of every bundled
 //!   scene and the baseline error table) with oit-harness's `goldens` example, in release.
-//! - `cargo xtask fuzz [--minutes M] [--inputs N] [--seed S] [--threads T]`: fuzzes the scene and
-//!   glTF loaders (oit-scene's `fuzz` example, in release) and writes every finding to
-//!   `crates/oit-scene/fuzz-corpus/`, which the test suite replays.
+//! - `cargo xtask fuzz [--minutes M] [--inputs N] [--seed S] [--threads T] [--timeout SECONDS]`:
+//!   fuzzes the scene and glTF loaders (oit-scene's `fuzz` example, in release) and writes every
+//!   finding to `crates/oit-scene/fuzz-corpus/`, which the test suite replays.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
@@ -40,7 +40,7 @@ fn run() -> Result<()> {
         Some("fuzz") => fuzz(&args[1..]),
         Some("help") | Some("--help") | Some("-h") | None => {
             println!(
-                "usage: cargo xtask <task>\n\ntasks:\n  ci               cargo fmt --check, clippy -D warnings, cargo test --workspace\n  results [DIR]    re-measure the published result sets with the release binary (default DIR: docs/results/<adapter>)\n  conformance [--scenes N] [--first SEED]\n                   GPU fragment counts against the reference on N seeded random scenes (default 200)\n  goldens          rewrite reference/: golden references of scenes/ and the baseline errors on this adapter\n  fuzz [--minutes M] [--inputs N] [--seed S] [--threads T]\n                   fuzz the scene and glTF loaders in release (default 1 minute); findings go to crates/oit-scene/fuzz-corpus/"
+                "usage: cargo xtask <task>\n\ntasks:\n  ci               cargo fmt --check, clippy -D warnings, cargo test --workspace\n  results [DIR]    re-measure the published result sets with the release binary (default DIR: docs/results/<adapter>)\n  conformance [--scenes N] [--first SEED]\n                   GPU fragment counts against the reference on N seeded random scenes (default 200)\n  goldens          rewrite reference/: golden references of scenes/ and the baseline errors on this adapter\n  fuzz [--minutes M] [--inputs N] [--seed S] [--threads T] [--timeout SECONDS]\n                   fuzz the scene and glTF loaders in release (default 1 minute); findings (panics, broken invariants, inputs running past the timeout) go to crates/oit-scene/fuzz-corpus/"
             );
             Ok(())
         }

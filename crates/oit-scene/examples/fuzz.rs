@@ -2,15 +2,16 @@
 //! release). Every finding's input is written to the crash corpus, which the test suite
 //! replays.
 //!
-//! `fuzz [--inputs N] [--minutes M] [--seed S] [--threads T] [--corpus DIR]`: stops after N
-//! inputs or M minutes, whichever comes first (default: 1 minute); exits 1 on any finding.
+//! `fuzz [--inputs N] [--minutes M] [--seed S] [--threads T] [--timeout SECONDS] [--corpus DIR]`:
+//! stops after N inputs or M minutes, whichever comes first (default: 1 minute); an input
+//! running longer than the timeout (default 60 s) is a finding too; exits 1 on any finding.
 //! `fuzz --show S` prints input S (its file name, text and what the checks say) instead.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Duration;
 
-use oit_scene::fuzz::{self, Fixtures, Options};
+use oit_scene::fuzz::{self, Event, Fixtures, Options};
 
 fn main() -> ExitCode {
     match run() {
@@ -29,6 +30,8 @@ fn run() -> Result<bool, String> {
         inputs: None,
         duration: None,
         threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
+        // Far above the slowest valid input (a few seconds near the triangle cap).
+        timeout: Duration::from_secs(60),
     };
     let mut corpus = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/fuzz-corpus"));
     let mut args = std::env::args().skip(1);
@@ -47,11 +50,12 @@ fn run() -> Result<bool, String> {
             }
             "--seed" => options.seed = number(value()?)? as u64,
             "--threads" => options.threads = (number(value()?)? as usize).max(1),
+            "--timeout" => options.timeout = Duration::from_secs_f64(number(value()?)?),
             "--corpus" => corpus = PathBuf::from(value()?),
             "--show" => return show(number(value()?)? as u64),
             other => {
                 return Err(format!(
-                    "unknown argument `{other}`; allowed: --inputs N, --minutes M, --seed S, --threads T, --corpus DIR, --show S"
+                    "unknown argument `{other}`; allowed: --inputs N, --minutes M, --seed S, --threads T, --timeout SECONDS, --corpus DIR, --show S"
                 ));
             }
         }
@@ -71,9 +75,21 @@ fn run() -> Result<bool, String> {
     );
     let fixtures = Fixtures::new().map_err(|e| format!("cannot write the fixtures: {e}"))?;
     let started = std::time::Instant::now();
-    let report = fuzz::run(&options, &fixtures, &|done| {
-        let rate = done as f64 / started.elapsed().as_secs_f64().max(1e-9);
-        eprint!("\rfuzz: {done} inputs, {rate:.0}/s   ");
+    let report = fuzz::run(&options, &fixtures, &|event| match event {
+        Event::Progress { inputs } => {
+            let rate = inputs as f64 / started.elapsed().as_secs_f64().max(1e-9);
+            eprint!("\rfuzz: {inputs} inputs, {rate:.0}/s   ");
+        }
+        Event::Stuck(f) => {
+            // The stuck thread cannot be stopped: save the input and end the run here.
+            let saved = fuzz::save(&f.input, &corpus)
+                .map_or_else(|e| format!("not saved: {e}"), |p| p.display().to_string());
+            println!(
+                "\nfinding: {} ({}), saved as {saved}",
+                f.signature, f.detail
+            );
+            std::process::exit(1);
+        }
     });
     eprintln!();
     println!(

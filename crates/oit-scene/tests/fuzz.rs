@@ -5,7 +5,7 @@
 use std::path::Path;
 use std::time::Duration;
 
-use oit_scene::fuzz::{self, Fixtures, Format, Input, Options, Outcome};
+use oit_scene::fuzz::{self, Event, Fixtures, Format, Input, Options, Outcome};
 
 fn corpus() -> &'static Path {
     Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/fuzz-corpus"))
@@ -71,8 +71,15 @@ fn a_bounded_run_finds_nothing() {
         // A bound for slow machines; the count normally ends the run first.
         duration: Some(Duration::from_secs(60)),
         threads: 2,
+        timeout: Duration::from_secs(30),
     };
-    let report = fuzz::run(&options, &fixtures, &|_| {});
+    let report = fuzz::run(&options, &fixtures, &|event| {
+        if let Event::Stuck(f) = event {
+            // Its thread cannot be stopped, so the test could never end: fail the binary now.
+            eprintln!("{} (seed {:?}): {}", f.signature, f.seed, f.detail);
+            std::process::exit(101);
+        }
+    });
     let findings: Vec<String> = report
         .findings
         .iter()
@@ -91,8 +98,15 @@ fn a_bounded_run_finds_nothing() {
 
 #[test]
 fn the_crash_corpus_replays_without_findings() {
-    let fixtures = Fixtures::new().unwrap();
-    let results = fuzz::replay(corpus(), &fixtures).unwrap();
+    // In a thread, so an input that hangs again fails the test instead of stalling it.
+    let (send, receive) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let fixtures = Fixtures::new().unwrap();
+        send.send(fuzz::replay(corpus(), &fixtures).unwrap())
+    });
+    let results = receive
+        .recv_timeout(Duration::from_secs(120))
+        .expect("the corpus did not replay within 120 s");
     assert!(results.len() >= 5, "corpus has {} inputs", results.len());
     let mut formats = std::collections::HashSet::new();
     for (path, result) in &results {

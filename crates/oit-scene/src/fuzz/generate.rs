@@ -65,7 +65,7 @@ fn maybe(r: &mut Rng, map: &mut Map<String, Value>, p: f32, name: &str, value: V
 // ---- JSON scenes ----
 
 /// glTF assets a generated scene may place (written next to it by [`super::Fixtures`]).
-pub(super) const FIXTURE_FILES: [&str; 2] = ["fixture.glb", "fixture.gltf"];
+pub(super) const FIXTURE_FILES: [&str; 3] = ["fixture.glb", "fixture.gltf", "no-triangles.gltf"];
 
 const KINDS: [&str; 9] = [
     "quad",
@@ -730,6 +730,30 @@ fn image(r: &mut Rng, bin: &mut Bin) -> Value {
         json!({"bufferView": bin.view(&bytes, None), "mimeType": "image/png"})
     } else {
         json!({"uri": format!("data:image/png;base64,{}", base64(&bytes))})
+    }
+}
+
+/// A valid asset whose only primitive has two vertices: no complete triangle, no draw.
+pub(super) fn gltf_without_triangles() -> Gltf {
+    let mut bin = Bin::default();
+    let points = [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0];
+    let bytes: Vec<u8> = points.iter().flat_map(|x| x.to_le_bytes()).collect();
+    let view = bin.view(&bytes, None);
+    let pos = bin.accessor(
+        json!({"bufferView": view, "componentType": 5126, "type": "VEC3",
+        "count": 2, "min": [0, 0, 0], "max": [1, 0, 0]}),
+    );
+    let doc = json!({
+        "asset": {"version": "2.0"},
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": pos}}]}],
+        "bufferViews": bin.views,
+        "accessors": bin.accessors,
+    });
+    Gltf {
+        doc,
+        bin: bin.bytes,
     }
 }
 

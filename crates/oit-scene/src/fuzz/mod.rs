@@ -176,8 +176,10 @@ impl Input {
     }
 }
 
-/// A directory with the glTF assets generated scenes place (`fixture.glb`, `fixture.gltf`,
-/// both valid, from fixed seeds), and the name inputs are loaded under. Removed on drop.
+/// A directory with the glTF assets generated scenes place, and the name inputs are loaded
+/// under: `fixture.glb` and `fixture.gltf` (one asset with 16 triangles in 6 primitives, 4
+/// materials and 2 textures) and `no-triangles.gltf` (a primitive with 2 vertices, so an object
+/// placing it adds nothing however many instances it has). Removed on drop.
 #[derive(Debug)]
 pub struct Fixtures {
     dir: PathBuf,
@@ -194,12 +196,13 @@ impl Fixtures {
         ));
         std::fs::create_dir_all(&dir)?;
         let fixtures = Fixtures { dir };
-        // Seeds whose valid asset has materials, textures and several primitives.
         let g = generate::gltf(&mut Rng::new(FIXTURE_SEED));
         let glb = generate::glb(generate::glb_json(&g).to_string().as_bytes(), &g.bin);
         std::fs::write(fixtures.dir.join(generate::FIXTURE_FILES[0]), glb)?;
         let json = generate::gltf_json(&g).to_string();
         std::fs::write(fixtures.dir.join(generate::FIXTURE_FILES[1]), json)?;
+        let empty = generate::gltf_json(&generate::gltf_without_triangles()).to_string();
+        std::fs::write(fixtures.dir.join(generate::FIXTURE_FILES[2]), empty)?;
         Ok(fixtures)
     }
 
@@ -215,7 +218,7 @@ impl Drop for Fixtures {
 }
 
 /// The seed of the fixture asset.
-const FIXTURE_SEED: u64 = 7;
+const FIXTURE_SEED: u64 = 5;
 
 /// An input that panicked or broke an invariant.
 #[derive(Debug, Clone)]
@@ -328,6 +331,19 @@ pub struct Options {
     pub duration: Option<Duration>,
     /// Worker threads.
     pub threads: usize,
+    /// An input still running after this long is a finding ([`Event::Stuck`]).
+    pub timeout: Duration,
+}
+
+/// What [`run`] reports while it runs.
+#[derive(Debug)]
+pub enum Event<'a> {
+    /// About once a second: inputs started so far.
+    Progress { inputs: u64 },
+    /// An input has run longer than [`Options::timeout`] (a hang or a pathological cost). Its
+    /// thread cannot be stopped, so the run cannot finish: the handler should save the input
+    /// and end the process.
+    Stuck(&'a Finding),
 }
 
 /// Totals of a [`run`].
@@ -354,8 +370,8 @@ impl Report {
 }
 
 /// Fuzzes inputs `seed`, `seed + 1`, ... on `options.threads` threads until the input count or
-/// the time budget is reached. `progress` is called with the inputs done about once a second.
-pub fn run(options: &Options, fixtures: &Fixtures, progress: &(dyn Fn(u64) + Sync)) -> Report {
+/// the time budget is reached, telling `events` the progress and any stuck input.
+pub fn run(options: &Options, fixtures: &Fixtures, events: &(dyn Fn(Event) + Sync)) -> Report {
     assert!(
         options.inputs.is_some() || options.duration.is_some(),
         "fuzz::run needs an input count or a duration"
@@ -372,10 +388,43 @@ pub fn run(options: &Options, fixtures: &Fixtures, progress: &(dyn Fn(u64) + Syn
         HashSet::<String>::new(),
         (Duration::ZERO, 0u64),
     ));
-    let last_progress = Mutex::new(Instant::now());
+    let threads = options.threads.max(1);
+    // What each worker runs now (seed, since when), for the watchdog.
+    let running: Vec<Mutex<Option<(u64, Instant)>>> =
+        (0..threads).map(|_| Mutex::new(None)).collect();
+    let working = AtomicU64::new(threads as u64);
     std::thread::scope(|s| {
-        for _ in 0..options.threads.max(1) {
+        s.spawn(|| {
+            let mut reported = HashSet::new();
+            let mut last_progress = Instant::now();
+            while working.load(Ordering::Relaxed) > 0 {
+                std::thread::sleep(Duration::from_millis(100));
+                let stuck = running.iter().find_map(|slot| {
+                    let slot = slot.lock().unwrap_or_else(|e| e.into_inner());
+                    slot.filter(|(seed, since)| {
+                        since.elapsed() > options.timeout && !reported.contains(seed)
+                    })
+                });
+                if let Some((seed, _)) = stuck {
+                    reported.insert(seed);
+                    let finding = Finding {
+                        signature: format!("input running over {:?}", options.timeout),
+                        detail: format!("seed {seed}"),
+                        seed: Some(seed),
+                        input: Input::generate(seed),
+                    };
+                    events(Event::Stuck(&finding));
+                }
+                if last_progress.elapsed() >= Duration::from_secs(1) {
+                    last_progress = Instant::now();
+                    let inputs = next.load(Ordering::Relaxed).min(limit);
+                    events(Event::Progress { inputs });
+                }
+            }
+        });
+        for slot in &running {
             s.spawn(|| {
+                let _done = Done(&working);
                 loop {
                     let i = next.fetch_add(1, Ordering::Relaxed);
                     if i >= limit || deadline.is_some_and(|d| Instant::now() >= d) {
@@ -384,7 +433,9 @@ pub fn run(options: &Options, fixtures: &Fixtures, progress: &(dyn Fn(u64) + Syn
                     let seed = options.seed.wrapping_add(i);
                     let input = Input::generate(seed);
                     let t = Instant::now();
+                    *slot.lock().unwrap_or_else(|e| e.into_inner()) = Some((seed, t));
                     let result = check(&input, fixtures);
+                    *slot.lock().unwrap_or_else(|e| e.into_inner()) = None;
                     let took = t.elapsed();
                     let mut guard = shared.lock().unwrap_or_else(|e| e.into_inner());
                     let (findings, seen, slowest) = &mut *guard;
@@ -402,13 +453,6 @@ pub fn run(options: &Options, fixtures: &Fixtures, progress: &(dyn Fn(u64) + Syn
                             failed.fetch_add(1, Ordering::Relaxed)
                         }
                     };
-                    drop(guard);
-                    if let Ok(mut last) = last_progress.try_lock()
-                        && last.elapsed() >= Duration::from_secs(1)
-                    {
-                        *last = Instant::now();
-                        progress(i + 1);
-                    }
                 }
             });
         }
@@ -427,6 +471,15 @@ pub fn run(options: &Options, fixtures: &Fixtures, progress: &(dyn Fn(u64) + Syn
         elapsed: started.elapsed(),
         slowest,
         findings,
+    }
+}
+
+/// Counts a worker out when it ends, even by a panic, so the watchdog stops.
+struct Done<'a>(&'a AtomicU64);
+
+impl Drop for Done<'_> {
+    fn drop(&mut self) {
+        self.0.fetch_sub(1, Ordering::Relaxed);
     }
 }
 
