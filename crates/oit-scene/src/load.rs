@@ -874,10 +874,17 @@ impl Ctx<'_> {
         } else {
             format!("{p}.transform")
         };
+        // An asset without triangles adds no draws, and MAX_TRIANGLES does not bound its
+        // instance count: one pass checks its geometry, however many instances are asked for.
+        let counts = if g.triangles == 0 {
+            [1; 3]
+        } else {
+            prep.counts
+        };
         let mut instance = 0usize;
-        for iz in 0..prep.counts[2] {
-            for iy in 0..prep.counts[1] {
-                for ix in 0..prep.counts[0] {
+        for iz in 0..counts[2] {
+            for iy in 0..counts[1] {
+                for ix in 0..counts[0] {
                     let offset = prep.spacing * Vec3::new(ix as f32, iy as f32, iz as f32);
                     let name_prefix = if obj.instances.is_some() {
                         format!("{p}.instances[{instance}] ")
