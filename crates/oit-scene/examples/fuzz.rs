@@ -37,22 +37,30 @@ fn run() -> Result<bool, String> {
     let mut args = std::env::args().skip(1);
     while let Some(flag) = args.next() {
         let mut value = || args.next().ok_or_else(|| format!("`{flag}` needs a value"));
-        let number = |v: String| {
+        // Integers also as `1e6`; seconds as any non-negative number that fits a Duration.
+        let integer = |v: String| {
+            v.parse::<u64>()
+                .ok()
+                .or_else(|| {
+                    let x = v.parse::<f64>().ok()?;
+                    (x >= 0.0 && x.fract() == 0.0 && x < 1.8e19).then_some(x as u64)
+                })
+                .ok_or_else(|| format!("`{flag} {v}`: expected a non-negative integer"))
+        };
+        let seconds = |v: String, scale: f64| {
             v.parse::<f64>()
                 .ok()
-                .filter(|x| x.is_finite() && *x >= 0.0)
+                .and_then(|x| Duration::try_from_secs_f64(x * scale).ok())
                 .ok_or_else(|| format!("`{flag} {v}`: expected a non-negative number"))
         };
         match flag.as_str() {
-            "--inputs" => options.inputs = Some(number(value()?)? as u64),
-            "--minutes" => {
-                options.duration = Some(Duration::from_secs_f64(number(value()?)? * 60.0))
-            }
-            "--seed" => options.seed = number(value()?)? as u64,
-            "--threads" => options.threads = (number(value()?)? as usize).max(1),
-            "--timeout" => options.timeout = Duration::from_secs_f64(number(value()?)?),
+            "--inputs" => options.inputs = Some(integer(value()?)?),
+            "--minutes" => options.duration = Some(seconds(value()?, 60.0)?),
+            "--seed" => options.seed = integer(value()?)?,
+            "--threads" => options.threads = (integer(value()?)? as usize).max(1),
+            "--timeout" => options.timeout = seconds(value()?, 1.0)?,
             "--corpus" => corpus = PathBuf::from(value()?),
-            "--show" => return show(number(value()?)? as u64),
+            "--show" => return show(integer(value()?)?),
             other => {
                 return Err(format!(
                     "unknown argument `{other}`; allowed: --inputs N, --minutes M, --seed S, --threads T, --timeout SECONDS, --corpus DIR, --show S"
