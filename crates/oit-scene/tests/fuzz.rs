@@ -63,6 +63,19 @@ fn checks_catch_rust_words_and_ignore_quoted_input() {
 }
 
 #[test]
+fn checks_read_rust_words_in_the_problem_not_in_the_path() {
+    // Found by a long run: a key `u8` (a mutated `up`) named in the path is the author's word.
+    let fixtures = Fixtures::new().unwrap();
+    let text = r#"{"name": "k", "camera": {"eye": [0, 0, 5], "target": [0, 0, 0], "u8": 1}, "objects": []}"#;
+    let input = Input {
+        format: Format::Scene,
+        camera: None,
+        bytes: text.as_bytes().to_vec(),
+    };
+    assert_eq!(fuzz::check(&input, &fixtures).unwrap(), Outcome::Rejected);
+}
+
+#[test]
 fn a_bounded_run_finds_nothing() {
     let fixtures = Fixtures::new().unwrap();
     let options = Options {

@@ -56,7 +56,12 @@ pub(super) fn error(e: &SceneError) -> Vec<Violation> {
     {
         out.push(("error without path", line.clone()));
     }
-    let words = rust_type_words(&line);
+    // The file and the path repeat the input (a key may well be `u8`); the problem is ours.
+    let ours = match e {
+        SceneError::Io { source, .. } => source.to_string(),
+        SceneError::Invalid { problem, .. } => problem.to_string(),
+    };
+    let words = rust_type_words(&ours);
     if !words.is_empty() {
         out.push(("Rust type words in error", format!("{words:?} in {line}")));
     }
