@@ -12,6 +12,9 @@
 //!   cargo-mutants, in place, with a score per crate (long; not part of `ci`).
 //! - `cargo xtask goldens`: rewrites `reference/` (the 64×64 golden references of every bundled
 //!   scene and the baseline error table) with oit-harness's `goldens` example, in release.
+//! - `cargo xtask fuzz [--minutes M] [--inputs N] [--seed S] [--threads T] [--timeout SECONDS]`:
+//!   fuzzes the scene and glTF loaders (oit-scene's `fuzz` example, in release) and writes every
+//!   finding to `crates/oit-scene/fuzz-corpus/`, which the test suite replays.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
@@ -39,14 +42,17 @@ fn run() -> Result<()> {
         Some("conformance") => conformance(&args[1..]),
         Some("goldens") => goldens(&args[1..]),
         Some("mutants") => mutants::mutants(&args[1..]),
+        Some("fuzz") => fuzz(&args[1..]),
         Some("help") | Some("--help") | Some("-h") | None => {
             println!(
-                "usage: cargo xtask <task>\n\ntasks:\n  ci               cargo fmt --check, clippy -D warnings, cargo test --workspace\n  results [DIR]    re-measure the published result sets with the release binary (default DIR: docs/results/<adapter>)\n  conformance [--scenes N] [--first SEED]\n                   GPU fragment counts against the reference on N seeded random scenes (default 200)\n  goldens          rewrite reference/: golden references of scenes/ and the baseline errors on this adapter\n  mutants [--package CRATE]... [--shard K/N] [--timeout SECS]\n                   mutation testing (cargo-mutants, in place; not part of ci): score per crate"
+                "usage: cargo xtask <task>\n\ntasks:\n  ci               cargo fmt --check, clippy -D warnings, cargo test --workspace\n  results [DIR]    re-measure the published result sets with the release binary (default DIR: docs/results/<adapter>)\n  conformance [--scenes N] [--first SEED]\n                   GPU fragment counts against the reference on N seeded random scenes (default 200)\n  goldens          rewrite reference/: golden references of scenes/ and the baseline errors on this adapter\n  fuzz [--minutes M] [--inputs N] [--seed S] [--threads T] [--timeout SECONDS]\n                   fuzz the scene and glTF loaders in release (default 1 minute); findings (panics, broken invariants, inputs running past the timeout) go to crates/oit-scene/fuzz-corpus/\n  mutants [--package CRATE]... [--shard K/N] [--timeout SECS]\n                   mutation testing (cargo-mutants, in place; not part of ci): score per crate"
             );
             Ok(())
         }
         Some(other) => {
-            bail!("unknown task `{other}`; valid tasks: ci, results, conformance, goldens, mutants")
+            bail!(
+                "unknown task `{other}`; valid tasks: ci, results, conformance, goldens, fuzz, mutants"
+            )
         }
     }
 }
@@ -291,4 +297,36 @@ fn goldens(args: &[String]) -> Result<()> {
         started.elapsed().as_secs_f64()
     );
     Ok(())
+}
+
+/// Long fuzz runs: builds oit-scene's `fuzz` example in release and runs it from the workspace
+/// root, so findings land in the crash corpus the test suite replays. The example prints
+/// inputs/s, the totals and each finding; its arguments are passed through.
+fn fuzz(args: &[String]) -> Result<()> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_owned());
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .context("xtask lives one level below the workspace root")?;
+    let status = Command::new(&cargo)
+        .current_dir(root)
+        .args([
+            "run",
+            "--release",
+            "--quiet",
+            "-p",
+            "oit-scene",
+            "--example",
+            "fuzz",
+            "--",
+        ])
+        .args(args)
+        .status()
+        .with_context(|| format!("could not start `{cargo}`"))?;
+    match status.code() {
+        Some(0) => Ok(()),
+        Some(1) => bail!(
+            "the fuzzer found inputs that panic or break an invariant; they are in crates/oit-scene/fuzz-corpus/ (fix the loader, then commit them)"
+        ),
+        _ => bail!("fuzzing failed ({status})"),
+    }
 }

@@ -10,20 +10,40 @@ use crate::scene::Resolution;
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
     /// The file or directory could not be read.
-    #[error("{file}: cannot read: {source}; allowed: a readable UTF-8 JSON file")]
+    #[error("{}", one_line(format_args!("{file}: cannot read: {source}; allowed: a readable UTF-8 JSON file")))]
     Io {
         file: String,
         #[source]
         source: std::io::Error,
     },
     /// The file was read but a value in it is not acceptable.
-    #[error("{file}: {path}: {problem}")]
+    #[error("{}", one_line(format_args!("{file}: {path}: {problem}")))]
     Invalid {
         file: String,
         /// JSON path like `objects[3].material.alpha` (`(root)` for the whole document).
         path: String,
         problem: Problem,
     },
+}
+
+/// `text` with control characters written as JSON escapes (`\n`, `\u0000`): messages quote
+/// field names, values and URIs from the file, and must stay one line.
+fn one_line(text: std::fmt::Arguments) -> String {
+    let text = text.to_string();
+    if !text.chars().any(char::is_control) {
+        return text;
+    }
+    let mut out = String::with_capacity(text.len() + 8);
+    for c in text.chars() {
+        match c {
+            '\n' => out.push_str("\\n"),
+            '\r' => out.push_str("\\r"),
+            '\t' => out.push_str("\\t"),
+            c if c.is_control() => out.push_str(&format!("\\u{:04x}", u32::from(c))),
+            c => out.push(c),
+        }
+    }
+    out
 }
 
 impl SceneError {

@@ -1,24 +1,29 @@
 //! oit-scene: the scene format and the one immutable [`Scene`] every oit-lab crate consumes.
 //!
-//! [`load`] / [`parse`] / [`load_dir`] read the JSON format described in docs/scene-format.md
+//! [`load`] / [`parse`] / [`parse_gltf`] / [`load_dir`] read the JSON format described in docs/scene-format.md
 //! and glTF 2.0 assets (`.gltf`, `.glb`, also placeable as JSON objects of kind `gltf`),
 //! validate every value (errors name file, JSON path and what is allowed) and flatten the file
 //! into a [`Scene`]: procedural meshes generated, instancing expanded, transforms applied,
-//! billboards turned to the camera and lighting baked into vertex colours.
+//! billboards turned to the camera and lighting baked into vertex colours. [`fuzz`] fuzzes
+//! both loaders against their documented invariants.
 
 mod error;
 mod format;
+pub mod fuzz;
 mod gltf;
 mod load;
 mod mesh;
 pub mod random;
 mod rng;
 mod scene;
+mod strict;
 mod texture;
 
 pub use error::{Problem, SceneError};
 pub use format::{DEFAULT_RESOLUTION, MAX_TRIANGLES};
 pub use gltf::{GLTF_BACKGROUND, MAX_TEXELS};
-pub use load::{LoadOptions, is_gltf_path, load, load_dir, load_dir_with, load_with, parse};
+pub use load::{
+    LoadOptions, is_gltf_path, load, load_dir, load_dir_with, load_with, parse, parse_gltf,
+};
 pub use scene::*;
 pub use texture::{MAX_TEXTURE_DIMENSION, MAX_UV, Texture, Wrap, srgb_to_linear};

@@ -15,6 +15,7 @@ use crate::format::{
 use crate::gltf::{Asset, Nodes, Placement};
 use crate::mesh::{self, Facing, Geometry};
 use crate::scene::{Camera, Draw, Material, Projection, Resolution, Scene, Vertex};
+use crate::strict::Strict;
 
 type Result<T> = std::result::Result<T, SceneError>;
 
@@ -55,13 +56,24 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene> {
 /// Parses a scene from JSON text. `origin` is the file name used in error messages; files an
 /// object references (`"kind": "gltf"`) are resolved relative to its parent directory if that
 /// exists, else the current directory.
+///
+/// A UTF-8 byte order mark at the start is skipped (editors on Windows write one).
 pub fn parse(json: &str, origin: &str) -> Result<Scene> {
+    let json = json.strip_prefix('\u{feff}').unwrap_or(json);
     let cx = Ctx { file: origin, json };
     let mut de = serde_json::Deserializer::from_str(json);
-    let raw: RawScene = serde_path_to_error::deserialize(&mut de)
+    let raw: RawScene = serde_path_to_error::deserialize(Strict(&mut de))
         .map_err(|e| cx.serde_error(&json_path("", e.path()), e.inner()))?;
     de.end().map_err(|e| cx.serde_error("(root)", &e))?;
     cx.build(raw)
+}
+
+/// Loads a glTF 2.0 asset (glTF JSON or GLB) from memory, as [`load`] loads a `.gltf` or
+/// `.glb` file. `origin` names it in errors and draw names; a `.glb` extension makes a file
+/// without the `glTF` magic an error rather than JSON, and relative URIs resolve against its
+/// parent directory.
+pub fn parse_gltf(bytes: &[u8], origin: &str, options: &LoadOptions) -> Result<Scene> {
+    crate::gltf::load_bytes(Path::new(origin), bytes, options)
 }
 
 /// Loads every `*.json`, `*.gltf` and `*.glb` file in `dir` (not recursive), sorted by file name. Stops at the first
@@ -101,12 +113,7 @@ fn json_path(prefix: &str, path: &serde_path_to_error::Path) -> String {
     for seg in path {
         match seg {
             Segment::Seq { index } => out.push_str(&format!("[{index}]")),
-            Segment::Map { key } | Segment::Enum { variant: key } => {
-                if !out.is_empty() {
-                    out.push('.');
-                }
-                out.push_str(key);
-            }
+            Segment::Map { key } | Segment::Enum { variant: key } => push_key(&mut out, key),
             // Where serde cannot tell (e.g. inside a syntax error), the line and column say it.
             Segment::Unknown => {}
         }
@@ -118,15 +125,39 @@ fn json_path(prefix: &str, path: &serde_path_to_error::Path) -> String {
     }
 }
 
-/// Appends `.field` unless the path already ends with it.
-fn with_field(path: &str, field: &str) -> String {
-    if path.ends_with(&format!(".{field}")) || path == field {
-        path.to_string()
-    } else if path == "(root)" {
-        field.to_string()
+/// Appends a member to a path: `.key`, or `["key"]` (a JSON string) for a key that is empty or
+/// has characters other than letters, digits, `_` and `-`, so the path stays unambiguous and on
+/// one line.
+fn push_key(path: &mut String, key: &str) {
+    let plain = !key.is_empty()
+        && key
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-');
+    if plain {
+        if !path.is_empty() {
+            path.push('.');
+        }
+        path.push_str(key);
     } else {
-        format!("{path}.{field}")
+        path.push('[');
+        path.push_str(&serde_json::Value::from(key).to_string());
+        path.push(']');
     }
+}
+
+/// Appends the member `field` unless the path already ends with it.
+fn with_field(path: &str, field: &str) -> String {
+    let mut full = if path == "(root)" {
+        String::new()
+    } else {
+        path.to_string()
+    };
+    let before = full.len();
+    push_key(&mut full, field);
+    let member = &full[before..];
+    let already = (member.starts_with(['.', '[']) && path.ends_with(member))
+        || path == member.trim_start_matches('.');
+    if already { path.to_string() } else { full }
 }
 
 /// The text between the first pair of backticks in `s`, and what follows it.
@@ -246,6 +277,11 @@ impl Ctx<'_> {
                 },
             );
         }
+        if msg.starts_with("duplicate field ") {
+            let expected = "each field at most once".to_string();
+            let found = msg.to_string();
+            return self.err(path, Problem::WrongType { found, expected });
+        }
         if let Some(rest) = msg.strip_prefix("missing field ")
             && let Some((field, _)) = backticked(rest)
         {
@@ -257,7 +293,7 @@ impl Ctx<'_> {
             );
         }
         let (found, expected) = match msg.split_once(", expected ") {
-            Some((f, x)) => (f.to_string(), plain_type(x).to_string()),
+            Some((f, x)) => (json_found(f), json_expected(x, path)),
             None => (msg.to_string(), "see docs/scene-format.md".to_string()),
         };
         self.err(path, Problem::WrongType { found, expected })
@@ -564,7 +600,7 @@ impl Ctx<'_> {
     }
 
     fn sub<T: DeserializeOwned>(&self, v: serde_json::Value, p: &str) -> Result<T> {
-        serde_path_to_error::deserialize(v)
+        serde_path_to_error::deserialize(Strict(v))
             .map_err(|e| self.serde_error(&json_path(p, e.path()), e.inner()))
     }
 
@@ -838,10 +874,17 @@ impl Ctx<'_> {
         } else {
             format!("{p}.transform")
         };
+        // An asset without triangles adds no draws, and MAX_TRIANGLES does not bound its
+        // instance count: one pass checks its geometry, however many instances are asked for.
+        let counts = if g.triangles == 0 {
+            [1; 3]
+        } else {
+            prep.counts
+        };
         let mut instance = 0usize;
-        for iz in 0..prep.counts[2] {
-            for iy in 0..prep.counts[1] {
-                for ix in 0..prep.counts[0] {
+        for iz in 0..counts[2] {
+            for iy in 0..counts[1] {
+                for ix in 0..counts[0] {
                     let offset = prep.spacing * Vec3::new(ix as f32, iy as f32, iz as f32);
                     let name_prefix = if obj.instances.is_some() {
                         format!("{p}.instances[{instance}] ")
@@ -999,14 +1042,50 @@ pub(crate) struct Light {
     pub(crate) ambient: Vec3,
 }
 
-/// serde's Rust type names in words a scene author knows.
-fn plain_type(expected: &str) -> &str {
+/// serde's description of the value it got (`invalid type: sequence`), in JSON's words
+/// (`invalid type: array`).
+pub(crate) fn json_found(found: &str) -> String {
+    if let Some(n) = found.strip_prefix("invalid length ") {
+        let s = if n == "1" { "" } else { "s" };
+        return format!("an array of {n} element{s}");
+    }
+    let Some((head, what)) = found.split_once(": ") else {
+        return found.to_string();
+    };
+    let what = match what {
+        "sequence" => "array".to_string(),
+        "map" => "object".to_string(),
+        "unit value" => "null".to_string(),
+        "unit variant" => "a string".to_string(),
+        "newtype variant" | "tuple variant" | "struct variant" => "an object".to_string(),
+        other => match other.strip_prefix("floating point ") {
+            Some(number) => format!("number {number}"),
+            None => other.to_string(),
+        },
+    };
+    format!("{head}: {what}")
+}
+
+/// serde's description of what it expected (Rust types like `u32`, `a sequence`), in words a
+/// scene author knows. `path` names the enum variant for a variant given without its settings.
+pub(crate) fn json_expected(expected: &str, path: &str) -> String {
     match expected {
-        "u8" | "u16" | "u32" | "u64" => "a non-negative integer",
-        "i8" | "i16" | "i32" | "i64" => "an integer",
-        "f32" | "f64" => "a number",
-        "a boolean" => "true or false",
-        other => other,
+        "u8" | "u16" | "u32" | "u64" | "u128" | "usize" => "a non-negative integer".into(),
+        "i8" | "i16" | "i32" | "i64" | "i128" | "isize" => "an integer".into(),
+        "f32" | "f64" => "a number".into(),
+        "a boolean" => "true or false".into(),
+        // serde_json::Value's wording when a fixed-size array gets more elements than it holds.
+        "fewer elements in array" => {
+            "exactly the number of elements documented in docs/scene-format.md".into()
+        }
+        "a sequence" => "an array".into(),
+        "a map" => "an object".into(),
+        "unit" | "unit variant" => "the value as a plain string, without settings".into(),
+        "newtype variant" | "tuple variant" | "struct variant" => {
+            let variant = path.rsplit('.').next().unwrap_or(path);
+            format!("an object {{\"{variant}\": {{...}}}} with the settings of `{variant}`")
+        }
+        other => other.into(),
     }
 }
 

@@ -479,6 +479,32 @@ fn oversized_textures_are_errors() {
 }
 
 #[test]
+fn a_placed_asset_without_triangles_ignores_its_instance_count() {
+    // Found by the fuzzer: with no triangles the triangle cap never bounds the instances, and
+    // 2·4294967295 instances of a primitive with two vertices looped for hours.
+    let dir = Scratch::new("no-triangles");
+    let mut d = Data::default();
+    let pos = d.f32s(&TRI[..6], "VEC3");
+    dir.write("two.gltf", d.gltf(single_mesh(pos, json!({}))).as_bytes());
+    let scene = json!({
+        "name": "none",
+        "camera": {"eye": [0, 0, 10], "target": [0, 0, 0]},
+        "objects": [
+            {"mesh": {"kind": "gltf", "file": "two.gltf"},
+             "instances": {"counts": [2, 1, 4_294_967_295u32], "spacing": [1, 0, 0]}},
+            {"mesh": {"kind": "quad"}}
+        ]
+    });
+    let path = dir.write("scene.json", scene.to_string().as_bytes());
+    let (send, receive) = std::sync::mpsc::channel();
+    std::thread::spawn(move || send.send(oit_scene::load(&path).map(|s| s.draws.len())));
+    let loaded = receive
+        .recv_timeout(std::time::Duration::from_secs(20))
+        .expect("still loading after 20 s");
+    assert_eq!(loaded.unwrap(), 1, "only the quad draws");
+}
+
+#[test]
 fn json_object_kind_gltf_places_the_asset() {
     let dir = Scratch::new("json-object");
     let mut d = Data::default();

@@ -156,17 +156,19 @@ impl Asset {
     /// Reads, splits (GLB), parses, validates and loads the buffers of the asset at `path`.
     /// Errors name the file as `path` displays.
     pub(crate) fn open(path: &Path) -> Result<Asset> {
+        Asset::from_bytes(path, &read(path)?)
+    }
+
+    /// [`Asset::open`] on bytes already read: `path` names the asset in errors, says whether
+    /// it is GLB by its extension and is the base of relative URIs.
+    fn from_bytes(path: &Path, bytes: &[u8]) -> Result<Asset> {
         let cx = Cx {
             file: path.display().to_string(),
         };
-        let bytes = std::fs::read(path).map_err(|source| SceneError::Io {
-            file: cx.file.clone(),
-            source,
-        })?;
         let is_glb = path
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("glb"));
-        let container = source::container(&cx, &bytes, is_glb)?;
+        let container = source::container(&cx, bytes, is_glb)?;
         let doc = source::document(&cx, container.json)?;
         let base = match path.parent() {
             Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
@@ -1040,7 +1042,21 @@ fn framing_camera(centre: Vec3, radius: f32, aspect: f32) -> Camera {
 /// background [`GLTF_BACKGROUND`], reverse-Z, with the asset's first camera in node order (or
 /// `options.camera`), else [`framing_camera`].
 pub(crate) fn load_file(path: &Path, options: &LoadOptions) -> Result<Scene> {
-    let asset = Asset::open(path)?;
+    load_bytes(path, &read(path)?, options)
+}
+
+/// The bytes of the file at `path`.
+fn read(path: &Path) -> Result<Vec<u8>> {
+    std::fs::read(path).map_err(|source| SceneError::Io {
+        file: path.display().to_string(),
+        source,
+    })
+}
+
+/// [`load_file`] on bytes already read (`path` names the asset and is the base of relative
+/// URIs, but is not read).
+pub(crate) fn load_bytes(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene> {
+    let asset = Asset::from_bytes(path, bytes)?;
     let nodes = asset.nodes(None, |count| {
         asset
             .cx

@@ -8,7 +8,9 @@ use std::path::Path;
 use gltf::Document;
 
 use super::{Cx, Result, SUPPORTED_REQUIRED};
-use crate::error::Problem;
+use crate::error::{Problem, SceneError};
+use crate::load::{json_expected, json_found};
+use crate::strict::Strict;
 
 /// The JSON chunk and the optional BIN chunk of a GLB, or the whole file for glTF JSON.
 pub(super) struct Container<'a> {
@@ -111,18 +113,15 @@ pub(super) fn container<'a>(cx: &Cx, bytes: &'a [u8], is_glb_name: bool) -> Resu
 
 /// Parses and validates the JSON document. Required extensions are checked before the crate's
 /// validation, which rejects some of them with a less specific message.
+///
+/// Objects of the glTF schema are read from JSON objects only ([`Strict`]), and a value of the
+/// wrong type is reported at its JSON pointer. A UTF-8 byte order mark is skipped.
 pub(super) fn document(cx: &Cx, json: &[u8]) -> Result<Document> {
-    let root: gltf::json::Root = serde_json::from_slice(json).map_err(|e| {
-        let path = if e.line() > 0 { "(json)" } else { "(root)" };
-        cx.err(
-            path,
-            Problem::Syntax {
-                line: e.line(),
-                column: e.column(),
-                message: e.to_string(),
-            },
-        )
-    })?;
+    let json = json.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(json);
+    let mut de = serde_json::Deserializer::from_slice(json);
+    let root: gltf::json::Root = serde_path_to_error::deserialize(Strict(&mut de))
+        .map_err(|e| json_error(cx, Some(e.path()), e.inner()))?;
+    de.end().map_err(|e| json_error(cx, None, &e))?;
     let unsupported: Vec<&str> = root
         .extensions_required
         .iter()
@@ -239,6 +238,77 @@ pub(super) fn document(cx: &Cx, json: &[u8]) -> Result<Document> {
             },
         ),
     })
+}
+
+/// A serde_json error as a problem: a value of the wrong type at its JSON pointer, anything
+/// else as a syntax error at `(json)` with line and column.
+fn json_error(
+    cx: &Cx,
+    path: Option<&serde_path_to_error::Path>,
+    inner: &serde_json::Error,
+) -> SceneError {
+    let full = inner.to_string();
+    let suffix = format!(" at line {} column {}", inner.line(), inner.column());
+    let message = full.strip_suffix(&suffix).unwrap_or(&full).to_string();
+    let mut pointer = String::new();
+    for segment in path.into_iter().flatten() {
+        use serde_path_to_error::Segment;
+        match segment {
+            Segment::Seq { index } => pointer.push_str(&format!("/{index}")),
+            Segment::Map { key } | Segment::Enum { variant: key } => {
+                pointer.push('/');
+                pointer.push_str(&key.replace('~', "~0").replace('/', "~1"));
+            }
+            Segment::Unknown => {}
+        }
+    }
+    if message == "trailing characters" && !pointer.is_empty() {
+        // serde_json's wording when a fixed-size array gets more elements than it holds.
+        let problem = Problem::WrongType {
+            found: "array has too many elements".into(),
+            expected: "exactly the number of elements the glTF schema gives".into(),
+        };
+        return cx.err(pointer, problem);
+    }
+    if !inner.is_data() {
+        let at = if inner.line() > 0 { "(json)" } else { "(root)" };
+        let (line, column) = (inner.line(), inner.column());
+        let problem = Problem::Syntax {
+            line,
+            column,
+            message,
+        };
+        return cx.err(at, problem);
+    }
+    if let Some(field) = message
+        .strip_prefix("missing field `")
+        .and_then(|rest| rest.strip_suffix('`'))
+    {
+        let field = field.to_string();
+        return cx.err(
+            format!("{pointer}/{field}"),
+            Problem::MissingField { field },
+        );
+    }
+    if pointer.is_empty() {
+        pointer.push_str("(root)");
+    }
+    let problem = match message.split_once(", expected ") {
+        Some((found, expected)) => {
+            // gltf-json's wording for an index (`"mesh": "x"`).
+            let expected = if expected.starts_with("index into ") {
+                "a non-negative integer index".to_string()
+            } else {
+                json_expected(expected, &pointer)
+            };
+            Problem::WrongType {
+                found: json_found(found),
+                expected,
+            }
+        }
+        None => Problem::GltfInvalid { message },
+    };
+    cx.err(pointer, problem)
 }
 
 /// `materials[0].alphaCutoff` → `/materials/0/alphaCutoff`; `a["k"]` → `/a/k`; a trailing
