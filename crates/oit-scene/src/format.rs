@@ -219,7 +219,7 @@ pub(crate) struct GltfMeshRef {
 // ---- meshes: one struct per `kind`, parsed from the `mesh` object after reading `kind` ----
 
 fn unit2() -> [f32; 2] {
-    [1.0, 1.0]
+    [1.0; 2]
 }
 fn corner_ones() -> [f32; 4] {
     [1.0; 4]
