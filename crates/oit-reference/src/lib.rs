@@ -44,7 +44,7 @@ use std::time::Instant;
 use oit_scene::{LinearImage, Scene};
 use rayon::prelude::*;
 
-pub use composite::composite_front_to_back;
+pub use composite::{composite_front_to_back, composite_transmittance_front_to_back};
 pub use raster::PRECISION_TIE_ULPS;
 pub use setup::CUTOFF_UNDECIDED_BOUND;
 
@@ -472,6 +472,7 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
         planes: &plane_depths,
         reverse_z: scene.camera.reverse_z,
         background: scene.background.map(f64::from),
+        coloured: scene.has_transmission(),
     };
     let done = AtomicUsize::new(0);
     let tile_rect = |t: usize, band_height: u32| TileRect {

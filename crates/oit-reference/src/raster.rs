@@ -8,7 +8,7 @@ use rayon::iter::{ParallelBridge, ParallelIterator};
 
 use oit_scene::{Material, Shaded, Texels, Texture};
 
-use crate::composite::composite_iter;
+use crate::composite::{composite_coloured_iter, composite_iter};
 use crate::setup::{HALF, ONE, SetupTriangle, same_plane, undecided, undecided_textured};
 
 /// One row's run of pixels covered by a transparent triangle, recorded by the coverage pass
@@ -58,6 +58,9 @@ pub(crate) struct Scratch {
     /// (a difference array until summed), and spans per row.
     counts: Vec<u32>,
     row_spans: Vec<u32>,
+    /// Per slot, only in scenes with coloured transmission: the fragment's transmittance
+    /// (`1 − α` in every channel for a scalar-alpha fragment), f64 as it is composited.
+    transmittance: Vec<[f64; 3]>,
     /// Most bytes held since the tile started, the transient of a reallocation included.
     high_water: u64,
 }
@@ -108,10 +111,11 @@ enum Want {
 
 /// Buffers of [`Scratch::buffers`]: the per-pixel state, the spans, the per-slot arrays, the
 /// sort buffers and the slicing counts, in that order.
-const BUFFERS: usize = 16;
+const BUFFERS: usize = 17;
 const START: usize = 5;
 const SPANS: usize = 7;
 const COUNTS: usize = 14;
+const TRANSMITTANCE: usize = 16;
 
 /// Bytes of per-pixel state a tile keeps besides its fragment lists: opaque key and colour,
 /// fragment count, undecided count, list start and end, tie flag.
@@ -120,6 +124,14 @@ const PER_PIXEL_BYTES: u64 =
 
 /// Bytes per transparent fragment slot: key, colour and sorted-order index.
 const PER_SLOT_BYTES: u64 = (size_of::<u64>() + size_of::<[f32; 4]>() + size_of::<u32>()) as u64;
+
+/// Bytes per slot a scene with coloured transmission adds: the f64 transmittance.
+const TRANSMITTANCE_SLOT_BYTES: u64 = size_of::<[f64; 3]>() as u64;
+
+/// Bytes per slot: [`PER_SLOT_BYTES`], plus the transmittance where the scene has one.
+fn slot_bytes(coloured: bool) -> u64 {
+    PER_SLOT_BYTES + if coloured { TRANSMITTANCE_SLOT_BYTES } else { 0 }
+}
 
 /// Bytes per recorded span.
 const SPAN_BYTES: u64 = size_of::<Span>() as u64;
@@ -132,12 +144,13 @@ fn runs_needed(n: usize) -> usize {
 
 /// Exact scratch bytes to render a rectangle of `pixels` pixels holding `slots` covered
 /// transparent fragments in `spans` row spans, the longest pixel list `longest`: what
-/// [`render_rect`] reserves with the same numbers.
-fn rect_bytes(pixels: u64, slots: u64, spans: u64, longest: u64) -> u64 {
+/// [`render_rect`] reserves with the same numbers (`coloured`: the scene has coloured
+/// transmission).
+fn rect_bytes(pixels: u64, slots: u64, spans: u64, longest: u64, coloured: bool) -> u64 {
     // Per slot the sort may need the list's permutation and the merge buffer (4 + 4 bytes).
     pixels * PER_PIXEL_BYTES
         + size_of::<u32>() as u64
-        + slots * PER_SLOT_BYTES
+        + slots * slot_bytes(coloured)
         + spans * SPAN_BYTES
         + longest * 2 * size_of::<u32>() as u64
         + runs_needed(longest as usize) as u64 * size_of::<usize>() as u64
@@ -153,7 +166,8 @@ fn count_bytes(width: u64, height: u64) -> u64 {
 /// fragments fits, and one with fragments fits when each of its pixels does).
 pub(crate) fn tile_minimum_bytes(width: u32, height: u32) -> u64 {
     let (w, h) = (u64::from(width), u64::from(height));
-    rect_bytes(w * h, 0, 0, 0).max(count_bytes(w, h) + rect_bytes(1, 0, 0, 0) + OUTPUT_BYTES)
+    rect_bytes(w * h, 0, 0, 0, false)
+        .max(count_bytes(w, h) + rect_bytes(1, 0, 0, 0, false) + OUTPUT_BYTES)
 }
 
 impl Scratch {
@@ -175,6 +189,7 @@ impl Scratch {
             &mut self.runs,
             &mut self.counts,
             &mut self.row_spans,
+            &mut self.transmittance,
         ]
     }
 
@@ -375,12 +390,22 @@ fn transparent_plane(key: u64, planes: &[f64]) -> f64 {
 }
 
 /// For two neighbouring slots of a sorted list whose depths are within the tie distance:
-/// whether rounding decides their order and the order matters (their colours differ).
+/// whether rounding decides their order and the order matters (their colours, or their
+/// transmittances where the scene has them, differ).
 #[cold]
 #[inline(never)]
-fn transparent_tie(keys: &[u64], colors: &[[f32; 4]], planes: &[f64], a: usize, b: usize) -> bool {
+fn transparent_tie(
+    keys: &[u64],
+    colors: &[[f32; 4]],
+    transmittance: &[[f64; 3]],
+    planes: &[f64],
+    a: usize,
+    b: usize,
+) -> bool {
     let (ka, kb) = (keys[a], keys[b]);
-    colors[a] != colors[b]
+    let differ = colors[a] != colors[b]
+        || (!transmittance.is_empty() && transmittance[a] != transmittance[b]);
+    differ
         && rounding_tie(
             (ka >> 32) as u32,
             (kb >> 32) as u32,
@@ -594,6 +619,8 @@ struct TransparentFragments<'a> {
     planes: &'a [f64],
     keys: &'a mut [u64],
     colors: &'a mut [[f32; 4]],
+    /// Per slot, empty unless the scene has coloured transmission.
+    transmittance: &'a mut [[f64; 3]],
     end: &'a mut [u32],
     all_count: &'a mut [u32],
     opaque_key: &'a [u64],
@@ -612,14 +639,21 @@ impl Fragments for TransparentFragments<'_> {
         if undecided {
             self.undecided[p] += 1;
         }
-        let Shaded::Transparent {
-            premultiplied,
-            alpha,
-        } = shaded
-        else {
-            self.all_count[p] -= 1;
-            self.discarded += 1;
-            return;
+        let (premultiplied, alpha, transmittance) = match shaded {
+            Shaded::Transparent {
+                premultiplied,
+                alpha,
+            } => (premultiplied, alpha, None),
+            Shaded::Transmissive {
+                premultiplied,
+                alpha,
+                transmittance,
+            } => (premultiplied, alpha, Some(transmittance)),
+            Shaded::Opaque(_) | Shaded::Discarded => {
+                self.all_count[p] -= 1;
+                self.discarded += 1;
+                return;
+            }
         };
         // Kept or hidden by rounding when this close to the opaque depth (or far).
         let opaque = if self.any_opaque {
@@ -637,6 +671,12 @@ impl Fragments for TransparentFragments<'_> {
             self.keys[slot] = transparent_key(dkey, self.rank);
             let [r, g, b] = premultiplied;
             self.colors[slot] = [r, g, b, alpha];
+            if !self.transmittance.is_empty() {
+                self.transmittance[slot] = match transmittance {
+                    Some(t) => t.map(f64::from),
+                    None => [1.0 - f64::from(alpha); 3],
+                };
+            }
             self.end[p] += 1;
         }
     }
@@ -921,6 +961,8 @@ pub(crate) struct TileContext<'a> {
     pub planes: &'a [f64],
     pub reverse_z: bool,
     pub background: [f64; 3],
+    /// Some draw has coloured transmission: fragments keep a per-channel transmittance.
+    pub coloured: bool,
 }
 
 /// Why [`render_tile`] did not render a tile.
@@ -1037,7 +1079,7 @@ pub(crate) fn render_tile_sliced(
             ..stats
         }
     };
-    let slices = Slices::new(&counter, tile, limit);
+    let slices = Slices::new(&counter, tile, limit, ctx.coloured);
     let mut stats = if parallel {
         slices
             .par_bridge()
@@ -1105,7 +1147,7 @@ fn count_tile(
     for row in 0..h {
         for x in 0..w {
             let c = u64::from(s.counts[row * (w + 1) + x]);
-            let bytes = rect_bytes(1, c, c, c) + OUTPUT_BYTES;
+            let bytes = rect_bytes(1, c, c, c, ctx.coloured) + OUTPUT_BYTES;
             if reserved + bytes > hard_limit {
                 return Err(TileFailure::Pixel {
                     x: tile.x0 + x as u32,
@@ -1130,17 +1172,19 @@ struct Slices<'a> {
     row_spans: &'a [u32],
     tile: TileRect,
     limit: u64,
+    coloured: bool,
     row: usize,
     x: usize,
 }
 
 impl<'a> Slices<'a> {
-    fn new(counter: &'a Scratch, tile: TileRect, limit: u64) -> Self {
+    fn new(counter: &'a Scratch, tile: TileRect, limit: u64, coloured: bool) -> Self {
         Slices {
             counts: &counter.counts,
             row_spans: &counter.row_spans,
             tile,
             limit,
+            coloured,
             row: 0,
             x: 0,
         }
@@ -1149,7 +1193,8 @@ impl<'a> Slices<'a> {
     /// Whether a slice of these numbers and its outputs fit; slot indices are u32.
     fn fits(&self, pixels: u64, slots: u64, spans: u64, longest: u64) -> bool {
         slots <= u64::from(u32::MAX)
-            && rect_bytes(pixels, slots, spans, longest) + pixels * OUTPUT_BYTES <= self.limit
+            && rect_bytes(pixels, slots, spans, longest, self.coloured) + pixels * OUTPUT_BYTES
+                <= self.limit
     }
 
     fn count_at(&self, row: usize, x: usize) -> u64 {
@@ -1234,9 +1279,10 @@ fn grow_spans(
     rows: usize,
     n: usize,
     limit: u64,
+    coloured: bool,
 ) -> bool {
     let spans = s.spans.len() + rows;
-    if rect_bytes(n as u64, counted_slots(s, n), spans as u64, 0) > limit {
+    if rect_bytes(n as u64, counted_slots(s, n), spans as u64, 0, coloured) > limit {
         return false;
     }
     want[SPANS] = Want::Keep(spans);
@@ -1266,6 +1312,7 @@ fn render_rect(
         planes,
         reverse_z,
         background,
+        coloured,
     } = *ctx;
     let t_start = Instant::now();
     let n = (tile.width * tile.height) as usize;
@@ -1321,7 +1368,7 @@ fn render_rect(
             if room == 0 {
                 room = (s.spans.capacity() - s.spans.len()) / rows;
                 if room == 0 {
-                    if !grow_spans(s, &mut want, rows, n, limit) {
+                    if !grow_spans(s, &mut want, rows, n, limit, coloured) {
                         return None;
                     }
                     room = (s.spans.capacity() - s.spans.len()) / rows;
@@ -1381,6 +1428,7 @@ fn render_rect(
         Want::Fresh(longest),
         Want::Fresh(runs_needed(longest)),
     ]);
+    want[TRANSMITTANCE] = Want::Fresh(if coloured { slots } else { 0 });
     if !s.ensure(want, limit) {
         return None;
     }
@@ -1388,6 +1436,10 @@ fn render_rect(
     // Every slot below `end[p]` is written before it is read; the fill only sizes the arrays.
     s.keys.resize(slots, 0);
     s.colors.resize(slots, [0.0; 4]);
+    s.transmittance.clear();
+    if coloured {
+        s.transmittance.resize(slots, [1.0; 3]);
+    }
     let any_opaque = s.opaque_key.iter().any(|&k| k != far);
     let mut discarded = 0;
     for span in &s.spans {
@@ -1400,6 +1452,7 @@ fn render_rect(
             planes,
             keys: &mut s.keys,
             colors: &mut s.colors,
+            transmittance: &mut s.transmittance,
             end: &mut s.end,
             all_count: &mut s.all_count,
             any_opaque,
@@ -1456,19 +1509,39 @@ fn render_rect(
         // pass over the list); only close ones are looked at further.
         let mut tie = s.tie[p];
         let mut previous = (u32::MAX - PRECISION_TIE_ULPS * 2, 0usize);
-        let rgb = composite_iter(
-            list.iter().map(|&slot| {
-                let slot = slot as usize;
-                let depth = (s.keys[slot] >> 32) as u32;
-                if close(previous.0, depth) {
-                    tie |= transparent_tie(&s.keys, &s.colors, planes, previous.1, slot);
-                }
-                previous = (depth, slot);
-                let [r, g, b, a] = s.colors[slot];
-                ([f64::from(r), f64::from(g), f64::from(b)], f64::from(a))
-            }),
-            base,
-        );
+        let mut visit = |slot: usize| {
+            let depth = (s.keys[slot] >> 32) as u32;
+            if close(previous.0, depth) {
+                tie |= transparent_tie(
+                    &s.keys,
+                    &s.colors,
+                    &s.transmittance,
+                    planes,
+                    previous.1,
+                    slot,
+                );
+            }
+            previous = (depth, slot);
+            let [r, g, b, a] = s.colors[slot];
+            ([f64::from(r), f64::from(g), f64::from(b)], a)
+        };
+        let rgb = if coloured {
+            composite_coloured_iter(
+                list.iter().map(|&slot| {
+                    let (premultiplied, _) = visit(slot as usize);
+                    (premultiplied, s.transmittance[slot as usize])
+                }),
+                base,
+            )
+        } else {
+            composite_iter(
+                list.iter().map(|&slot| {
+                    let (premultiplied, alpha) = visit(slot as usize);
+                    (premultiplied, f64::from(alpha))
+                }),
+                base,
+            )
+        };
         let layers = list.len() as u32;
         let o = out_row + column;
         out.image[o] = [rgb[0] as f32, rgb[1] as f32, rgb[2] as f32, 1.0];

@@ -180,6 +180,8 @@ pub(crate) struct RawMaterial {
     pub premultiplied: bool,
     #[serde(default = "one")]
     pub intensity: f32,
+    #[serde(default)]
+    pub transmission: f32,
 }
 
 impl Default for RawMaterial {
@@ -192,6 +194,7 @@ impl Default for RawMaterial {
             double_sided: false,
             premultiplied: false,
             intensity: 1.0,
+            transmission: 0.0,
         }
     }
 }

@@ -516,6 +516,7 @@ impl Ctx<'_> {
             let what = "base_color × intensity".to_string();
             return Err(self.err(format!("{p}.intensity"), Problem::DerivedNonFinite { what }));
         }
+        let transmission = self.transmission(m, base, p)?;
         Ok(Material {
             base_color: base.to_array(),
             alpha,
@@ -527,7 +528,49 @@ impl Ctx<'_> {
             base_texture: None,
             emissive: [0.0; 3],
             emissive_texture: None,
+            transmission,
         })
+    }
+
+    /// `transmission` in [0, 1]; above 0 only where it means something: a transparent mode,
+    /// straight alpha, and a base colour in [0, 1] (the filter; above 1 it would amplify).
+    fn transmission(&self, m: &RawMaterial, base: Vec3, p: &str) -> Result<f32> {
+        let path = format!("{p}.transmission");
+        let tau = self.finite(m.transmission, &path)?;
+        let bad = |value: String, allowed: &str| {
+            self.err(
+                path.clone(),
+                Problem::BadValue {
+                    what: "transmission".into(),
+                    value,
+                    allowed: allowed.into(),
+                },
+            )
+        };
+        if !(0.0..=1.0).contains(&tau) {
+            return Err(bad(tau.to_string(), "a factor in [0, 1]"));
+        }
+        if tau > 0.0 {
+            if !m.mode.is_transparent() {
+                return Err(bad(
+                    format!("{tau} with mode {:?}", m.mode),
+                    "transmission > 0 only with mode \"blend\" or \"mask-blend\"",
+                ));
+            }
+            if m.premultiplied {
+                return Err(bad(
+                    format!("{tau} with premultiplied true"),
+                    "transmission > 0 only with straight alpha (premultiplied false)",
+                ));
+            }
+            if base.max_element() > 1.0 {
+                return Err(bad(
+                    format!("{tau} with base_color {:?}", base.to_array()),
+                    "transmission > 0 only with base_color components in [0, 1] (the base colour is the filter)",
+                ));
+            }
+        }
+        Ok(tau)
     }
 
     fn transform(&self, t: &RawTransform, p: &str) -> Result<Affine3A> {

@@ -175,6 +175,10 @@ pub struct Material {
     pub emissive: [f32; 3],
     /// Index into [`Scene::textures`] whose sample's rgb multiplies `emissive`.
     pub emissive_texture: Option<u32>,
+    /// Thin-surface transmission factor τ in [0, 1] (glTF `KHR_materials_transmission`): of
+    /// the covered part, τ is a coloured filter (the unlit base colour term) and 1 − τ reflects.
+    /// 0 is scalar alpha, bit for bit; above 0 only in the transparent modes, straight alpha.
+    pub transmission: f32,
 }
 
 /// The texture samples one fragment's material reads; `UNTEXTURED` where it has none.
@@ -199,8 +203,15 @@ pub enum Shaded {
     Discarded,
     /// Opaque colour (occluder).
     Opaque([f32; 3]),
-    /// Premultiplied colour `C = α·c` and coverage `α`.
+    /// Premultiplied colour `C = α·c` and coverage `α`: what is behind is scaled by `1 − α`.
     Transparent { premultiplied: [f32; 3], alpha: f32 },
+    /// A transmissive fragment (`transmission > 0`): premultiplied radiance `C` and a
+    /// per-channel transmittance `t` that scales what is behind; `alpha` is its coverage.
+    Transmissive {
+        premultiplied: [f32; 3],
+        alpha: f32,
+        transmittance: [f32; 3],
+    },
 }
 
 impl Material {
@@ -218,7 +229,13 @@ impl Material {
             base_texture: None,
             emissive: [0.0; 3],
             emissive_texture: None,
+            transmission: 0.0,
         }
+    }
+
+    /// Whether fragments carry a coloured transmittance ([`Shaded::Transmissive`]).
+    pub fn is_transmissive(&self) -> bool {
+        self.mode.is_transparent() && self.transmission > 0.0
     }
 
     /// Whether any texture is read (fragments then need their uv).
@@ -247,18 +264,26 @@ impl Material {
     }
 
     /// Fragment colour from the interpolated vertex colour and the texture samples, in f32, as
-    /// the shader computes it: `c = vertex.rgb · base · texel.rgb · intensity + emissive ·
-    /// emissive_texel.rgb`, `α = vertex.a · alpha · texel.a`, `C = α·c` (or `c` when the
-    /// material is premultiplied). Mask modes discard when `α < cutoff`. Untextured, the
-    /// samples are 1 and the emission 0, which change no bit of the products.
+    /// the shader computes it: `lit = vertex.rgb · base · texel.rgb`, `c = lit · intensity ·
+    /// (1 − τ) + emissive · emissive_texel.rgb`, `α = vertex.a · alpha · texel.a`, `C = α·c` (or
+    /// `c` when the material is premultiplied). Mask modes discard when `α < cutoff`. A
+    /// transmissive material (τ > 0) also filters what is behind by `t = (1 − α) + α·τ·lit`
+    /// per channel. Untextured, the samples are 1 and the emission 0; τ = 0 multiplies by 1:
+    /// none of them changes a bit of the products.
     #[inline(always)]
     pub fn shade(&self, vertex_rgba: [f32; 4], texels: Texels) -> Shaded {
         let t = texels.base;
         let e = texels.emissive;
+        let lit = [
+            vertex_rgba[0] * self.base_color[0] * t[0],
+            vertex_rgba[1] * self.base_color[1] * t[1],
+            vertex_rgba[2] * self.base_color[2] * t[2],
+        ];
+        let reflected = 1.0 - self.transmission;
         let c = [
-            vertex_rgba[0] * self.base_color[0] * t[0] * self.intensity + self.emissive[0] * e[0],
-            vertex_rgba[1] * self.base_color[1] * t[1] * self.intensity + self.emissive[1] * e[1],
-            vertex_rgba[2] * self.base_color[2] * t[2] * self.intensity + self.emissive[2] * e[2],
+            lit[0] * self.intensity * reflected + self.emissive[0] * e[0],
+            lit[1] * self.intensity * reflected + self.emissive[1] * e[1],
+            lit[2] * self.intensity * reflected + self.emissive[2] * e[2],
         ];
         let alpha = vertex_rgba[3] * self.alpha * t[3];
         if self.mode.uses_cutoff() && alpha < self.cutoff {
@@ -272,6 +297,19 @@ impl Material {
                 } else {
                     [alpha * c[0], alpha * c[1], alpha * c[2]]
                 };
+                if self.transmission > 0.0 {
+                    let filtered = alpha * self.transmission;
+                    let transmittance = [
+                        (1.0 - alpha) + filtered * lit[0],
+                        (1.0 - alpha) + filtered * lit[1],
+                        (1.0 - alpha) + filtered * lit[2],
+                    ];
+                    return Shaded::Transmissive {
+                        premultiplied,
+                        alpha,
+                        transmittance,
+                    };
+                }
                 Shaded::Transparent {
                     premultiplied,
                     alpha,
@@ -405,6 +443,14 @@ impl Scene {
         self.draws.iter().map(|d| d.triangle_count() as usize).sum()
     }
 
+    /// Whether any draw's fragments carry coloured transmittance: techniques that composite
+    /// scalar alpha only are skipped on such scenes, with the reason.
+    pub fn has_transmission(&self) -> bool {
+        self.draws
+            .iter()
+            .any(|d| self.material_of(d).is_transmissive())
+    }
+
     pub fn transparent_triangle_count(&self) -> usize {
         self.draws
             .iter()
@@ -482,6 +528,10 @@ impl Scene {
             }
             for c in m.emissive {
                 h.f32(c);
+            }
+            // Hashed only when set, so scenes without transmission keep their hashes.
+            if m.transmission != 0.0 {
+                h.f32(m.transmission);
             }
         }
         for t in &self.textures {

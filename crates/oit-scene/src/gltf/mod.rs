@@ -327,7 +327,11 @@ impl Asset {
                 scene.credits.push(credit);
             }
         }
-        let modelled = ["KHR_materials_emissive_strength", "KHR_texture_transform"];
+        let modelled = [
+            "KHR_materials_emissive_strength",
+            "KHR_materials_transmission",
+            "KHR_texture_transform",
+        ];
         for e in self.doc.extensions_used() {
             if !modelled.contains(&e) {
                 scene.ignored.push(format!(
@@ -500,8 +504,59 @@ impl Asset {
                 self.name
             ));
         };
-        if m.transmission().is_some() {
-            unmodelled("KHR_materials_transmission", scene);
+        // KHR_materials_transmission, thin and unlit (docs/scene-format.md): τ = factor ×
+        // (1 − metallic) filters by the base colour term; the alphaMode stays coverage, and
+        // OPAQUE becomes BLEND with coverage 1 (α ignored, as OPAQUE ignores it).
+        let mut transmission = 0.0;
+        let mut alpha = factor[3];
+        let mut mode = mode;
+        if let Some(t) = m.transmission() {
+            let tp = format!("{mp}/extensions/KHR_materials_transmission");
+            let f = t.transmission_factor();
+            if !f.is_finite() || !(0.0..=1.0).contains(&f) {
+                return Err(self.cx.bad(
+                    format!("{tp}/transmissionFactor"),
+                    "transmission factor",
+                    f,
+                    "a finite value in [0, 1]",
+                ));
+            }
+            let metallic = pbr.metallic_factor();
+            if !metallic.is_finite() || !(0.0..=1.0).contains(&metallic) {
+                return Err(self.cx.bad(
+                    format!("{mp}/pbrMetallicRoughness/metallicFactor"),
+                    "metallic factor",
+                    metallic,
+                    "a finite value in [0, 1]",
+                ));
+            }
+            transmission = f * (1.0 - metallic);
+            if t.transmission_texture().is_some() {
+                scene.ignored.push(format!(
+                    "{}: transmissionTexture on {label}: not modelled; transmissionFactor used alone",
+                    self.name
+                ));
+            }
+            if transmission > 0.0 {
+                match mode {
+                    AlphaMode::Opaque => {
+                        mode = AlphaMode::Blend;
+                        alpha = 1.0;
+                        if base_texture.is_some() {
+                            scene.ignored.push(format!(
+                                "{}: KHR_materials_transmission on {label} (OPAQUE): the base colour texture's alpha still scales coverage",
+                                self.name
+                            ));
+                        }
+                    }
+                    AlphaMode::Mask => mode = AlphaMode::MaskBlend,
+                    _ => {}
+                }
+                scene.ignored.push(format!(
+                    "{}: KHR_materials_transmission on {label}: modelled thin and unlit (τ = {transmission}, filter = base colour term); roughness, IOR and refraction ignored",
+                    self.name
+                ));
+            }
         }
         if m.volume().is_some() {
             unmodelled("KHR_materials_volume", scene);
@@ -517,7 +572,7 @@ impl Asset {
         Ok((
             Material {
                 base_color: [factor[0], factor[1], factor[2]],
-                alpha: factor[3],
+                alpha,
                 mode,
                 cutoff,
                 double_sided: m.double_sided(),
@@ -526,6 +581,7 @@ impl Asset {
                 base_texture,
                 emissive,
                 emissive_texture,
+                transmission,
             },
             uv,
         ))
