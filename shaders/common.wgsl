@@ -33,7 +33,8 @@ struct Material {
     // Wrap codes (0 repeat, 1 mirrored repeat, 2 clamp to edge): base u | base v << 2 |
     // emissive u << 4 | emissive v << 6.
     wrap: u32,
-    pad0: u32,
+    // Thin-surface transmission factor τ (0: scalar alpha).
+    transmission: f32,
     pad1: u32,
     pad2: u32,
 }
@@ -64,8 +65,8 @@ struct VertexOut {
     // bit-exactly from the provoking vertex). Reading the storage table per fragment instead
     // cost about 10× the rest of the fragment on CPU rasterizers (lavapipe).
     @location(1) @interpolate(flat) base_alpha: vec4<f32>,
-    // x = cutoff, y = intensity.
-    @location(2) @interpolate(flat) cutoff_intensity: vec2<f32>,
+    // x = cutoff, y = intensity, z = transmission.
+    @location(2) @interpolate(flat) factors: vec3<f32>,
     // mode | premultiplied << 2 | double_sided << 3 | wrap << 4 (see `material_flags`).
     @location(3) @interpolate(flat) flags: u32,
     @location(4) uv: vec2<f32>,
@@ -84,7 +85,7 @@ fn scene_vertex(v: VertexIn) -> VertexOut {
     out.clip = camera.view_proj * vec4<f32>(v.position, 1.0);
     out.color = v.color;
     out.base_alpha = m.base_alpha;
-    out.cutoff_intensity = vec2<f32>(m.cutoff, m.intensity);
+    out.factors = vec3<f32>(m.cutoff, m.intensity, m.transmission);
     out.flags = material_flags(m);
     out.uv = v.uv;
     out.emissive = m.emissive;
@@ -103,9 +104,10 @@ fn material_of(v: VertexOut) -> Material {
     m.base_alpha = v.base_alpha;
     m.emissive = v.emissive;
     m.mode = v.flags & 3u;
-    m.cutoff = v.cutoff_intensity.x;
+    m.cutoff = v.factors.x;
     m.premultiplied = (v.flags >> 2u) & 1u;
-    m.intensity = v.cutoff_intensity.y;
+    m.intensity = v.factors.y;
+    m.transmission = v.factors.z;
     m.double_sided = (v.flags >> 3u) & 1u;
     m.textures = v.textures;
     m.wrap = v.flags >> 4u;
@@ -164,8 +166,12 @@ struct Shaded {
     keep: bool,
     // Opaque modes: straight colour. Transparent modes: premultiplied colour C = α·c.
     color: vec3<f32>,
-    // Coverage α (1 for opaque modes).
+    // Coverage α (1 for opaque modes); for a transmissive material (τ > 0) the scalar opacity
+    // 1 − mean(transmittance) that scalar-alpha techniques composite.
     alpha: f32,
+    // What scales the colour behind, per channel: `(1 − α) + α·τ·lit`, which is exactly
+    // `1 − α` for scalar-alpha materials (τ = 0). Meaningful for transparent modes only.
+    transmittance: vec3<f32>,
 }
 
 fn is_transparent(mode: u32) -> bool {
@@ -187,7 +193,9 @@ fn shade(v: VertexOut, front_facing: bool) -> Shaded {
         t = sample_texture(m.textures.x, m.textures.y, m.wrap, v.uv);
         e = sample_texture(m.textures.z, m.textures.w, m.wrap >> 4u, v.uv);
     }
-    let c = v.color.rgb * m.base_alpha.rgb * t.rgb * m.intensity + m.emissive * e.rgb;
+    let lit = v.color.rgb * m.base_alpha.rgb * t.rgb;
+    let reflected = 1.0 - m.transmission;
+    let c = lit * m.intensity * reflected + m.emissive * e.rgb;
     let alpha = v.color.a * m.base_alpha.a * t.a;
     var s: Shaded;
     s.keep = (front_facing || m.double_sided != 0u) && !(uses_cutoff(m.mode) && alpha < m.cutoff);
@@ -198,6 +206,14 @@ fn shade(v: VertexOut, front_facing: bool) -> Shaded {
             s.color = alpha * c;
         }
         s.alpha = alpha;
+        let filtered = alpha * m.transmission;
+        s.transmittance = vec3<f32>(1.0 - alpha) + filtered * lit;
+        if m.transmission > 0.0 {
+            // Scalar-alpha techniques composite the mean transmittance (exact for grey
+            // filters): `opacity` of `Shaded::Transmissive`.
+            let tt = s.transmittance;
+            s.alpha = 1.0 - (tt.r + tt.g + tt.b) * (1.0 / 3.0);
+        }
     } else {
         s.color = c;
         s.alpha = 1.0;

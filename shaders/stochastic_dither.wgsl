@@ -41,7 +41,7 @@ struct StochasticOut {
     // The fields of `VertexOut` (common.wgsl), which an entry-point struct cannot nest.
     @location(0) color: vec4<f32>,
     @location(1) @interpolate(flat) base_alpha: vec4<f32>,
-    @location(2) @interpolate(flat) cutoff_intensity: vec2<f32>,
+    @location(2) @interpolate(flat) factors: vec3<f32>,
     @location(3) @interpolate(flat) flags: u32,
     @location(4) uv: vec2<f32>,
     @location(5) @interpolate(flat) emissive: vec3<f32>,
@@ -94,7 +94,7 @@ fn vs_stochastic(
     out.clip = base.clip;
     out.color = base.color;
     out.base_alpha = base.base_alpha;
-    out.cutoff_intensity = base.cutoff_intensity;
+    out.factors = base.factors;
     out.flags = base.flags;
     out.uv = base.uv;
     out.emissive = base.emissive;
@@ -177,7 +177,7 @@ fn fs_stochastic(v: StochasticOut, @builtin(front_facing) front_facing: bool) ->
     base.clip = v.clip;
     base.color = v.color;
     base.base_alpha = v.base_alpha;
-    base.cutoff_intensity = v.cutoff_intensity;
+    base.factors = v.factors;
     base.flags = v.flags;
     base.uv = v.uv;
     base.emissive = v.emissive;

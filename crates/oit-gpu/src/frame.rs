@@ -30,7 +30,7 @@ pub fn render_frame(
             targets.resolution, scene.scene.name, scene.scene.resolution
         )));
     }
-    technique.check(&ctx.caps)?;
+    crate::technique::check_scene(technique, &ctx.caps, &scene.scene)?;
     timer.begin_frame();
     opaque_pass(ctx, scene, targets, timer)?;
     let stats = technique.render(ctx, scene, targets, timer)?;

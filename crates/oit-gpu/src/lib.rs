@@ -51,7 +51,7 @@ pub use scene::{
 };
 pub use spec::{Allowed, ParamInfo, SpecError, TechniqueInfo, TechniqueSpec};
 pub use targets::{ColorFormat, Targets, f16_to_f32, read_color};
-pub use technique::{RenderStats, Technique};
+pub use technique::{RenderStats, Technique, TransmissionSupport, check_scene};
 pub use timer::{
     FrameTimings, GpuTimer, PASSES_PER_QUERY_SET, PassTimestamps, PassTiming, TimingSource,
 };

@@ -106,7 +106,7 @@ fn material_words(m: &Material, scene: &Scene, offsets: &[u32]) -> [u32; 20] {
         emissive_first,
         emissive_size,
         base_wrap | emissive_wrap << 4,
-        0,
+        m.transmission.to_bits(),
         0,
         0,
     ]

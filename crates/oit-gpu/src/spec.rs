@@ -372,6 +372,9 @@ mod tests {
         fn memory_bytes(&self) -> u64 {
             0
         }
+        fn transmission(&self) -> crate::TransmissionSupport {
+            crate::TransmissionSupport::Unsupported("draws no transparent geometry")
+        }
     }
 
     fn registry() -> Vec<TechniqueInfo> {

@@ -6,6 +6,7 @@ use crate::scene::GpuScene;
 use crate::spec::TechniqueSpec;
 use crate::targets::Targets;
 use crate::timer::GpuTimer;
+use oit_scene::Scene;
 
 /// What a technique did in one frame (results.json `"stats"`, plus `cpu_ms` which the harness
 /// reports at the top level of a run).
@@ -44,4 +45,48 @@ pub trait Technique: std::fmt::Debug {
     ) -> Result<RenderStats, GpuError>;
     /// Bytes of every texture and buffer the technique allocated (shared targets excluded).
     fn memory_bytes(&self) -> u64;
+    /// What the technique does with coloured transmittance ([`Scene::has_transmission`]).
+    fn transmission(&self) -> TransmissionSupport;
+}
+
+/// How a technique treats fragments whose transmittance is coloured (`t` per channel rather
+/// than `1 − α`), README "Coloured transmission".
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TransmissionSupport {
+    /// Composites `C + t ⊙ behind` per channel as the reference does (up to its storage).
+    Exact,
+    /// Per channel, by the stated approximation.
+    Approximate(&'static str),
+    /// Scalar alpha only: skipped on scenes with transmission, for the stated reason.
+    Unsupported(&'static str),
+}
+
+impl TransmissionSupport {
+    /// The short word for tables: exact, approximate or no.
+    pub fn label(self) -> &'static str {
+        match self {
+            TransmissionSupport::Exact => "exact",
+            TransmissionSupport::Approximate(_) => "approximate",
+            TransmissionSupport::Unsupported(_) => "no",
+        }
+    }
+}
+
+/// Whether `technique` can render `scene` on this adapter: its own [`Technique::check`], then,
+/// on a scene with coloured transmission, its [`TransmissionSupport`].
+pub fn check_scene(
+    technique: &dyn Technique,
+    caps: &Caps,
+    scene: &Scene,
+) -> Result<(), Unsupported> {
+    technique.check(caps)?;
+    if scene.has_transmission()
+        && let TransmissionSupport::Unsupported(reason) = technique.transmission()
+    {
+        return Err(Unsupported::new(format!(
+            "the scene has coloured transmission, which {} does not composite: {reason}",
+            technique.spec().name
+        )));
+    }
+    Ok(())
 }

@@ -54,6 +54,9 @@ impl Technique for OpaqueOnly {
     fn memory_bytes(&self) -> u64 {
         0
     }
+    fn transmission(&self) -> oit_gpu::TransmissionSupport {
+        oit_gpu::TransmissionSupport::Unsupported("draws no transparent geometry")
+    }
 }
 
 #[test]

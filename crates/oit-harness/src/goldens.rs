@@ -341,7 +341,7 @@ pub fn measure(
 ) -> Result<(BaselineRun, Option<LinearImage>), HarnessError> {
     let canonical = spec.canonical();
     let technique = TechniqueSpec::build(&canonical, &registry())?;
-    if let Err(unsupported) = technique.check(&ctx.caps) {
+    if let Err(unsupported) = oit_gpu::check_scene(technique.as_ref(), &ctx.caps, scene) {
         let run = BaselineRun {
             scene: scene.name.clone(),
             technique: canonical,

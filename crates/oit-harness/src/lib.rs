@@ -63,6 +63,7 @@ pub fn registry() -> Vec<TechniqueInfo> {
     all.extend(oit_stochastic::techniques());
     all.extend(oit_mboit::techniques());
     all.extend(oit_linked_list::techniques());
+    all.extend(oit_opaque_copy::techniques());
     all
 }
 

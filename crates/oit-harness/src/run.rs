@@ -456,7 +456,7 @@ fn run_one(
 ) -> Result<Run, HarnessError> {
     let canonical = spec.canonical();
     let mut technique = build(spec)?;
-    if let Err(unsupported) = technique.check(&ctx.caps) {
+    if let Err(unsupported) = oit_gpu::check_scene(technique.as_ref(), &ctx.caps, scene) {
         return Ok(Run::not_rendered(
             &scene.name,
             scene_file,

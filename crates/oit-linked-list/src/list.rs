@@ -7,7 +7,7 @@ use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, FullscreenDesc, GpuError, GpuScene, GpuTimer, MemoryLedger, PREMULTIPLIED_OVER,
     RenderStats, ScenePipelineDesc, ScenePipelines, SpecError, Targets, Technique, TechniqueSpec,
-    Unsupported, bind, fullscreen_pipeline, pass,
+    TransmissionSupport, Unsupported, bind, fullscreen_pipeline, pass,
 };
 use oit_scene::Resolution;
 
@@ -315,6 +315,13 @@ impl Technique for LinkedList {
 
     fn memory_bytes(&self) -> u64 {
         self.ledger.total()
+    }
+
+    fn transmission(&self) -> TransmissionSupport {
+        // Scalar alpha: the shader's `Shaded.alpha` is 1 − mean(t) for transmissive fragments.
+        TransmissionSupport::Approximate(
+            "composites 1 − mean(t) as scalar α, exact for grey filters only (its nodes store premultiplied colour and scalar α; rgb transmittance nodes are not implemented)",
+        )
     }
 }
 

@@ -6,8 +6,8 @@ use crate::math::{self, MomentKind, Resolve, Storage};
 use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, RenderStats, ScenePipelineDesc,
-    ScenePipelines, SpecError, Targets, Technique, TechniqueSpec, Unsupported, bind, blend,
-    depth_test, pass,
+    ScenePipelines, SpecError, Targets, Technique, TechniqueSpec, TransmissionSupport, Unsupported,
+    bind, blend, depth_test, pass,
 };
 use oit_scene::{Resolution, Scene};
 
@@ -556,5 +556,12 @@ impl Technique for Mboit {
     fn memory_bytes(&self) -> u64 {
         self.shared.as_ref().map_or(0, |s| s.ledger.total())
             + self.pixels.as_ref().map_or(0, |p| p.ledger.total())
+    }
+
+    fn transmission(&self) -> TransmissionSupport {
+        // Scalar alpha: the shader's `Shaded.alpha` is 1 − mean(t) for transmissive fragments.
+        TransmissionSupport::Approximate(
+            "composites 1 − mean(t) as scalar α, exact for grey filters only (its moments are of the scalar absorbance −ln(1 − α); a per-channel set of moments is not implemented)",
+        )
     }
 }

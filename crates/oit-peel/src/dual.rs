@@ -19,8 +19,8 @@ use oit_gpu::pass;
 use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, PREMULTIPLIED_OVER, RenderStats,
-    ScenePipelineDesc, ScenePipelines, SpecError, Targets, Technique, TechniqueSpec, Unsupported,
-    depth_test,
+    ScenePipelineDesc, ScenePipelines, SpecError, Targets, Technique, TechniqueSpec,
+    TransmissionSupport, Unsupported, depth_test,
 };
 use oit_scene::Resolution;
 use oit_wboit::tail as wboit;
@@ -704,6 +704,13 @@ impl Technique for DualPeel {
             .map_or(0, |g| g.ledger.total() + g.control.memory_bytes())
             + self.list_ledger.total()
             + self.tail.as_ref().map_or(0, |t| t.accum.memory_bytes())
+    }
+
+    fn transmission(&self) -> TransmissionSupport {
+        // Scalar alpha: the shader's `Shaded.alpha` is 1 − mean(t) for transmissive fragments.
+        TransmissionSupport::Approximate(
+            "composites 1 − mean(t) as scalar α, exact for grey filters only (its layers are blended with scalar factors (1 − α); a per-channel under/over blend is not implemented)",
+        )
     }
 }
 

@@ -23,7 +23,8 @@ use oit_gpu::pass;
 use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, RenderStats, ScenePipelineDesc,
-    ScenePipelines, SpecError, Targets, Technique, TechniqueSpec, Unsupported, depth_test,
+    ScenePipelines, SpecError, Targets, Technique, TechniqueSpec, TransmissionSupport, Unsupported,
+    depth_test,
 };
 use oit_scene::Resolution;
 
@@ -639,5 +640,12 @@ impl Technique for FrontPeel {
             .as_ref()
             .map_or(0, |g| g.ledger.total() + g.control.memory_bytes())
             + self.list_ledger.total()
+    }
+
+    fn transmission(&self) -> TransmissionSupport {
+        // Scalar alpha: the shader's `Shaded.alpha` is 1 − mean(t) for transmissive fragments.
+        TransmissionSupport::Approximate(
+            "composites 1 − mean(t) as scalar α, exact for grey filters only (its layers are under-blended with a scalar transmittance; a per-channel under-blend is not implemented)",
+        )
     }
 }

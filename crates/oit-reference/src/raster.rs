@@ -130,7 +130,12 @@ const TRANSMITTANCE_SLOT_BYTES: u64 = size_of::<[f64; 3]>() as u64;
 
 /// Bytes per slot: [`PER_SLOT_BYTES`], plus the transmittance where the scene has one.
 fn slot_bytes(coloured: bool) -> u64 {
-    PER_SLOT_BYTES + if coloured { TRANSMITTANCE_SLOT_BYTES } else { 0 }
+    PER_SLOT_BYTES
+        + if coloured {
+            TRANSMITTANCE_SLOT_BYTES
+        } else {
+            0
+        }
 }
 
 /// Bytes per recorded span.
@@ -646,9 +651,9 @@ impl Fragments for TransparentFragments<'_> {
             } => (premultiplied, alpha, None),
             Shaded::Transmissive {
                 premultiplied,
-                alpha,
+                opacity,
                 transmittance,
-            } => (premultiplied, alpha, Some(transmittance)),
+            } => (premultiplied, opacity, Some(transmittance)),
             Shaded::Opaque(_) | Shaded::Discarded => {
                 self.all_count[p] -= 1;
                 self.discarded += 1;

@@ -56,8 +56,14 @@ fn bits(image: &oit_scene::LinearImage) -> Vec<u32> {
 /// the front pane covers the left half of the frame more than the back one.
 fn complementary(front_first: bool) -> Scene {
     let mut b = SceneBuilder::new(32, 32).background([0.5, 0.6, 0.7]);
-    let red = (pane([0.9, 0.2, 0.1], 0.8, 0.75), rect(-1.5, -1.5, 0.5, 1.5, -1.0));
-    let cyan = (pane([0.1, 0.7, 0.95], 0.9, 0.6), rect(-0.5, -1.5, 1.5, 1.5, -2.0));
+    let red = (
+        pane([0.9, 0.2, 0.1], 0.8, 0.75),
+        rect(-1.5, -1.5, 0.5, 1.5, -1.0),
+    );
+    let cyan = (
+        pane([0.1, 0.7, 0.95], 0.9, 0.6),
+        rect(-0.5, -1.5, 1.5, 1.5, -2.0),
+    );
     let draws = if front_first {
         [red, cyan]
     } else {
@@ -139,9 +145,8 @@ fn scalar_alpha_is_the_grey_case_bit_for_bit() {
         (state >> 11) as f64 / (1u64 << 53) as f64
     };
     for n in [1, 2, 5, 33] {
-        let scalar: Vec<([f64; 3], f64)> = (0..n)
-            .map(|_| ([next(), next(), next()], next()))
-            .collect();
+        let scalar: Vec<([f64; 3], f64)> =
+            (0..n).map(|_| ([next(), next(), next()], next())).collect();
         let coloured: Vec<([f64; 3], [f64; 3])> =
             scalar.iter().map(|&(c, a)| (c, [1.0 - a; 3])).collect();
         let bg = [next(), next(), next()];
@@ -168,14 +173,27 @@ fn scalar_alpha_is_the_grey_case_bit_for_bit() {
 #[test]
 fn a_tinted_pane_over_opaque_filters_it_and_opaque_in_front_hides_it() {
     let mut b = SceneBuilder::new(16, 16).background([0.0; 3]);
-    b.quad(opaque([0.8, 0.8, 0.8]), rect(-1.5, -1.5, 1.5, 1.5, -3.0), white());
+    b.quad(
+        opaque([0.8, 0.8, 0.8]),
+        rect(-1.5, -1.5, 1.5, 1.5, -3.0),
+        white(),
+    );
     b.quad(pane([0.2, 0.9, 0.4], 1.0, 1.0), fullscreen(-2.0), white());
     // The left half has an opaque quad in front of the pane.
-    b.quad(opaque([0.1, 0.1, 0.1]), rect(-1.5, -1.5, 0.0, 1.5, -1.0), white());
+    b.quad(
+        opaque([0.1, 0.1, 0.1]),
+        rect(-1.5, -1.5, 0.0, 1.5, -1.0),
+        white(),
+    );
     let r = render(&b.build(), &ReferenceOptions::default());
     let filtered = [0.8 * 0.2, 0.8 * 0.9, 0.8 * 0.4].map(|c: f64| c as f32 as f64);
     assert_close(r.image.get(12, 8), filtered, 1e-6, "pane over opaque");
-    assert_close(r.image.get(3, 8), [0.1f32 as f64; 3], 0.0, "opaque in front");
+    assert_close(
+        r.image.get(3, 8),
+        [0.1f32 as f64; 3],
+        0.0,
+        "opaque in front",
+    );
     assert_eq!(r.layers[8 * 16 + 3], 0);
     assert_eq!(r.layers[8 * 16 + 12], 1);
 }
@@ -198,6 +216,9 @@ fn a_small_budget_slices_coloured_tiles_and_changes_no_bit() {
     )
     .expect("fits when sliced");
     assert!(bits(&whole.image) == bits(&tight.image));
-    assert!(tight.stats.sliced_tiles > 0, "the budget must force slicing");
+    assert!(
+        tight.stats.sliced_tiles > 0,
+        "the budget must force slicing"
+    );
     assert!(tight.stats.peak_tile_bytes <= 256 * 1024);
 }

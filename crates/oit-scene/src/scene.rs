@@ -206,10 +206,12 @@ pub enum Shaded {
     /// Premultiplied colour `C = α·c` and coverage `α`: what is behind is scaled by `1 − α`.
     Transparent { premultiplied: [f32; 3], alpha: f32 },
     /// A transmissive fragment (`transmission > 0`): premultiplied radiance `C` and a
-    /// per-channel transmittance `t` that scales what is behind; `alpha` is its coverage.
+    /// per-channel transmittance `t` that scales what is behind. `opacity` = 1 − mean(t) is
+    /// what a scalar-alpha technique composites instead (exact when `t` is grey); the shader's
+    /// `Shaded.alpha` carries it.
     Transmissive {
         premultiplied: [f32; 3],
-        alpha: f32,
+        opacity: f32,
         transmittance: [f32; 3],
     },
 }
@@ -268,8 +270,8 @@ impl Material {
     /// (1 − τ) + emissive · emissive_texel.rgb`, `α = vertex.a · alpha · texel.a`, `C = α·c` (or
     /// `c` when the material is premultiplied). Mask modes discard when `α < cutoff`. A
     /// transmissive material (τ > 0) also filters what is behind by `t = (1 − α) + α·τ·lit`
-    /// per channel. Untextured, the samples are 1 and the emission 0; τ = 0 multiplies by 1:
-    /// none of them changes a bit of the products.
+    /// per channel, and its scalar opacity is `1 − mean(t)`. Untextured, the samples are 1 and
+    /// the emission 0; τ = 0 multiplies by 1: none of them changes a bit of the products.
     #[inline(always)]
     pub fn shade(&self, vertex_rgba: [f32; 4], texels: Texels) -> Shaded {
         let t = texels.base;
@@ -304,9 +306,13 @@ impl Material {
                         (1.0 - alpha) + filtered * lit[1],
                         (1.0 - alpha) + filtered * lit[2],
                     ];
+                    // The scalar opacity of the fragment: 1 − the mean transmittance (a
+                    // constant third on both sides, no division: GPUs may round it otherwise).
+                    let opacity = 1.0
+                        - (transmittance[0] + transmittance[1] + transmittance[2]) * (1.0 / 3.0);
                     return Shaded::Transmissive {
                         premultiplied,
-                        alpha,
+                        opacity,
                         transmittance,
                     };
                 }
@@ -441,6 +447,31 @@ impl Scene {
 
     pub fn triangle_count(&self) -> usize {
         self.draws.iter().map(|d| d.triangle_count() as usize).sum()
+    }
+
+    /// Transparent draws (indices into `draws`) in the order Babylon renders them: render
+    /// group ascending, then `alpha_index` ascending, then distance from the eye to the
+    /// bounding sphere centre descending (far first). The sort is stable: draws that tie on all
+    /// three keep their draw order, so the later-drawn one lands on top, which is the
+    /// reference's tie-break for coplanar fragments in natural draw order.
+    pub fn babylon_object_order(&self) -> Vec<usize> {
+        let eye = self.camera.eye;
+        let mut order: Vec<(usize, u32, i32, f32)> = self
+            .draws
+            .iter()
+            .enumerate()
+            .filter(|(_, d)| self.material_of(d).mode.is_transparent())
+            .map(|(i, d)| {
+                (
+                    i,
+                    d.render_group,
+                    d.alpha_index,
+                    d.bounds_center.distance(eye),
+                )
+            })
+            .collect();
+        order.sort_by(|a, b| a.1.cmp(&b.1).then(a.2.cmp(&b.2)).then(b.3.total_cmp(&a.3)));
+        order.into_iter().map(|(i, ..)| i).collect()
     }
 
     /// Whether any draw's fragments carry coloured transmittance: techniques that composite

@@ -5,29 +5,10 @@ use glam::{Mat4, Vec3};
 use oit_scene::Scene;
 use rayon::prelude::*;
 
-/// Transparent draws (indices into `scene.draws`) in the order Babylon renders them: render
-/// group ascending, then `alpha_index` ascending, then distance from the eye to the bounding
-/// sphere centre descending (far first). The sort is stable: draws that tie on all three keep
-/// their draw order, so the later-drawn one lands on top, which is the reference's tie-break for
-/// coplanar fragments in natural draw order.
+/// Transparent draws (indices into `scene.draws`) in the order Babylon renders them
+/// ([`Scene::babylon_object_order`]: render group, alpha index, far first, stable).
 pub fn object_order(scene: &Scene) -> Vec<usize> {
-    let eye = scene.camera.eye;
-    let mut order: Vec<(usize, u32, i32, f32)> = scene
-        .draws
-        .iter()
-        .enumerate()
-        .filter(|(_, d)| scene.material_of(d).mode.is_transparent())
-        .map(|(i, d)| {
-            (
-                i,
-                d.render_group,
-                d.alpha_index,
-                d.bounds_center.distance(eye),
-            )
-        })
-        .collect();
-    order.sort_by(|a, b| a.1.cmp(&b.1).then(a.2.cmp(&b.2)).then(b.3.total_cmp(&a.3)));
-    order.into_iter().map(|(i, ..)| i).collect()
+    scene.babylon_object_order()
 }
 
 /// Order-preserving map from f32 to u32: `a < b` ⇔ `key(a) < key(b)` for all non-NaN floats

@@ -7,7 +7,7 @@ use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, CullRule, GpuError, GpuScene, GpuTimer, MemoryLedger, PREMULTIPLIED_OVER,
     RenderStats, ScenePipelineDesc, ScenePipelines, SpecError, Targets, Technique, TechniqueSpec,
-    Unsupported, depth_test,
+    TransmissionSupport, Unsupported, depth_test,
 };
 use std::collections::BTreeMap;
 use std::time::Instant;
@@ -426,5 +426,12 @@ impl Technique for Blended {
 
     fn memory_bytes(&self) -> u64 {
         self.ledger.total()
+    }
+
+    fn transmission(&self) -> TransmissionSupport {
+        // Scalar alpha: the shader's `Shaded.alpha` is 1 − mean(t) for transmissive fragments.
+        TransmissionSupport::Approximate(
+            "composites 1 − mean(t) as scalar α, exact for grey filters only (OVER blending has one scalar factor (1 − α) for what is behind; the dual-source variant is not implemented)",
+        )
     }
 }

@@ -18,7 +18,7 @@ use oit_gpu::pass;
 use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, RenderStats, ScenePipelineDesc,
-    ScenePipelines, SpecError, Targets, Technique, TechniqueSpec, Unsupported,
+    ScenePipelines, SpecError, Targets, Technique, TechniqueSpec, TransmissionSupport, Unsupported,
 };
 use oit_scene::Resolution;
 
@@ -266,5 +266,12 @@ impl Technique for AlphaToCoverage {
 
     fn memory_bytes(&self) -> u64 {
         self.ledger.total()
+    }
+
+    fn transmission(&self) -> TransmissionSupport {
+        // Scalar alpha: the shader's `Shaded.alpha` is 1 − mean(t) for transmissive fragments.
+        TransmissionSupport::Approximate(
+            "composites 1 − mean(t) as scalar α, exact for grey filters only (coverage samples are decided by the scalar α; no per-channel scheme is implemented)",
+        )
     }
 }

@@ -106,7 +106,9 @@ pub fn color_scale(scene: &Scene) -> f32 {
                     *t = t.max(c);
                 }
             }
-            if let Shaded::Transparent { premultiplied, .. } = m.shade(top, texels) {
+            if let Shaded::Transparent { premultiplied, .. }
+            | Shaded::Transmissive { premultiplied, .. } = m.shade(top, texels)
+            {
                 for c in premultiplied {
                     if c.is_finite() {
                         largest = largest.max(c);

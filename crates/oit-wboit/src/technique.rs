@@ -8,7 +8,8 @@ use oit_gpu::pass;
 use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, RenderStats, ScenePipelineDesc,
-    ScenePipelines, SpecError, Targets, Technique, TechniqueSpec, Unsupported, depth_test,
+    ScenePipelines, SpecError, Targets, Technique, TechniqueSpec, TransmissionSupport, Unsupported,
+    depth_test,
 };
 
 /// The accumulation pass (shaders/wboit_accum.wgsl; includes common.wgsl and the tail).
@@ -390,6 +391,13 @@ impl Technique for Wboit {
 
     fn memory_bytes(&self) -> u64 {
         self.ledger.total() + self.accum.as_ref().map_or(0, AccumTargets::memory_bytes)
+    }
+
+    fn transmission(&self) -> TransmissionSupport {
+        // Scalar alpha: the shader's `Shaded.alpha` is 1 − mean(t) for transmissive fragments.
+        TransmissionSupport::Approximate(
+            "composites 1 − mean(t) as scalar α, exact for grey filters only (a weighted sum with a scalar revealage; McGuire & Mara's coloured variant is not implemented)",
+        )
     }
 }
 
