@@ -153,7 +153,7 @@ fn scenes_lists_the_suite_with_depth_complexity() {
     assert_eq!(cols[3], "4");
     assert_eq!(cols[5], "2", "max depth complexity: {enderton}");
     let scenes = text.lines().filter(|l| !l.starts_with(' ')).count();
-    assert_eq!(scenes, 1 + 17, "{text}");
+    assert_eq!(scenes, 1 + 21, "{text}");
     // A glTF scene carries its asset's credit and what of it is not modelled.
     assert!(
         text.contains("  Credits: GlassVaseFlowers.glb: CC0"),

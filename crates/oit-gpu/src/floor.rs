@@ -146,7 +146,7 @@ impl Technique for DrawOrderBlend {
         0
     }
 
-    fn transmission(&self) -> TransmissionSupport {
+    fn transmission(&self, _caps: &Caps) -> TransmissionSupport {
         // Runs on every scene: it is a timing yardstick whose image is never compared.
         TransmissionSupport::Approximate("a timing yardstick: vertex colour and scalar OVER")
     }

@@ -372,7 +372,7 @@ mod tests {
         fn memory_bytes(&self) -> u64 {
             0
         }
-        fn transmission(&self) -> crate::TransmissionSupport {
+        fn transmission(&self, _caps: &Caps) -> crate::TransmissionSupport {
             crate::TransmissionSupport::Unsupported("draws no transparent geometry")
         }
     }

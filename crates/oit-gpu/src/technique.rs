@@ -45,8 +45,9 @@ pub trait Technique: std::fmt::Debug {
     ) -> Result<RenderStats, GpuError>;
     /// Bytes of every texture and buffer the technique allocated (shared targets excluded).
     fn memory_bytes(&self) -> u64;
-    /// What the technique does with coloured transmittance ([`Scene::has_transmission`]).
-    fn transmission(&self) -> TransmissionSupport;
+    /// What the technique does with coloured transmittance ([`Scene::has_transmission`]) on
+    /// an adapter with `caps` (e.g. dual-source blending).
+    fn transmission(&self, caps: &Caps) -> TransmissionSupport;
 }
 
 /// How a technique treats fragments whose transmittance is coloured (`t` per channel rather
@@ -81,7 +82,7 @@ pub fn check_scene(
 ) -> Result<(), Unsupported> {
     technique.check(caps)?;
     if scene.has_transmission()
-        && let TransmissionSupport::Unsupported(reason) = technique.transmission()
+        && let TransmissionSupport::Unsupported(reason) = technique.transmission(caps)
     {
         return Err(Unsupported::new(format!(
             "the scene has coloured transmission, which {} does not composite: {reason}",

@@ -54,7 +54,7 @@ impl Technique for OpaqueOnly {
     fn memory_bytes(&self) -> u64 {
         0
     }
-    fn transmission(&self) -> oit_gpu::TransmissionSupport {
+    fn transmission(&self, _caps: &Caps) -> oit_gpu::TransmissionSupport {
         oit_gpu::TransmissionSupport::Unsupported("draws no transparent geometry")
     }
 }

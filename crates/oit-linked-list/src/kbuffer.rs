@@ -414,7 +414,7 @@ impl Technique for KBuffer {
         self.ledger.total()
     }
 
-    fn transmission(&self) -> TransmissionSupport {
+    fn transmission(&self, _caps: &Caps) -> TransmissionSupport {
         // Scalar alpha: the shader's `Shaded.alpha` is 1 − mean(t) for transmissive fragments.
         TransmissionSupport::Approximate(
             "composites 1 − mean(t) as scalar α, exact for grey filters only (its slots store premultiplied colour and scalar α; rgb transmittance slots are not implemented)",

@@ -317,7 +317,7 @@ impl Technique for LinkedList {
         self.ledger.total()
     }
 
-    fn transmission(&self) -> TransmissionSupport {
+    fn transmission(&self, _caps: &Caps) -> TransmissionSupport {
         // Scalar alpha: the shader's `Shaded.alpha` is 1 − mean(t) for transmissive fragments.
         TransmissionSupport::Approximate(
             "composites 1 − mean(t) as scalar α, exact for grey filters only (its nodes store premultiplied colour and scalar α; rgb transmittance nodes are not implemented)",

@@ -558,7 +558,7 @@ impl Technique for Mboit {
             + self.pixels.as_ref().map_or(0, |p| p.ledger.total())
     }
 
-    fn transmission(&self) -> TransmissionSupport {
+    fn transmission(&self, _caps: &Caps) -> TransmissionSupport {
         // Scalar alpha: the shader's `Shaded.alpha` is 1 − mean(t) for transmissive fragments.
         TransmissionSupport::Approximate(
             "composites 1 − mean(t) as scalar α, exact for grey filters only (its moments are of the scalar absorbance −ln(1 − α); a per-channel set of moments is not implemented)",

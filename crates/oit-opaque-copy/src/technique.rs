@@ -226,7 +226,7 @@ impl Technique for OpaqueCopy {
         self.ledger.total()
     }
 
-    fn transmission(&self) -> TransmissionSupport {
+    fn transmission(&self, _caps: &Caps) -> TransmissionSupport {
         TransmissionSupport::Approximate(
             "exact for the nearest transmissive surface over opaque content and for transparent surfaces in front of it; what is transparent or transmissive behind it is missing from the copy",
         )

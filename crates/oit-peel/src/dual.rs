@@ -706,7 +706,7 @@ impl Technique for DualPeel {
             + self.tail.as_ref().map_or(0, |t| t.accum.memory_bytes())
     }
 
-    fn transmission(&self) -> TransmissionSupport {
+    fn transmission(&self, _caps: &Caps) -> TransmissionSupport {
         // Scalar alpha: the shader's `Shaded.alpha` is 1 − mean(t) for transmissive fragments.
         TransmissionSupport::Approximate(
             "composites 1 − mean(t) as scalar α, exact for grey filters only (its layers are blended with scalar factors (1 − α); a per-channel under/over blend is not implemented)",

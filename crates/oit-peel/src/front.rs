@@ -642,7 +642,7 @@ impl Technique for FrontPeel {
             + self.list_ledger.total()
     }
 
-    fn transmission(&self) -> TransmissionSupport {
+    fn transmission(&self, _caps: &Caps) -> TransmissionSupport {
         // Scalar alpha: the shader's `Shaded.alpha` is 1 − mean(t) for transmissive fragments.
         TransmissionSupport::Approximate(
             "composites 1 − mean(t) as scalar α, exact for grey filters only (its layers are under-blended with a scalar transmittance; a per-channel under-blend is not implemented)",

@@ -482,6 +482,23 @@ impl Scene {
             .any(|d| self.material_of(d).is_transmissive())
     }
 
+    /// Whether some transmissive draw's filter may differ between channels (a non-grey base
+    /// colour, a base texture, or a non-grey vertex colour): where it cannot, `t` is grey and
+    /// scalar-alpha techniques composite it with `1 − mean(t)`, which equals it up to f32
+    /// rounding.
+    pub fn has_coloured_transmission(&self) -> bool {
+        let grey = |c: &[f32]| c[0] == c[1] && c[1] == c[2];
+        self.draws.iter().any(|d| {
+            let m = self.material_of(d);
+            m.is_transmissive()
+                && (!grey(&m.base_color)
+                    || m.base_texture.is_some()
+                    || self.vertices[d.vertex_range()]
+                        .iter()
+                        .any(|v| !grey(&v.color)))
+        })
+    }
+
     pub fn transparent_triangle_count(&self) -> usize {
         self.draws
             .iter()

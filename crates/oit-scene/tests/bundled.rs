@@ -25,7 +25,7 @@ fn suite() -> BTreeMap<String, Scene> {
         .collect()
 }
 
-const NAMES: [&str; 17] = [
+const NAMES: [&str; 21] = [
     "alpha-099-stack",
     "alpha-extremes",
     "coplanar",
@@ -43,6 +43,10 @@ const NAMES: [&str; 17] = [
     "particles",
     "quad-through-sphere",
     "sorted-quads",
+    "transmission-complementary",
+    "transmission-gltf",
+    "transmission-over-blended",
+    "transmission-stack-32",
 ];
 
 #[test]

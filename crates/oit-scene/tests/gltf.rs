@@ -194,11 +194,16 @@ fn glass_vase_flowers_lists_transmission_as_ignored() {
     assert_eq!(blend.alpha, 0.3);
     assert!(s.materials[0].base_texture.is_some());
     let transmission = names.iter().position(|n| n == "GlassTransmission").unwrap();
-    assert_eq!(s.materials[transmission].mode, AlphaMode::Opaque);
+    // KHR_materials_transmission, thin and unlit: OPAQUE glass becomes a clear (white filter,
+    // τ = 1) transmissive surface of coverage 1.
+    let glass = s.materials[transmission];
+    assert_eq!(glass.mode, AlphaMode::Blend);
+    assert_eq!((glass.alpha, glass.transmission), (1.0, 1.0));
+    assert!(glass.is_transmissive());
     assert!(
         s.ignored.iter().any(|l| l
             .contains("KHR_materials_transmission on /materials/2 (GlassTransmission)")
-            && l.contains("OPAQUE")),
+            && l.contains("refraction ignored")),
         "{:?}",
         s.ignored
     );
@@ -689,6 +694,7 @@ fn json_and_schema_errors() {
     let mut doc = single_mesh(pos, json!({}));
     doc["extensionsRequired"] = json!([
         "KHR_texture_transform",
+        "KHR_materials_transmission",
         "KHR_materials_volume",
         "EXT_meshopt_compression"
     ]);

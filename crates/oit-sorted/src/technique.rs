@@ -12,6 +12,20 @@ use oit_gpu::{
 use std::collections::BTreeMap;
 use std::time::Instant;
 
+/// Dual-source blending for coloured transmittance (shaders/blend_transmit.wgsl).
+const BLEND_TRANSMIT: &str = include_str!("../../../shaders/blend_transmit.wgsl");
+
+/// `dst = src0 + src1 ⊙ dst` per channel (src1 = the fragment's transmittance); alpha as
+/// [`PREMULTIPLIED_OVER`].
+const PER_CHANNEL_OVER: wgpu::BlendState = wgpu::BlendState {
+    color: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::One,
+        dst_factor: wgpu::BlendFactor::Src1,
+        operation: wgpu::BlendOperation::Add,
+    },
+    alpha: PREMULTIPLIED_OVER.alpha,
+};
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Kind {
     Unsorted,
@@ -59,10 +73,10 @@ impl Kind {
     }
 }
 
-/// Pipelines for one (colour format, reverse-Z) combination.
+/// Pipelines for one (colour format, reverse-Z, coloured transmission) combination.
 #[derive(Debug)]
 struct Pipelines {
-    key: (wgpu::TextureFormat, bool),
+    key: (wgpu::TextureFormat, bool, bool),
     /// Blending, depth test strictly nearer, no depth write, culling by material.
     blend: ScenePipelines,
     /// Same without fixed-function culling (the shader still discards back faces of
@@ -134,14 +148,26 @@ impl Blended {
         scene: &GpuScene,
         format: wgpu::TextureFormat,
     ) -> Result<(), GpuError> {
-        let key = (format, scene.scene.camera.reverse_z);
+        // Scenes with coloured transmission blend per channel with dual-source blending where
+        // the adapter has it; every other scene keeps the one-source pipelines.
+        let transmit = scene.scene.has_transmission() && ctx.caps.dual_source_blending;
+        let key = (format, scene.scene.camera.reverse_z, transmit);
         if self.pipelines.as_ref().is_some_and(|p| p.key == key) {
             return Ok(());
         }
         let module = ctx.shader("blend.wgsl", oit_gpu::shaders::BLEND)?;
+        let transmit_module = if transmit {
+            Some(ctx.shader("blend_transmit.wgsl", BLEND_TRANSMIT)?)
+        } else {
+            None
+        };
         let color = [Some(wgpu::ColorTargetState {
             format,
-            blend: Some(PREMULTIPLIED_OVER),
+            blend: Some(if transmit {
+                PER_CHANNEL_OVER
+            } else {
+                PREMULTIPLIED_OVER
+            }),
             write_mask: wgpu::ColorWrites::ALL,
         })];
         let nearer = scene.depth_nearer();
@@ -152,14 +178,21 @@ impl Blended {
                     write: bool,
                     cmp,
                     cull| {
+            // Colour entries come from blend_transmit.wgsl on transmission scenes.
+            let (module, entry) = match (&transmit_module, entry) {
+                (Some(m), "fs_blend") => (m, "fs_blend_transmit"),
+                (Some(m), "fs_blend_equal") => (m, "fs_blend_transmit_equal"),
+                _ => (&module, entry),
+            };
+            let equal = entry.ends_with("_equal");
             ScenePipelines::new(
                 ctx,
                 &ScenePipelineDesc {
                     targets,
                     depth: Some(depth_test(cmp, write)),
                     cull,
-                    constants: if entry == "fs_blend_equal" { &far } else { &[] },
-                    ..ScenePipelineDesc::new(label, &module, entry)
+                    constants: if equal { &far } else { &[] },
+                    ..ScenePipelineDesc::new(label, module, entry)
                 },
             )
         };
@@ -428,10 +461,14 @@ impl Technique for Blended {
         self.ledger.total()
     }
 
-    fn transmission(&self) -> TransmissionSupport {
-        // Scalar alpha: the shader's `Shaded.alpha` is 1 − mean(t) for transmissive fragments.
-        TransmissionSupport::Approximate(
-            "composites 1 − mean(t) as scalar α, exact for grey filters only (OVER blending has one scalar factor (1 − α) for what is behind; the dual-source variant is not implemented)",
-        )
+    fn transmission(&self, caps: &Caps) -> TransmissionSupport {
+        if caps.dual_source_blending {
+            // blend_transmit.wgsl: dst = src0 + src1 ⊙ dst, per channel.
+            TransmissionSupport::Exact
+        } else {
+            TransmissionSupport::Approximate(
+                "composites 1 − mean(t) as scalar α, exact for grey filters only (the adapter has no dual-source blending for dst = C + t ⊙ dst)",
+            )
+        }
     }
 }

@@ -268,7 +268,7 @@ impl Technique for AlphaToCoverage {
         self.ledger.total()
     }
 
-    fn transmission(&self) -> TransmissionSupport {
+    fn transmission(&self, _caps: &Caps) -> TransmissionSupport {
         // Scalar alpha: the shader's `Shaded.alpha` is 1 − mean(t) for transmissive fragments.
         TransmissionSupport::Approximate(
             "composites 1 − mean(t) as scalar α, exact for grey filters only (coverage samples are decided by the scalar α; no per-channel scheme is implemented)",

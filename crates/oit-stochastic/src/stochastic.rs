@@ -577,7 +577,7 @@ impl Technique for Stochastic {
         self.ledger.total()
     }
 
-    fn transmission(&self) -> TransmissionSupport {
+    fn transmission(&self, _caps: &Caps) -> TransmissionSupport {
         // Scalar alpha: the shader's `Shaded.alpha` is 1 − mean(t) for transmissive fragments.
         TransmissionSupport::Approximate(
             "composites 1 − mean(t) as scalar α, exact for grey filters only (a fragment survives by comparing its scalar α with a threshold; no per-channel scheme is implemented)",

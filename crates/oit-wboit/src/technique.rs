@@ -393,7 +393,7 @@ impl Technique for Wboit {
         self.ledger.total() + self.accum.as_ref().map_or(0, AccumTargets::memory_bytes)
     }
 
-    fn transmission(&self) -> TransmissionSupport {
+    fn transmission(&self, _caps: &Caps) -> TransmissionSupport {
         // Scalar alpha: the shader's `Shaded.alpha` is 1 − mean(t) for transmissive fragments.
         TransmissionSupport::Approximate(
             "composites 1 − mean(t) as scalar α, exact for grey filters only (a weighted sum with a scalar revealage; McGuire & Mara's coloured variant is not implemented)",

@@ -30,7 +30,11 @@ type Result<T> = std::result::Result<T, SceneError>;
 pub const MAX_TEXELS: u64 = 64 * 1024 * 1024;
 
 /// Extensions an asset may list in `extensionsRequired`: the ones modelled here.
-const SUPPORTED_REQUIRED: &[&str] = &["KHR_materials_emissive_strength", "KHR_texture_transform"];
+const SUPPORTED_REQUIRED: &[&str] = &[
+    "KHR_materials_emissive_strength",
+    "KHR_materials_transmission",
+    "KHR_texture_transform",
+];
 
 /// Background of a glTF file loaded directly: linear 0.18, photographic middle grey, so both
 /// dark and bright transparent surfaces stay visible.
