@@ -16,7 +16,8 @@ use oit_gpu::{Context, ContextOptions, TechniqueInfo, TechniqueSpec};
 use oit_scene::{Resolution, Scene};
 
 pub use run::{
-    CompareOptions, Event, LOCK_FILE, ReferenceCache, RenderedFrame, compare, render_once,
+    APPROXIMATE_TRANSMISSION, CompareOptions, Event, LOCK_FILE, ReferenceCache, RenderedFrame,
+    compare, render_once,
 };
 
 /// Errors of the harness. Each names the file it concerns.

@@ -519,7 +519,7 @@ fn run_one(
         cost_vs_floor: None,
         error: Some(error),
         order_dependence: Some(order_dependence),
-        inexact: stats.inexact(),
+        inexact: inexact(&stats, scene, technique.as_ref(), &ctx.caps),
         undecided_pixels: Some(reference.stats.undecided_pixels),
         precision_tie_pixels: Some(reference.stats.precision_tie_pixels),
         stats: Some(stats),
@@ -528,6 +528,27 @@ fn run_one(
         resumed: false,
     })
 }
+
+/// The run's `inexact` phrases: what its statistics imply, and on a scene with coloured
+/// transmission a technique that composites it only approximately.
+fn inexact(
+    stats: &Stats,
+    scene: &Scene,
+    technique: &dyn Technique,
+    caps: &oit_gpu::Caps,
+) -> Vec<String> {
+    let mut phrases = stats.inexact();
+    if scene.has_coloured_transmission()
+        && technique.transmission(caps) != oit_gpu::TransmissionSupport::Exact
+    {
+        phrases.push(APPROXIMATE_TRANSMISSION.to_owned());
+    }
+    phrases
+}
+
+/// The `inexact` phrase of a run that composites coloured transmittance approximately
+/// (`Technique::transmission`).
+pub const APPROXIMATE_TRANSMISSION: &str = "approximate transmission";
 
 /// Warm-up then timed frames. Returns total GPU ms (median/min/max), per-pass medians, and the
 /// last frame's stats with `cpu_ms` replaced by its median over the timed frames.

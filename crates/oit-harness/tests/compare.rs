@@ -273,6 +273,49 @@ fn a_technique_the_adapter_cannot_run_is_skipped_with_its_reason_and_the_rest_ru
 }
 
 #[test]
+fn approximate_transmission_is_flagged_and_exact_transmission_is_not() {
+    let Some(ctx) = oit_gpu::testing::context_or_skip("approximate_transmission_is_flagged") else {
+        return;
+    };
+    let out = temp_dir("transmission");
+    let scenes = load_scenes(&[scenes_dir().join("transmission-complementary.json")]).unwrap();
+    let specs = resolve_specs(&[
+        "sorted-object".to_string(),
+        "wboit".to_string(),
+        "opaque-copy".to_string(),
+    ])
+    .unwrap();
+    let options = one_frame_at_32px(&out, Default::default());
+    let results = compare(&ctx, &scenes, &specs, &options, &|_| {}).unwrap();
+    let flagged = |r: &oit_harness::results::Run| {
+        r.inexact
+            .iter()
+            .any(|p| p == oit_harness::APPROXIMATE_TRANSMISSION)
+    };
+    let (sorted, wboit, copy) = (&results.runs[0], &results.runs[1], &results.runs[2]);
+    assert_eq!(
+        flagged(sorted),
+        !ctx.caps.dual_source_blending,
+        "{sorted:?}"
+    );
+    assert!(flagged(wboit) && flagged(copy), "{wboit:?} {copy:?}");
+    // The flag is earned: wboit's scalar α misses the complementary filters by far more than
+    // sorted blending with dual-source blending does.
+    let rmse = |r: &oit_harness::results::Run| r.error.as_ref().unwrap().rmse;
+    if ctx.caps.dual_source_blending {
+        assert!(
+            rmse(sorted) < 1e-3 && rmse(wboit) > 0.05,
+            "{} {}",
+            rmse(sorted),
+            rmse(wboit)
+        );
+    }
+    let md = std::fs::read_to_string(out.join("results.md")).unwrap();
+    assert!(md.contains("approximate transmission"), "{md}");
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
 fn a_run_that_drops_layers_says_so_in_every_report() {
     // Four peeled layers of 64: every pixel loses layers. That must be a flag of the run, in
     // results.json, results.md and the terminal table, not only a statistic.
