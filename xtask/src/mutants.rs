@@ -23,6 +23,7 @@ pub const CRATES: &[&str] = &[
     "oit-stochastic",
     "oit-mboit",
     "oit-linked-list",
+    "oit-opaque-copy",
 ];
 
 /// One crate's outcome counts (cargo-mutants' `outcomes.json`).

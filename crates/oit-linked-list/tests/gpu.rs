@@ -38,6 +38,16 @@ fn bundled_names() -> Vec<String> {
         .collect();
     names.sort();
     assert!(names.len() >= 10, "bundled scenes missing: {names:?}");
+    // Nodes store scalar α: on coloured transmission the list composites 1 − mean(t) by
+    // design (flagged `approximate transmission` in every report), so those scenes are not
+    // exactness cases; grey filters (gltf-glass-vase's clear glass) stay in.
+    names.retain(|name| {
+        let coloured = scene(name).has_coloured_transmission();
+        if coloured {
+            println!("{name}: coloured transmission, composited approximately by design: left out");
+        }
+        !coloured
+    });
     names
 }
 

@@ -93,6 +93,12 @@ fn auto_equals_the_reference_on_every_bundled_scene_in_both_draw_orders() {
             continue;
         }
         let scene = test_scene(&name);
+        // Peels composite scalar α: on coloured transmission 1 − mean(t) by design (flagged
+        // `approximate transmission` in reports), so those scenes are not exactness cases.
+        if scene.has_coloured_transmission() {
+            println!("{name}: coloured transmission, composited approximately by design: left out");
+            continue;
+        }
         let reference = reference(&scene);
         let skip = conformance_mismatches(&ctx, &scene, &reference);
         assert!(

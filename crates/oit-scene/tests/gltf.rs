@@ -179,7 +179,7 @@ fn alpha_blend_mode_test_loads_its_modes_and_textures() {
 }
 
 #[test]
-fn glass_vase_flowers_lists_transmission_as_ignored() {
+fn glass_vase_flowers_maps_transmission_to_clear_glass() {
     let path = asset(GLASS_VASE);
     let s = oit_scene::load(&path).unwrap();
     let names = material_names(&path);
@@ -187,7 +187,7 @@ fn glass_vase_flowers_lists_transmission_as_ignored() {
     let modes: Vec<_> = s.materials.iter().map(|m| m.mode).collect();
     assert_eq!(
         modes,
-        [AlphaMode::Mask, AlphaMode::Blend, AlphaMode::Opaque],
+        [AlphaMode::Mask, AlphaMode::Blend, AlphaMode::Blend],
         "{names:?}"
     );
     let blend = s.materials[1];

@@ -324,6 +324,10 @@ fn every_technique_on_every_bundled_scene_is_finite_and_within_its_measured_erro
             );
             let e = rmse(&image, &reference.image);
             line += &format!("  {}={e:.3e}", info.name);
+            // Coloured transmission: tests/transmission.rs bounds sorted-object there.
+            if scene.has_coloured_transmission() {
+                continue;
+            }
             let bound = rmse_bound(&scene.name, index);
             if e > bound {
                 failures.push(format!(

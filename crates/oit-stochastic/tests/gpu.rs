@@ -453,9 +453,11 @@ const MEASURED_RMSE: [(&str, [f64; 7]); 17] = [
         ],
     ),
     (
+        // a2c 2.2749e-2 → 3.1719e-2 when the right vase became clear transmissive glass (it
+        // was drawn OPAQUE before): the flowers inside it are now visible to every technique.
         "gltf-glass-vase",
         [
-            8.2808e-2, 8.3005e-2, 8.2961e-2, 8.2566e-2, 8.3290e-2, 5.8490e-2, 2.2749e-2,
+            8.2808e-2, 8.3005e-2, 8.2961e-2, 8.2566e-2, 8.3290e-2, 5.8490e-2, 3.1719e-2,
         ],
     ),
     (
@@ -545,6 +547,11 @@ fn every_pattern_and_a2c_is_finite_on_every_bundled_scene() {
             );
             line += &format!(" {:.4e}", errors.rmse);
             let stem = path.file_stem().unwrap_or_default().to_string_lossy();
+            // Coloured transmission is composited as 1 − mean(t) by design (flagged
+            // `approximate transmission`): finite is asserted, the bound is for scalar scenes.
+            if scene.has_coloured_transmission() {
+                continue;
+            }
             let (_, measured) = MEASURED_RMSE
                 .iter()
                 .find(|(n, _)| *n == stem)
