@@ -498,3 +498,62 @@ fn report_renders_in_headless_chromium() {
             .contains("alpha/unsorted.png")
     );
 }
+
+/// The part of the page between `<section id="ID">` and its `</section>`.
+fn section<'h>(html: &'h str, id: &str) -> &'h str {
+    let start = html
+        .find(&format!("<section id=\"{id}\">"))
+        .unwrap_or_else(|| panic!("no section {id}"));
+    let len = html[start..]
+        .find("</section>")
+        .expect("section not closed");
+    &html[start..start + len]
+}
+
+/// What `results.json` says about a scene (size, credits, what is not modelled) is shown in
+/// that scene's section, and nowhere else.
+#[test]
+fn scene_facts_are_shown_in_their_own_section_only() {
+    let dir = results_dir("facts");
+    let html = std::fs::read_to_string(oit_report::write_html_report(&dir.0).unwrap()).unwrap();
+    let (alpha, beta) = (section(&html, "alpha"), section(&html, "beta"));
+    assert!(
+        beta.contains("<p class=\"about\">Scene: 12 triangles"),
+        "{beta}"
+    );
+    assert!(beta.contains("Credits: beta.glb: model by A. Modeller, CC0."));
+    // alpha has no entry in `scenes`: no facts at all.
+    assert!(!alpha.contains("<p class=\"about\">"), "{alpha}");
+}
+
+/// Each section shows its cost-against-error plot first, then bytes-against-error (the order
+/// of `write_plots`), each followed by its own PNG and RMSE links.
+#[test]
+fn each_section_shows_the_cost_plot_before_the_bytes_plot() {
+    let dir = results_dir("plot-order");
+    let html = std::fs::read_to_string(oit_report::write_html_report(&dir.0).unwrap()).unwrap();
+    for scene in ["alpha", "beta"] {
+        let s = section(&html, scene);
+        let at = |needle: String| {
+            s.find(&needle)
+                .unwrap_or_else(|| panic!("{scene}: no {needle}"))
+        };
+        let order = [
+            at(format!(
+                "<img src=\"plots/{scene}-flip-cost.svg\" alt=\"{scene}: mean FLIP against cost\""
+            )),
+            at(format!("<a href=\"plots/{scene}-flip-cost.png\">PNG</a>")),
+            at(format!(
+                "<a href=\"plots/{scene}-rmse-cost.svg\">RMSE version</a>"
+            )),
+            at(format!(
+                "<img src=\"plots/{scene}-flip-bytes.svg\" alt=\"{scene}: mean FLIP against bytes\""
+            )),
+            at(format!("<a href=\"plots/{scene}-flip-bytes.png\">PNG</a>")),
+            at(format!(
+                "<a href=\"plots/{scene}-rmse-bytes.svg\">RMSE version</a>"
+            )),
+        ];
+        assert!(order.is_sorted(), "{scene}: {order:?}");
+    }
+}
