@@ -2,7 +2,8 @@
 //! workspace's own build cache makes each mutant an incremental build), and a score table.
 //!
 //! A whole run is long (about 7 000 mutants at 10–30 s each on a 2-core machine); `--shard K/N`
-//! runs every N-th mutant, a deterministic sample whose score estimates the crate's.
+//! runs the K-th of N consecutive slices of each crate's mutants (cargo-mutants' default slice
+//! sharding): a deterministic sample, weighted towards the top of the crate's files.
 
 use std::path::Path;
 use std::process::Command;
