@@ -149,6 +149,17 @@ pub struct Caps {
 }
 
 impl Caps {
+    /// Every scene pass reads the material table, a storage buffer, in the vertex stage: the
+    /// check each technique's [`crate::Technique::check`] starts with.
+    pub fn require_scene_materials(&self) -> Result<(), crate::Unsupported> {
+        if self.max_storage_buffers_per_shader_stage == 0 {
+            return Err(crate::Unsupported::new(
+                "the adapter has no storage buffers in vertex shaders (scene materials)",
+            ));
+        }
+        Ok(())
+    }
+
     fn probe(adapter: &wgpu::Adapter, features: Features, limits: &wgpu::Limits) -> Self {
         let formats = PROBED_FORMATS
             .iter()

@@ -326,12 +326,7 @@ impl Technique for Blended {
     }
 
     fn check(&self, caps: &Caps) -> Result<(), Unsupported> {
-        // The material table is a storage buffer read by the vertex stage.
-        if caps.max_storage_buffers_per_shader_stage == 0 {
-            return Err(Unsupported::new(
-                "the adapter has no storage buffers in vertex shaders (scene materials)",
-            ));
-        }
+        caps.require_scene_materials()?;
         Ok(())
     }
 

@@ -185,11 +185,7 @@ impl Technique for AlphaToCoverage {
 
     fn check(&self, caps: &Caps) -> Result<(), Unsupported> {
         let config = self.config;
-        if caps.max_storage_buffers_per_shader_stage == 0 {
-            return Err(Unsupported::new(
-                "the adapter has no storage buffers in vertex shaders (scene materials)",
-            ));
-        }
+        caps.require_scene_materials()?;
         // Caps only records 4x; the exact test for the target's format runs in `render`.
         let depth = caps.format(wgpu::TextureFormat::Depth32Float);
         if config.samples == 4 && !depth.multisample_x4 {

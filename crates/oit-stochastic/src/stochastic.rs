@@ -434,11 +434,7 @@ impl Technique for Stochastic {
 
     fn check(&self, caps: &Caps) -> Result<(), Unsupported> {
         let config = self.config;
-        if caps.max_storage_buffers_per_shader_stage == 0 {
-            return Err(Unsupported::new(
-                "the adapter has no storage buffers in vertex shaders (scene materials)",
-            ));
-        }
+        caps.require_scene_materials()?;
         let side = config.pattern.tile().unwrap_or(1);
         if side > caps.max_texture_dimension_2d {
             return Err(Unsupported::new(format!(
