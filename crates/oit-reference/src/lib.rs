@@ -98,17 +98,17 @@ impl ReferenceOptions {
     ///
     /// **Counted** (allocated capacity, a reallocation's old and new block both): the bins,
     /// 4 bytes per triangle–tile overlap and 8 per tile; and the scratch of every tile or
-    /// slice in flight: 37 bytes per pixel of state, 28 per covered transparent fragment (key,
-    /// colour, sorted index), 12 per covered row of a transparent triangle, 12 per fragment of
-    /// the longest pixel list (sort buffers), and for a tile rendered in slices 4 bytes per
-    /// pixel of counts and 29 per pixel of each slice's outputs. A pixel alone thus needs
-    /// about 90 bytes plus 52 per covered transparent fragment, beside its tile's counts.
+    /// slice in flight: 37 bytes per pixel of state, 24 per covered transparent fragment (key,
+    /// colour; lists are sorted in place), 12 per covered row of a transparent triangle, 12 per
+    /// fragment of the longest pixel list (sort buffers), and for a tile rendered in slices 4
+    /// bytes per pixel of counts and 29 per pixel of each slice's outputs. A pixel alone thus
+    /// needs about 90 bytes plus 48 per covered transparent fragment, beside its tile's counts.
     ///
     /// **Not counted** (proportional to the input or the resolution, bounded by the loader's
     /// caps): the scene (36 bytes per vertex: 432 MB for 4 M triangles); the set-up triangles,
     /// 328 bytes per triangle reaching the screen (clipping can make up to 7 of one) plus 8
-    /// per input triangle, and up to twice that while they are collected: 1.3 GB, 2.7 GB
-    /// during setup, for 4 M unclipped triangles; the outputs, 29 bytes per pixel: 1.9 GB at
+    /// per input triangle, and up to twice that plus 24 while they are put in binning order:
+    /// 1.3 GB, 2.8 GB during setup, for 4 M unclipped triangles; the outputs, 29 bytes per pixel: 1.9 GB at
     /// 8192².
     ///
     /// Why 2 GiB: the deepest bundled tiles take under 4 MB at once (faint-haze; particles
@@ -352,9 +352,9 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
     let chunks = total.div_ceil(CHUNK);
     // Only for telling coplanar flat triangles from ones rounding merged (`plane_depth`).
     let view_proj64 = scene.camera.view_proj.as_dmat4();
-    let triangles: Vec<SetupTriangle> = (0..chunks)
+    let pieces: Vec<Vec<SetupTriangle>> = (0..chunks)
         .into_par_iter()
-        .flat_map_iter(|c| {
+        .map(|c| {
             let mut out = Vec::new();
             let (lo, hi) = (c * CHUNK, ((c + 1) * CHUNK).min(total));
             let mut d = first_rank.partition_point(|&f| f <= lo) - 1;
@@ -382,6 +382,8 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
             out
         })
         .collect();
+    // Stored in the order they are binned in, so that tiles read them front to back.
+    let triangles = raster::in_bin_order(pieces, scene.camera.reverse_z);
     // Per rank: the plane depth of a flat triangle, NaN otherwise (fan pieces share both).
     let mut plane_depths = vec![f64::NAN; total as usize];
     for t in &triangles {
@@ -389,7 +391,9 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
     }
     let setup_done = Instant::now();
 
-    // Binning: counting pass, prefix sum, fill. Each bin lists triangle indices ascending.
+    // Binning: counting pass, prefix sum, fill. Each bin lists triangle indices ascending, which
+    // is `in_bin_order` (transparent triangles nearest first: most pixels' fragments arrive
+    // sorted).
     let tiles_x = width.div_ceil(tile) as usize;
     let tiles_y = height.div_ceil(tile) as usize;
     let tile_count = tiles_x * tiles_y;

@@ -4,7 +4,10 @@
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
-use rayon::iter::{ParallelBridge, ParallelIterator};
+use rayon::iter::{
+    IndexedParallelIterator, IntoParallelRefIterator, ParallelBridge, ParallelIterator,
+};
+use rayon::slice::ParallelSliceMut;
 
 use oit_scene::{Material, Shaded, Texels, Texture};
 
@@ -45,11 +48,10 @@ pub(crate) struct Scratch {
     start: Vec<u32>,
     end: Vec<u32>,
     spans: Vec<Span>,
-    /// Per slot: sort key and (premultiplied RGB, alpha).
+    /// Per slot: sort key and (premultiplied RGB, alpha). After the sort, each pixel's slots
+    /// are in front-to-back order (permuted in place).
     keys: Vec<u64>,
     colors: Vec<[f32; 4]>,
-    /// Per slot: the slots of each pixel's list in front-to-back order.
-    order: Vec<u32>,
     /// The last pixel's sorting permutation, and the merge sort's buffers.
     perm: Vec<u32>,
     merge_buffer: Vec<u32>,
@@ -111,19 +113,19 @@ enum Want {
 
 /// Buffers of [`Scratch::buffers`]: the per-pixel state, the spans, the per-slot arrays, the
 /// sort buffers and the slicing counts, in that order.
-const BUFFERS: usize = 17;
+const BUFFERS: usize = 16;
 const START: usize = 5;
 const SPANS: usize = 7;
-const COUNTS: usize = 14;
-const TRANSMITTANCE: usize = 16;
+const COUNTS: usize = 13;
+const TRANSMITTANCE: usize = 15;
 
 /// Bytes of per-pixel state a tile keeps besides its fragment lists: opaque key and colour,
 /// fragment count, undecided count, list start and end, tie flag.
 const PER_PIXEL_BYTES: u64 =
     (size_of::<u64>() + size_of::<[f32; 3]>() + 4 * size_of::<u32>() + size_of::<bool>()) as u64;
 
-/// Bytes per transparent fragment slot: key, colour and sorted-order index.
-const PER_SLOT_BYTES: u64 = (size_of::<u64>() + size_of::<[f32; 4]>() + size_of::<u32>()) as u64;
+/// Bytes per transparent fragment slot: key and colour.
+const PER_SLOT_BYTES: u64 = (size_of::<u64>() + size_of::<[f32; 4]>()) as u64;
 
 /// Bytes per slot a scene with coloured transmission adds: the f64 transmittance.
 const TRANSMITTANCE_SLOT_BYTES: u64 = size_of::<[f64; 3]>() as u64;
@@ -188,7 +190,6 @@ impl Scratch {
             &mut self.spans,
             &mut self.keys,
             &mut self.colors,
-            &mut self.order,
             &mut self.perm,
             &mut self.merge_buffer,
             &mut self.runs,
@@ -448,6 +449,41 @@ fn far_key(reverse_z: bool) -> u64 {
 /// have been blended last in natural draw order).
 fn transparent_key(dkey: u32, rank: u32) -> u64 {
     (u64::from(dkey) << 32) | u64::from(u32::MAX - rank)
+}
+
+/// The set-up triangles (pieces in rank order) in the order they are binned in, which every
+/// tile then sees: opaque triangles in rank order, then transparent ones nearest first by
+/// their nearest vertex's key (at equal depth the higher rank first, as [`transparent_key`]
+/// orders fragments). A fragment's depth lies between its triangle's vertex depths, so where
+/// triangles' depth ranges do not overlap (layers, billboards) each pixel's list is appended
+/// in key order and its sort is one check; stored in that order, tiles read them front to
+/// back. No result depends on the order: lists are sorted by their unique keys, and the
+/// opaque pass keeps the nearest key whatever the order.
+pub(crate) fn in_bin_order(pieces: Vec<Vec<SetupTriangle>>, reverse_z: bool) -> Vec<SetupTriangle> {
+    let mut keyed: Vec<(bool, u64, u32, u32)> = pieces
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(c, piece)| {
+            piece.iter().enumerate().map(move |(i, t)| {
+                let key = if t.transparent {
+                    let nearest =
+                        t.z.iter()
+                            .map(|&z| depth_key(z.clamp(0.0, 1.0) + 0.0, reverse_z))
+                            .min()
+                            .unwrap_or(u32::MAX);
+                    transparent_key(nearest, t.key)
+                } else {
+                    0
+                };
+                (t.transparent, key, c as u32, i as u32)
+            })
+        })
+        .collect();
+    keyed.par_sort_unstable();
+    keyed
+        .par_iter()
+        .map(|&(_, _, c, i)| pieces[c as usize][i as usize].clone())
+        .collect()
 }
 
 /// Rectangle of a tile in pixels.
@@ -1428,7 +1464,6 @@ fn render_rect(
     want[SPANS + 1..COUNTS].copy_from_slice(&[
         Want::Fresh(slots),
         Want::Fresh(slots),
-        Want::Fresh(slots),
         Want::Fresh(longest),
         Want::Fresh(longest),
         Want::Fresh(runs_needed(longest)),
@@ -1476,15 +1511,17 @@ fn render_rect(
     stats.transparent_fragments = slots as u64 - discarded;
     let t_raster = Instant::now();
 
-    // Sort each pixel's list. Neighbouring pixels are usually covered by the same triangles in
-    // the same depth order, so the previous pixel's permutation is tried first: if it puts the
-    // keys in strictly ascending order it is the (unique) sorted order, found with n − 1
-    // comparisons and no moves.
-    s.order.resize(slots, 0);
+    // Sort each pixel's list, in place. With `bin_order` most lists arrive sorted: one check.
+    // Otherwise neighbouring pixels are usually covered by the same triangles in the same
+    // depth order, so the previous pixel's permutation is tried first: if it puts the keys in
+    // strictly ascending order it is the (unique) sorted order, found with n − 1 comparisons.
     s.perm.clear();
     for p in 0..n {
         let (lo, hi) = (s.start[p] as usize, s.end[p] as usize);
         let keys = &s.keys[lo..hi];
+        if keys.is_sorted_by(|a, b| a < b) {
+            continue;
+        }
         let reuse = s.perm.len() == keys.len() && strictly_ascending(&s.perm, keys);
         if !reuse {
             s.perm.clear();
@@ -1496,15 +1533,23 @@ fn render_rect(
                 &mut s.runs,
             );
         }
-        for (o, &i) in s.order[lo..hi].iter_mut().zip(&s.perm) {
-            *o = lo as u32 + i;
-        }
+        let transmittance = if coloured {
+            &mut s.transmittance[lo..hi]
+        } else {
+            &mut []
+        };
+        permute(
+            &mut s.perm,
+            &mut s.keys[lo..hi],
+            &mut s.colors[lo..hi],
+            transmittance,
+        );
     }
     let t_sort = Instant::now();
 
     let (mut out_row, mut column) = (out.x_offset, 0);
     for p in 0..n {
-        let list = &s.order[s.start[p] as usize..s.end[p] as usize];
+        let list = s.start[p] as usize..s.end[p] as usize;
         let base = if s.opaque_key[p] == far {
             background
         } else {
@@ -1532,16 +1577,16 @@ fn render_rect(
         };
         let rgb = if coloured {
             composite_coloured_iter(
-                list.iter().map(|&slot| {
-                    let (premultiplied, _) = visit(slot as usize);
-                    (premultiplied, s.transmittance[slot as usize])
+                list.clone().map(|slot| {
+                    let (premultiplied, _) = visit(slot);
+                    (premultiplied, s.transmittance[slot])
                 }),
                 base,
             )
         } else {
             composite_iter(
-                list.iter().map(|&slot| {
-                    let (premultiplied, alpha) = visit(slot as usize);
+                list.clone().map(|slot| {
+                    let (premultiplied, alpha) = visit(slot);
                     (premultiplied, f64::from(alpha))
                 }),
                 base,
@@ -1579,6 +1624,50 @@ fn render_rect(
     stats.composite = t_end - t_sort;
     stats.peak_tile_bytes = s.high_water;
     Some(stats)
+}
+
+/// Marks an entry of a permutation as moved while [`permute`] follows its cycles.
+const MOVED: u32 = 1 << 31;
+
+/// Reorders one pixel's slots in place so that slot `k` holds what slot `perm[k]` held (keys,
+/// colours and, where the scene has them, transmittances together), following the
+/// permutation's cycles: no buffer beyond `perm`, which is left as it was. Lists are shorter
+/// than 2^31 (slot indices are u32 and a slice's slots fit it).
+fn permute(
+    perm: &mut [u32],
+    keys: &mut [u64],
+    colors: &mut [[f32; 4]],
+    transmittance: &mut [[f64; 3]],
+) {
+    for start in 0..perm.len() {
+        if perm[start] & MOVED != 0 || perm[start] as usize == start {
+            continue;
+        }
+        let (key, color) = (keys[start], colors[start]);
+        let t = transmittance.get(start).copied();
+        let mut j = start;
+        loop {
+            let k = perm[j] as usize;
+            perm[j] |= MOVED;
+            if k == start {
+                keys[j] = key;
+                colors[j] = color;
+                if let Some(t) = t {
+                    transmittance[j] = t;
+                }
+                break;
+            }
+            keys[j] = keys[k];
+            colors[j] = colors[k];
+            if t.is_some() {
+                transmittance[j] = transmittance[k];
+            }
+            j = k;
+        }
+    }
+    for i in perm.iter_mut() {
+        *i &= !MOVED;
+    }
 }
 
 /// Whether `keys[perm[0]] < keys[perm[1]] < …` (`perm` indexes `keys`). Branch-free over the
@@ -1750,6 +1839,45 @@ mod tests {
                 seen.iter().copied().eq(0..n as u32),
                 "the result is a permutation"
             );
+        }
+    }
+
+    #[test]
+    fn permute_reorders_every_array_by_the_permutation_and_restores_it() {
+        let mut state = 0x51_7cc1_b727_220au64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        for n in 0..40usize {
+            for coloured in [false, true] {
+                let mut perm: Vec<u32> = (0..n as u32).collect();
+                for i in (1..n).rev() {
+                    perm.swap(i, (next() % (i as u64 + 1)) as usize);
+                }
+                let keys: Vec<u64> = (0..n).map(|_| next()).collect();
+                let colors: Vec<[f32; 4]> = (0..n).map(|i| [i as f32; 4]).collect();
+                let t: Vec<[f64; 3]> = if coloured {
+                    (0..n).map(|i| [i as f64, -(i as f64), 0.5]).collect()
+                } else {
+                    Vec::new()
+                };
+                let (mut k, mut c, mut tt, mut p) =
+                    (keys.clone(), colors.clone(), t.clone(), perm.clone());
+                permute(&mut p, &mut k, &mut c, &mut tt);
+                assert_eq!(p, perm, "the permutation is left as it was");
+                for j in 0..n {
+                    let from = perm[j] as usize;
+                    assert_eq!(k[j], keys[from], "n = {n}, slot {j}");
+                    assert_eq!(c[j], colors[from]);
+                    if coloured {
+                        assert_eq!(tt[j], t[from]);
+                    }
+                }
+                assert_eq!(tt.len(), t.len());
+            }
         }
     }
 
