@@ -1,6 +1,8 @@
 //! Adapter choice, device creation and capabilities.
 
 use crate::error::GpuError;
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex, OnceLock};
 use wgpu::{Features, TextureFormat, TextureFormatFeatureFlags, TextureUsages};
 
 /// Which graphics API to use (`--backend auto|vulkan|gl`).
@@ -318,6 +320,29 @@ pub struct Context {
     pub caps: Caps,
     info: wgpu::AdapterInfo,
     scene_layout: wgpu::BindGroupLayout,
+    /// Per scene pass module from [`Context::shader_with`]: its per-draw form.
+    per_draw: Mutex<HashMap<wgpu::ShaderModule, Arc<PerDrawForm>>>,
+}
+
+/// The per-draw forms of a scene pass module, untextured and textured: their composed
+/// sources, and the modules once built (only pipelines that use one build it).
+#[derive(Debug)]
+pub(crate) struct PerDrawForm {
+    name: String,
+    code: [String; 2],
+    modules: [OnceLock<wgpu::ShaderModule>; 2],
+}
+
+impl PerDrawForm {
+    pub(crate) fn module(&self, device: &wgpu::Device, textured: bool) -> &wgpu::ShaderModule {
+        let i = usize::from(textured);
+        self.modules[i].get_or_init(|| {
+            device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(&self.name),
+                source: wgpu::ShaderSource::Wgsl(self.code[i].as_str().into()),
+            })
+        })
+    }
 }
 
 fn device_rank(t: wgpu::DeviceType) -> u32 {
@@ -419,6 +444,7 @@ impl Context {
             caps,
             info,
             scene_layout,
+            per_draw: Mutex::new(HashMap::new()),
         })
     }
 
@@ -432,7 +458,8 @@ impl Context {
         &self.info
     }
 
-    /// Bind group layout 0 of every scene pipeline (camera uniform + material table), shared
+    /// Bind group layout 0 of every scene pipeline (camera uniform, material table, texels and
+    /// the per-draw material uniform at a dynamic offset), shared
     /// so that pipelines do not depend on which scene is uploaded.
     pub fn scene_layout(&self) -> &wgpu::BindGroupLayout {
         &self.scene_layout
@@ -471,15 +498,45 @@ impl Context {
                 .or_else(|| crate::shaders::shared_module(n))
                 .map(str::to_owned)
         };
-        let code = crate::shaders::compose(source, &resolve).map_err(|e| GpuError::Shader {
+        let include_error = |e: crate::shaders::IncludeError| GpuError::Shader {
             shader: name.to_owned(),
             message: e.to_string(),
-        })?;
-        Ok(self
+        };
+        let code = crate::shaders::compose(source, &resolve).map_err(include_error)?;
+        let per_draw = |textured| {
+            crate::shaders::compose_per_draw(source, &resolve, textured)
+                .transpose()
+                .map_err(include_error)
+        };
+        let per_draw = per_draw(false)?.zip(per_draw(true)?);
+        let module = self
             .device
             .create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some(name),
                 source: wgpu::ShaderSource::Wgsl(code.into()),
-            }))
+            });
+        if let Some((untextured, textured)) = per_draw {
+            let mut forms = self.per_draw.lock().unwrap_or_else(|e| e.into_inner());
+            forms.insert(
+                module.clone(),
+                Arc::new(PerDrawForm {
+                    name: format!("{name} (per-draw material)"),
+                    code: [untextured, textured],
+                    modules: Default::default(),
+                }),
+            );
+        }
+        Ok(module)
+    }
+
+    /// The per-draw form of a scene pass module made by [`Context::shader_with`]
+    /// (shaders/scene_io/draw.wgsl in place of the per-vertex interface); `None` for a module
+    /// without the scene pass interface.
+    pub(crate) fn per_draw_form(&self, module: &wgpu::ShaderModule) -> Option<Arc<PerDrawForm>> {
+        self.per_draw
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .get(module)
+            .cloned()
     }
 }

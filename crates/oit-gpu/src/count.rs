@@ -95,11 +95,11 @@ pub fn count_fragments(ctx: &Context, scene: &GpuScene) -> Result<Vec<u32>, GpuE
         );
         scene.bind(&mut pass);
         pass.set_bind_group(1, &target_group, &[]);
-        for d in &scene.scene.draws {
+        for (i, d) in scene.scene.draws.iter().enumerate() {
             if d.vertex_count == 0 {
                 continue;
             }
-            pass.set_pipeline(pipelines.for_material(scene.scene.material_of(d)));
+            scene.use_draw(&mut pass, &pipelines, i);
             pass.draw(d.first_vertex..d.first_vertex + d.vertex_count, 0..1);
         }
     }

@@ -10,7 +10,7 @@
 use crate::blend::PREMULTIPLIED_OVER;
 use crate::context::{Caps, Context};
 use crate::error::{GpuError, Unsupported};
-use crate::scene::{GpuScene, ScenePipelineDesc, ScenePipelines, depth_test};
+use crate::scene::{GpuScene, MaterialSource, ScenePipelineDesc, ScenePipelines, depth_test};
 use crate::spec::TechniqueSpec;
 use crate::targets::Targets;
 use crate::technique::TransmissionSupport;
@@ -105,6 +105,11 @@ impl Technique for DrawOrderBlend {
             })];
             let desc = ScenePipelineDesc {
                 vertex_entry,
+                // The floor's own vertex stage carries no material.
+                material: match self.shading {
+                    BlendShading::VertexColour => MaterialSource::PerVertex,
+                    BlendShading::Material => MaterialSource::PerDraw,
+                },
                 targets: &color,
                 depth: Some(depth_test(scene.depth_nearer(), false)),
                 ..ScenePipelineDesc::new("draw-order blend", &module, fragment_entry)

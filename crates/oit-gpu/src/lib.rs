@@ -46,8 +46,8 @@ pub use memory::MemoryLedger;
 pub use pipeline::{FullscreenDesc, fullscreen_pipeline};
 pub use readback::{read_buffer, read_buffer_u32, read_texture};
 pub use scene::{
-    CullRule, GpuScene, MATERIAL_STRIDE, SceneBytes, ScenePipelineDesc, ScenePipelines,
-    VERTEX_STRIDE, depth_test, scene_pipeline, vertex_layout,
+    CullRule, GpuScene, MATERIAL_STRIDE, MATERIAL_UNIFORM_STRIDE, MaterialSource, SceneBytes,
+    ScenePipelineDesc, ScenePipelines, VERTEX_STRIDE, depth_test, vertex_layout,
 };
 pub use spec::{Allowed, ParamInfo, SpecError, TechniqueInfo, TechniqueSpec};
 pub use targets::{ColorFormat, Targets, f16_to_f32, read_color};

@@ -5,14 +5,25 @@ use crate::context::Context;
 use crate::error::GpuError;
 use oit_scene::{AlphaMode, Material, Scene};
 use std::collections::HashMap;
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, OnceLock};
 use wgpu::util::DeviceExt;
 
 /// Bytes per GPU vertex: position f32×3, material index u32, colour f32×4, uv f32×2.
 pub const VERTEX_STRIDE: u64 = 40;
 /// Bytes per entry of the material table (matches `struct Material` in shaders/common.wgsl).
 pub const MATERIAL_STRIDE: usize = 80;
+/// Distance between two materials in the per-draw uniform buffer
+/// ([`GpuScene::draw_materials`]): 256, the largest dynamic-offset alignment WebGPU allows, so
+/// it is valid on every adapter.
+pub const MATERIAL_UNIFORM_STRIDE: u64 = 256;
+
+/// Largest mean projected triangle area, in pixels at the scene's resolution, for which a draw
+/// reads its material per draw ([`GpuScene::reads_material_per_draw`]). Measured on lavapipe
+/// (`unsorted`, 256²): the per-vertex form's five flat varyings cost about 0.75 µs of setup per
+/// triangle, the uniform about 1.8 ns per fragment, so they break even near 400 fragments per
+/// triangle. Both give the same image; only the time differs.
+pub const PER_DRAW_MATERIAL_MAX_AREA: f64 = 256.0;
 /// Bytes per texel of the texture store (RGBA f32).
 pub const TEXEL_BYTES: u64 = 16;
 
@@ -36,8 +47,8 @@ pub(crate) fn create_scene_layout(device: &wgpu::Device) -> wgpu::BindGroupLayou
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("scene"),
         entries: &[
-            // The camera's view-projection matrix, one material at least. The vertex stage reads
-            // the material table and passes the draw's material on as flat varyings.
+            // The camera's view-projection matrix, one material at least. Pipelines for draw
+            // calls that mix materials read the table per vertex and pass it on flat.
             bind::min_size(bind::uniform(0, wgpu::ShaderStages::VERTEX_FRAGMENT), 64),
             bind::min_size(
                 bind::storage(1, wgpu::ShaderStages::VERTEX, true),
@@ -48,6 +59,8 @@ pub(crate) fn create_scene_layout(device: &wgpu::Device) -> wgpu::BindGroupLayou
                 bind::storage(2, wgpu::ShaderStages::FRAGMENT, true),
                 TEXEL_BYTES,
             ),
+            // The draw's material, a uniform at its dynamic offset ([`GpuScene::use_draw`]).
+            bind::dynamic_uniform(3, wgpu::ShaderStages::FRAGMENT, MATERIAL_STRIDE as u64),
         ],
     })
 }
@@ -152,6 +165,7 @@ fn check_textures(scene: &Scene) -> Result<u64, GpuError> {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct SceneBytes {
     pub vertices: u64,
+    /// The material table and its per-draw uniform copy.
     pub materials: u64,
     /// The texel store (RGBA f32 per texel).
     pub textures: u64,
@@ -163,7 +177,8 @@ impl SceneBytes {
         let texels: u64 = scene.textures.iter().map(|t| t.texels.len() as u64).sum();
         SceneBytes {
             vertices: scene.vertices.len().max(1) as u64 * VERTEX_STRIDE,
-            materials: scene.materials.len().max(1) as u64 * MATERIAL_STRIDE as u64,
+            materials: scene.materials.len().max(1) as u64
+                * (MATERIAL_STRIDE as u64 + MATERIAL_UNIFORM_STRIDE),
             textures: texels.max(1) * TEXEL_BYTES,
         }
     }
@@ -174,6 +189,35 @@ impl SceneBytes {
 }
 
 static NEXT_SCENE_ID: AtomicU64 = AtomicU64::new(1);
+
+/// Mean area of a draw's triangles projected to the scene's viewport, in pixels (whole
+/// triangles, on screen or not); infinite when a triangle reaches behind the eye plane.
+fn mean_triangle_pixels(scene: &Scene, d: &oit_scene::Draw) -> f64 {
+    let triangles = d.vertex_count / 3;
+    if triangles == 0 {
+        return f64::INFINITY;
+    }
+    let view_proj = scene.camera.view_proj.as_dmat4();
+    let (w, h) = (
+        f64::from(scene.resolution.width),
+        f64::from(scene.resolution.height),
+    );
+    let mut sum = 0.0;
+    for t in 0..triangles {
+        let first = (d.first_vertex + 3 * t) as usize;
+        let mut ndc = [glam::DVec2::ZERO; 3];
+        for (k, v) in scene.vertices[first..first + 3].iter().enumerate() {
+            let p = view_proj * glam::Vec3::from(v.position).as_dvec3().extend(1.0);
+            if p.w <= 1e-9 {
+                return f64::INFINITY;
+            }
+            ndc[k] = p.truncate().truncate() / p.w;
+        }
+        let area = (ndc[1] - ndc[0]).perp_dot(ndc[2] - ndc[0]).abs() / 2.0;
+        sum += area * w * h / 4.0;
+    }
+    sum / f64::from(triangles)
+}
 
 /// A [`Scene`] uploaded once: all vertices in draw-list storage order, the material table and
 /// the camera. Techniques draw ranges of it; nothing here changes after upload.
@@ -186,10 +230,21 @@ pub struct GpuScene {
     pub vertices: wgpu::Buffer,
     pub camera: wgpu::Buffer,
     pub materials: wgpu::Buffer,
+    /// The same materials [`MATERIAL_UNIFORM_STRIDE`] apart, bound per draw as a uniform at
+    /// the draw's dynamic offset (shaders/common.wgsl `draw_material`).
+    pub draw_materials: wgpu::Buffer,
     /// Every texture's texels (see shaders/common.wgsl `texels`).
     pub texels: wgpu::Buffer,
     /// Group 0 of every scene pipeline.
     pub bind_group: wgpu::BindGroup,
+    /// Per draw: whether it reads its material per draw (small triangles), see
+    /// [`GpuScene::reads_material_per_draw`].
+    per_draw_material: Vec<bool>,
+    /// The dynamic offset group 0 was last set with in the pass being recorded ([`GpuScene::bind`]
+    /// sets it), so that [`GpuScene::use_draw`] sets it again only for a per-draw material that
+    /// differs: lavapipe keeps a copy of the descriptor state per bind (about 23 KB), and 1000
+    /// draws rebound in each of 1000 peeling passes took 23 GB.
+    bound_offset: AtomicU32,
     opaque: Mutex<HashMap<(wgpu::TextureFormat, bool), ScenePipelines>>,
 }
 
@@ -257,6 +312,34 @@ impl GpuScene {
             contents: bytemuck::cast_slice(&mat_words),
             usage: wgpu::BufferUsages::STORAGE,
         });
+        // Dynamic offsets are u32: at most 2^24 materials at 256 bytes each.
+        let uniform_size =
+            (mat_words.len() / (MATERIAL_STRIDE / 4)) as u64 * MATERIAL_UNIFORM_STRIDE;
+        let uniform_limit = limit.min(u64::from(u32::MAX) + 1);
+        if uniform_size > uniform_limit {
+            return Err(GpuError::TooLarge {
+                what: format!(
+                    "the per-draw materials of scene {:?} ({} materials, {MATERIAL_UNIFORM_STRIDE} bytes each)",
+                    scene.name,
+                    scene.materials.len()
+                ),
+                needed: uniform_size,
+                limit: uniform_limit,
+            });
+        }
+        let stride = MATERIAL_UNIFORM_STRIDE as usize;
+        let mut uniform_bytes = vec![0u8; mat_words.len() / (MATERIAL_STRIDE / 4) * stride];
+        for (entry, words) in uniform_bytes
+            .chunks_exact_mut(stride)
+            .zip(mat_words.chunks_exact(MATERIAL_STRIDE / 4))
+        {
+            entry[..MATERIAL_STRIDE].copy_from_slice(bytemuck::cast_slice(words));
+        }
+        let draw_materials = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("draw materials"),
+            contents: &uniform_bytes,
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
         let mut texel_words: Vec<u32> = Vec::with_capacity(texel_count as usize * 4);
         for t in &scene.textures {
             texel_words.extend(t.texels.iter().flatten().map(|c| c.to_bits()));
@@ -285,6 +368,14 @@ impl GpuScene {
                     binding: 2,
                     resource: texels.as_entire_binding(),
                 },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer: &draw_materials,
+                        offset: 0,
+                        size: wgpu::BufferSize::new(MATERIAL_STRIDE as u64),
+                    }),
+                },
             ],
         });
         Ok(GpuScene {
@@ -293,8 +384,15 @@ impl GpuScene {
             vertices,
             camera,
             materials,
+            draw_materials,
             texels,
             bind_group,
+            per_draw_material: scene
+                .draws
+                .iter()
+                .map(|d| mean_triangle_pixels(scene, d) <= PER_DRAW_MATERIAL_MAX_AREA)
+                .collect(),
+            bound_offset: AtomicU32::new(0),
             opaque: Mutex::new(HashMap::new()),
         })
     }
@@ -308,10 +406,52 @@ impl GpuScene {
         }
     }
 
-    /// Sets group 0 and vertex buffer 0 on `pass`.
+    /// Sets group 0 (with the first material as the draw material) and vertex buffer 0 on
+    /// `pass`. Draw through [`GpuScene::draw`] or [`GpuScene::use_draw`], which select each
+    /// draw's material.
     pub fn bind(&self, pass: &mut wgpu::RenderPass<'_>) {
-        pass.set_bind_group(0, &self.bind_group, &[]);
+        pass.set_bind_group(0, &self.bind_group, &[0]);
+        self.bound_offset.store(0, Ordering::Relaxed);
         pass.set_vertex_buffer(0, self.vertices.slice(..));
+    }
+
+    /// The dynamic offset of group 0 that selects material `material` as the draw material.
+    pub fn material_offset(material: u32) -> u32 {
+        material * MATERIAL_UNIFORM_STRIDE as u32
+    }
+
+    /// Whether draw `index` reads its material per draw, from a uniform (shaders/scene_io/
+    /// draw.wgsl), rather than per vertex as flat varyings: where its triangles are small
+    /// ([`PER_DRAW_MATERIAL_MAX_AREA`]), so that per-triangle setup would cost more than a read
+    /// per fragment. Pipelines without the per-draw form read it per vertex regardless.
+    pub fn reads_material_per_draw(&self, index: usize) -> bool {
+        self.per_draw_material[index]
+    }
+
+    /// Makes every draw read its material per draw (`true`) or per vertex (`false`), whatever
+    /// the size of its triangles: for tests that both forms give the same bits, and for A/B
+    /// timings.
+    pub fn set_reads_material_per_draw(&mut self, per_draw: bool) {
+        self.per_draw_material.fill(per_draw);
+    }
+
+    /// Prepares `pass` for `self.scene.draws[index]` (after [`GpuScene::bind`] on the same
+    /// pass, and no other group 0 since): the pipeline its material needs and, where it reads
+    /// the material per draw, group 0 at its material's offset. For passes that issue the
+    /// draw call themselves (instanced, indirect); [`GpuScene::draw`] does both.
+    pub fn use_draw(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        pipelines: &ScenePipelines,
+        index: usize,
+    ) {
+        let d = &self.scene.draws[index];
+        let per_draw = self.reads_material_per_draw(index) && pipelines.has_per_draw_form();
+        pass.set_pipeline(pipelines.for_draw(self.scene.material_of(d), per_draw));
+        let offset = Self::material_offset(d.material);
+        if per_draw && self.bound_offset.swap(offset, Ordering::Relaxed) != offset {
+            pass.set_bind_group(0, &self.bind_group, &[offset]);
+        }
     }
 
     /// Draws `self.scene.draws[index]` with the pipeline its material needs.
@@ -320,7 +460,7 @@ impl GpuScene {
         if d.vertex_count == 0 {
             return;
         }
-        pass.set_pipeline(pipelines.for_material(self.scene.material_of(d)));
+        self.use_draw(pass, pipelines, index);
         pass.draw(d.first_vertex..d.first_vertex + d.vertex_count, 0..1);
     }
 
@@ -394,12 +534,26 @@ pub struct ScenePipelineDesc<'a> {
     pub targets: &'a [Option<wgpu::ColorTargetState>],
     /// `None` for passes without a depth attachment; [`depth_test`] for the usual one.
     pub depth: Option<wgpu::DepthStencilState>,
-    /// Pipeline override constants of the fragment stage (the vertex stage keeps the
-    /// overrides' defaults).
+    /// The pass's own pipeline override constants (both stages get them).
     pub constants: &'a [(&'a str, f64)],
     /// Must match the attachments' sample count (and may enable alpha-to-coverage).
     pub multisample: wgpu::MultisampleState,
     pub cull: CullRule,
+    /// Where the fragment stage reads the material.
+    pub material: MaterialSource,
+}
+
+/// How a scene pipeline's draws get their material to the fragment stage.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MaterialSource {
+    /// Each draw in the form that costs it less ([`GpuScene::reads_material_per_draw`]): read
+    /// per vertex and passed flat (shaders/scene_io/vertex.wgsl), or read per fragment from a
+    /// uniform at the draw's dynamic offset (shaders/scene_io/draw.wgsl). The same bits either
+    /// way. Needs a module from [`Context::shader_with`] whose pass uses `vs_main`'s interface.
+    PerDraw,
+    /// Always read per vertex and passed flat: for one draw call that mixes materials
+    /// (sorted-triangle's stream), or a pass with its own vertex outputs.
+    PerVertex,
 }
 
 impl<'a> ScenePipelineDesc<'a> {
@@ -416,6 +570,7 @@ impl<'a> ScenePipelineDesc<'a> {
             constants: &[],
             multisample: wgpu::MultisampleState::default(),
             cull: CullRule::ByMaterial,
+            material: MaterialSource::PerDraw,
         }
     }
 }
@@ -432,22 +587,67 @@ pub fn depth_test(compare: wgpu::CompareFunction, write: bool) -> wgpu::DepthSte
     }
 }
 
-/// A pipeline pair: one for single-sided and one for double-sided materials, each in two
-/// variants specialised by the `TEXTURED` override of shaders/common.wgsl. CPU rasterizers run
-/// a branch's code masked per lane whatever the condition, so untextured materials get
-/// pipelines whose `shade()` has no texture code at all (eight texel fetches per fragment made
-/// `unsorted` 11× slower on lavapipe, even behind a uniform branch).
+/// The pipelines of one scene pass, one per kind of draw, each built when first needed:
+///
+/// * single- or double-sided (back faces culled or not, by [`CullRule`]);
+/// * override `TEXTURED` of shaders/common.wgsl: CPU rasterizers run a branch's code masked
+///   per lane whatever the condition, so untextured materials get a `shade()` without texture
+///   code (eight texel fetches per fragment made `unsorted` 11× slower on lavapipe, even
+///   behind a uniform branch);
+/// * override `MAY_DISCARD`: false where no fragment can be discarded (no cutoff, and back
+///   faces culled or drawn), so the rasterizer may test depth before shading;
+/// * the material read per vertex or per draw ([`MaterialSource`],
+///   [`GpuScene::reads_material_per_draw`]), from the module or its per-draw form.
+///
+/// Clones share the pipelines.
 #[derive(Debug, Clone)]
 pub struct ScenePipelines {
-    pub single_sided: wgpu::RenderPipeline,
-    pub double_sided: wgpu::RenderPipeline,
-    /// The same two for materials that read a texture.
-    pub textured_single_sided: wgpu::RenderPipeline,
-    pub textured_double_sided: wgpu::RenderPipeline,
+    shared: Arc<PipelineSet>,
+}
+
+/// What [`ScenePipelines`] builds its variants from, and the variants built so far.
+#[derive(Debug)]
+struct PipelineSet {
+    device: wgpu::Device,
+    layout: wgpu::PipelineLayout,
+    label: String,
+    module: wgpu::ShaderModule,
+    vertex_entry: String,
+    fragment_entry: String,
+    targets: Vec<Option<wgpu::ColorTargetState>>,
+    depth: Option<wgpu::DepthStencilState>,
+    constants: Vec<(String, f64)>,
+    multisample: wgpu::MultisampleState,
+    cull: CullRule,
+    /// The module's per-draw form ([`MaterialSource::PerDraw`]).
+    per_draw_form: Option<Arc<crate::context::PerDrawForm>>,
+    /// By [`Variant::index`].
+    built: [OnceLock<wgpu::RenderPipeline>; Variant::COUNT],
+}
+
+/// One specialisation of a scene pass's pipeline.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Variant {
+    double_sided: bool,
+    textured: bool,
+    may_discard: bool,
+    /// Built from the module's per-draw form.
+    per_draw: bool,
+}
+
+impl Variant {
+    const COUNT: usize = 16;
+
+    fn index(self) -> usize {
+        usize::from(self.double_sided)
+            | usize::from(self.textured) << 1
+            | usize::from(self.may_discard) << 2
+            | usize::from(self.per_draw) << 3
+    }
 }
 
 impl ScenePipelines {
-    /// The pair with a layout of group 0 ([`Context::scene_layout`]) alone.
+    /// The pipelines with a layout of group 0 ([`Context::scene_layout`]) alone.
     pub fn new(ctx: &Context, desc: &ScenePipelineDesc<'_>) -> Self {
         let layout = ctx
             .device
@@ -459,95 +659,152 @@ impl ScenePipelines {
         Self::with_layout(ctx, desc, &layout)
     }
 
-    /// The pair with the caller's layout (techniques with extra bind groups), whose group 0
-    /// is [`Context::scene_layout`].
+    /// The pipelines with the caller's layout (techniques with extra bind groups), whose
+    /// group 0 is [`Context::scene_layout`].
     pub fn with_layout(
         ctx: &Context,
         desc: &ScenePipelineDesc<'_>,
         layout: &wgpu::PipelineLayout,
     ) -> Self {
-        let make = |cull: Option<wgpu::Face>, textured: bool| {
-            let mut constants = desc.constants.to_vec();
-            constants.push(("TEXTURED", if textured { 1.0 } else { 0.0 }));
-            let desc = ScenePipelineDesc {
-                constants: &constants,
-                ..desc.clone()
-            };
-            scene_pipeline(ctx, &desc, layout, cull)
-        };
-        let pair = |textured: bool| match desc.cull {
-            CullRule::ByMaterial => (make(Some(wgpu::Face::Back), textured), make(None, textured)),
-            CullRule::Fixed(c) => {
-                let p = make(c, textured);
-                (p.clone(), p)
-            }
-        };
-        let (single_sided, double_sided) = pair(false);
-        let (textured_single_sided, textured_double_sided) = pair(true);
         ScenePipelines {
-            single_sided,
-            double_sided,
-            textured_single_sided,
-            textured_double_sided,
+            shared: Arc::new(PipelineSet {
+                device: ctx.device.clone(),
+                layout: layout.clone(),
+                label: desc.label.to_owned(),
+                module: desc.module.clone(),
+                vertex_entry: desc.vertex_entry.to_owned(),
+                fragment_entry: desc.fragment_entry.to_owned(),
+                targets: desc.targets.to_vec(),
+                depth: desc.depth.clone(),
+                constants: desc
+                    .constants
+                    .iter()
+                    .map(|&(k, v)| (k.to_owned(), v))
+                    .collect(),
+                multisample: desc.multisample,
+                cull: desc.cull,
+                per_draw_form: match desc.material {
+                    MaterialSource::PerDraw => ctx.per_draw_form(desc.module),
+                    MaterialSource::PerVertex => None,
+                },
+                built: Default::default(),
+            }),
         }
     }
 
-    pub fn for_material(&self, m: &Material) -> &wgpu::RenderPipeline {
-        match (m.double_sided, m.is_textured()) {
-            (true, false) => &self.double_sided,
-            (false, false) => &self.single_sided,
-            (true, true) => &self.textured_double_sided,
-            (false, true) => &self.textured_single_sided,
-        }
+    /// Whether these pipelines can read a draw's material per draw ([`MaterialSource::PerDraw`]
+    /// and a module with the scene pass interface).
+    pub fn has_per_draw_form(&self) -> bool {
+        self.shared.per_draw_form.is_some()
     }
 
-    /// The double-sided pipeline for one draw call that mixes materials: textured when any
-    /// material of `scene` reads a texture.
+    /// The pipeline for a draw of material `m`, which reads it per draw where `per_draw` and
+    /// the pass has that form ([`MaterialSource::PerDraw`]), else per vertex.
+    pub fn for_draw(&self, m: &Material, per_draw: bool) -> &wgpu::RenderPipeline {
+        let set = &self.shared;
+        // Every fragment is kept when the material has no cutoff and the pipeline's face
+        // culling leaves nothing `shade()` would discard (a single-sided material's back faces).
+        let culls_back = match set.cull {
+            CullRule::ByMaterial => !m.double_sided,
+            CullRule::Fixed(face) => face == Some(wgpu::Face::Back),
+        };
+        self.variant(Variant {
+            double_sided: m.double_sided,
+            textured: m.is_textured(),
+            may_discard: m.mode.uses_cutoff() || !(m.double_sided || culls_back),
+            per_draw: per_draw && set.per_draw_form.is_some(),
+        })
+    }
+
+    /// The double-sided pipeline for one draw call that mixes materials (which needs
+    /// [`MaterialSource::PerVertex`]): textured when any material of `scene` reads a
+    /// texture, discarding where any could.
     pub fn double_sided_for(&self, scene: &oit_scene::Scene) -> &wgpu::RenderPipeline {
-        if scene.materials.iter().any(Material::is_textured) {
-            &self.textured_double_sided
-        } else {
-            &self.double_sided
-        }
+        self.variant(Variant {
+            double_sided: true,
+            textured: scene.materials.iter().any(Material::is_textured),
+            may_discard: true,
+            per_draw: false,
+        })
+    }
+
+    fn variant(&self, v: Variant) -> &wgpu::RenderPipeline {
+        let set = &self.shared;
+        set.built[v.index()].get_or_init(|| {
+            let mut constants: Vec<(&str, f64)> = set
+                .constants
+                .iter()
+                .map(|(k, v)| (k.as_str(), *v))
+                .collect();
+            let flag = |b: bool| if b { 1.0 } else { 0.0 };
+            constants.push(("TEXTURED", flag(v.textured)));
+            constants.push(("MAY_DISCARD", flag(v.may_discard)));
+            let cull = match set.cull {
+                CullRule::ByMaterial if !v.double_sided => Some(wgpu::Face::Back),
+                CullRule::ByMaterial => None,
+                CullRule::Fixed(face) => face,
+            };
+            let module = match (&set.per_draw_form, v.per_draw) {
+                (Some(form), true) => form.module(&set.device, v.textured),
+                _ => &set.module,
+            };
+            let desc = ScenePipelineDesc {
+                label: &set.label,
+                module,
+                vertex_entry: &set.vertex_entry,
+                fragment_entry: &set.fragment_entry,
+                targets: &set.targets,
+                depth: set.depth.clone(),
+                constants: &constants,
+                multisample: set.multisample,
+                cull: set.cull,
+                material: if v.per_draw {
+                    MaterialSource::PerDraw
+                } else {
+                    MaterialSource::PerVertex
+                },
+            };
+            build_scene_pipeline(&set.device, &desc, &set.layout, cull)
+        })
     }
 }
 
 /// Builds one scene pipeline with an explicit layout and face culling (`desc.cull` is not
 /// consulted; [`ScenePipelines`] applies it).
-pub fn scene_pipeline(
-    ctx: &Context,
+fn build_scene_pipeline(
+    device: &wgpu::Device,
     desc: &ScenePipelineDesc<'_>,
     layout: &wgpu::PipelineLayout,
     cull: Option<wgpu::Face>,
 ) -> wgpu::RenderPipeline {
-    ctx.device
-        .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some(desc.label),
-            layout: Some(layout),
-            vertex: wgpu::VertexState {
-                module: desc.module,
-                entry_point: Some(desc.vertex_entry),
-                compilation_options: Default::default(),
-                buffers: &[Some(vertex_layout())],
-            },
-            primitive: wgpu::PrimitiveState {
-                topology: wgpu::PrimitiveTopology::TriangleList,
-                front_face: wgpu::FrontFace::Ccw,
-                cull_mode: cull,
-                ..Default::default()
-            },
-            depth_stencil: desc.depth.clone(),
-            multisample: desc.multisample,
-            fragment: Some(wgpu::FragmentState {
-                module: desc.module,
-                entry_point: Some(desc.fragment_entry),
-                compilation_options: wgpu::PipelineCompilationOptions {
-                    constants: desc.constants,
-                    ..Default::default()
-                },
-                targets: desc.targets,
-            }),
-            multiview_mask: None,
-            cache: None,
-        })
+    let constants = wgpu::PipelineCompilationOptions {
+        constants: desc.constants,
+        ..Default::default()
+    };
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(desc.label),
+        layout: Some(layout),
+        vertex: wgpu::VertexState {
+            module: desc.module,
+            entry_point: Some(desc.vertex_entry),
+            compilation_options: constants.clone(),
+            buffers: &[Some(vertex_layout())],
+        },
+        primitive: wgpu::PrimitiveState {
+            topology: wgpu::PrimitiveTopology::TriangleList,
+            front_face: wgpu::FrontFace::Ccw,
+            cull_mode: cull,
+            ..Default::default()
+        },
+        depth_stencil: desc.depth.clone(),
+        multisample: desc.multisample,
+        fragment: Some(wgpu::FragmentState {
+            module: desc.module,
+            entry_point: Some(desc.fragment_entry),
+            compilation_options: constants,
+            targets: desc.targets,
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
 }

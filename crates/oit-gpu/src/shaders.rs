@@ -16,8 +16,22 @@
 use std::collections::HashSet;
 
 /// The shared modules, by file name, embedded at build time.
-pub const SHARED_MODULES: &[(&str, &str)] =
-    &[("common.wgsl", include_str!("../../../shaders/common.wgsl"))];
+pub const SHARED_MODULES: &[(&str, &str)] = &[
+    ("common.wgsl", include_str!("../../../shaders/common.wgsl")),
+    (
+        SCENE_IO_VERTEX,
+        include_str!("../../../shaders/scene_io/vertex.wgsl"),
+    ),
+];
+
+/// The scene pass interface common.wgsl includes: the material read per vertex, passed flat.
+pub const SCENE_IO_VERTEX: &str = "scene_io/vertex.wgsl";
+/// The same interface with the material read per draw from a uniform, which [`compose_per_draw`]
+/// puts in place of [`SCENE_IO_VERTEX`] for textured materials.
+pub const SCENE_IO_DRAW: &str = include_str!("../../../shaders/scene_io/draw.wgsl");
+/// [`SCENE_IO_DRAW`] without texture coordinates, for untextured materials.
+pub const SCENE_IO_DRAW_UNTEXTURED: &str =
+    include_str!("../../../shaders/scene_io/draw_untextured.wgsl");
 
 /// Pass files that live in this crate.
 pub const OPAQUE: &str = include_str!("../../../shaders/opaque.wgsl");
@@ -106,6 +120,35 @@ fn expand(
         done.insert(name.to_owned());
     }
     Ok(())
+}
+
+/// [`compose`] with a per-draw form of the scene pass interface in place of
+/// [`SCENE_IO_VERTEX`] ([`SCENE_IO_DRAW`], or [`SCENE_IO_DRAW_UNTEXTURED`] unless `textured`):
+/// the module a scene pass uses for draws whose material is read per draw (`ScenePipelines`).
+/// `None` when `source` does not include the scene pass interface.
+pub fn compose_per_draw(
+    source: &str,
+    resolve: &dyn Fn(&str) -> Option<String>,
+    textured: bool,
+) -> Option<Result<String, IncludeError>> {
+    let used = std::cell::Cell::new(false);
+    let swapped = |name: &str| {
+        if name == SCENE_IO_VERTEX {
+            used.set(true);
+            Some(
+                if textured {
+                    SCENE_IO_DRAW
+                } else {
+                    SCENE_IO_DRAW_UNTEXTURED
+                }
+                .to_owned(),
+            )
+        } else {
+            resolve(name)
+        }
+    };
+    let code = compose(source, &swapped);
+    used.get().then_some(code)
 }
 
 /// [`compose`] against the embedded [`SHARED_MODULES`].

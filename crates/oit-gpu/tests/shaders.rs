@@ -23,6 +23,7 @@ fn every_wgsl_file_validates() {
     );
     let resolve = |name: &str| std::fs::read_to_string(dir.join(name)).ok();
     let mut failures = Vec::new();
+    let mut per_draw = 0;
     for file in &files {
         let name = file
             .file_name()
@@ -37,30 +38,45 @@ fn every_wgsl_file_validates() {
                 continue;
             }
         };
-        let module = match naga::front::wgsl::parse_str(&code) {
-            Ok(m) => m,
-            Err(e) => {
-                failures.push(format!("{name}: {}", e.emit_to_string(&code)));
-                continue;
-            }
-        };
-        let mut validator = naga::valid::Validator::new(
-            naga::valid::ValidationFlags::all(),
-            naga::valid::Capabilities::all(),
-        );
-        if let Err(e) = validator.validate(&module) {
-            failures.push(format!("{name}: {}", e.emit_to_string(&code)));
+        match validate(&code) {
+            Ok(entry_points) => println!("validated {name}: {entry_points} entry points"),
+            Err(e) => failures.push(format!("{name}: {e}")),
         }
-        println!(
-            "validated {name}: {} entry points",
-            module.entry_points.len()
-        );
+        // The per-draw forms of a scene pass (scene_io/draw.wgsl or draw_untextured.wgsl in
+        // place of scene_io/vertex.wgsl), which `ScenePipelines` builds for draws of small
+        // triangles. stochastic_dither.wgsl has its own vertex outputs that repeat the
+        // per-vertex fields; its pipelines never use them.
+        for textured in [false, true] {
+            match oit_gpu::shaders::compose_per_draw(&source, &resolve, textured) {
+                Some(Ok(code)) if name != "stochastic_dither.wgsl" => match validate(&code) {
+                    Ok(_) => per_draw += 1,
+                    Err(e) => failures.push(format!("{name} (per-draw form): {e}")),
+                },
+                Some(Err(e)) => failures.push(format!("{name} (per-draw form): {e}")),
+                _ => {}
+            }
+        }
     }
+    // Every scene pass but the floor and stochastic dither reads materials through vs_main.
+    assert!(per_draw >= 24, "only {per_draw} per-draw forms validated");
     assert!(
         failures.is_empty(),
         "invalid shaders:\n{}",
         failures.join("\n")
     );
+}
+
+/// Parses and validates composed WGSL; the number of entry points, or the error as text.
+fn validate(code: &str) -> Result<usize, String> {
+    let module = naga::front::wgsl::parse_str(code).map_err(|e| e.emit_to_string(code))?;
+    let mut validator = naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::all(),
+    );
+    validator
+        .validate(&module)
+        .map_err(|e| e.emit_to_string(code))?;
+    Ok(module.entry_points.len())
 }
 
 #[test]
@@ -78,6 +94,11 @@ fn embedded_modules_match_disk() {
         ("blend.wgsl", oit_gpu::shaders::BLEND),
         ("count_fragments.wgsl", oit_gpu::shaders::COUNT_FRAGMENTS),
         ("floor.wgsl", oit_gpu::shaders::FLOOR),
+        ("scene_io/draw.wgsl", oit_gpu::shaders::SCENE_IO_DRAW),
+        (
+            "scene_io/draw_untextured.wgsl",
+            oit_gpu::shaders::SCENE_IO_DRAW_UNTEXTURED,
+        ),
     ] {
         let disk = std::fs::read_to_string(dir.join(name)).expect("pass file on disk");
         assert_eq!(disk, embedded, "{name}");

@@ -69,7 +69,7 @@ impl Counters {
             &name,
             &targets.color_view,
             resolve,
-            &[(&scene.bind_group, &[]), (group, &[])],
+            &[(&scene.bind_group, &[0]), (group, &[])],
             ts.writes(),
         );
         encoder.copy_buffer_to_buffer(&self.buffer, 0, &self.readback, 0, 16);

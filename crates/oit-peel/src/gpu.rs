@@ -613,7 +613,7 @@ impl DrawList {
     ) {
         for (slot, &i) in self.draws.iter().enumerate() {
             let d = &scene.scene.draws[i];
-            pass.set_pipeline(pipelines.for_material(scene.scene.material_of(d)));
+            scene.use_draw(pass, pipelines, i);
             if indirect {
                 pass.draw_indirect(&self.args, slot as u64 * 16);
             } else {

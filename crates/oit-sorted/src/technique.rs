@@ -5,9 +5,9 @@ use crate::sort::{DepthSorter, centroid, object_order};
 use oit_gpu::pass;
 use oit_gpu::wgpu;
 use oit_gpu::{
-    Caps, Context, CullRule, GpuError, GpuScene, GpuTimer, MemoryLedger, PREMULTIPLIED_OVER,
-    RenderStats, ScenePipelineDesc, ScenePipelines, SpecError, Targets, Technique, TechniqueSpec,
-    TransmissionSupport, Unsupported, depth_test,
+    Caps, Context, CullRule, GpuError, GpuScene, GpuTimer, MaterialSource, MemoryLedger,
+    PREMULTIPLIED_OVER, RenderStats, ScenePipelineDesc, ScenePipelines, SpecError, Targets,
+    Technique, TechniqueSpec, TransmissionSupport, Unsupported, depth_test,
 };
 use std::collections::BTreeMap;
 use std::time::Instant;
@@ -192,6 +192,13 @@ impl Blended {
                     depth: Some(depth_test(cmp, write)),
                     cull,
                     constants: if equal { &far } else { &[] },
+                    // The unculled pipeline draws sorted-triangle's stream, one draw call
+                    // that mixes materials.
+                    material: if cull == CullRule::Fixed(None) {
+                        MaterialSource::PerVertex
+                    } else {
+                        MaterialSource::PerDraw
+                    },
                     ..ScenePipelineDesc::new(label, module, entry)
                 },
             )

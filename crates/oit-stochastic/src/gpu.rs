@@ -25,7 +25,7 @@ pub(crate) fn draw_with_id(
     if d.vertex_count == 0 {
         return;
     }
-    pass.set_pipeline(pipelines.for_material(scene.scene.material_of(d)));
+    scene.use_draw(pass, pipelines, index);
     pass.draw(
         d.first_vertex..d.first_vertex + d.vertex_count,
         d.id..d.id + 1,

@@ -7,8 +7,9 @@ use oit_gpu::bind;
 use oit_gpu::pass;
 use oit_gpu::wgpu;
 use oit_gpu::{
-    Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, RenderStats, ScenePipelineDesc,
-    ScenePipelines, SpecError, Targets, Technique, TechniqueSpec, TransmissionSupport, Unsupported,
+    Caps, Context, GpuError, GpuScene, GpuTimer, MaterialSource, MemoryLedger, RenderStats,
+    ScenePipelineDesc, ScenePipelines, SpecError, Targets, Technique, TechniqueSpec,
+    TransmissionSupport, Unsupported,
 };
 use oit_scene::Resolution;
 
@@ -243,6 +244,8 @@ impl Stochastic {
             ctx,
             &ScenePipelineDesc {
                 vertex_entry: "vs_stochastic",
+                // Its vertex outputs repeat the per-vertex interface's fields.
+                material: MaterialSource::PerVertex,
                 targets: &[Some(wgpu::ColorTargetState {
                     format: targets.color_format,
                     blend: None,
