@@ -49,7 +49,7 @@ fn to_slot(color: vec3<f32>, alpha: f32, z: f32) -> u64 {
 fn from_slot(s: u64) -> Fragment {
     var f: Fragment;
     f.color = unpack_rgb9e5(u32(s & 0xFFFFFFFFlu));
-    f.alpha = f32(u32(s >> 32u) & 255u) / 255.0;
+    f.opacity = vec3<f32>(f32(u32(s >> 32u) & 255u) / 255.0);
     return f;
 }
 
@@ -87,8 +87,8 @@ fn fs_insert(v: VertexOut, @builtin(front_facing) front_facing: bool) -> TailOut
     out.transmittance = vec4<f32>(0.0);
     if cur != 0lu {
         let f = from_slot(cur);
-        out.sum = vec4<f32>(f.color, f.alpha);
-        out.transmittance = vec4<f32>(f.alpha);
+        out.sum = vec4<f32>(f.color, f.opacity.x);
+        out.transmittance = vec4<f32>(f.opacity.x);
     }
     return out;
 }
@@ -115,7 +115,7 @@ fn fs_resolve(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> 
         }
         let f = from_slot(s);
         c += t * f.color;
-        t *= 1.0 - f.alpha;
+        t *= 1.0 - f.opacity.x;
     }
     let sum = textureLoad(tail_sum, px, 0);
     if sum.a > 0.0 {

@@ -78,7 +78,7 @@ pub fn to_slot(color: [f32; 3], alpha: f32, z: f32, reverse_z: bool) -> u64 {
 pub fn from_slot(s: u64) -> Fragment {
     Fragment {
         color: unpack_rgb9e5(s as u32),
-        alpha: ((s >> 32) as u32 & 255) as f32 / 255.0,
+        opacity: [((s >> 32) as u32 & 255) as f32 / 255.0; 3],
     }
 }
 
@@ -93,15 +93,15 @@ pub fn resolve(slots: &[u64], k: usize, tail: TailRule) -> ([f32; 3], f32) {
     for s in kept {
         let f = from_slot(*s);
         c = [0, 1, 2].map(|i| c[i] + t * f.color[i]);
-        t *= 1.0 - f.alpha;
+        t *= 1.0 - f.opacity[0];
     }
     if tail == TailRule::Average && !rest.is_empty() {
         let (sum, alpha_sum, tail_t) = rest.iter().fold(([0.0f32; 3], 0.0f32, 1.0f32), |acc, s| {
             let f = from_slot(*s);
             (
                 [0, 1, 2].map(|i| acc.0[i] + f.color[i]),
-                acc.1 + f.alpha,
-                acc.2 * (1.0 - f.alpha),
+                acc.1 + f.opacity[0],
+                acc.2 * (1.0 - f.opacity[0]),
             )
         });
         if alpha_sum > 0.0 {
@@ -441,7 +441,7 @@ mod tests {
             }
             prop_assert!(s1 > 0 && s2 > 0);
             let f = from_slot(s1);
-            prop_assert!((f.alpha - a).abs() <= 0.5 / 255.0 + 1e-7);
+            prop_assert!((f.opacity[0] - a).abs() <= 0.5 / 255.0 + 1e-7);
         }
     }
 
@@ -452,7 +452,7 @@ mod tests {
         let far = to_slot([0.0, 0.0, 0.75], 0.75, 0.2, true);
         let (c, t) = resolve(&[far, near, mid], 3, TailRule::Average);
         assert_eq!(resolve(&[mid, far, near], 3, TailRule::Drop), (c, t));
-        let a = |s| from_slot(s).alpha;
+        let a = |s| from_slot(s).opacity[0];
         assert_eq!(t, (1.0 - a(near)) * (1.0 - a(mid)) * (1.0 - a(far)));
         let (c1, t1) = resolve(&[far, near, mid], 1, TailRule::Average);
         assert!(
