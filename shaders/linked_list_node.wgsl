@@ -66,6 +66,16 @@ fn unorm10(x: f32) -> u32 {
     return u32(clamp(x, 0.0, 1.0) * UNORM10_MAX + 0.5);
 }
 
+// Per-channel opacity as 3 × unorm10 (packed transmit nodes, the k-buffer's opacity slots).
+fn pack_opacity(a: vec3<f32>) -> u32 {
+    return unorm10(a.r) | (unorm10(a.g) << 10u) | (unorm10(a.b) << 20u);
+}
+
+fn unpack_opacity(w: u32) -> vec3<f32> {
+    let q = vec3<u32>(w & 1023u, (w >> 10u) & 1023u, (w >> 20u) & 1023u);
+    return vec3<f32>(q) / UNORM10_MAX;
+}
+
 // `opacity` (1 − t per channel) is stored only with TRANSMIT; scalar nodes store `alpha`.
 fn pack_node(color: vec3<f32>, alpha: f32, opacity: vec3<f32>, z: f32, reverse_z: bool) -> Node {
     var n: Node;
@@ -81,7 +91,7 @@ fn pack_node(color: vec3<f32>, alpha: f32, opacity: vec3<f32>, z: f32, reverse_z
         n.c0 = pack_rgb9e5(color);
         n.c1 = 0u;
         if TRANSMIT {
-            n.c1 = unorm10(opacity.r) | (unorm10(opacity.g) << 10u) | (unorm10(opacity.b) << 20u);
+            n.c1 = pack_opacity(opacity);
         }
     } else {
         // +0 for -0: the sign bit would sort it farthest.
@@ -106,8 +116,7 @@ fn unpack_node(n: Node) -> Fragment {
     if PACKED {
         f.color = unpack_rgb9e5(n.c0);
         if TRANSMIT {
-            let q = vec3<u32>(n.c1 & 1023u, (n.c1 >> 10u) & 1023u, (n.c1 >> 20u) & 1023u);
-            f.opacity = vec3<f32>(q) / UNORM10_MAX;
+            f.opacity = unpack_opacity(n.c1);
         } else {
             f.opacity = vec3<f32>(f32(n.key & 255u) / 255.0);
         }

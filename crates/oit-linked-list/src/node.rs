@@ -103,6 +103,15 @@ fn unorm10(x: f32) -> u32 {
     (x.clamp(0.0, 1.0) * UNORM10_MAX + 0.5) as u32
 }
 
+/// Per-channel opacity as 3 × unorm10 (packed transmit nodes, the k-buffer's opacity slots).
+pub fn pack_opacity(a: [f32; 3]) -> u32 {
+    unorm10(a[0]) | (unorm10(a[1]) << 10) | (unorm10(a[2]) << 20)
+}
+
+pub fn unpack_opacity(w: u32) -> [f32; 3] {
+    [w & 1023, (w >> 10) & 1023, (w >> 20) & 1023].map(|q| q as f32 / UNORM10_MAX)
+}
+
 /// `opacity` (`1 − t` per channel) is stored only when `transmit`; scalar nodes store `alpha`.
 pub fn pack_node(
     format: NodeFormat,
@@ -123,11 +132,7 @@ pub fn pack_node(
             Node {
                 key: (d << 8) | (alpha.clamp(0.0, 1.0) * 255.0 + 0.5) as u32,
                 c0: pack_rgb9e5(color),
-                c1: if transmit {
-                    unorm10(opacity[0]) | (unorm10(opacity[1]) << 10) | (unorm10(opacity[2]) << 20)
-                } else {
-                    0
-                },
+                c1: if transmit { pack_opacity(opacity) } else { 0 },
                 c2: 0,
             }
         }
@@ -161,8 +166,7 @@ pub fn unpack_node(format: NodeFormat, transmit: bool, n: Node) -> Fragment {
         NodeFormat::Packed => Fragment {
             color: unpack_rgb9e5(n.c0),
             opacity: if transmit {
-                [n.c1 & 1023, (n.c1 >> 10) & 1023, (n.c1 >> 20) & 1023]
-                    .map(|q| q as f32 / UNORM10_MAX)
+                unpack_opacity(n.c1)
             } else {
                 [(n.key & 255) as f32 / 255.0; 3]
             },

@@ -534,7 +534,7 @@ fn the_kbuffer_matches_its_cpu_twin_and_counts_its_memory() {
         }
         assert_eq!(
             kb.memory_bytes(),
-            64 * config.bytes_per_pixel() + 48,
+            64 * config.bytes_per_pixel(false) + 48,
             "k {k}"
         );
     }
@@ -550,6 +550,7 @@ fn the_kbuffer_matches_its_cpu_twin_and_counts_its_memory() {
                 width: 4096,
                 height: 4096,
             },
+            false,
         )
         .unwrap_err()
         .to_string();
