@@ -8,6 +8,12 @@
 // exact for z ≥ 0.5) with the low 8 mantissa bits replaced by α: larger is nearer, to 2^-15 of
 // the value, and the cleared value 0 is "empty" (every stored fragment is strictly nearer than
 // the far plane, so its nearness is > 0).
+//
+// With TRANSMIT (scenes with coloured transmission, see kbuffer64_transmit.wgsl) a pixel has
+// two chains of K slots: colour slots as above and opacity slots whose low word is the
+// per-channel opacity 1 − t as 3 × unorm10. Both of a fragment's slots share the high word,
+// whose low byte is then a hash of the two low words instead of α: the chains sort alike, so
+// slot i of both holds the same fragment (unless two fragments tie on nearness and hash).
 #include "common.wgsl"
 #include "linked_list_node.wgsl"
 
@@ -36,6 +42,31 @@ fn nearer(z: f32, than: f32) -> bool {
     return z < than;
 }
 
+// Chain slots per pixel: 1, or 2 with TRANSMIT (colour, then opacity).
+fn pixel_base(px: vec2<u32>) -> u32 {
+    var chains = 1u;
+    if TRANSMIT {
+        chains = 2u;
+    }
+    return (px.y * params.width + px.x) * params.k * chains;
+}
+
+// Keeps `cur` among the K largest of slots[first .. first + K]; returns what is pushed out
+// (0: nothing).
+fn insert_chain(first: u32, value: u64) -> u64 {
+    var cur = value;
+    for (var i = 0u; i < params.k; i += 1u) {
+        let old = atomicMax(&slots[first + i], cur);
+        if old == 0lu {
+            // Landed in an empty slot: nothing is pushed out.
+            return 0lu;
+        }
+        // The slot keeps the nearer (larger); carry the farther on.
+        cur = select(cur, old, old < cur);
+    }
+    return cur;
+}
+
 fn to_slot(color: vec3<f32>, alpha: f32, z: f32) -> u64 {
     var d = 1.0 - z;
     if params.reverse_z != 0u {
@@ -49,7 +80,7 @@ fn to_slot(color: vec3<f32>, alpha: f32, z: f32) -> u64 {
 fn from_slot(s: u64) -> Fragment {
     var f: Fragment;
     f.color = unpack_rgb9e5(u32(s & 0xFFFFFFFFlu));
-    f.alpha = f32(u32(s >> 32u) & 255u) / 255.0;
+    f.opacity = vec3<f32>(f32(u32(s >> 32u) & 255u) / 255.0);
     return f;
 }
 
@@ -70,25 +101,14 @@ fn fs_insert(v: VertexOut, @builtin(front_facing) front_facing: bool) -> TailOut
     if !s.keep || !nearer(z, textureLoad(opaque_depth, px, 0).x) {
         discard;
     }
-    let base = (px.y * params.width + px.x) * params.k;
-    var cur = to_slot(s.color, s.alpha, z);
-    for (var i = 0u; i < params.k; i += 1u) {
-        let old = atomicMax(&slots[base + i], cur);
-        if old == 0lu {
-            // Landed in an empty slot: nothing is pushed out.
-            cur = 0lu;
-            break;
-        }
-        // The slot keeps the nearer (larger); carry the farther on.
-        cur = select(cur, old, old < cur);
-    }
+    let cur = insert_chain(pixel_base(px), to_slot(s.color, s.alpha, z));
     var out: TailOut;
     out.sum = vec4<f32>(0.0);
     out.transmittance = vec4<f32>(0.0);
     if cur != 0lu {
         let f = from_slot(cur);
-        out.sum = vec4<f32>(f.color, f.alpha);
-        out.transmittance = vec4<f32>(f.alpha);
+        out.sum = vec4<f32>(f.color, f.opacity.x);
+        out.transmittance = vec4<f32>(f.opacity.x);
     }
     return out;
 }
@@ -105,7 +125,7 @@ fn vs_fullscreen(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> 
 @fragment
 fn fs_resolve(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
     let px = vec2<u32>(position.xy);
-    let base = (px.y * params.width + px.x) * params.k;
+    let base = pixel_base(px);
     var c = vec3<f32>(0.0);
     var t = 1.0;
     for (var i = 0u; i < params.k; i += 1u) {
@@ -115,7 +135,7 @@ fn fs_resolve(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> 
         }
         let f = from_slot(s);
         c += t * f.color;
-        t *= 1.0 - f.alpha;
+        t *= 1.0 - f.opacity.x;
     }
     let sum = textureLoad(tail_sum, px, 0);
     if sum.a > 0.0 {

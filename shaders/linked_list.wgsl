@@ -31,37 +31,48 @@ struct ListParams {
 // rewrites this line for each configuration.
 const SORT_MAX: u32 = 16u;
 
+// Words of a node in the pool: key, colour words (c0; c1 unless packed scalar; c2 for f32
+// with TRANSMIT), next.
 fn node_words() -> u32 {
+    var words = 4u;
     if PACKED {
-        return 3u;
+        words = 3u;
     }
-    return 4u;
+    if TRANSMIT {
+        words += 1u;
+    }
+    return words;
 }
 
 fn store_node(index: u32, n: Node, next: u32) {
-    let base = index * node_words();
+    let words = node_words();
+    let base = index * words;
     nodes[base] = n.key;
     nodes[base + 1u] = n.c0;
-    if PACKED {
-        nodes[base + 2u] = next;
-    } else {
+    if words > 3u {
         nodes[base + 2u] = n.c1;
-        nodes[base + 3u] = next;
     }
+    if words > 4u {
+        nodes[base + 3u] = n.c2;
+    }
+    nodes[base + words - 1u] = next;
 }
 
 fn load_node(index: u32) -> Node {
-    let base = index * node_words();
+    let words = node_words();
+    let base = index * words;
     var n: Node;
     n.key = nodes[base];
     n.c0 = nodes[base + 1u];
-    if PACKED {
-        n.c1 = 0u;
-        n.next = nodes[base + 2u];
-    } else {
+    n.c1 = 0u;
+    n.c2 = 0u;
+    if words > 3u {
         n.c1 = nodes[base + 2u];
-        n.next = nodes[base + 3u];
     }
+    if words > 4u {
+        n.c2 = nodes[base + 3u];
+    }
+    n.next = nodes[base + words - 1u];
     return n;
 }
 
@@ -89,7 +100,7 @@ fn fs_insert(v: VertexOut, @builtin(front_facing) front_facing: bool) -> @locati
         atomicAdd(&lost[p], 1u);
         discard;
     }
-    let node = pack_node(s.color, s.alpha, z, params.reverse_z != 0u);
+    let node = pack_node(s.color, s.alpha, 1.0 - s.transmittance, z, params.reverse_z != 0u);
     let next = atomicExchange(&heads[p], index + 1u);
     store_node(index, node, next);
     // Nothing is written to the attachment (its write mask is empty).
@@ -103,9 +114,14 @@ fn vs_fullscreen(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> 
     return vec4<f32>(x, y, 0.0, 1.0);
 }
 
-// Output (C, 1 - T) blended premultiplied OVER onto the final colour.
-@fragment
-fn fs_resolve(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
+// A pixel's stack: premultiplied colour and per-channel transmittance (all three equal for
+// scalar nodes).
+struct Resolved {
+    color: vec3<f32>,
+    transmittance: vec3<f32>,
+}
+
+fn resolve_pixel(position: vec4<f32>) -> Resolved {
     let px = vec2<u32>(position.xy);
     let p = px.y * params.width + px.x;
     var window: array<Node, SORT_MAX>;
@@ -146,23 +162,30 @@ fn fs_resolve(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> 
         count += 1u;
     }
     var c = vec3<f32>(0.0);
-    var t = 1.0;
+    var t = vec3<f32>(1.0);
     for (var k = 0u; k < count; k += 1u) {
         let f = unpack_node(window[k]);
         c += t * f.color;
-        t *= 1.0 - f.alpha;
+        t *= 1.0 - f.opacity;
     }
     let lost_here = atomicLoad(&lost[p]) > 0u;
     let tail_here = tail.count > 0u;
     if tail_here && params.tail == 1u {
         let r = tail_resolve(tail);
         c += t * r.color;
-        t *= 1.0 - r.alpha;
+        t *= 1.0 - r.opacity;
     }
     if lost_here || (tail_here && params.tail == 0u) {
         atomicAdd(&counters[1], 1u);
     } else if tail_here {
         atomicAdd(&counters[2], 1u);
     }
-    return vec4<f32>(c, 1.0 - t);
+    return Resolved(c, t);
+}
+
+// Output (C, 1 - T) blended premultiplied OVER onto the final colour.
+@fragment
+fn fs_resolve(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
+    let r = resolve_pixel(position);
+    return vec4<f32>(r.color, 1.0 - r.transmittance.x);
 }

@@ -6,20 +6,32 @@
 // f32 (16 B in the pool): key = the window depth's f32 bits (complemented under reverse-Z),
 //   c0 = half(C.r) | half(C.g) << 16, c1 = half(C.b) | half(α) << 16.
 // packed (12 B, Bevy's layout): key = unorm24(depth) << 8 | unorm8(α), c0 = rgb9e5(C), c1 = 0.
+//
+// With TRANSMIT (scenes with coloured transmission) a node stores the per-channel opacity
+// a = 1 − t instead of α (1 − t rather than t: binary16 and unorm keep their precision near
+// opacity 0, i.e. t near 1, as they do for α):
+// f32 (20 B): c0 = half(C.r) | half(C.g) << 16, c1 = half(C.b) | half(a.r) << 16,
+//   c2 = half(a.g) | half(a.b) << 16.
+// packed (16 B): key as packed (its α byte is unorm8(1 − mean(t)), a tie-break only), c0 =
+//   rgb9e5(C), c1 = unorm10(a.r) | unorm10(a.g) << 10 | unorm10(a.b) << 20.
 
 // Set per pipeline: 12-byte packed nodes instead of 16-byte f32 nodes.
 override PACKED: bool = false;
+// Set per pipeline: nodes store rgb opacity (scenes with coloured transmission).
+override TRANSMIT: bool = false;
 
 struct Node {
     key: u32,
     c0: u32,
     c1: u32,
+    c2: u32,
     next: u32,
 }
 
 struct Fragment {
     color: vec3<f32>,
-    alpha: f32,
+    // Per-channel opacity 1 − t: α in every channel for scalar nodes.
+    opacity: vec3<f32>,
 }
 
 const RGB9E5_MAX: f32 = 65408.0;
@@ -48,8 +60,26 @@ fn unpack_rgb9e5(w: u32) -> vec3<f32> {
     return vec3<f32>(q) * scale;
 }
 
-fn pack_node(color: vec3<f32>, alpha: f32, z: f32, reverse_z: bool) -> Node {
+const UNORM10_MAX: f32 = 1023.0;
+
+fn unorm10(x: f32) -> u32 {
+    return u32(clamp(x, 0.0, 1.0) * UNORM10_MAX + 0.5);
+}
+
+// Per-channel opacity as 3 × unorm10 (packed transmit nodes, the k-buffer's opacity slots).
+fn pack_opacity(a: vec3<f32>) -> u32 {
+    return unorm10(a.r) | (unorm10(a.g) << 10u) | (unorm10(a.b) << 20u);
+}
+
+fn unpack_opacity(w: u32) -> vec3<f32> {
+    let q = vec3<u32>(w & 1023u, (w >> 10u) & 1023u, (w >> 20u) & 1023u);
+    return vec3<f32>(q) / UNORM10_MAX;
+}
+
+// `opacity` (1 − t per channel) is stored only with TRANSMIT; scalar nodes store `alpha`.
+fn pack_node(color: vec3<f32>, alpha: f32, opacity: vec3<f32>, z: f32, reverse_z: bool) -> Node {
     var n: Node;
+    n.c2 = 0u;
     if PACKED {
         // z = 1 gives 2^24 - 0.5 + 0.5, which f32 rounds to 2^24: clamp to 24 bits (else the
         // key wraps, and a fragment on the reverse-Z near plane sorts farthest).
@@ -60,6 +90,9 @@ fn pack_node(color: vec3<f32>, alpha: f32, z: f32, reverse_z: bool) -> Node {
         n.key = (d << 8u) | u32(clamp(alpha, 0.0, 1.0) * 255.0 + 0.5);
         n.c0 = pack_rgb9e5(color);
         n.c1 = 0u;
+        if TRANSMIT {
+            n.c1 = pack_opacity(opacity);
+        }
     } else {
         // +0 for -0: the sign bit would sort it farthest.
         var bits = bitcast<u32>(z) & 0x7fffffffu;
@@ -68,7 +101,12 @@ fn pack_node(color: vec3<f32>, alpha: f32, z: f32, reverse_z: bool) -> Node {
         }
         n.key = bits;
         n.c0 = pack2x16float(color.rg);
-        n.c1 = pack2x16float(vec2<f32>(color.b, alpha));
+        if TRANSMIT {
+            n.c1 = pack2x16float(vec2<f32>(color.b, opacity.r));
+            n.c2 = pack2x16float(opacity.gb);
+        } else {
+            n.c1 = pack2x16float(vec2<f32>(color.b, alpha));
+        }
     }
     return n;
 }
@@ -77,12 +115,19 @@ fn unpack_node(n: Node) -> Fragment {
     var f: Fragment;
     if PACKED {
         f.color = unpack_rgb9e5(n.c0);
-        f.alpha = f32(n.key & 255u) / 255.0;
+        if TRANSMIT {
+            f.opacity = unpack_opacity(n.c1);
+        } else {
+            f.opacity = vec3<f32>(f32(n.key & 255u) / 255.0);
+        }
     } else {
         let rg = unpack2x16float(n.c0);
         let ba = unpack2x16float(n.c1);
         f.color = vec3<f32>(rg, ba.x);
-        f.alpha = ba.y;
+        f.opacity = vec3<f32>(ba.y);
+        if TRANSMIT {
+            f.opacity = vec3<f32>(ba.y, unpack2x16float(n.c2));
+        }
     }
     return f;
 }
@@ -94,33 +139,39 @@ fn node_before(a: Node, b: Node) -> bool {
     if a.c0 != b.c0 {
         return a.c0 < b.c0;
     }
-    return a.c1 < b.c1;
+    if a.c1 != b.c1 {
+        return a.c1 < b.c1;
+    }
+    return a.c2 < b.c2;
 }
 
-// Fragments behind the sort window, composited as one layer: coverage 1 − Π(1 − α) exactly
-// (a product does not depend on order), colour the α-weighted average of their colours.
+// Fragments behind the sort window, composited as one layer, per channel: coverage
+// 1 − Π(1 − a) exactly (a product does not depend on order), colour the a-weighted average of
+// their colours (a = α in every channel for scalar nodes).
 struct Tail {
     color: vec3<f32>,
-    alpha_sum: f32,
-    transmittance: f32,
+    alpha_sum: vec3<f32>,
+    transmittance: vec3<f32>,
     count: u32,
 }
 
 fn tail_empty() -> Tail {
-    return Tail(vec3<f32>(0.0), 0.0, 1.0, 0u);
+    return Tail(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(1.0), 0u);
 }
 
 fn tail_with(t: Tail, n: Node) -> Tail {
     let f = unpack_node(n);
-    return Tail(t.color + f.color, t.alpha_sum + f.alpha, t.transmittance * (1.0 - f.alpha), t.count + 1u);
+    return Tail(t.color + f.color, t.alpha_sum + f.opacity, t.transmittance * (1.0 - f.opacity), t.count + 1u);
 }
 
 fn tail_resolve(t: Tail) -> Fragment {
     var f: Fragment;
-    f.alpha = 1.0 - t.transmittance;
+    f.opacity = 1.0 - t.transmittance;
     f.color = vec3<f32>(0.0);
-    if t.alpha_sum > 0.0 {
-        f.color = t.color * (f.alpha / t.alpha_sum);
+    for (var c = 0u; c < 3u; c += 1u) {
+        if t.alpha_sum[c] > 0.0 {
+            f.color[c] = t.color[c] * (f.opacity[c] / t.alpha_sum[c]);
+        }
     }
     return f;
 }

@@ -30,8 +30,9 @@ struct LayerOut {
     @location(1) depth: vec4<u32>,
 }
 
-@fragment
-fn fs_layer(v: VertexOut, @builtin(front_facing) front_facing: bool) -> LayerOut {
+// The fragment of this pass's layer, or a discard: not strictly in front of the opaque surface,
+// not strictly behind the previous layer, or not kept by the material.
+fn layer_fragment(v: VertexOut, front_facing: bool) -> Shaded {
     var shaded: Shaded;
     if !TEST_FIRST {
         shaded = shade(v, front_facing);
@@ -53,9 +54,34 @@ fn fs_layer(v: VertexOut, @builtin(front_facing) front_facing: bool) -> LayerOut
             discard;
         }
     }
+    return shaded;
+}
+
+@fragment
+fn fs_layer(v: VertexOut, @builtin(front_facing) front_facing: bool) -> LayerOut {
+    let shaded = layer_fragment(v, front_facing);
     var out: LayerOut;
     out.color = vec4<f32>(shaded.color, shaded.alpha);
-    out.depth = vec4<u32>(bitcast<u32>(z), 0u, 0u, 0u);
+    out.depth = vec4<u32>(bitcast<u32>(v.clip.z), 0u, 0u, 0u);
+    return out;
+}
+
+struct LayerTransmitOut {
+    // As LayerOut; alpha only marks "a fragment is here" (≥ 0).
+    @location(0) color: vec4<f32>,
+    @location(1) depth: vec4<u32>,
+    // Per-channel transmittance (rgb), for the per-channel under pass (peel_transmit.wgsl).
+    @location(2) transmittance: vec4<f32>,
+}
+
+// `fs_layer` on scenes with coloured transmission: the layer's rgb transmittance too.
+@fragment
+fn fs_layer_transmit(v: VertexOut, @builtin(front_facing) front_facing: bool) -> LayerTransmitOut {
+    let shaded = layer_fragment(v, front_facing);
+    var out: LayerTransmitOut;
+    out.color = vec4<f32>(shaded.color, shaded.alpha);
+    out.depth = vec4<u32>(bitcast<u32>(v.clip.z), 0u, 0u, 0u);
+    out.transmittance = vec4<f32>(shaded.transmittance, 1.0);
     return out;
 }
 

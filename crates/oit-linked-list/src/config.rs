@@ -80,8 +80,9 @@ impl LinkedListConfig {
         }
     }
 
-    /// Bytes per pixel of the pool, the heads and the lost-fragment counts.
-    pub fn bytes_per_pixel(&self) -> u64 {
-        u64::from(self.nodes_per_pixel) * self.node.bytes() + 8
+    /// Bytes per pixel of the pool, the heads and the lost-fragment counts; `transmit`: with
+    /// the rgb-opacity nodes of scenes with coloured transmission.
+    pub fn bytes_per_pixel(&self, transmit: bool) -> u64 {
+        u64::from(self.nodes_per_pixel) * self.node.bytes(transmit) + 8
     }
 }

@@ -5,7 +5,7 @@
 
 use crate::config::TailRule;
 use crate::frame::Counters;
-use crate::node::{Fragment, pack_rgb9e5, unpack_rgb9e5};
+use crate::node::{Fragment, pack_opacity, pack_rgb9e5, unpack_opacity, unpack_rgb9e5};
 use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, FullscreenDesc, GpuError, GpuScene, GpuTimer, MemoryLedger, PREMULTIPLIED_OVER,
@@ -16,12 +16,17 @@ use oit_scene::Resolution;
 
 /// shaders/kbuffer64.wgsl.
 pub const KBUFFER64_WGSL: &str = include_str!("../../../shaders/kbuffer64.wgsl");
+/// The root module on scenes with coloured transmission: includes kbuffer64.wgsl and adds the
+/// two-chain insert and the dual-source resolve.
+pub const KBUFFER64_TRANSMIT_WGSL: &str = include_str!("../../../shaders/kbuffer64_transmit.wgsl");
 
 /// Largest `k`: slots are a per-pixel array the insertion walks.
 pub const MAX_K: u64 = 32;
 
 const TAIL_SUM_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 const TAIL_T_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R16Float;
+/// Σ a and Π(1 − a) per channel on scenes with coloured transmission.
+const TAIL_RGB_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 
 /// `k-buffer:k=N,tail=average|drop`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -61,9 +66,15 @@ impl KBufferConfig {
         }
     }
 
-    /// Slots (8 B each) and the two tail targets (Rgba16Float + R16Float).
-    pub fn bytes_per_pixel(&self) -> u64 {
-        u64::from(self.k) * 8 + 10
+    /// Slots (8 B each) and the two tail targets (Rgba16Float + R16Float); `transmit` (scenes
+    /// with coloured transmission): a second chain of k opacity slots and three Rgba16Float
+    /// tail targets.
+    pub fn bytes_per_pixel(&self, transmit: bool) -> u64 {
+        if transmit {
+            u64::from(self.k) * 16 + 24
+        } else {
+            u64::from(self.k) * 8 + 10
+        }
     }
 }
 
@@ -78,8 +89,62 @@ pub fn to_slot(color: [f32; 3], alpha: f32, z: f32, reverse_z: bool) -> u64 {
 pub fn from_slot(s: u64) -> Fragment {
     Fragment {
         color: unpack_rgb9e5(s as u32),
-        alpha: ((s >> 32) as u32 & 255) as f32 / 255.0,
+        opacity: [((s >> 32) as u32 & 255) as f32 / 255.0; 3],
     }
+}
+
+/// A fragment's colour and opacity slots on scenes with coloured transmission
+/// (`fs_insert_transmit` of kbuffer64_transmit.wgsl): both share the high word, nearness as
+/// [`to_slot`] with a hash of the two low words in place of α.
+pub fn to_transmit_slots(color: [f32; 3], opacity: [f32; 3], z: f32, reverse_z: bool) -> [u64; 2] {
+    let d = if reverse_z { z } else { 1.0 - z };
+    let color_word = pack_rgb9e5(color);
+    let opacity_word = pack_opacity(opacity);
+    let h = (color_word.wrapping_mul(0x9E37_79B1) ^ opacity_word.wrapping_mul(0x85EB_CA77)) >> 24;
+    let high = u64::from((d.to_bits() & 0xFFFF_FF00) | h) << 32;
+    [high | u64::from(color_word), high | u64::from(opacity_word)]
+}
+
+/// What a pair of transmit slots decodes to.
+pub fn from_transmit_slots(s: [u64; 2]) -> Fragment {
+    Fragment {
+        color: unpack_rgb9e5(s[0] as u32),
+        opacity: unpack_opacity(s[1] as u32),
+    }
+}
+
+/// [`resolve`] on scenes with coloured transmission: per channel, the tail with exact coverage
+/// `1 − Π(1 − a)` and the a-weighted mean colour per channel. Colour and transmittance.
+pub fn resolve_transmit(slots: &[[u64; 2]], k: usize, tail: TailRule) -> ([f32; 3], [f32; 3]) {
+    let mut sorted = slots.to_vec();
+    sorted.sort_unstable_by(|a, b| b[0].cmp(&a[0]));
+    let (kept, rest) = sorted.split_at(k.min(sorted.len()));
+    let mut c = [0.0f32; 3];
+    let mut t = [1.0f32; 3];
+    for s in kept {
+        let f = from_transmit_slots(*s);
+        c = [0, 1, 2].map(|i| c[i] + t[i] * f.color[i]);
+        t = [0, 1, 2].map(|i| t[i] * (1.0 - f.opacity[i]));
+    }
+    if tail == TailRule::Average && !rest.is_empty() {
+        let (sum, a_sum, tail_t) =
+            rest.iter()
+                .fold(([0.0f32; 3], [0.0f32; 3], [1.0f32; 3]), |acc, s| {
+                    let f = from_transmit_slots(*s);
+                    (
+                        [0, 1, 2].map(|i| acc.0[i] + f.color[i]),
+                        [0, 1, 2].map(|i| acc.1[i] + f.opacity[i]),
+                        [0, 1, 2].map(|i| acc.2[i] * (1.0 - f.opacity[i])),
+                    )
+                });
+        for i in 0..3 {
+            if a_sum[i] > 0.0 {
+                c[i] += t[i] * sum[i] * ((1.0 - tail_t[i]) / a_sum[i]);
+            }
+        }
+        t = [0, 1, 2].map(|i| t[i] * tail_t[i]);
+    }
+    (c, t)
 }
 
 /// The k-buffer's result for one pixel's slots (any order): the `k` nearest composited front to
@@ -93,15 +158,15 @@ pub fn resolve(slots: &[u64], k: usize, tail: TailRule) -> ([f32; 3], f32) {
     for s in kept {
         let f = from_slot(*s);
         c = [0, 1, 2].map(|i| c[i] + t * f.color[i]);
-        t *= 1.0 - f.alpha;
+        t *= 1.0 - f.opacity[0];
     }
     if tail == TailRule::Average && !rest.is_empty() {
         let (sum, alpha_sum, tail_t) = rest.iter().fold(([0.0f32; 3], 0.0f32, 1.0f32), |acc, s| {
             let f = from_slot(*s);
             (
                 [0, 1, 2].map(|i| acc.0[i] + f.color[i]),
-                acc.1 + f.alpha,
-                acc.2 * (1.0 - f.alpha),
+                acc.1 + f.opacity[0],
+                acc.2 * (1.0 - f.opacity[0]),
             )
         });
         if alpha_sum > 0.0 {
@@ -122,12 +187,15 @@ pub struct KBuffer {
 
 #[derive(Debug)]
 struct Resources {
-    key: (Resolution, wgpu::TextureFormat),
+    /// Resolution, final colour format, coloured-transmission path.
+    key: (Resolution, wgpu::TextureFormat, bool),
     params: wgpu::Buffer,
     slots: wgpu::Buffer,
     counters: Counters,
     tail_sum: wgpu::TextureView,
     tail_t: wgpu::TextureView,
+    /// Σ a per channel (coloured-transmission path only).
+    tail_opacity: Option<wgpu::TextureView>,
     insert_layout: wgpu::BindGroupLayout,
     resolve_layout: wgpu::BindGroupLayout,
     insert: ScenePipelines,
@@ -152,17 +220,24 @@ impl KBuffer {
         self.config
     }
 
-    /// Bytes of the slot buffer at `resolution`, or why the adapter cannot hold it.
-    pub fn slot_bytes(&self, caps: &Caps, resolution: Resolution) -> Result<u64, GpuError> {
+    /// Bytes of the slot buffer at `resolution` (`transmit`: two chains), or why the adapter
+    /// cannot hold it.
+    pub fn slot_bytes(
+        &self,
+        caps: &Caps,
+        resolution: Resolution,
+        transmit: bool,
+    ) -> Result<u64, GpuError> {
         let pixels = u64::from(resolution.width) * u64::from(resolution.height);
-        let bytes = pixels * u64::from(self.config.k) * 8;
+        let chains = if transmit { 2 } else { 1 };
+        let bytes = pixels * u64::from(self.config.k) * 8 * chains;
         let limit = caps
             .max_storage_buffer_binding_size
             .min(caps.max_buffer_size);
         if bytes > limit {
             return Err(GpuError::TooLarge {
                 what: format!(
-                    "the k-buffer slots (k={} × {pixels} px × 8 B)",
+                    "the k-buffer slots (k={} × {chains} chain(s) × {pixels} px × 8 B)",
                     self.config.k
                 ),
                 needed: bytes,
@@ -172,14 +247,19 @@ impl KBuffer {
         Ok(bytes)
     }
 
-    fn resources(&mut self, ctx: &Context, targets: &Targets) -> Result<(), GpuError> {
-        let key = (targets.resolution, targets.color_format);
+    fn resources(
+        &mut self,
+        ctx: &Context,
+        targets: &Targets,
+        transmit: bool,
+    ) -> Result<(), GpuError> {
+        let key = (targets.resolution, targets.color_format, transmit);
         if self.gpu.as_ref().is_some_and(|g| g.key == key) {
             return Ok(());
         }
         self.gpu = None;
         self.ledger.clear();
-        let slot_bytes = self.slot_bytes(&ctx.caps, targets.resolution)?;
+        let slot_bytes = self.slot_bytes(&ctx.caps, targets.resolution, transmit)?;
         let device = &ctx.device;
         let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
         let mut buffer = |label: &str, size: u64, usage: wgpu::BufferUsages| {
@@ -211,17 +291,34 @@ impl KBuffer {
                 1,
             )
             .create_view(&Default::default());
+        let tail_t_format = if transmit {
+            TAIL_RGB_FORMAT
+        } else {
+            TAIL_T_FORMAT
+        };
         let tail_t = self
             .ledger
             .create_texture_2d(
                 device,
                 "k-buffer tail transmittance",
                 targets.resolution,
-                TAIL_T_FORMAT,
+                tail_t_format,
                 usage,
                 1,
             )
             .create_view(&Default::default());
+        let tail_opacity = transmit.then(|| {
+            self.ledger
+                .create_texture_2d(
+                    device,
+                    "k-buffer tail opacity sums",
+                    targets.resolution,
+                    TAIL_RGB_FORMAT,
+                    usage,
+                    1,
+                )
+                .create_view(&Default::default())
+        });
         let fragment = wgpu::ShaderStages::FRAGMENT;
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("k-buffer"),
@@ -232,43 +329,75 @@ impl KBuffer {
                 bind::float_texture(3, fragment),
             ],
         });
+        let mut resolve_entries = vec![
+            bind::uniform(0, fragment),
+            bind::storage(1, fragment, false),
+            bind::storage(2, fragment, false),
+            bind::float_texture(4, fragment),
+            bind::float_texture(5, fragment),
+        ];
+        if transmit {
+            resolve_entries.push(bind::float_texture(6, fragment));
+        }
         let resolve_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("k-buffer resolve"),
-            entries: &[
-                bind::uniform(0, fragment),
-                bind::storage(1, fragment, false),
-                bind::storage(2, fragment, false),
-                bind::float_texture(4, fragment),
-                bind::float_texture(5, fragment),
-            ],
+            entries: &resolve_entries,
         });
-        let module = ctx.shader_with(
-            "kbuffer64.wgsl",
-            KBUFFER64_WGSL,
-            &[("linked_list_node.wgsl", crate::list::NODE_WGSL)],
-        )?;
+        let node = crate::list::node_source(crate::list::NODE_WGSL, transmit);
+        let module = if transmit {
+            ctx.shader_with(
+                "kbuffer64_transmit.wgsl",
+                KBUFFER64_TRANSMIT_WGSL,
+                &[
+                    ("kbuffer64.wgsl", KBUFFER64_WGSL),
+                    ("linked_list_node.wgsl", &node),
+                ],
+            )?
+        } else {
+            ctx.shader_with(
+                "kbuffer64.wgsl",
+                KBUFFER64_WGSL,
+                &[("linked_list_node.wgsl", &node)],
+            )?
+        };
         let insert_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("k-buffer insert"),
             bind_group_layouts: &[Some(ctx.scene_layout()), Some(&layout)],
             immediate_size: 0,
         });
-        let tail_targets = [
+        let target = |format, blend| {
             Some(wgpu::ColorTargetState {
-                format: TAIL_SUM_FORMAT,
-                blend: Some(blend::ADDITIVE),
+                format,
+                blend: Some(blend),
                 write_mask: wgpu::ColorWrites::ALL,
-            }),
-            Some(wgpu::ColorTargetState {
-                format: TAIL_T_FORMAT,
-                blend: Some(blend::MULTIPLY_ONE_MINUS_SRC),
-                write_mask: wgpu::ColorWrites::ALL,
-            }),
-        ];
+            })
+        };
+        // Σ(C, α) and Π(1 − α); per channel: Σ(C, count), Σ a and Π(1 − a).
+        let tail_targets = if transmit {
+            vec![
+                target(TAIL_SUM_FORMAT, blend::ADDITIVE),
+                target(TAIL_RGB_FORMAT, blend::ADDITIVE),
+                target(TAIL_RGB_FORMAT, blend::MULTIPLY_ONE_MINUS_SRC),
+            ]
+        } else {
+            vec![
+                target(TAIL_SUM_FORMAT, blend::ADDITIVE),
+                target(TAIL_T_FORMAT, blend::MULTIPLY_ONE_MINUS_SRC),
+            ]
+        };
         let insert = ScenePipelines::with_layout(
             ctx,
             &ScenePipelineDesc {
                 targets: &tail_targets,
-                ..ScenePipelineDesc::new("k-buffer insert", &module, "fs_insert")
+                ..ScenePipelineDesc::new(
+                    "k-buffer insert",
+                    &module,
+                    if transmit {
+                        "fs_insert_transmit"
+                    } else {
+                        "fs_insert"
+                    },
+                )
             },
             &insert_layout,
         );
@@ -280,7 +409,11 @@ impl KBuffer {
             });
         let over = [Some(wgpu::ColorTargetState {
             format: targets.color_format,
-            blend: Some(PREMULTIPLIED_OVER),
+            blend: Some(if transmit {
+                crate::list::PER_CHANNEL_OVER
+            } else {
+                PREMULTIPLIED_OVER
+            }),
             write_mask: wgpu::ColorWrites::ALL,
         })];
         let resolve = fullscreen_pipeline(
@@ -289,7 +422,11 @@ impl KBuffer {
                 label: "k-buffer resolve",
                 layout: &resolve_pipeline_layout,
                 module: &module,
-                fragment_entry: "fs_resolve",
+                fragment_entry: if transmit {
+                    "fs_resolve_transmit"
+                } else {
+                    "fs_resolve"
+                },
                 targets: &over,
                 depth: None,
                 multisample: Default::default(),
@@ -303,6 +440,7 @@ impl KBuffer {
             counters,
             tail_sum,
             tail_t,
+            tail_opacity,
             insert_layout: layout,
             resolve_layout,
             insert,
@@ -340,7 +478,11 @@ impl Technique for KBuffer {
         targets: &Targets,
         timer: &mut GpuTimer,
     ) -> Result<RenderStats, GpuError> {
-        self.resources(ctx, targets)?;
+        self.resources(
+            ctx,
+            targets,
+            crate::list::per_channel(&scene.scene, &ctx.caps),
+        )?;
         let r = self.gpu.as_ref().expect("resources built above");
         let words: [u32; 4] = [
             targets.resolution.width,
@@ -361,29 +503,41 @@ impl Technique for KBuffer {
                 entry(3, wgpu::BindingResource::TextureView(&targets.depth_view)),
             ],
         });
+        let mut resolve_entries = vec![
+            entry(0, r.params.as_entire_binding()),
+            entry(1, r.slots.as_entire_binding()),
+            entry(2, r.counters.buffer.as_entire_binding()),
+            entry(4, wgpu::BindingResource::TextureView(&r.tail_sum)),
+            entry(5, wgpu::BindingResource::TextureView(&r.tail_t)),
+        ];
+        if let Some(view) = &r.tail_opacity {
+            resolve_entries.push(entry(6, wgpu::BindingResource::TextureView(view)));
+        }
         let resolve_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("k-buffer resolve"),
             layout: &r.resolve_layout,
-            entries: &[
-                entry(0, r.params.as_entire_binding()),
-                entry(1, r.slots.as_entire_binding()),
-                entry(2, r.counters.buffer.as_entire_binding()),
-                entry(4, wgpu::BindingResource::TextureView(&r.tail_sum)),
-                entry(5, wgpu::BindingResource::TextureView(&r.tail_t)),
-            ],
+            entries: &resolve_entries,
         });
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         encoder.clear_buffer(&r.slots, 0, None);
         r.counters.clear(&mut encoder);
         {
             let ts = timer.pass("k-buffer insert");
+            let mut attachments = vec![pass::color(
+                &r.tail_sum,
+                wgpu::LoadOp::Clear(pass::splat(0.0)),
+            )];
+            if let Some(view) = &r.tail_opacity {
+                attachments.push(pass::color(view, wgpu::LoadOp::Clear(pass::splat(0.0))));
+            }
+            attachments.push(pass::color(
+                &r.tail_t,
+                wgpu::LoadOp::Clear(pass::splat(1.0)),
+            ));
             let mut p = pass::begin(
                 &mut encoder,
                 "k-buffer insert",
-                &[
-                    pass::color(&r.tail_sum, wgpu::LoadOp::Clear(pass::splat(0.0))),
-                    pass::color(&r.tail_t, wgpu::LoadOp::Clear(pass::splat(1.0))),
-                ],
+                &attachments,
                 None,
                 ts.writes(),
             );
@@ -414,11 +568,15 @@ impl Technique for KBuffer {
         self.ledger.total()
     }
 
-    fn transmission(&self, _caps: &Caps) -> TransmissionSupport {
-        // Scalar alpha: the shader's `Shaded.alpha` is 1 − mean(t) for transmissive fragments.
-        TransmissionSupport::Approximate(
-            "composites 1 − mean(t) as scalar α, exact for grey filters only (its slots store premultiplied colour and scalar α; rgb transmittance slots are not implemented)",
-        )
+    fn transmission(&self, caps: &Caps) -> TransmissionSupport {
+        if !caps.dual_source_blending {
+            return TransmissionSupport::Approximate(
+                "composites 1 − mean(t) as scalar α, exact for grey filters only (the per-channel resolve dst = C + T ⊙ dst needs dual-source blending, which the adapter lacks)",
+            );
+        }
+        // A second chain of opacity slots (unorm10 per channel) sorted like the colour slots;
+        // the averaged tail stays an approximation, per channel, and is reported per pixel.
+        TransmissionSupport::Exact
     }
 }
 
@@ -441,7 +599,7 @@ mod tests {
             }
             prop_assert!(s1 > 0 && s2 > 0);
             let f = from_slot(s1);
-            prop_assert!((f.alpha - a).abs() <= 0.5 / 255.0 + 1e-7);
+            prop_assert!((f.opacity[0] - a).abs() <= 0.5 / 255.0 + 1e-7);
         }
     }
 
@@ -452,7 +610,7 @@ mod tests {
         let far = to_slot([0.0, 0.0, 0.75], 0.75, 0.2, true);
         let (c, t) = resolve(&[far, near, mid], 3, TailRule::Average);
         assert_eq!(resolve(&[mid, far, near], 3, TailRule::Drop), (c, t));
-        let a = |s| from_slot(s).alpha;
+        let a = |s| from_slot(s).opacity[0];
         assert_eq!(t, (1.0 - a(near)) * (1.0 - a(mid)) * (1.0 - a(far)));
         let (c1, t1) = resolve(&[far, near, mid], 1, TailRule::Average);
         assert!(
@@ -463,5 +621,23 @@ mod tests {
         let (c2, t2) = resolve(&[far, near, mid], 1, TailRule::Drop);
         assert_eq!((c2[1], c2[2], t2), (0.0, 0.0, 1.0 - a(near)));
         assert_eq!(c2[0], from_slot(near).color[0]);
+    }
+
+    proptest! {
+        /// Both chains sort a fragment's slots alike: they share the high word, and the hash in
+        /// it orders fragments at equal nearness by content, not by draw order.
+        #[test]
+        fn transmit_slots_of_two_fragments_sort_alike_in_both_chains(
+            z1 in 0.0f32..1.0, z2 in 0.0f32..1.0, c in 0.0f32..4.0, a in 0.0f32..=1.0,
+        ) {
+            let p = to_transmit_slots([c, 0.5, 0.25], [a, 1.0 - a, 0.5], z1, true);
+            let q = to_transmit_slots([0.5, c, 0.0], [0.25, a, a], z2, true);
+            prop_assert_eq!(p[0] >> 32, p[1] >> 32);
+            if p[0] >> 32 != q[0] >> 32 {
+                prop_assert_eq!(p[0] < q[0], p[1] < q[1]);
+            }
+            let f = from_transmit_slots(p);
+            prop_assert!((f.opacity[1] - (1.0 - a)).abs() <= 0.5 / 1023.0 + 1e-6);
+        }
     }
 }

@@ -9,6 +9,8 @@
 //! behind them by the tail rule. With a pool and window that hold every fragment it is exact.
 //! Fragments lost to a full pool and pixels whose tail was dropped or averaged are counted per
 //! pixel and reported (`pixels_with_dropped_layers`, `pixels_with_approximated_layers`).
+//! On scenes with coloured transmission (and dual-source blending) nodes store rgb opacity
+//! `1 − t`, one word more, and the resolve composites per channel.
 //!
 //! `k-buffer` (NVIDIA's "Loop64"): no pool — each pixel keeps its `k` nearest fragments, sorted,
 //! in `k` u64 slots updated by a chain of 64-bit `atomicMax` in one geometry pass; the fragment

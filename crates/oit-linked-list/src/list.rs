@@ -14,13 +14,38 @@ use oit_scene::Resolution;
 /// shaders/linked_list.wgsl and its node module.
 pub const WGSL: &str = include_str!("../../../shaders/linked_list.wgsl");
 pub const NODE_WGSL: &str = include_str!("../../../shaders/linked_list_node.wgsl");
+/// The root module on scenes with coloured transmission: includes linked_list.wgsl and adds the
+/// dual-source resolve.
+pub const TRANSMIT_WGSL: &str = include_str!("../../../shaders/linked_list_transmit.wgsl");
 
 /// The lines of the shaders the crate rewrites per configuration (checked by a test).
 pub(crate) const SORT_MAX_LINE: &str = "const SORT_MAX: u32 = 16u;";
 pub(crate) const PACKED_LINE: &str = "override PACKED: bool = false;";
+pub(crate) const TRANSMIT_LINE: &str = "override TRANSMIT: bool = false;";
 
-/// The shader sources for `config`: the sort window size and the node format are constants.
-pub fn shader_sources(config: &LinkedListConfig) -> (String, String) {
+/// `dst = src0 + src1 ⊙ dst` per channel (src1 = the stack's rgb transmittance); alpha as
+/// premultiplied OVER. Needs dual-source blending, hence one target.
+pub(crate) const PER_CHANNEL_OVER: wgpu::BlendState = wgpu::BlendState {
+    color: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::One,
+        dst_factor: wgpu::BlendFactor::Src1,
+        operation: wgpu::BlendOperation::Add,
+    },
+    alpha: PREMULTIPLIED_OVER.alpha,
+};
+
+/// The node module for `transmit` nodes (rgb opacity) or scalar ones: the flag becomes a
+/// constant, so the scalar pipelines compile to the code they always had.
+pub(crate) fn node_source(node: &str, transmit: bool) -> String {
+    node.replace(
+        TRANSMIT_LINE,
+        &format!("const TRANSMIT: bool = {transmit};"),
+    )
+}
+
+/// The shader sources for `config`: the sort window size, the node format and whether nodes
+/// store rgb opacity (`transmit`) are constants.
+pub fn shader_sources(config: &LinkedListConfig, transmit: bool) -> (String, String) {
     let list = WGSL.replace(
         SORT_MAX_LINE,
         &format!("const SORT_MAX: u32 = {}u;", config.sort_max),
@@ -32,7 +57,13 @@ pub fn shader_sources(config: &LinkedListConfig) -> (String, String) {
             config.node == NodeFormat::Packed
         ),
     );
-    (list, node)
+    (list, node_source(&node, transmit))
+}
+
+/// Whether a scene takes the per-channel path: coloured transmission on an adapter with
+/// dual-source blending. Every other scene keeps the scalar nodes and resolve.
+pub(crate) fn per_channel(scene: &oit_scene::Scene, caps: &Caps) -> bool {
+    scene.has_coloured_transmission() && caps.dual_source_blending
 }
 
 /// Per-pixel linked lists with a bounded sort window.
@@ -57,7 +88,8 @@ pub struct FrameCounts {
 
 #[derive(Debug)]
 struct Resources {
-    key: (Resolution, wgpu::TextureFormat),
+    /// Resolution, final colour format, rgb-opacity nodes.
+    key: (Resolution, wgpu::TextureFormat, bool),
     capacity: u32,
     params: wgpu::Buffer,
     heads: wgpu::Buffer,
@@ -93,11 +125,18 @@ impl LinkedList {
         self.last
     }
 
-    /// Node pool size at `resolution`, or why the adapter cannot hold it.
-    pub fn pool(&self, caps: &Caps, resolution: Resolution) -> Result<(u32, u64), GpuError> {
+    /// Node pool size at `resolution` (`transmit`: rgb-opacity nodes), or why the adapter
+    /// cannot hold it.
+    pub fn pool(
+        &self,
+        caps: &Caps,
+        resolution: Resolution,
+        transmit: bool,
+    ) -> Result<(u32, u64), GpuError> {
         let pixels = u64::from(resolution.width) * u64::from(resolution.height);
         let capacity = pixels * u64::from(self.config.nodes_per_pixel);
-        let bytes = capacity * self.config.node.bytes();
+        let node_bytes = self.config.node.bytes(transmit);
+        let bytes = capacity * node_bytes;
         let limit = caps
             .max_storage_buffer_binding_size
             .min(caps.max_buffer_size);
@@ -105,8 +144,7 @@ impl LinkedList {
             return Err(GpuError::TooLarge {
                 what: format!(
                     "the node pool ({} nodes-per-pixel × {pixels} px × {} B)",
-                    self.config.nodes_per_pixel,
-                    self.config.node.bytes()
+                    self.config.nodes_per_pixel, node_bytes
                 ),
                 needed: bytes,
                 limit,
@@ -115,14 +153,19 @@ impl LinkedList {
         Ok((capacity as u32, bytes))
     }
 
-    fn resources(&mut self, ctx: &Context, targets: &Targets) -> Result<(), GpuError> {
-        let key = (targets.resolution, targets.color_format);
+    fn resources(
+        &mut self,
+        ctx: &Context,
+        targets: &Targets,
+        transmit: bool,
+    ) -> Result<(), GpuError> {
+        let key = (targets.resolution, targets.color_format, transmit);
         if self.gpu.as_ref().is_some_and(|g| g.key == key) {
             return Ok(());
         }
         self.gpu = None;
         self.ledger.clear();
-        let (capacity, pool_bytes) = self.pool(&ctx.caps, targets.resolution)?;
+        let (capacity, pool_bytes) = self.pool(&ctx.caps, targets.resolution, transmit)?;
         let pixels = u64::from(targets.resolution.width) * u64::from(targets.resolution.height);
         let device = &ctx.device;
         let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
@@ -157,12 +200,23 @@ impl LinkedList {
                 bind::float_texture(5, fragment),
             ],
         });
-        let (list_src, node_src) = shader_sources(&self.config);
-        let module = ctx.shader_with(
-            "linked_list.wgsl",
-            &list_src,
-            &[("linked_list_node.wgsl", &node_src)],
-        )?;
+        let (list_src, node_src) = shader_sources(&self.config, transmit);
+        let module = if transmit {
+            ctx.shader_with(
+                "linked_list_transmit.wgsl",
+                TRANSMIT_WGSL,
+                &[
+                    ("linked_list.wgsl", &list_src),
+                    ("linked_list_node.wgsl", &node_src),
+                ],
+            )?
+        } else {
+            ctx.shader_with(
+                "linked_list.wgsl",
+                &list_src,
+                &[("linked_list_node.wgsl", &node_src)],
+            )?
+        };
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("linked-list"),
             bind_group_layouts: &[Some(ctx.scene_layout()), Some(&layout)],
@@ -184,7 +238,11 @@ impl LinkedList {
         );
         let over = [Some(wgpu::ColorTargetState {
             format: targets.color_format,
-            blend: Some(PREMULTIPLIED_OVER),
+            blend: Some(if transmit {
+                PER_CHANNEL_OVER
+            } else {
+                PREMULTIPLIED_OVER
+            }),
             write_mask: wgpu::ColorWrites::ALL,
         })];
         let resolve = fullscreen_pipeline(
@@ -193,7 +251,11 @@ impl LinkedList {
                 label: "linked-list resolve",
                 layout: &pipeline_layout,
                 module: &module,
-                fragment_entry: "fs_resolve",
+                fragment_entry: if transmit {
+                    "fs_resolve_transmit"
+                } else {
+                    "fs_resolve"
+                },
                 targets: &over,
                 depth: None,
                 multisample: Default::default(),
@@ -238,7 +300,7 @@ impl Technique for LinkedList {
         targets: &Targets,
         timer: &mut GpuTimer,
     ) -> Result<RenderStats, GpuError> {
-        self.resources(ctx, targets)?;
+        self.resources(ctx, targets, per_channel(&scene.scene, &ctx.caps))?;
         let r = self.gpu.as_ref().expect("resources built above");
         let words: [u32; 4] = [
             targets.resolution.width,
@@ -317,11 +379,15 @@ impl Technique for LinkedList {
         self.ledger.total()
     }
 
-    fn transmission(&self, _caps: &Caps) -> TransmissionSupport {
-        // Scalar alpha: the shader's `Shaded.alpha` is 1 − mean(t) for transmissive fragments.
-        TransmissionSupport::Approximate(
-            "composites 1 − mean(t) as scalar α, exact for grey filters only (its nodes store premultiplied colour and scalar α; rgb transmittance nodes are not implemented)",
-        )
+    fn transmission(&self, caps: &Caps) -> TransmissionSupport {
+        if !caps.dual_source_blending {
+            return TransmissionSupport::Approximate(
+                "composites 1 − mean(t) as scalar α, exact for grey filters only (the per-channel resolve dst = C + T ⊙ dst needs dual-source blending, which the adapter lacks)",
+            );
+        }
+        // Nodes store rgb opacity: binary16 (f32 nodes) or unorm10 (packed), as they store α.
+        // An averaged tail stays an approximation, per channel, and is reported per pixel.
+        TransmissionSupport::Exact
     }
 }
 
@@ -333,13 +399,17 @@ mod tests {
     fn rewritten_lines_exist_in_the_shaders() {
         assert_eq!(WGSL.matches(SORT_MAX_LINE).count(), 1);
         assert_eq!(NODE_WGSL.matches(PACKED_LINE).count(), 1);
+        assert_eq!(NODE_WGSL.matches(TRANSMIT_LINE).count(), 1);
         let config = LinkedListConfig {
             sort_max: 37,
             node: NodeFormat::Packed,
             ..Default::default()
         };
-        let (list, node) = shader_sources(&config);
+        let (list, node) = shader_sources(&config, true);
         assert!(list.contains("const SORT_MAX: u32 = 37u;") && !list.contains(SORT_MAX_LINE));
         assert!(node.contains("const PACKED: bool = true;"));
+        assert!(node.contains("const TRANSMIT: bool = true;"));
+        let (_, scalar) = shader_sources(&config, false);
+        assert!(scalar.contains("const TRANSMIT: bool = false;"));
     }
 }

@@ -32,28 +32,33 @@ impl NodeFormat {
         }
     }
 
-    /// Bytes of one node in the pool (the `next` index included).
-    pub fn bytes(self) -> u64 {
-        match self {
+    /// Bytes of one node in the pool (the `next` index included); `transmit`: nodes that store
+    /// rgb opacity (scenes with coloured transmission), one word more.
+    pub fn bytes(self, transmit: bool) -> u64 {
+        let scalar = match self {
             NodeFormat::F32 => 16,
             NodeFormat::Packed => 12,
-        }
+        };
+        scalar + if transmit { 4 } else { 0 }
     }
 }
 
-/// A node in registers: `key` orders front to back (smaller is nearer), ties by `c0`, `c1`.
+/// A node in registers: `key` orders front to back (smaller is nearer), ties by `c0`, `c1`,
+/// `c2`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
 pub struct Node {
     pub key: u32,
     pub c0: u32,
     pub c1: u32,
+    pub c2: u32,
 }
 
-/// What a node decodes to: premultiplied colour and coverage.
+/// What a node decodes to: premultiplied colour and per-channel opacity `1 − t` (α in every
+/// channel for scalar nodes).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Fragment {
     pub color: [f32; 3],
-    pub alpha: f32,
+    pub opacity: [f32; 3],
 }
 
 fn ldexp(x: f32, e: i32) -> f32 {
@@ -92,7 +97,31 @@ fn unpack2x16float(w: u32) -> [f32; 2] {
     ]
 }
 
-pub fn pack_node(format: NodeFormat, color: [f32; 3], alpha: f32, z: f32, reverse_z: bool) -> Node {
+const UNORM10_MAX: f32 = 1023.0;
+
+fn unorm10(x: f32) -> u32 {
+    (x.clamp(0.0, 1.0) * UNORM10_MAX + 0.5) as u32
+}
+
+/// Per-channel opacity as 3 × unorm10 (packed transmit nodes, the k-buffer's opacity slots).
+pub fn pack_opacity(a: [f32; 3]) -> u32 {
+    unorm10(a[0]) | (unorm10(a[1]) << 10) | (unorm10(a[2]) << 20)
+}
+
+pub fn unpack_opacity(w: u32) -> [f32; 3] {
+    [w & 1023, (w >> 10) & 1023, (w >> 20) & 1023].map(|q| q as f32 / UNORM10_MAX)
+}
+
+/// `opacity` (`1 − t` per channel) is stored only when `transmit`; scalar nodes store `alpha`.
+pub fn pack_node(
+    format: NodeFormat,
+    transmit: bool,
+    color: [f32; 3],
+    alpha: f32,
+    opacity: [f32; 3],
+    z: f32,
+    reverse_z: bool,
+) -> Node {
     match format {
         NodeFormat::Packed => {
             // z = 1 rounds to 2^24 in f32: clamp to 24 bits (see linked_list_node.wgsl).
@@ -103,7 +132,8 @@ pub fn pack_node(format: NodeFormat, color: [f32; 3], alpha: f32, z: f32, revers
             Node {
                 key: (d << 8) | (alpha.clamp(0.0, 1.0) * 255.0 + 0.5) as u32,
                 c0: pack_rgb9e5(color),
-                c1: 0,
+                c1: if transmit { pack_opacity(opacity) } else { 0 },
+                c2: 0,
             }
         }
         NodeFormat::F32 => {
@@ -112,96 +142,119 @@ pub fn pack_node(format: NodeFormat, color: [f32; 3], alpha: f32, z: f32, revers
             if reverse_z {
                 bits = !bits;
             }
-            Node {
-                key: bits,
-                c0: pack2x16float(color[0], color[1]),
-                c1: pack2x16float(color[2], alpha),
+            if transmit {
+                Node {
+                    key: bits,
+                    c0: pack2x16float(color[0], color[1]),
+                    c1: pack2x16float(color[2], opacity[0]),
+                    c2: pack2x16float(opacity[1], opacity[2]),
+                }
+            } else {
+                Node {
+                    key: bits,
+                    c0: pack2x16float(color[0], color[1]),
+                    c1: pack2x16float(color[2], alpha),
+                    c2: 0,
+                }
             }
         }
     }
 }
 
-pub fn unpack_node(format: NodeFormat, n: Node) -> Fragment {
+pub fn unpack_node(format: NodeFormat, transmit: bool, n: Node) -> Fragment {
     match format {
         NodeFormat::Packed => Fragment {
             color: unpack_rgb9e5(n.c0),
-            alpha: (n.key & 255) as f32 / 255.0,
+            opacity: if transmit {
+                unpack_opacity(n.c1)
+            } else {
+                [(n.key & 255) as f32 / 255.0; 3]
+            },
         },
         NodeFormat::F32 => {
             let rg = unpack2x16float(n.c0);
             let ba = unpack2x16float(n.c1);
+            let gb = unpack2x16float(n.c2);
             Fragment {
                 color: [rg[0], rg[1], ba[0]],
-                alpha: ba[1],
+                opacity: if transmit {
+                    [ba[1], gb[0], gb[1]]
+                } else {
+                    [ba[1]; 3]
+                },
             }
         }
     }
 }
 
-/// Fragments behind the sort window, composited as one layer: coverage 1 − Π(1 − α) exactly,
-/// colour the α-weighted average of their colours.
+/// Fragments behind the sort window, composited as one layer, per channel: coverage
+/// 1 − Π(1 − a) exactly, colour the a-weighted average of their colours (a = the opacity, α
+/// for scalar nodes).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Tail {
     pub color: [f32; 3],
-    pub alpha_sum: f32,
-    pub transmittance: f32,
+    pub alpha_sum: [f32; 3],
+    pub transmittance: [f32; 3],
     pub count: u32,
 }
 
 impl Tail {
     pub const EMPTY: Tail = Tail {
         color: [0.0; 3],
-        alpha_sum: 0.0,
-        transmittance: 1.0,
+        alpha_sum: [0.0; 3],
+        transmittance: [1.0; 3],
         count: 0,
     };
 
     pub fn with(self, f: Fragment) -> Tail {
         Tail {
             color: [0, 1, 2].map(|i| self.color[i] + f.color[i]),
-            alpha_sum: self.alpha_sum + f.alpha,
-            transmittance: self.transmittance * (1.0 - f.alpha),
+            alpha_sum: [0, 1, 2].map(|i| self.alpha_sum[i] + f.opacity[i]),
+            transmittance: [0, 1, 2].map(|i| self.transmittance[i] * (1.0 - f.opacity[i])),
             count: self.count + 1,
         }
     }
 
     pub fn resolve(self) -> Fragment {
-        let alpha = 1.0 - self.transmittance;
-        let color = if self.alpha_sum > 0.0 {
-            self.color.map(|c| c * (alpha / self.alpha_sum))
-        } else {
-            [0.0; 3]
-        };
-        Fragment { color, alpha }
+        let opacity = self.transmittance.map(|t| 1.0 - t);
+        let color = [0, 1, 2].map(|c| {
+            if self.alpha_sum[c] > 0.0 {
+                self.color[c] * (opacity[c] / self.alpha_sum[c])
+            } else {
+                0.0
+            }
+        });
+        Fragment { color, opacity }
     }
 }
 
-/// The resolve of one pixel's fragments (`fs_resolve`): the `sort_max` nearest composited front
-/// to back, the rest by the tail rule (`None`: dropped). Returns premultiplied colour and
-/// transmittance, and whether the tail was used.
+/// The resolve of one pixel's fragments (`resolve_pixel`): the `sort_max` nearest composited
+/// front to back, the rest by the tail rule (`None`: dropped). Returns premultiplied colour and
+/// per-channel transmittance, and whether the tail was used.
 pub fn resolve(
     format: NodeFormat,
+    transmit: bool,
     nodes: &[Node],
     sort_max: usize,
     average_tail: bool,
-) -> ([f32; 3], f32, bool) {
+) -> ([f32; 3], [f32; 3], bool) {
     let mut sorted = nodes.to_vec();
     sorted.sort();
     let (window, rest) = sorted.split_at(sort_max.min(sorted.len()));
     let mut c = [0.0f32; 3];
-    let mut t = 1.0f32;
+    let mut t = [1.0f32; 3];
     for n in window {
-        let f = unpack_node(format, *n);
-        c = [0, 1, 2].map(|i| c[i] + t * f.color[i]);
-        t *= 1.0 - f.alpha;
+        let f = unpack_node(format, transmit, *n);
+        c = [0, 1, 2].map(|i| c[i] + t[i] * f.color[i]);
+        t = [0, 1, 2].map(|i| t[i] * (1.0 - f.opacity[i]));
     }
     if average_tail && !rest.is_empty() {
-        let tail = rest
-            .iter()
-            .fold(Tail::EMPTY, |acc, n| acc.with(unpack_node(format, *n)));
+        let tail = rest.iter().fold(Tail::EMPTY, |acc, n| {
+            acc.with(unpack_node(format, transmit, *n))
+        });
         let f = tail.resolve();
-        c = [0, 1, 2].map(|i| c[i] + t * f.color[i]);
-        t *= 1.0 - f.alpha;
+        c = [0, 1, 2].map(|i| c[i] + t[i] * f.color[i]);
+        t = [0, 1, 2].map(|i| t[i] * (1.0 - f.opacity[i]));
     }
     (c, t, !rest.is_empty())
 }
@@ -211,15 +264,20 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
+    /// A scalar-alpha node.
+    fn scalar(format: NodeFormat, color: [f32; 3], alpha: f32, z: f32, reverse_z: bool) -> Node {
+        pack_node(format, false, color, alpha, [alpha; 3], z, reverse_z)
+    }
+
     /// z = 1 (the reverse-Z near plane, the standard far plane) stays inside 24 bits: found by
     /// the GPU twin test, where it wrapped and sorted the nearest fragment farthest.
     #[test]
     fn packed_depth_at_one_stays_in_24_bits() {
-        let near = pack_node(NodeFormat::Packed, [1.0; 3], 1.0, 1.0, true);
-        let next = pack_node(NodeFormat::Packed, [1.0; 3], 1.0, 0.999, true);
+        let near = scalar(NodeFormat::Packed, [1.0; 3], 1.0, 1.0, true);
+        let next = scalar(NodeFormat::Packed, [1.0; 3], 1.0, 0.999, true);
         assert_eq!(near.key >> 8, 0);
         assert!(near.key < next.key);
-        let far = pack_node(NodeFormat::Packed, [1.0; 3], 0.0, 1.0, false);
+        let far = scalar(NodeFormat::Packed, [1.0; 3], 0.0, 1.0, false);
         assert_eq!(far.key, 0xffff_ff00);
     }
 
@@ -261,8 +319,8 @@ mod tests {
         #[test]
         fn keys_order_nodes_as_depth_does(z1 in 0.0f32..=1.0, z2 in 0.0f32..=1.0, reverse in any::<bool>()) {
             for format in [NodeFormat::F32, NodeFormat::Packed] {
-                let a = pack_node(format, [0.5; 3], 0.5, z1, reverse);
-                let b = pack_node(format, [0.5; 3], 0.5, z2, reverse);
+                let a = scalar(format, [0.5; 3], 0.5, z1, reverse);
+                let b = scalar(format, [0.5; 3], 0.5, z2, reverse);
                 let a_nearer = if reverse { z1 > z2 } else { z1 < z2 };
                 if format == NodeFormat::F32 {
                     prop_assert_eq!(a.key < b.key, a_nearer);
@@ -276,25 +334,25 @@ mod tests {
 
     #[test]
     fn negative_zero_sorts_as_zero() {
-        let a = pack_node(NodeFormat::F32, [0.0; 3], 0.5, -0.0, false);
-        let b = pack_node(NodeFormat::F32, [0.0; 3], 0.5, 1e-30, false);
+        let a = scalar(NodeFormat::F32, [0.0; 3], 0.5, -0.0, false);
+        let b = scalar(NodeFormat::F32, [0.0; 3], 0.5, 1e-30, false);
         assert!(a.key < b.key);
     }
 
     #[test]
     fn resolve_composites_front_to_back_and_averages_the_tail() {
         let f = NodeFormat::F32;
-        let near = pack_node(f, [0.5, 0.0, 0.0], 0.5, 0.2, false);
-        let mid = pack_node(f, [0.0, 0.25, 0.0], 0.25, 0.5, false);
-        let far = pack_node(f, [0.0, 0.0, 0.75], 0.75, 0.8, false);
+        let near = scalar(f, [0.5, 0.0, 0.0], 0.5, 0.2, false);
+        let mid = scalar(f, [0.0, 0.25, 0.0], 0.25, 0.5, false);
+        let far = scalar(f, [0.0, 0.0, 0.75], 0.75, 0.8, false);
         // Any arrival order gives the same result.
-        let (c, t, tail) = resolve(f, &[far, near, mid], 3, true);
-        assert_eq!(resolve(f, &[mid, far, near], 3, true), (c, t, tail));
+        let (c, t, tail) = resolve(f, false, &[far, near, mid], 3, true);
+        assert_eq!(resolve(f, false, &[mid, far, near], 3, true), (c, t, tail));
         assert!(!tail);
         assert_eq!(c, [0.5, 0.5 * 0.25, 0.5 * 0.75 * 0.75]);
-        assert_eq!(t, 0.5 * 0.75 * 0.25);
+        assert_eq!(t, [0.5 * 0.75 * 0.25; 3]);
         // Window of 1: the two far layers become one averaged layer with exact coverage.
-        let (c1, t1, tail1) = resolve(f, &[far, near, mid], 1, true);
+        let (c1, t1, tail1) = resolve(f, false, &[far, near, mid], 1, true);
         assert!(tail1);
         assert_eq!(t1, t);
         let cov = 1.0 - 0.75 * 0.25;
@@ -303,7 +361,45 @@ mod tests {
             assert!((c1[i] - expect[i]).abs() < 1e-6, "{c1:?} vs {expect:?}");
         }
         // Dropped: only the nearest remains.
-        let (c2, t2, _) = resolve(f, &[far, near, mid], 1, false);
-        assert_eq!((c2, t2), ([0.5, 0.0, 0.0], 0.5));
+        let (c2, t2, _) = resolve(f, false, &[far, near, mid], 1, false);
+        assert_eq!((c2, t2), ([0.5, 0.0, 0.0], [0.5; 3]));
+    }
+
+    proptest! {
+        /// Transmit nodes keep the opacity to binary16 (f32 nodes: half a step, 2^-12 of it)
+        /// or unorm10 (packed: 0.5 / 1023), independently per channel.
+        #[test]
+        fn transmit_nodes_keep_rgb_opacity(r in 0.0f32..=1.0, g in 0.0f32..=1.0, b in 0.0f32..=1.0) {
+            let a = [r, g, b];
+            for format in [NodeFormat::F32, NodeFormat::Packed] {
+                let n = pack_node(format, true, [0.25, 0.5, 1.0], 0.3, a, 0.4, false);
+                let f = unpack_node(format, true, n);
+                for c in 0..3 {
+                    let bound = match format {
+                        NodeFormat::F32 => a[c] * 2f32.powi(-11) + 2f32.powi(-25),
+                        NodeFormat::Packed => 0.5 / 1023.0 + 1e-7,
+                    };
+                    prop_assert!((f.opacity[c] - a[c]).abs() <= bound, "{format:?} {a:?} -> {:?}", f.opacity);
+                }
+            }
+        }
+    }
+
+    /// Two complementary filters (red passes red, cyan passes green and blue) stack to black
+    /// per channel, which no scalar α gives; the tail multiplies per channel exactly too.
+    #[test]
+    fn transmit_resolve_filters_per_channel() {
+        for format in [NodeFormat::F32, NodeFormat::Packed] {
+            let red = pack_node(format, true, [0.0; 3], 0.0, [0.0, 1.0, 1.0], 0.2, false);
+            let cyan = pack_node(format, true, [0.0; 3], 0.0, [1.0, 0.0, 0.0], 0.6, false);
+            let (c, t, _) = resolve(format, true, &[cyan, red], 2, true);
+            assert_eq!((c, t), ([0.0; 3], [0.0; 3]), "{format:?}");
+            let (_, t_red, _) = resolve(format, true, &[red], 2, true);
+            assert_eq!(t_red, [1.0, 0.0, 0.0], "{format:?}");
+            // Behind a window of 1 the cyan filter is the averaged tail: still exact coverage.
+            let (_, t_tail, tail) = resolve(format, true, &[cyan, red], 1, true);
+            assert!(tail);
+            assert_eq!(t_tail, [0.0; 3], "{format:?}");
+        }
     }
 }

@@ -26,7 +26,9 @@ fn scene(name: &str) -> Scene {
         .with_resolution(RES)
 }
 
-fn bundled_names() -> Vec<String> {
+/// The bundled scenes; those with coloured transmission only for a technique that composites
+/// it exactly on this adapter (`Technique::transmission`).
+fn bundled_names(ctx: &Context, technique: &dyn Technique) -> Vec<String> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
     let mut names: Vec<String> = std::fs::read_dir(&dir)
         .expect("scenes/ exists")
@@ -38,16 +40,19 @@ fn bundled_names() -> Vec<String> {
         .collect();
     names.sort();
     assert!(names.len() >= 10, "bundled scenes missing: {names:?}");
-    // Nodes store scalar α: on coloured transmission the list composites 1 − mean(t) by
-    // design (flagged `approximate transmission` in every report), so those scenes are not
-    // exactness cases; grey filters (gltf-glass-vase's clear glass) stay in.
-    names.retain(|name| {
-        let coloured = scene(name).has_coloured_transmission();
-        if coloured {
-            println!("{name}: coloured transmission, composited approximately by design: left out");
-        }
-        !coloured
-    });
+    // Where the technique composites 1 − mean(t) (no dual-source blending), coloured
+    // transmission is approximate by design (flagged `approximate transmission` in every
+    // report) and not an exactness case; grey filters (gltf-glass-vase) always stay in.
+    let support = technique.transmission(&ctx.caps);
+    if support != oit_gpu::TransmissionSupport::Exact {
+        names.retain(|name| {
+            let coloured = scene(name).has_coloured_transmission();
+            if coloured {
+                println!("{name}: coloured transmission, {support:?}: left out");
+            }
+            !coloured
+        });
+    }
     names
 }
 
@@ -126,7 +131,7 @@ fn an_ample_pool_equals_the_reference_on_the_gl_backend() {
 
 fn ample_pool_equals_the_reference(ctx: &Context) {
     let mut failures = Vec::new();
-    for name in bundled_names() {
+    for name in bundled_names(ctx, &LinkedList::new(LinkedListConfig::default())) {
         // GL takes clip z through [-1, 1] (naga's ADJUST_COORDINATE_SPACE, then the window
         // transform back), which rounds the standard-Z depths of depth-range's far pairs (0.1 %
         // apart at 1000 and 50000) otherwise than the convention the reference models:
@@ -298,10 +303,11 @@ fn the_gpu_resolve_matches_its_cpu_twin_for_every_node_format_and_tail_rule() {
         ] {
             let nodes: Vec<node::Node> = layers
                 .iter()
-                .map(|(c, a, z)| node::pack_node(format, *c, *a, *z, false))
+                .map(|(c, a, z)| node::pack_node(format, false, *c, *a, [*a; 3], *z, false))
                 .collect();
-            let (c, t, _) = node::resolve(format, &nodes, sort_max, tail == TailRule::Average);
-            let expect: Vec<f32> = (0..3).map(|i| c[i] + t * background[i]).collect();
+            let (c, t, _) =
+                node::resolve(format, false, &nodes, sort_max, tail == TailRule::Average);
+            let expect: Vec<f32> = (0..3).map(|i| c[i] + t[i] * background[i]).collect();
             let mut list = LinkedList::new(LinkedListConfig {
                 nodes_per_pixel: 4,
                 sort_max: sort_max as u32,
@@ -342,7 +348,7 @@ fn memory_is_every_buffer_and_a_pool_too_large_is_refused_with_the_numbers() {
         // Pool, heads, lost counts, 16 B params, 16 B counters and their 16 B readback.
         assert_eq!(
             list.memory_bytes(),
-            pixels * config.bytes_per_pixel() + 48,
+            pixels * config.bytes_per_pixel(false) + 48,
             "{format:?}"
         );
     }
@@ -354,7 +360,7 @@ fn memory_is_every_buffer_and_a_pool_too_large_is_refused_with_the_numbers() {
         width: 4096,
         height: 4096,
     };
-    let e = huge.pool(&ctx.caps, res).unwrap_err().to_string();
+    let e = huge.pool(&ctx.caps, res, false).unwrap_err().to_string();
     assert!(e.contains("node pool") && e.contains("at most"), "{e}");
 }
 
@@ -399,7 +405,7 @@ fn k8_is_exact_up_to_its_packing_on_every_bundled_scene_with_at_most_8_layers() 
     }
     let mut failures = Vec::new();
     let mut measured = 0;
-    for name in bundled_names() {
+    for name in bundled_names(&ctx, &KBuffer::new(KBufferConfig::default())) {
         let scene = scene(&name);
         let reference = oit_reference::render(&scene, &Default::default());
         if reference.stats.max_depth_complexity > 8 || name == "coplanar" {
@@ -528,7 +534,7 @@ fn the_kbuffer_matches_its_cpu_twin_and_counts_its_memory() {
         }
         assert_eq!(
             kb.memory_bytes(),
-            64 * config.bytes_per_pixel() + 48,
+            64 * config.bytes_per_pixel(false) + 48,
             "k {k}"
         );
     }
@@ -544,6 +550,7 @@ fn the_kbuffer_matches_its_cpu_twin_and_counts_its_memory() {
                 width: 4096,
                 height: 4096,
             },
+            false,
         )
         .unwrap_err()
         .to_string();

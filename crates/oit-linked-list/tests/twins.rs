@@ -1,5 +1,6 @@
 //! The node encodings of shaders/linked_list_node.wgsl against their CPU twin
-//! (`oit_linked_list::node`), on the GPU: `pack_node` in both formats and depth directions and
+//! (`oit_linked_list::node`), on the GPU: `pack_node` in both formats, scalar and rgb-opacity
+//! (`TRANSMIT`), both depth directions, and
 //! `pack_rgb9e5`, word for word, over colours from 0 through HDR to beyond the rgb9e5 range,
 //! coverages at the unorm8 rounding edges and depths across [0, 1]. cargo-mutants does not
 //! mutate WGSL: a constant changed on one side only fails here.
@@ -57,26 +58,41 @@ fn pack_node_on_the_gpu_equals_its_cpu_twin_word_for_word() {
     let inputs = inputs();
     let mut failures = Vec::new();
     for format in [NodeFormat::F32, NodeFormat::Packed] {
-        let constants = [("PACKED", f64::from(u8::from(format == NodeFormat::Packed)))];
-        for reverse_z in [false, true] {
-            // 0.5/255 and 1.5/255 sit on unorm8 rounding edges.
-            for alpha in [0.0f32, 0.5 / 255.0, 1.5 / 255.0, 0.37, 0.5, 1.0] {
-                let call = format!("pack_node(x.xyz, {alpha:?}, x.w, {reverse_z})");
-                let words = [
-                    run_words(&ctx, &format!("{call}.key"), &inputs, &constants),
-                    run_words(&ctx, &format!("{call}.c0"), &inputs, &constants),
-                    run_words(&ctx, &format!("{call}.c1"), &inputs, &constants),
-                ];
-                for (i, x) in inputs.iter().enumerate() {
-                    let cpu = node::pack_node(format, [x[0], x[1], x[2]], alpha, x[3], reverse_z);
-                    let gpu = [words[0][i], words[1][i], words[2][i]];
-                    if gpu != [cpu.key, cpu.c0, cpu.c1] {
-                        failures.push(format!(
-                            "{format:?} reverse_z {reverse_z} α {alpha} colour {:?} z {}: GPU {gpu:08x?} CPU {:08x?}",
-                            &x[..3],
+        for transmit in [false, true] {
+            let constants = [
+                ("PACKED", f64::from(u8::from(format == NodeFormat::Packed))),
+                ("TRANSMIT", f64::from(u8::from(transmit))),
+            ];
+            for reverse_z in [false, true] {
+                // 0.5/255 and 1.5/255 sit on unorm8 rounding edges, 0.5/1023 on a unorm10 one.
+                for alpha in [0.0f32, 0.5 / 255.0, 1.5 / 255.0, 0.37, 0.5, 1.0] {
+                    // Per-channel opacity (used by transmit nodes): three different values.
+                    let opacity = [alpha, 1.0 - alpha, 0.5 / 1023.0 + alpha * 0.25];
+                    let call = format!(
+                        "pack_node(x.xyz, {alpha:?}, vec3<f32>({:?}, {:?}, {:?}), x.w, {reverse_z})",
+                        opacity[0], opacity[1], opacity[2]
+                    );
+                    let words = ["key", "c0", "c1", "c2"]
+                        .map(|w| run_words(&ctx, &format!("{call}.{w}"), &inputs, &constants));
+                    for (i, x) in inputs.iter().enumerate() {
+                        let cpu = node::pack_node(
+                            format,
+                            transmit,
+                            [x[0], x[1], x[2]],
+                            alpha,
+                            opacity,
                             x[3],
-                            [cpu.key, cpu.c0, cpu.c1]
-                        ));
+                            reverse_z,
+                        );
+                        let gpu = words.each_ref().map(|w| w[i]);
+                        let cpu = [cpu.key, cpu.c0, cpu.c1, cpu.c2];
+                        if gpu != cpu {
+                            failures.push(format!(
+                                "{format:?} transmit {transmit} reverse_z {reverse_z} α {alpha} colour {:?} z {}: GPU {gpu:08x?} CPU {cpu:08x?}",
+                                &x[..3],
+                                x[3],
+                            ));
+                        }
                     }
                 }
             }

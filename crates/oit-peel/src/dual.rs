@@ -9,6 +9,11 @@
 //! need no depth test: a fragment behind the opaque surface is farther than every key of the
 //! init range. After the last pass: the back accumulator over the colour, the optional WBOIT
 //! tail over what is left, then the front accumulator over the colour.
+//!
+//! On scenes with coloured transmission the front and back accumulators are three targets
+//! each, one per colour channel (shaders/peel_transmit.wgsl): a peel pass writes seven targets,
+//! because dual-source blending, which would give a per-channel factor in one target, allows a
+//! single target per pass. The WBOIT tail stays scalar.
 
 use crate::config::{DualPeelConfig, PassCount, Tail};
 use crate::encoding::KeyParams;
@@ -42,13 +47,13 @@ pub struct DualPeel {
 
 #[derive(Debug)]
 struct Resources {
-    key: (wgpu::TextureFormat, wgpu::TextureFormat, Resolution),
+    /// Final colour format, range format, resolution, per-channel path.
+    key: (wgpu::TextureFormat, wgpu::TextureFormat, Resolution, bool),
     ledger: MemoryLedger,
     control: Control,
     params: wgpu::Buffer,
     params_scene: Option<u64>,
     range: [wgpu::TextureView; 2],
-    front: wgpu::TextureView,
     whole: Option<wgpu::TextureView>,
     /// Group 1 with `prev_range` = range[j] (and for the naive init, `whole`).
     groups: [wgpu::BindGroup; 2],
@@ -56,11 +61,37 @@ struct Resources {
     group_layout: wgpu::BindGroupLayout,
     init: [ScenePipelines; 2],
     peel: ScenePipelines,
-    composite_group: wgpu::BindGroup,
-    front_pipeline: wgpu::RenderPipeline,
-    back: Option<BackAccumulator>,
+    stacks: Stacks,
     count_pipeline: wgpu::ComputePipeline,
     count_layout: wgpu::BindGroupLayout,
+}
+
+/// Where the peel passes blend their near-shell and far-shell layers.
+#[derive(Debug)]
+enum Stacks {
+    /// Scalar alpha: the front accumulator `(Σ C·T, T)` and the back accumulator (or the
+    /// final colour).
+    Scalar {
+        front: wgpu::TextureView,
+        composite_group: wgpu::BindGroup,
+        front_pipeline: wgpu::RenderPipeline,
+        back: Option<BackAccumulator>,
+    },
+    /// Coloured transmission: one under accumulator and one over accumulator per colour
+    /// channel (shaders/peel_transmit.wgsl), so every peel pass writes 7 targets.
+    PerChannel {
+        front: Box<gpu::Channels>,
+        back: Box<gpu::Channels>,
+    },
+}
+
+/// Why dual peeling cannot composite coloured transmittance per channel on `caps`, if so.
+fn per_channel_unsupported(caps: &Caps) -> Option<&'static str> {
+    // A peel pass writes the range (up to 8 bytes), three RGBA front accumulators and three RG
+    // back accumulators (up to 16 and 8 bytes each).
+    (!gpu::attachments_fit(caps, 7, 80)).then_some(
+        "composites 1 − mean(t) as scalar α, exact for grey filters only (the per-channel peel pass needs 7 colour attachments of 80 bytes per sample, more than this adapter allows)",
+    )
 }
 
 /// Far-shell layers over-blended into an Rgba32Float target, composited onto the final colour
@@ -126,8 +157,14 @@ impl DualPeel {
         config: &DualPeelConfig,
         range_format: wgpu::TextureFormat,
         targets: &Targets,
+        per_channel: bool,
     ) -> Result<(), GpuError> {
-        let key = (targets.color_format, range_format, targets.resolution);
+        let key = (
+            targets.color_format,
+            range_format,
+            targets.resolution,
+            per_channel,
+        );
         if self.gpu.as_ref().is_some_and(|g| g.key == key) {
             return Ok(());
         }
@@ -158,9 +195,27 @@ impl DualPeel {
             .1
         });
         let accum_format = gpu::accumulator_format(ctx, targets.color_format);
-        let front = gpu::texture_2d(ctx, &mut ledger, "dual-peel front", res, accum_format).1;
-        let back_view = (accum_format != targets.color_format)
-            .then(|| gpu::texture_2d(ctx, &mut ledger, "dual-peel back", res, accum_format).1);
+        let transmit = if per_channel {
+            Some(gpu::TransmitShader::new(ctx, &control)?)
+        } else {
+            None
+        };
+        let channels = transmit.as_ref().map(|shader| {
+            [gpu::Side::Front, gpu::Side::Back].map(|side| {
+                gpu::Channels::new(
+                    ctx,
+                    &mut ledger,
+                    shader,
+                    side,
+                    accum_format,
+                    targets.color_format,
+                    res,
+                )
+            })
+        });
+        // Scalar path: far-shell layers go to a back accumulator where the final colour has
+        // another (lower) precision, else straight onto the final colour.
+        let scalar_back = accum_format != targets.color_format;
         let whole = (!self.options.depth_only_init).then(|| {
             gpu::texture_2d(ctx, &mut ledger, "dual-peel whole range", res, range_format).1
         });
@@ -203,23 +258,34 @@ impl DualPeel {
             blend: Some(blend::MAX),
             write_mask: wgpu::ColorWrites::ALL,
         });
-        let peel_targets = [
-            range_target.clone(),
-            Some(wgpu::ColorTargetState {
-                format: accum_format,
-                blend: Some(blend::PREMULTIPLIED_UNDER),
-                write_mask: wgpu::ColorWrites::ALL,
-            }),
-            Some(wgpu::ColorTargetState {
-                format: if back_view.is_some() {
-                    accum_format
-                } else {
-                    targets.color_format
-                },
-                blend: Some(PREMULTIPLIED_OVER),
-                write_mask: wgpu::ColorWrites::ALL,
-            }),
-        ];
+        let peel_targets: Vec<Option<wgpu::ColorTargetState>> = match &channels {
+            Some([front, back]) => std::iter::once(range_target.clone())
+                .chain(front.targets())
+                .chain(back.targets())
+                .collect(),
+            None => vec![
+                range_target.clone(),
+                Some(wgpu::ColorTargetState {
+                    format: accum_format,
+                    blend: Some(blend::PREMULTIPLIED_UNDER),
+                    write_mask: wgpu::ColorWrites::ALL,
+                }),
+                Some(wgpu::ColorTargetState {
+                    format: if scalar_back {
+                        accum_format
+                    } else {
+                        targets.color_format
+                    },
+                    blend: Some(PREMULTIPLIED_OVER),
+                    write_mask: wgpu::ColorWrites::ALL,
+                }),
+            ],
+        };
+        let peel_entry = if per_channel {
+            "fs_peel_transmit"
+        } else {
+            "fs_peel"
+        };
         let init_targets = if self.options.depth_only_init {
             std::slice::from_ref(&range_target)
         } else {
@@ -239,7 +305,7 @@ impl DualPeel {
                         if self.options.depth_only_init {
                             "fs_init"
                         } else {
-                            "fs_peel"
+                            peel_entry
                         },
                     )
                 },
@@ -251,60 +317,17 @@ impl DualPeel {
             &ScenePipelineDesc {
                 targets: &peel_targets,
                 constants: &constants,
-                ..ScenePipelineDesc::new("dual-peel peel", &module, "fs_peel")
+                ..ScenePipelineDesc::new("dual-peel peel", &module, peel_entry)
             },
             &layout,
         );
-        let composite_module = gpu::shader(ctx, "peel_composite.wgsl", gpu::PEEL_COMPOSITE)?;
-        let composite_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("peel composite"),
-            entries: &[bind::float_texture(0, fs)],
-        });
-        let composite_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("dual-peel front composite"),
-            layout: &composite_layout,
-            entries: &[wgpu::BindGroupEntry {
-                binding: 0,
-                resource: wgpu::BindingResource::TextureView(&front),
-            }],
-        });
-        let composite_pipeline_layout =
-            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("peel composite"),
-                bind_group_layouts: &[Some(&composite_layout), Some(&control.pass_layout)],
-                immediate_size: 0,
-            });
-        let composite = |label: &str, blend: wgpu::BlendState| {
-            oit_gpu::fullscreen_pipeline(
-                ctx,
-                &oit_gpu::FullscreenDesc {
-                    label,
-                    layout: &composite_pipeline_layout,
-                    module: &composite_module,
-                    fragment_entry: "fs_front",
-                    targets: &[Some(wgpu::ColorTargetState {
-                        format: targets.color_format,
-                        blend: Some(blend),
-                        write_mask: wgpu::ColorWrites::ALL,
-                    })],
-                    depth: None,
-                    multisample: Default::default(),
-                },
-            )
+        let stacks = match channels {
+            Some([front, back]) => Stacks::PerChannel {
+                front: Box::new(front),
+                back: Box::new(back),
+            },
+            None => scalar_stacks(ctx, &mut ledger, &control, accum_format, targets)?,
         };
-        let front_pipeline = composite("dual-peel front composite", blend::TRANSMITTANCE_OVER);
-        let back = back_view.map(|view| BackAccumulator {
-            group: device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("dual-peel back composite"),
-                layout: &composite_layout,
-                entries: &[wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: wgpu::BindingResource::TextureView(&view),
-                }],
-            }),
-            pipeline: composite("dual-peel back composite", PREMULTIPLIED_OVER),
-            view,
-        });
         let (count_layout, count_pipeline) = control.count_pipeline(
             ctx,
             "cs_count_range",
@@ -317,16 +340,13 @@ impl DualPeel {
             params,
             params_scene: None,
             range,
-            front,
             whole,
             groups,
             whole_group,
             group_layout,
             init,
             peel,
-            composite_group,
-            front_pipeline,
-            back,
+            stacks,
             count_pipeline,
             count_layout,
         });
@@ -335,10 +355,101 @@ impl DualPeel {
 }
 
 impl Resources {
-    /// Where far-shell layers are over-blended: the back accumulator, else the final colour.
-    fn back_target<'a>(&'a self, targets: &'a Targets) -> &'a wgpu::TextureView {
-        self.back.as_ref().map_or(&targets.color_view, |b| &b.view)
+    /// The attachments of a peel pass (and of the naive init) after the range: where near-shell
+    /// and far-shell layers are blended (the scalar back: its accumulator, else the final
+    /// colour).
+    fn layer_attachments<'a>(
+        &'a self,
+        targets: &'a Targets,
+    ) -> Vec<Option<wgpu::RenderPassColorAttachment<'a>>> {
+        match &self.stacks {
+            Stacks::Scalar { front, back, .. } => vec![
+                pass::color(front, wgpu::LoadOp::Load),
+                pass::color(
+                    back.as_ref().map_or(&targets.color_view, |b| &b.view),
+                    wgpu::LoadOp::Load,
+                ),
+            ],
+            Stacks::PerChannel { front, back } => front
+                .attachments()
+                .into_iter()
+                .chain(back.attachments())
+                .collect(),
+        }
     }
+}
+
+/// The scalar path's front accumulator, its back accumulator where the final colour is not
+/// `accum_format`, and their composites.
+fn scalar_stacks(
+    ctx: &Context,
+    ledger: &mut MemoryLedger,
+    control: &Control,
+    accum_format: wgpu::TextureFormat,
+    targets: &Targets,
+) -> Result<Stacks, GpuError> {
+    let device = &ctx.device;
+    let fs = wgpu::ShaderStages::FRAGMENT;
+    let res = targets.resolution;
+    let front = gpu::texture_2d(ctx, ledger, "dual-peel front", res, accum_format).1;
+    let back_view = (accum_format != targets.color_format)
+        .then(|| gpu::texture_2d(ctx, ledger, "dual-peel back", res, accum_format).1);
+    let composite_module = gpu::shader(ctx, "peel_composite.wgsl", gpu::PEEL_COMPOSITE)?;
+    let composite_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("peel composite"),
+        entries: &[bind::float_texture(0, fs)],
+    });
+    let composite_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("dual-peel front composite"),
+        layout: &composite_layout,
+        entries: &[wgpu::BindGroupEntry {
+            binding: 0,
+            resource: wgpu::BindingResource::TextureView(&front),
+        }],
+    });
+    let composite_pipeline_layout =
+        device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("peel composite"),
+            bind_group_layouts: &[Some(&composite_layout), Some(&control.pass_layout)],
+            immediate_size: 0,
+        });
+    let composite = |label: &str, blend: wgpu::BlendState| {
+        oit_gpu::fullscreen_pipeline(
+            ctx,
+            &oit_gpu::FullscreenDesc {
+                label,
+                layout: &composite_pipeline_layout,
+                module: &composite_module,
+                fragment_entry: "fs_front",
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: targets.color_format,
+                    blend: Some(blend),
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+                depth: None,
+                multisample: Default::default(),
+            },
+        )
+    };
+    let front_pipeline = composite("dual-peel front composite", blend::TRANSMITTANCE_OVER);
+    let back = back_view.map(|view| BackAccumulator {
+        group: device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("dual-peel back composite"),
+            layout: &composite_layout,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::TextureView(&view),
+            }],
+        }),
+        pipeline: composite("dual-peel back composite", PREMULTIPLIED_OVER),
+        view,
+    });
+    Ok(Stacks::Scalar {
+        front,
+        composite_group,
+        front_pipeline,
+        back,
+    })
 }
 
 /// Override constants of shaders/peel_common.wgsl for a configuration.
@@ -402,14 +513,12 @@ impl DualPeel {
             let mut pass = pass::begin(
                 &mut encoder,
                 "dual-peel peel",
-                &[
-                    pass::color(
-                        &g.range[(k % 2) as usize],
-                        wgpu::LoadOp::Clear(pass::splat(EMPTY)),
-                    ),
-                    pass::color(&g.front, wgpu::LoadOp::Load),
-                    pass::color(g.back_target(targets), wgpu::LoadOp::Load),
-                ],
+                &std::iter::once(pass::color(
+                    &g.range[(k % 2) as usize],
+                    wgpu::LoadOp::Clear(pass::splat(EMPTY)),
+                ))
+                .chain(g.layer_attachments(targets))
+                .collect::<Vec<_>>(),
                 None,
                 ts.writes(),
             );
@@ -460,7 +569,11 @@ impl Technique for DualPeel {
     ) -> Result<RenderStats, GpuError> {
         let config = self.config;
         let range_format = config.depth.resolve(&ctx.caps)?;
-        self.resources(ctx, &config, range_format, targets)?;
+        // Only scenes with coloured transmission take the per-channel path: every other scene
+        // renders with exactly the scalar pipelines.
+        let per_channel =
+            scene.scene.has_coloured_transmission() && per_channel_unsupported(&ctx.caps).is_none();
+        self.resources(ctx, &config, range_format, targets, per_channel)?;
         if self.list.as_ref().is_none_or(|l| l.scene_id != scene.id) {
             self.list_ledger.clear();
             let control = &self.gpu.as_ref().expect("resources built").control;
@@ -492,18 +605,26 @@ impl Technique for DualPeel {
         list.reset(ctx);
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         g.control.clear(&mut encoder);
-        clear_pass(
-            &mut encoder,
-            &g.front,
-            wgpu::Color {
-                r: 0.0,
-                g: 0.0,
-                b: 0.0,
-                a: 1.0,
-            },
-        );
-        if let Some(back) = &g.back {
-            clear_pass(&mut encoder, &back.view, pass::splat(0.0));
+        match &g.stacks {
+            Stacks::Scalar { front, back, .. } => {
+                clear_pass(
+                    &mut encoder,
+                    front,
+                    wgpu::Color {
+                        r: 0.0,
+                        g: 0.0,
+                        b: 0.0,
+                        a: 1.0,
+                    },
+                );
+                if let Some(back) = back {
+                    clear_pass(&mut encoder, &back.view, pass::splat(0.0));
+                }
+            }
+            Stacks::PerChannel { front, back } => {
+                front.clear(&mut encoder);
+                back.clear(&mut encoder);
+            }
         }
         if let Some(whole) = &g.whole {
             // The naive init reads "everything is still inside": (−(−3), 3).
@@ -521,11 +642,12 @@ impl Technique for DualPeel {
         let ts = timer.pass("init");
         {
             let naive = g.whole_group.as_ref();
-            let attachments = [
-                pass::color(&g.range[0], wgpu::LoadOp::Clear(pass::splat(EMPTY))),
-                pass::color(&g.front, wgpu::LoadOp::Load),
-                pass::color(g.back_target(targets), wgpu::LoadOp::Load),
-            ];
+            let attachments: Vec<_> = std::iter::once(pass::color(
+                &g.range[0],
+                wgpu::LoadOp::Clear(pass::splat(EMPTY)),
+            ))
+            .chain(g.layer_attachments(targets))
+            .collect();
             let mut pass = pass::begin(
                 &mut encoder,
                 "dual-peel init",
@@ -607,19 +729,36 @@ impl Technique for DualPeel {
         // Known from the flags without counting: nothing was left after the last pass.
         let finished = counters.as_ref().is_some_and(|c| !c.left(recorded));
 
-        if let Some(back) = &g.back {
-            // The far layers onto the opaque image, before the tail and the front layers.
-            let ts = timer.pass("back composite");
-            let mut encoder = ctx.device.create_command_encoder(&Default::default());
-            pass::fullscreen(
-                &mut encoder,
-                "dual-peel back composite",
-                &targets.color_view,
-                &back.pipeline,
-                &[(&back.group, &[]), (&g.control.pass_group, &[0])],
-                ts.writes(),
-            );
-            timer.submit(ctx, encoder)?;
+        // The far layers onto the opaque image, before the tail and the front layers.
+        match &g.stacks {
+            Stacks::Scalar {
+                back: Some(back), ..
+            } => {
+                let ts = timer.pass("back composite");
+                let mut encoder = ctx.device.create_command_encoder(&Default::default());
+                pass::fullscreen(
+                    &mut encoder,
+                    "dual-peel back composite",
+                    &targets.color_view,
+                    &back.pipeline,
+                    &[(&back.group, &[]), (&g.control.pass_group, &[0])],
+                    ts.writes(),
+                );
+                timer.submit(ctx, encoder)?;
+            }
+            Stacks::Scalar { back: None, .. } => {}
+            Stacks::PerChannel { back, .. } => {
+                let ts = timer.pass("back composite");
+                let mut encoder = ctx.device.create_command_encoder(&Default::default());
+                back.composite(
+                    &mut encoder,
+                    "dual-peel back composite per channel",
+                    &targets.color_view,
+                    &g.control,
+                    ts.writes(),
+                );
+                timer.submit(ctx, encoder)?;
+            }
         }
 
         let mut tail_recorded = false;
@@ -659,14 +798,27 @@ impl Technique for DualPeel {
                 targets.resolution,
             );
         }
-        pass::fullscreen(
-            &mut encoder,
-            "dual-peel front composite",
-            &targets.color_view,
-            &g.front_pipeline,
-            &[(&g.composite_group, &[]), (&g.control.pass_group, &[0])],
-            ts.writes(),
-        );
+        match &g.stacks {
+            Stacks::Scalar {
+                composite_group,
+                front_pipeline,
+                ..
+            } => pass::fullscreen(
+                &mut encoder,
+                "dual-peel front composite",
+                &targets.color_view,
+                front_pipeline,
+                &[(composite_group, &[]), (&g.control.pass_group, &[0])],
+                ts.writes(),
+            ),
+            Stacks::PerChannel { front, .. } => front.composite(
+                &mut encoder,
+                "dual-peel front composite per channel",
+                &targets.color_view,
+                &g.control,
+                ts.writes(),
+            ),
+        }
         timer.submit(ctx, encoder)?;
         let counters = match counters {
             Some(c) if finished => c,
@@ -706,11 +858,20 @@ impl Technique for DualPeel {
             + self.tail.as_ref().map_or(0, |t| t.accum.memory_bytes())
     }
 
-    fn transmission(&self, _caps: &Caps) -> TransmissionSupport {
-        // Scalar alpha: the shader's `Shaded.alpha` is 1 − mean(t) for transmissive fragments.
-        TransmissionSupport::Approximate(
-            "composites 1 − mean(t) as scalar α, exact for grey filters only (its layers are blended with scalar factors (1 − α); a per-channel under/over blend is not implemented)",
-        )
+    fn transmission(&self, caps: &Caps) -> TransmissionSupport {
+        if let Some(reason) = per_channel_unsupported(caps) {
+            return TransmissionSupport::Approximate(reason);
+        }
+        // Peeled layers are per channel; the WBOIT tail (oit_wboit::tail) composites scalar
+        // α. With `passes=auto` the tail runs only where the adapter's pass bound
+        // (`max_dual_passes`, 16 777 214 on lavapipe) cut peeling short, and those pixels are
+        // reported as dropped layers.
+        if self.config.tail == Tail::Wboit && self.config.passes != PassCount::Auto {
+            return TransmissionSupport::Approximate(
+                "peeled layers per channel, but the layers left after the last pass go to the WBOIT tail, which composites 1 − mean(t) as scalar α (exact for grey filters only)",
+            );
+        }
+        TransmissionSupport::Exact
     }
 }
 

@@ -13,6 +13,11 @@
 //! more (gated) pass detects them for `pixels_with_dropped_layers`. Equal-depth fragments are
 //! one layer: the first drawn wins (strict test in draw order) and the others are lost,
 //! deterministically.
+//!
+//! On scenes with coloured transmission the layer pass also writes the layer's rgb
+//! transmittance, and the under pass blends the layer into three accumulators, one per colour
+//! channel (`F_c += T_c·C_c`, `T_c *= t_c`; shaders/peel_transmit.wgsl), which go over the final
+//! colour as `dst = F + T ⊙ dst`. Every other scene renders with the scalar pipelines.
 
 use crate::config::{FrontPeelConfig, PassCount};
 use crate::encoding::KeyParams;
@@ -78,7 +83,8 @@ impl FrontPeel {
 
 #[derive(Debug)]
 struct Resources {
-    key: (wgpu::TextureFormat, Resolution, bool),
+    /// Final colour format, resolution, reverse-Z, per-channel path.
+    key: (wgpu::TextureFormat, Resolution, bool, bool),
     ledger: MemoryLedger,
     control: Control,
     params: wgpu::Buffer,
@@ -92,17 +98,44 @@ struct Resources {
     /// Bits of layer k's window depth in `prev[k % 2]` (cleared to the far plane).
     prev: [wgpu::TextureView; 2],
     layer: wgpu::TextureView,
-    accum: wgpu::TextureView,
     /// Group 1 with `prev_depth` = prev[j].
     groups: [wgpu::BindGroup; 2],
     /// `[first layer]`.
     layer_pipelines: [ScenePipelines; 2],
-    under_group: wgpu::BindGroup,
-    final_group: wgpu::BindGroup,
-    under_pipeline: wgpu::RenderPipeline,
-    front_pipeline: wgpu::RenderPipeline,
+    under: Under,
     count_pipeline: wgpu::ComputePipeline,
     count_layout: wgpu::BindGroupLayout,
+}
+
+/// How peeled layers are accumulated and put over the final colour.
+#[derive(Debug)]
+enum Under {
+    /// Scalar alpha: one accumulator `(Σ C·T, T)`, under-blended by `fs_under`.
+    Scalar {
+        accum: wgpu::TextureView,
+        under_group: wgpu::BindGroup,
+        final_group: wgpu::BindGroup,
+        under_pipeline: wgpu::RenderPipeline,
+        front_pipeline: wgpu::RenderPipeline,
+    },
+    /// Coloured transmission: the layer pass also writes the layer's rgb transmittance to
+    /// `layer_t`, and `fs_under_transmit` under-blends the layer into one accumulator per
+    /// colour channel (shaders/peel_transmit.wgsl).
+    PerChannel {
+        layer_t: wgpu::TextureView,
+        accum: Box<gpu::Channels>,
+        under_group: wgpu::BindGroup,
+        under_pipeline: wgpu::RenderPipeline,
+    },
+}
+
+/// Why front peeling cannot composite coloured transmittance per channel on `caps`, if so.
+fn per_channel_unsupported(caps: &Caps) -> Option<&'static str> {
+    // The under pass writes three RGBA accumulators of up to 16 bytes each; the layer pass
+    // three targets (layer, depth bits, transmittance).
+    (!gpu::attachments_fit(caps, 3, 48)).then_some(
+        "composites 1 − mean(t) as scalar α, exact for grey filters only (the per-channel under-blend needs 3 colour attachments of 48 bytes per sample, more than this adapter allows)",
+    )
 }
 
 /// What a layer pass does besides rendering its layer.
@@ -120,8 +153,14 @@ impl FrontPeel {
         ctx: &Context,
         targets: &Targets,
         reverse_z: bool,
+        per_channel: bool,
     ) -> Result<(), GpuError> {
-        let key = (targets.color_format, targets.resolution, reverse_z);
+        let key = (
+            targets.color_format,
+            targets.resolution,
+            reverse_z,
+            per_channel,
+        );
         if self.gpu.as_ref().is_some_and(|g| g.key == key) {
             return Ok(());
         }
@@ -169,14 +208,6 @@ impl FrontPeel {
         });
         let accum_format = gpu::accumulator_format(ctx, targets.color_format);
         let layer = gpu::texture_2d(ctx, &mut ledger, "front-peel layer", res, accum_format).1;
-        let accum = gpu::texture_2d(
-            ctx,
-            &mut ledger,
-            "front-peel accumulator",
-            res,
-            accum_format,
-        )
-        .1;
         let fs = wgpu::ShaderStages::FRAGMENT;
         let uint_texture = |binding| bind::texture(binding, fs, wgpu::TextureSampleType::Uint);
         let group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -209,18 +240,24 @@ impl FrontPeel {
             immediate_size: 0,
         });
         let module = gpu::shader(ctx, "peel_front.wgsl", gpu::PEEL_FRONT)?;
+        let unblended = |format| {
+            Some(wgpu::ColorTargetState {
+                format,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            })
+        };
+        // Layer, its depth bits, and on the per-channel path its transmittance.
         let layer_targets = [
-            Some(wgpu::ColorTargetState {
-                format: accum_format,
-                blend: None,
-                write_mask: wgpu::ColorWrites::ALL,
-            }),
-            Some(wgpu::ColorTargetState {
-                format: wgpu::TextureFormat::R32Uint,
-                blend: None,
-                write_mask: wgpu::ColorWrites::ALL,
-            }),
+            unblended(accum_format),
+            unblended(wgpu::TextureFormat::R32Uint),
+            unblended(accum_format),
         ];
+        let (layer_targets, layer_entry) = if per_channel {
+            (&layer_targets[..], "fs_layer_transmit")
+        } else {
+            (&layer_targets[..2], "fs_layer")
+        };
         let nearer = if reverse_z {
             wgpu::CompareFunction::Greater
         } else {
@@ -232,13 +269,13 @@ impl FrontPeel {
             ScenePipelines::with_layout(
                 ctx,
                 &ScenePipelineDesc {
-                    targets: &layer_targets,
+                    targets: layer_targets,
                     depth: Some(depth_test(nearer, true)),
                     constants: &[
                         ("FIRST_LAYER", flag(first)),
                         ("TEST_FIRST", flag(test_first)),
                     ],
-                    ..ScenePipelineDesc::new("front-peel layer", &module, "fs_layer")
+                    ..ScenePipelineDesc::new("front-peel layer", &module, layer_entry)
                 },
                 &layout,
             )
@@ -257,6 +294,78 @@ impl FrontPeel {
             },
             &opaque_layout,
         );
+        let under = if per_channel {
+            let shader = gpu::TransmitShader::new(ctx, &control)?;
+            let layer_t = gpu::texture_2d(
+                ctx,
+                &mut ledger,
+                "front-peel layer transmittance",
+                res,
+                accum_format,
+            )
+            .1;
+            let accum = Box::new(gpu::Channels::new(
+                ctx,
+                &mut ledger,
+                &shader,
+                gpu::Side::Front,
+                accum_format,
+                targets.color_format,
+                res,
+            ));
+            Under::PerChannel {
+                under_group: shader.group(ctx, [&layer, &layer_t, &layer_t]),
+                under_pipeline: shader.pipeline(ctx, "fs_under_transmit", &accum.targets()),
+                layer_t,
+                accum,
+            }
+        } else {
+            Self::scalar_under(ctx, &mut ledger, &control, &layer, accum_format, targets)?
+        };
+        let (count_layout, count_pipeline) = control.count_pipeline(
+            ctx,
+            "cs_count_layer",
+            bind::float_texture(3, wgpu::ShaderStages::COMPUTE),
+        );
+        self.gpu = Some(Resources {
+            key,
+            ledger,
+            control,
+            params,
+            params_scene: None,
+            depth,
+            opaque_bits,
+            opaque_pipelines,
+            prev,
+            layer,
+            groups,
+            layer_pipelines,
+            under,
+            count_pipeline,
+            count_layout,
+        });
+        Ok(())
+    }
+
+    /// The scalar-alpha accumulator of `layer` and its two full-screen passes.
+    fn scalar_under(
+        ctx: &Context,
+        ledger: &mut MemoryLedger,
+        control: &Control,
+        layer: &wgpu::TextureView,
+        accum_format: wgpu::TextureFormat,
+        targets: &Targets,
+    ) -> Result<Under, GpuError> {
+        let device = &ctx.device;
+        let fs = wgpu::ShaderStages::FRAGMENT;
+        let accum = gpu::texture_2d(
+            ctx,
+            ledger,
+            "front-peel accumulator",
+            targets.resolution,
+            accum_format,
+        )
+        .1;
         let composite_module = gpu::shader(ctx, "peel_composite.wgsl", gpu::PEEL_COMPOSITE)?;
         let composite_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("peel composite"),
@@ -272,7 +381,7 @@ impl FrontPeel {
                 }],
             })
         };
-        let under_group = composite_group(&layer);
+        let under_group = composite_group(layer);
         let final_group = composite_group(&accum);
         let composite_pipeline_layout =
             device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -298,36 +407,13 @@ impl FrontPeel {
                 },
             )
         };
-        let under_pipeline = fullscreen("fs_under", accum_format, blend::PREMULTIPLIED_UNDER);
-        let front_pipeline =
-            fullscreen("fs_front", targets.color_format, blend::TRANSMITTANCE_OVER);
-        let (count_layout, count_pipeline) = control.count_pipeline(
-            ctx,
-            "cs_count_layer",
-            bind::float_texture(3, wgpu::ShaderStages::COMPUTE),
-        );
-        self.gpu = Some(Resources {
-            key,
-            ledger,
-            control,
-            params,
-            params_scene: None,
-            depth,
-            opaque_bits,
-            opaque_pipelines,
-            prev,
-            layer,
+        Ok(Under::Scalar {
+            under_pipeline: fullscreen("fs_under", accum_format, blend::PREMULTIPLIED_UNDER),
+            front_pipeline: fullscreen("fs_front", targets.color_format, blend::TRANSMITTANCE_OVER),
             accum,
-            groups,
-            layer_pipelines,
             under_group,
             final_group,
-            under_pipeline,
-            front_pipeline,
-            count_pipeline,
-            count_layout,
-        });
-        Ok(())
+        })
     }
 
     fn control(&self) -> &Control {
@@ -364,41 +450,51 @@ impl FrontPeel {
         // The far plane's f32 bits (exact in f64): no later fragment is "behind" it.
         let far = f64::from(scene.scene.camera.far_depth().to_bits());
         {
+            let layer_t = match &g.under {
+                // Read only where the layer exists, i.e. where this pass wrote it.
+                Under::PerChannel { layer_t, .. } => {
+                    pass::color(layer_t, wgpu::LoadOp::Clear(pass::splat(1.0)))
+                }
+                Under::Scalar { .. } => None,
+            };
+            let attachments = [
+                Some(wgpu::RenderPassColorAttachment {
+                    view: &g.layer,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        // Alpha −1 marks "no fragment" for the composite and the count.
+                        load: wgpu::LoadOp::Clear(wgpu::Color {
+                            r: 0.0,
+                            g: 0.0,
+                            b: 0.0,
+                            a: -1.0,
+                        }),
+                        store: wgpu::StoreOp::Store,
+                    },
+                }),
+                Some(wgpu::RenderPassColorAttachment {
+                    view: &g.prev[(k % 2) as usize],
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        // Far: no later fragment is "behind" a pixel without a layer.
+                        load: wgpu::LoadOp::Clear(wgpu::Color {
+                            r: far,
+                            g: far,
+                            b: far,
+                            a: far,
+                        }),
+                        store: wgpu::StoreOp::Store,
+                    },
+                }),
+                layer_t,
+            ];
+            let used = if attachments[2].is_some() { 3 } else { 2 };
             let mut pass = pass::begin(
                 &mut encoder,
                 "front-peel layer",
-                &[
-                    Some(wgpu::RenderPassColorAttachment {
-                        view: &g.layer,
-                        depth_slice: None,
-                        resolve_target: None,
-                        ops: wgpu::Operations {
-                            // Alpha −1 marks "no fragment" for the composite and the count.
-                            load: wgpu::LoadOp::Clear(wgpu::Color {
-                                r: 0.0,
-                                g: 0.0,
-                                b: 0.0,
-                                a: -1.0,
-                            }),
-                            store: wgpu::StoreOp::Store,
-                        },
-                    }),
-                    Some(wgpu::RenderPassColorAttachment {
-                        view: &g.prev[(k % 2) as usize],
-                        depth_slice: None,
-                        resolve_target: None,
-                        ops: wgpu::Operations {
-                            // Far: no later fragment is "behind" a pixel without a layer.
-                            load: wgpu::LoadOp::Clear(wgpu::Color {
-                                r: far,
-                                g: far,
-                                b: far,
-                                a: far,
-                            }),
-                            store: wgpu::StoreOp::Store,
-                        },
-                    }),
-                ],
+                &attachments[..used],
                 pass::depth(
                     &g.depth,
                     wgpu::LoadOp::Clear(scene.scene.camera.far_depth()),
@@ -417,17 +513,40 @@ impl FrontPeel {
         }
         if role == PassRole::Peel {
             let ts = timer.pass(&format!("under {}", k + 1));
-            pass::fullscreen(
-                &mut encoder,
-                "front-peel under",
-                &g.accum,
-                &g.under_pipeline,
-                &[
-                    (&g.under_group, &[]),
-                    (&g.control.pass_group, &[g.control.offset(k)]),
-                ],
-                ts.writes(),
-            );
+            let offset = g.control.offset(k);
+            match &g.under {
+                Under::Scalar {
+                    accum,
+                    under_group,
+                    under_pipeline,
+                    ..
+                } => pass::fullscreen(
+                    &mut encoder,
+                    "front-peel under",
+                    accum,
+                    under_pipeline,
+                    &[(under_group, &[]), (&g.control.pass_group, &[offset])],
+                    ts.writes(),
+                ),
+                Under::PerChannel {
+                    accum,
+                    under_group,
+                    under_pipeline,
+                    ..
+                } => {
+                    let mut pass = pass::begin(
+                        &mut encoder,
+                        "front-peel under per channel",
+                        &accum.attachments(),
+                        None,
+                        ts.writes(),
+                    );
+                    pass.set_pipeline(under_pipeline);
+                    pass.set_bind_group(0, under_group, &[]);
+                    pass.set_bind_group(1, &g.control.pass_group, &[offset]);
+                    pass.draw(0..3, 0..1);
+                }
+            }
             if gated {
                 g.control.gate(&mut encoder, list, k);
             }
@@ -464,7 +583,11 @@ impl Technique for FrontPeel {
         timer: &mut GpuTimer,
     ) -> Result<RenderStats, GpuError> {
         let config = self.config;
-        self.resources(ctx, targets, scene.scene.camera.reverse_z)?;
+        // Only scenes with coloured transmission take the per-channel path: every other scene
+        // renders with exactly the scalar pipelines.
+        let per_channel =
+            scene.scene.has_coloured_transmission() && per_channel_unsupported(&ctx.caps).is_none();
+        self.resources(ctx, targets, scene.scene.camera.reverse_z, per_channel)?;
         if self.list.as_ref().is_none_or(|l| l.scene_id != scene.id) {
             self.list_ledger.clear();
             let control = &self.gpu.as_ref().expect("resources built").control;
@@ -488,21 +611,26 @@ impl Technique for FrontPeel {
         list.reset(ctx);
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         g.control.clear(&mut encoder);
-        let _ = pass::begin(
-            &mut encoder,
-            "front-peel clear",
-            &[pass::color(
-                &g.accum,
-                wgpu::LoadOp::Clear(wgpu::Color {
-                    r: 0.0,
-                    g: 0.0,
-                    b: 0.0,
-                    a: 1.0,
-                }),
-            )],
-            None,
-            None,
-        );
+        match &g.under {
+            Under::Scalar { accum, .. } => {
+                let _ = pass::begin(
+                    &mut encoder,
+                    "front-peel clear",
+                    &[pass::color(
+                        accum,
+                        wgpu::LoadOp::Clear(wgpu::Color {
+                            r: 0.0,
+                            g: 0.0,
+                            b: 0.0,
+                            a: 1.0,
+                        }),
+                    )],
+                    None,
+                    None,
+                );
+            }
+            Under::PerChannel { accum, .. } => accum.clear(&mut encoder),
+        }
         let far_bits = f64::from(scene.scene.camera.far_depth().to_bits());
         let ts = timer.pass("opaque depth bits");
         {
@@ -596,14 +724,27 @@ impl Technique for FrontPeel {
                 targets.resolution,
             );
         }
-        pass::fullscreen(
-            &mut encoder,
-            "front-peel composite",
-            &targets.color_view,
-            &g.front_pipeline,
-            &[(&g.final_group, &[]), (&g.control.pass_group, &[0])],
-            ts.writes(),
-        );
+        match &g.under {
+            Under::Scalar {
+                final_group,
+                front_pipeline,
+                ..
+            } => pass::fullscreen(
+                &mut encoder,
+                "front-peel composite",
+                &targets.color_view,
+                front_pipeline,
+                &[(final_group, &[]), (&g.control.pass_group, &[0])],
+                ts.writes(),
+            ),
+            Under::PerChannel { accum, .. } => accum.composite(
+                &mut encoder,
+                "front-peel composite per channel",
+                &targets.color_view,
+                &g.control,
+                ts.writes(),
+            ),
+        }
         timer.submit(ctx, encoder)?;
         let counters = match counters {
             Some(c) if finished => c,
@@ -642,10 +783,11 @@ impl Technique for FrontPeel {
             + self.list_ledger.total()
     }
 
-    fn transmission(&self, _caps: &Caps) -> TransmissionSupport {
-        // Scalar alpha: the shader's `Shaded.alpha` is 1 − mean(t) for transmissive fragments.
-        TransmissionSupport::Approximate(
-            "composites 1 − mean(t) as scalar α, exact for grey filters only (its layers are under-blended with a scalar transmittance; a per-channel under-blend is not implemented)",
-        )
+    fn transmission(&self, caps: &Caps) -> TransmissionSupport {
+        // Per channel: one under accumulator per colour channel (`Under::PerChannel`).
+        match per_channel_unsupported(caps) {
+            None => TransmissionSupport::Exact,
+            Some(reason) => TransmissionSupport::Approximate(reason),
+        }
     }
 }

@@ -60,6 +60,7 @@ pub(crate) const PEEL_FRONT: &str = include_str!("../../../shaders/peel_front.wg
 pub(crate) const PEEL_COMPOSITE: &str = include_str!("../../../shaders/peel_composite.wgsl");
 pub(crate) const PEEL_GATE: &str = include_str!("../../../shaders/peel_gate.wgsl");
 pub(crate) const PEEL_TAIL: &str = include_str!("../../../shaders/peel_tail.wgsl");
+pub(crate) const PEEL_TRANSMIT: &str = include_str!("../../../shaders/peel_transmit.wgsl");
 
 /// How `auto` (and a fixed count larger than needed) stops.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -148,6 +149,282 @@ pub(crate) fn accumulator_format(
         wgpu::TextureFormat::Rgba32Float
     } else {
         final_format
+    }
+}
+
+/// Under-blend into the front accumulator of one colour channel, `(F, 0, 0, T)` cleared to
+/// `(0, 0, 0, 1)`, from a layer `(C, 0, 0, t)` of that channel: colour `dst + src · dst.a`,
+/// alpha `dst.a · t` (shaders/peel_transmit.wgsl).
+pub(crate) const CHANNEL_UNDER: wgpu::BlendState = wgpu::BlendState {
+    color: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::DstAlpha,
+        dst_factor: wgpu::BlendFactor::One,
+        operation: wgpu::BlendOperation::Add,
+    },
+    alpha: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::Zero,
+        dst_factor: wgpu::BlendFactor::SrcAlpha,
+        operation: wgpu::BlendOperation::Add,
+    },
+};
+
+/// Over-blend into the back accumulator of one colour channel, an RG target `(B, Tb)` cleared to
+/// `(0, 1)`, from a layer `(C, 0, 0, t)`: `dst = src + t · dst`, i.e. `B = C + t·B`,
+/// `Tb = t·Tb` (the output's alpha is a blend input even though the target has none).
+pub(crate) const CHANNEL_OVER: wgpu::BlendState = wgpu::BlendState {
+    color: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::One,
+        dst_factor: wgpu::BlendFactor::SrcAlpha,
+        operation: wgpu::BlendOperation::Add,
+    },
+    alpha: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::One,
+        dst_factor: wgpu::BlendFactor::SrcAlpha,
+        operation: wgpu::BlendOperation::Add,
+    },
+};
+
+/// Keeps the target's alpha (the composites write colour only).
+const KEEP_ALPHA: wgpu::BlendComponent = wgpu::BlendComponent {
+    src_factor: wgpu::BlendFactor::Zero,
+    dst_factor: wgpu::BlendFactor::One,
+    operation: wgpu::BlendOperation::Add,
+};
+
+/// `dst.rgb *= src.rgb`: the per-channel transmittance of a stack over what is behind it.
+const MULTIPLY_RGB: wgpu::BlendState = wgpu::BlendState {
+    color: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::Zero,
+        dst_factor: wgpu::BlendFactor::Src,
+        operation: wgpu::BlendOperation::Add,
+    },
+    alpha: KEEP_ALPHA,
+};
+
+/// `dst.rgb += src.rgb`: the stack's radiance after [`MULTIPLY_RGB`].
+const ADD_RGB: wgpu::BlendState = wgpu::BlendState {
+    color: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::One,
+        dst_factor: wgpu::BlendFactor::One,
+        operation: wgpu::BlendOperation::Add,
+    },
+    alpha: KEEP_ALPHA,
+};
+
+/// Whether a pass writing `targets` per-channel accumulators of `bytes` (at most) fits the
+/// adapter's colour attachments.
+pub(crate) fn attachments_fit(caps: &Caps, targets: u32, bytes: u32) -> bool {
+    caps.max_color_attachments >= targets && caps.max_color_attachment_bytes_per_sample >= bytes
+}
+
+/// Which stack a set of [`Channels`] accumulates, and so its layout.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Side {
+    /// Layers nearest first (under): RGBA `(F, 0, 0, T)` per channel.
+    Front,
+    /// Layers farthest first (over): RG `(B, Tb)` per channel.
+    Back,
+}
+
+/// The shader module and layouts of the per-channel full-screen passes
+/// (shaders/peel_transmit.wgsl).
+#[derive(Debug)]
+pub(crate) struct TransmitShader {
+    pub module: wgpu::ShaderModule,
+    /// Group 0: three float textures.
+    pub layout: wgpu::BindGroupLayout,
+    /// Group 0, then the pass group.
+    pub pipeline_layout: wgpu::PipelineLayout,
+}
+
+impl TransmitShader {
+    pub fn new(ctx: &Context, control: &Control) -> Result<Self, GpuError> {
+        let fs = wgpu::ShaderStages::FRAGMENT;
+        let layout = ctx
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("peel per-channel"),
+                entries: &[
+                    bind::float_texture(0, fs),
+                    bind::float_texture(1, fs),
+                    bind::float_texture(2, fs),
+                ],
+            });
+        let pipeline_layout = ctx
+            .device
+            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("peel per-channel"),
+                bind_group_layouts: &[Some(&layout), Some(&control.pass_layout)],
+                immediate_size: 0,
+            });
+        Ok(TransmitShader {
+            module: shader(ctx, "peel_transmit.wgsl", PEEL_TRANSMIT)?,
+            layout,
+            pipeline_layout,
+        })
+    }
+
+    /// Group 0 with `views` at bindings 0, 1, 2.
+    pub fn group(&self, ctx: &Context, views: [&wgpu::TextureView; 3]) -> wgpu::BindGroup {
+        let entries = [0, 1, 2].map(|i| wgpu::BindGroupEntry {
+            binding: i,
+            resource: wgpu::BindingResource::TextureView(views[i as usize]),
+        });
+        ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("peel per-channel"),
+            layout: &self.layout,
+            entries: &entries,
+        })
+    }
+
+    /// A full-screen pipeline of `entry` writing `targets`.
+    pub fn pipeline(
+        &self,
+        ctx: &Context,
+        entry: &str,
+        targets: &[Option<wgpu::ColorTargetState>],
+    ) -> wgpu::RenderPipeline {
+        oit_gpu::fullscreen_pipeline(
+            ctx,
+            &oit_gpu::FullscreenDesc {
+                label: entry,
+                layout: &self.pipeline_layout,
+                module: &self.module,
+                fragment_entry: entry,
+                targets,
+                depth: None,
+                multisample: Default::default(),
+            },
+        )
+    }
+}
+
+/// Three accumulators, one per colour channel, of a stack of layers with coloured
+/// transmittance (shaders/peel_transmit.wgsl), and the two draws that put the stack over the
+/// final colour: `dst = F + T ⊙ dst` per channel. One target per channel because a blend unit
+/// multiplies a channel only by values of its own target, and dual-source blending (which
+/// would give a per-channel factor) allows only one target per pass.
+#[derive(Debug)]
+pub(crate) struct Channels {
+    pub side: Side,
+    pub format: wgpu::TextureFormat,
+    pub views: [wgpu::TextureView; 3],
+    group: wgpu::BindGroup,
+    multiply: wgpu::RenderPipeline,
+    add: wgpu::RenderPipeline,
+}
+
+impl Channels {
+    /// `accum_format` is the RGBA accumulator format ([`accumulator_format`]); a back stack
+    /// uses its two-channel counterpart.
+    pub fn new(
+        ctx: &Context,
+        ledger: &mut MemoryLedger,
+        shader: &TransmitShader,
+        side: Side,
+        accum_format: wgpu::TextureFormat,
+        final_format: wgpu::TextureFormat,
+        resolution: oit_scene::Resolution,
+    ) -> Self {
+        let format = match (side, accum_format) {
+            (Side::Front, f) => f,
+            (Side::Back, wgpu::TextureFormat::Rgba32Float) => wgpu::TextureFormat::Rg32Float,
+            (Side::Back, _) => wgpu::TextureFormat::Rg16Float,
+        };
+        let views = ["r", "g", "b"].map(|c| {
+            texture_2d(
+                ctx,
+                ledger,
+                &format!("peel {side:?} accumulator {c}"),
+                resolution,
+                format,
+            )
+            .1
+        });
+        let group = shader.group(ctx, [&views[0], &views[1], &views[2]]);
+        let target = |blend| {
+            [Some(wgpu::ColorTargetState {
+                format: final_format,
+                blend: Some(blend),
+                write_mask: wgpu::ColorWrites::ALL,
+            })]
+        };
+        let transmittance = match side {
+            Side::Front => "fs_front_transmittance",
+            Side::Back => "fs_back_transmittance",
+        };
+        Channels {
+            side,
+            format,
+            multiply: shader.pipeline(ctx, transmittance, &target(MULTIPLY_RGB)),
+            add: shader.pipeline(ctx, "fs_radiance", &target(ADD_RGB)),
+            views,
+            group,
+        }
+    }
+
+    /// The three targets a pass blends layers into (under for the front, over for the back).
+    pub fn targets(&self) -> [Option<wgpu::ColorTargetState>; 3] {
+        let blend = match self.side {
+            Side::Front => CHANNEL_UNDER,
+            Side::Back => CHANNEL_OVER,
+        };
+        [0, 1, 2].map(|_| {
+            Some(wgpu::ColorTargetState {
+                format: self.format,
+                blend: Some(blend),
+                write_mask: wgpu::ColorWrites::ALL,
+            })
+        })
+    }
+
+    /// The attachments of a pass that blends into them (kept: `LoadOp::Load`).
+    pub fn attachments(&self) -> [Option<wgpu::RenderPassColorAttachment<'_>>; 3] {
+        [0, 1, 2].map(|i| oit_gpu::pass::color(&self.views[i], wgpu::LoadOp::Load))
+    }
+
+    /// Clears every channel to the empty stack: F = 0, T = 1.
+    pub fn clear(&self, encoder: &mut wgpu::CommandEncoder) {
+        let empty = wgpu::Color {
+            r: 0.0,
+            g: if self.side == Side::Back { 1.0 } else { 0.0 },
+            b: 0.0,
+            a: 1.0,
+        };
+        for view in &self.views {
+            let _ = oit_gpu::pass::begin(
+                encoder,
+                "peel per-channel clear",
+                &[oit_gpu::pass::color(view, wgpu::LoadOp::Clear(empty))],
+                None,
+                None,
+            );
+        }
+    }
+
+    /// The stack over `target`: `dst *= T`, then `dst += F`, per channel (two draws of one
+    /// pass); the target's alpha is kept.
+    pub fn composite(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        label: &str,
+        target: &wgpu::TextureView,
+        control: &Control,
+        timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
+    ) {
+        let mut pass = oit_gpu::pass::begin(
+            encoder,
+            label,
+            &[oit_gpu::pass::color(target, wgpu::LoadOp::Load)],
+            None,
+            timestamps,
+        );
+        pass.set_bind_group(0, &self.group, &[]);
+        pass.set_bind_group(1, &control.pass_group, &[0]);
+        pass.set_pipeline(&self.multiply);
+        pass.draw(0..3, 0..1);
+        pass.set_pipeline(&self.add);
+        pass.draw(0..3, 0..1);
     }
 }
 

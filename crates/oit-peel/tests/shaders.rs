@@ -22,7 +22,8 @@ fn peel_shaders_validate() {
             "peel_dual.wgsl",
             "peel_front.wgsl",
             "peel_gate.wgsl",
-            "peel_tail.wgsl"
+            "peel_tail.wgsl",
+            "peel_transmit.wgsl"
         ]
     );
     for name in &names {
