@@ -41,6 +41,17 @@ pub fn gl_context_or_skip(test_name: &str) -> Option<Context> {
     }
 }
 
+/// Whether `ctx` runs on Mesa's llvmpipe (lavapipe, or llvmpipe through GL), the adapter the
+/// suite's tolerances are measured on: its output repeats bit for bit, so a twin test may bound
+/// it near the measured value and keep the wider, spec-derived margin for other adapters
+/// (their FMA contraction and transcendental approximations differ).
+pub fn is_llvmpipe(ctx: &Context) -> bool {
+    ctx.wgpu_adapter_info()
+        .name
+        .to_lowercase()
+        .contains("llvmpipe")
+}
+
 /// Evaluates a WGSL expression on the GPU once per input: `expr` sees `x: vec4<f32>` (one
 /// input) and yields an `f32`. It is appended as a compute kernel to `source` (a composed
 /// shader, includes resolved), so it calls that shader's own functions — the formulas a CPU
