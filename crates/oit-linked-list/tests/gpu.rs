@@ -2,7 +2,7 @@
 //! CPU twin (`oit_linked_list::node`). Skips with a message when there is no adapter (fails in
 //! CI with OIT_REQUIRE_GPU=1).
 
-use oit_gpu::testing::{context_or_skip, gl_context_or_skip};
+use oit_gpu::testing::{context_or_skip, gl_context_or_skip, is_llvmpipe};
 use oit_gpu::{ColorFormat, Context, GpuScene, GpuTimer, RenderStats, Targets, Technique};
 use oit_linked_list::node::{self, NodeFormat};
 use oit_linked_list::{LinkedList, LinkedListConfig, TailRule};
@@ -14,10 +14,19 @@ const RES: Resolution = Resolution {
     height: 128,
 };
 
-/// The Rgba16Float target's rounding (the Done-when bound of the issue), relative above 1: a
-/// binary16 target (and the f32 node's binary16 colour) rounds HDR values to 2^-11 of
-/// themselves, e.g. 0.03 at 64 (hdr-emissive reaches 1.3e-1 absolute at its brightest pixel).
-const MAX_HALF: f64 = 4e-3;
+/// The Rgba16Float target's rounding, relative above 1: a binary16 target (and the f32 node's
+/// binary16 colour) rounds values to 2^-11 of themselves each, e.g. 0.03 at 64. Measured on
+/// lavapipe at 128² (Vulkan and GL alike): worst 9.7e-4 on the bundled scenes
+/// (gltf-alpha-blend-modes; hdr-emissive 8.8e-4), 8.4e-4 on the random ones; the bound is
+/// 2.1× that (the issue's Done-when bound was 4e-3).
+const MAX_HALF: f64 = 2e-3;
+
+/// Bound on |GPU − CPU twin| relative to max(1, |value|) for a resolve whose every value stays
+/// in f32 (Rgba32Float target): measured ≤ 6.2e-8 on lavapipe (one ulp), bounded there at 4×;
+/// other adapters may contract the compositing chain into FMAs otherwise, so 1e-5 there.
+fn f32_twin_tolerance(ctx: &Context) -> f32 {
+    if is_llvmpipe(ctx) { 2.5e-7 } else { 1e-5 }
+}
 
 fn scene(name: &str) -> Scene {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../../scenes/{name}.json"));
@@ -317,7 +326,7 @@ fn the_gpu_resolve_matches_its_cpu_twin_for_every_node_format_and_tail_rule() {
             let (image, _) = render(&ctx, &scene, &mut list, ColorFormat::Rgba32Float);
             let got = image.pixels[image.pixels.len() / 2];
             for i in 0..3 {
-                let tol = 1e-5 * expect[i].abs().max(1.0);
+                let tol = f32_twin_tolerance(&ctx) * expect[i].abs().max(1.0);
                 if (got[i] - expect[i]).abs() > tol {
                     failures.push(format!(
                         "{format:?} sort-max {sort_max} {tail:?}: channel {i} GPU {} CPU twin {}",
@@ -523,8 +532,13 @@ fn the_kbuffer_matches_its_cpu_twin_and_counts_its_memory() {
         let got = image.pixels[image.pixels.len() / 2];
         for i in 0..3 {
             let expect = c[i] + t * background[i];
-            // The tail sums pass through Rgba16Float targets: 2^-11 relative.
-            let tol = if k < 3 { 1e-3 } else { 1e-5 } * expect.abs().max(1.0);
+            // The tail sums pass through Rgba16Float targets: 2^-11 relative per rounding,
+            // measured 4.0e-4 on lavapipe (k = 1, average); 1e-3 is 2.5× that.
+            let tol = if k < 3 {
+                1e-3
+            } else {
+                f32_twin_tolerance(&ctx)
+            } * expect.abs().max(1.0);
             if (got[i] - expect).abs() > tol {
                 failures.push(format!(
                     "k {k} {tail:?}: channel {i} GPU {} CPU twin {expect}",

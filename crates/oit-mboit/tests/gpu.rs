@@ -2,7 +2,7 @@
 //! hand-built stack, against the exact CPU reference on bundled scenes, and memory. Skips
 //! with a message when there is no adapter (fails in CI with OIT_REQUIRE_GPU=1).
 
-use oit_gpu::testing::context_or_skip;
+use oit_gpu::testing::{context_or_skip, is_llvmpipe};
 use oit_gpu::{
     ColorFormat, Context, GpuScene, GpuTimer, Targets, Technique, read_color, render_frame,
 };
@@ -119,11 +119,12 @@ fn predict(config: Config, scene: &Scene, layers: &[(f32, f32, [f32; 3])]) -> [f
     std::array::from_fn(|c| acc[c] / acc[3] * (1.0 - t) + bg[c] * t)
 }
 
-/// The GPU pixel equals the CPU twin's prediction for every configuration the adapter runs:
-/// within 2e-4 for f32 storage (measured on lavapipe ≤ 2.3e-5, trig3; f32 transcendental
-/// functions and the window-depth round trip differ by a few ulps) and 2e-3 for f16 (measured
-/// ≤ 1.3e-3, trig3: the blender rounds its sums differently from `round_f16`, and the
-/// reconstruction amplifies moment rounding). Tolerances are on linear RGB in [0, 1]; the
+/// The GPU pixel equals the CPU twin's prediction for every configuration the adapter runs.
+/// On lavapipe, which repeats bit for bit, within 2× its measured difference (`TWIN_MEASURED`)
+/// plus two f32 ulps at 1; elsewhere within 2e-4 for f32 storage (f32 transcendental functions
+/// and the window-depth round trip differ by a few ulps, which trig3's reconstruction
+/// amplifies) and 2e-3 for f16 (the blender rounds its sums differently from `round_f16`, and
+/// the reconstruction amplifies moment rounding). Tolerances are on linear RGB in [0, 1]; the
 /// exact composite differs from both by ≈ 6e-3 (the reconstruction's own error).
 #[test]
 fn gpu_matches_the_cpu_twin_on_a_three_layer_stack() {
@@ -160,14 +161,41 @@ fn gpu_matches_the_cpu_twin_on_a_three_layer_stack() {
             config.spec(),
             image.pixels[0]
         );
-        let tol = match config.storage {
-            Storage::F32 => 2e-4,
-            Storage::F16 => 2e-3,
+        let spec = config.spec().to_string();
+        let measured = TWIN_MEASURED
+            .iter()
+            .find(|m| m.0 == spec)
+            .unwrap_or_else(|| panic!("{spec}: no measured twin difference"))
+            .1;
+        let tol = if is_llvmpipe(&ctx) {
+            2.0 * measured + 2.4e-7
+        } else {
+            match config.storage {
+                Storage::F32 => 2e-4,
+                Storage::F16 => 2e-3,
+            }
         };
         assert!(worst <= tol, "{}: {worst} > {tol}", config.spec());
     }
     assert!(ran >= 6, "f16 storage must run everywhere");
 }
+
+/// |GPU − twin| of each configuration on the three-layer stack, measured on lavapipe (llvmpipe,
+/// Mesa): the f32 ones are a few ulps except trig3, whose reconstruction amplifies them.
+const TWIN_MEASURED: &[(&str, f32)] = &[
+    ("mboit:moments=power4,storage=f32", 0.0),
+    ("mboit:moments=power6,storage=f32", 4.17e-7),
+    ("mboit:moments=power8,storage=f32", 1.19e-7),
+    ("mboit:moments=trig2,storage=f32", 1.19e-7),
+    ("mboit:moments=trig3,storage=f32", 2.31e-5),
+    ("mboit:moments=trig4,storage=f32", 5.96e-8),
+    ("mboit:moments=power4,storage=f16", 1.63e-4),
+    ("mboit:moments=power6,storage=f16", 3.64e-4),
+    ("mboit:moments=power8,storage=f16", 6.26e-4),
+    ("mboit:moments=trig2,storage=f16", 4.38e-4),
+    ("mboit:moments=trig3,storage=f16", 1.27e-3),
+    ("mboit:moments=trig4,storage=f16", 6.89e-4),
+];
 
 /// memory_bytes is the uniform block plus bytes_per_pixel × pixels, exactly.
 #[test]
@@ -203,8 +231,9 @@ fn errors(image: &LinearImage, reference: &LinearImage) -> (f64, f64, f64) {
 
 /// Against the exact reference on four bundled scenes at 128×128: every configuration's
 /// RMSE, max and mean FLIP are printed (the crate README's table); each is bounded by its
-/// measured value on lavapipe plus a margin (RMSE and FLIP × 1.25 + 1e-3, max × 1.1 + 1e-2),
-/// so a regression in the reconstruction fails. `wboit:weight=eq10` is measured alongside, and
+/// measured value on lavapipe plus a margin (RMSE and FLIP × 1.25 + 2.5e-4, max × 1.1 + 1e-2;
+/// the floors cover the table's 4-decimal rounding, so the smallest values, FLIP 2e-4 on
+/// intersecting-quads, get 2.5×), so a regression in the reconstruction fails. `wboit:weight=eq10` is measured alongside, and
 /// power6 (f32) must beat or tie it in mean FLIP where it did when measured.
 #[test]
 fn against_the_reference_on_bundled_scenes() {
@@ -239,9 +268,9 @@ fn against_the_reference_on_bundled_scenes() {
             if let Some(&(_, _, m_rmse, m_max, m_flip)) =
                 measured.iter().find(|m| m.0 == name && m.1 == spec)
             {
-                if rmse > m_rmse * 1.25 + 1e-3
+                if rmse > m_rmse * 1.25 + 2.5e-4
                     || max > m_max * 1.1 + 1e-2
-                    || flip > m_flip * 1.25 + 1e-3
+                    || flip > m_flip * 1.25 + 2.5e-4
                 {
                     failures.push(format!(
                         "{name} {spec}: rmse {rmse} max {max} flip {flip} vs measured {m_rmse} {m_max} {m_flip}"

@@ -28,7 +28,7 @@ mod stochastic;
 
 pub use a2c::AlphaToCoverage;
 pub use config::{A2cConfig, MAX_SPP, Pattern, Seed, StochasticConfig};
-pub use stochastic::Stochastic;
+pub use stochastic::{DITHER_WGSL, Stochastic, dither_words};
 
 use oit_gpu::TechniqueInfo;
 

@@ -5,6 +5,7 @@
 //! pixel when `α > threshold`. Ranks `r` in `0..side²` become thresholds `(r + ½) / side²`, so
 //! exactly `⌈α·side² − ½⌉` of every tile's pixels pass: the pattern is unbiased per tile.
 
+use crate::config::{Pattern, Seed};
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
@@ -218,6 +219,56 @@ pub fn frame_shift(k: u32, side: u32) -> ([u32; 2], f32) {
     let k = f64::from(k);
     let off = R2.map(|g| ((k * g).fract() * f64::from(side)).floor() as u32 % side.max(1));
     (off, (k * GOLDEN).fract() as f32)
+}
+
+/// The threshold table a pattern uploads, row-major (`side²` values): the blue-noise tile or
+/// the Bayer matrix as thresholds; one placeholder texel for the procedural patterns, which
+/// read none but still bind a texture.
+pub fn table(pattern: Pattern) -> Vec<f32> {
+    match (pattern, pattern.bayer_side()) {
+        (Pattern::Blue, _) => thresholds(&blue_noise().0),
+        (_, Some(side)) => thresholds(&bayer(side as usize)),
+        _ => vec![0.0; 1],
+    }
+}
+
+/// PCG hash (Jarzynski & Olano 2020), `pcg` of stochastic_dither.wgsl: the twin that seeded
+/// tiled patterns' per-frame rotation needs.
+pub fn pcg(v: u32) -> u32 {
+    let state = v.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
+    let word = ((state >> ((state >> 28) + 4)) ^ state).wrapping_mul(277_803_737);
+    (word >> 22) ^ word
+}
+
+/// `unit` of the shader: the hash's top 24 bits as a uniform in `[0, 1)`, exact in f32.
+pub fn unit(h: u32) -> f32 {
+    (h >> 8) as f32 * (1.0 / 16_777_216.0)
+}
+
+/// `tiled_threshold` of stochastic_dither.wgsl, the twin the GPU lookup is tested against: the
+/// threshold at `pixel` of `table` (side `tile`, a power of two) shifted toroidally by the
+/// seed (low 16 bits in x, high in y) and by frame `frame`'s R2 offset, its value rotated by
+/// the frame's golden-ratio step, or for seeded layers from frame 1 on by a hash of (seed,
+/// frame).
+pub fn tiled_threshold(
+    table: &[f32],
+    tile: u32,
+    pixel: [u32; 2],
+    seed: u32,
+    seed_mode: Seed,
+    frame: u32,
+) -> f32 {
+    let (offset, golden) = frame_shift(frame, tile);
+    let mask = tile - 1;
+    let x = (pixel[0] + (seed & 0xffff) + offset[0]) & mask;
+    let y = (pixel[1] + (seed >> 16) + offset[1]) & mask;
+    let rotation = if seed_mode != Seed::None && frame > 0 {
+        unit(pcg(seed ^ pcg(frame.wrapping_add(0x632b_e5ab))))
+    } else {
+        golden
+    };
+    let v = table[(y * tile + x) as usize] + rotation;
+    v - v.floor()
 }
 
 #[cfg(test)]

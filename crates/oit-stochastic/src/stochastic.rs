@@ -101,48 +101,13 @@ impl Stochastic {
 
     /// The per-frame uniform entries (`struct Dither` at `stride`-byte offsets).
     fn dither_uniforms(config: &StochasticConfig, stride: u64) -> Vec<u8> {
-        let tile = config.pattern.tile().unwrap_or(1);
         let mut bytes = vec![0u8; (stride * u64::from(config.spp)) as usize];
         for k in 0..config.spp {
-            let (offset, rotation) = pattern::frame_shift(k, tile);
-            let words: [u32; 8] = [
-                match config.pattern {
-                    Pattern::White => 0,
-                    Pattern::Blue
-                    | Pattern::Bayer4
-                    | Pattern::Bayer8
-                    | Pattern::Bayer16
-                    | Pattern::Bayer32
-                    | Pattern::Bayer64
-                    | Pattern::Bayer128
-                    | Pattern::Bayer256 => 1,
-                    Pattern::Hashed => 2,
-                },
-                match config.seed {
-                    Seed::None => 0,
-                    Seed::Object => 1,
-                    Seed::Primitive => 2,
-                },
-                tile,
-                k,
-                offset[0],
-                offset[1],
-                rotation.to_bits(),
-                1.0f32.to_bits(),
-            ];
+            let words = dither_words(config, k);
             let start = (stride * u64::from(k)) as usize;
             bytes[start..start + 32].copy_from_slice(bytemuck::cast_slice(&words));
         }
         bytes
-    }
-
-    fn table(pattern: Pattern) -> Vec<f32> {
-        match (pattern, pattern.bayer_side()) {
-            (Pattern::Blue, _) => pattern::thresholds(&pattern::blue_noise().0),
-            (_, Some(side)) => pattern::thresholds(&pattern::bayer(side as usize)),
-            // Procedural patterns read no table; the binding still needs a texture.
-            _ => vec![0.0; 1],
-        }
     }
 
     fn prepare(
@@ -188,7 +153,7 @@ impl Stochastic {
             },
         );
         ctx.queue.write_buffer(&dither_buffer, 0, &uniforms);
-        let table = Self::table(config.pattern);
+        let table = pattern::table(config.pattern);
         let side = config.pattern.tile().unwrap_or(1);
         let table_texture = ledger.create_texture_2d(
             device,
@@ -417,6 +382,37 @@ impl Stochastic {
     }
 }
 
+/// `struct Dither` of stochastic_dither.wgsl for frame `k` of `config`, as its eight words.
+pub fn dither_words(config: &StochasticConfig, k: u32) -> [u32; 8] {
+    let tile = config.pattern.tile().unwrap_or(1);
+    let (offset, rotation) = pattern::frame_shift(k, tile);
+    [
+        match config.pattern {
+            Pattern::White => 0,
+            Pattern::Blue
+            | Pattern::Bayer4
+            | Pattern::Bayer8
+            | Pattern::Bayer16
+            | Pattern::Bayer32
+            | Pattern::Bayer64
+            | Pattern::Bayer128
+            | Pattern::Bayer256 => 1,
+            Pattern::Hashed => 2,
+        },
+        match config.seed {
+            Seed::None => 0,
+            Seed::Object => 1,
+            Seed::Primitive => 2,
+        },
+        tile,
+        k,
+        offset[0],
+        offset[1],
+        rotation.to_bits(),
+        1.0f32.to_bits(),
+    ]
+}
+
 fn load_store<T>(load: wgpu::LoadOp<T>) -> wgpu::Operations<T> {
     wgpu::Operations {
         load,
@@ -427,7 +423,7 @@ fn load_store<T>(load: wgpu::LoadOp<T>) -> wgpu::Operations<T> {
 /// Entries of the threshold table `pattern` uploads (for the memory accounting test).
 #[cfg(test)]
 pub(crate) fn table_len(pattern: Pattern) -> usize {
-    Stochastic::table(pattern).len()
+    pattern::table(pattern).len()
 }
 
 impl Technique for Stochastic {

@@ -186,13 +186,22 @@ fn never_nonfinite_and_order_dependence_is_rounding_only() {
         );
         // Bound: fp16 accumulation rounds each partial sum to 2^-11 relative; summing a
         // handful of HDR layers in another order moves the quotient by a few such steps, and
-        // the fp16 final target adds one more. fp32 accumulation only leaves the target's.
+        // the fp16 final target adds one more. fp32 accumulation only leaves the target's
+        // (and an fp16 revealage's). Measured on lavapipe (64², every bundled scene): fp32 +
+        // r32f ≤ 2.4e-4 (eq8, mcguire2015; one target step at 0.25–0.5) against 2^-10, one
+        // step at 1–2; rgba32f + r16f ≤ 1.5e-3 against 2^-8 (2.7×); the rest, fp16 sums or r8
+        // revealage, ≤ 1.07e-2 (faint-haze, hdr-emissive) against 2^-5 (2.9×).
         let bound = match config {
             Config::Weighted {
                 accum: AccumFormat::Rgba32f,
                 reveal: RevealFormat::R32f,
                 ..
             } => 2.0f64.powi(-10),
+            Config::Weighted {
+                accum: AccumFormat::Rgba32f,
+                reveal: RevealFormat::R16f,
+                ..
+            } => 2.0f64.powi(-8),
             _ => 2.0f64.powi(-5),
         };
         if config_worst.0 > bound {
@@ -222,8 +231,8 @@ fn never_nonfinite_and_order_dependence_is_rounding_only() {
 }
 
 /// One transparent layer over an opaque background and an opaque quad: the weights cancel, so
-/// every weight must equal the reference within 2e-3 (fp16 rounding of the sums and the
-/// revealage).
+/// every weight must equal the reference within 1e-3 (fp16 rounding of the sums and the
+/// revealage; measured 5.1e-4 for every weight on lavapipe, one fp16 step below 1).
 #[test]
 fn single_layer_matches_reference_for_every_weight() {
     let Some(ctx) = context_or_skip("single_layer_matches_reference_for_every_weight") else {
@@ -262,7 +271,7 @@ fn single_layer_matches_reference_for_every_weight() {
         );
         assert_eq!(e.nonfinite, 0);
         assert!(
-            e.max_abs <= 2e-3,
+            e.max_abs <= 1e-3,
             "{}: max_abs {}",
             config.spec(),
             e.max_abs
@@ -511,8 +520,9 @@ fn hdr_layers_stay_inside_fp16_with_the_default() {
     assert_eq!(guards.covered as usize, scene.resolution.pixel_count());
     let worst = relative_difference(&image, &reference.image);
     println!("hdr-layers default: largest relative error {worst:.2e}");
-    // fp16 sums and target round to 2^-11 relative; a few roundings stay below 4e-3.
-    assert!(worst < 4e-3, "relative error {worst}");
+    // fp16 sums and target round to 2^-11 relative each: measured 4.7e-4 on lavapipe; 1.5e-3
+    // (3.2×, three such steps) leaves room for blenders that round otherwise.
+    assert!(worst < 1.5e-3, "relative error {worst}");
 }
 
 /// The composite is the shared tail: the default `AccumTargets` are rgba16f + r16f, 10 bytes
@@ -685,18 +695,24 @@ fn guards_fire_exactly_on_their_cases() {
         [0.5 + 0.125, 0.5 / 65504.0 + 0.25, 0.5 / 65504.0 + 0.375],
         [out_max * 0.5 + 0.125, 0.25, 0.375],
     ];
+    // The target holds fp16: the formula's f32 value rounded to fp16 (measured: exactly that on
+    // every channel on lavapipe); one fp16 step allowed for adapters whose f32 arithmetic lands
+    // on the other side of a rounding boundary.
+    let mut worst_steps = 0;
     for (i, (p, e)) in image.pixels.iter().zip(expected).enumerate() {
         for c in 0..3 {
             assert!(p[c].is_finite(), "pixel {i}: {p:?}");
-            let tol = 2e-3 * e[c].abs().max(1.0);
+            let steps = f16_bits(p[c]).abs_diff(f16_bits(e[c]));
+            worst_steps = worst_steps.max(steps);
             assert!(
-                (p[c] - e[c]).abs() <= tol,
-                "pixel {i} channel {c}: {} vs {}",
+                steps <= 1,
+                "pixel {i} channel {c}: {} vs {} ({steps} fp16 steps)",
                 p[c],
                 e[c]
             );
         }
     }
+    println!("composite against the formula: worst {worst_steps} fp16 steps");
     assert_eq!(g.pixels, 10);
     assert_eq!(g.covered, 8, "{g}");
     assert_eq!(g.accum_overflow, 3, "Inf, NaN and saturated: {g}");

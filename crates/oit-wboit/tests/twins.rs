@@ -6,7 +6,7 @@
 //! visible just below their clamp, around z = 150), depths up to 0.999 and coverages down to
 //! 5e-4 (where McGuire's weight leaves its 3e2 cap).
 
-use oit_gpu::testing::{context_or_skip, eval_f32};
+use oit_gpu::testing::{context_or_skip, eval_f32, is_llvmpipe};
 use oit_wboit::RangeParams;
 use oit_wboit::Weight;
 
@@ -22,6 +22,20 @@ const ALPHA: [f32; 6] = [0.0005, 0.004, 0.1, 0.5, 0.9, 1.0];
 const ARITHMETIC_TOLERANCE: f32 = 4e-6;
 /// `exp2` on the GPU is allowed 3 + 2|x| ulps (Vulkan); x ≤ 21 here.
 const EXP2_TOLERANCE: f32 = 2e-5;
+/// On llvmpipe, which repeats bit for bit, every weight and the view distance are bounded near
+/// what it achieves: worst 1.65e-7 relative (mcguire2015), 1.77e-7 (`range`, exp2), 1.05e-7
+/// (eq10), 0 for the rest and for the view distance; 4e-7 is 2.3× the worst (about 3 ulps).
+/// Other adapters get the spec-derived bounds above.
+const LLVMPIPE_TOLERANCE: f32 = 4e-7;
+
+/// `(arithmetic, exp2)` tolerances for this adapter.
+fn tolerances(ctx: &oit_gpu::Context) -> (f32, f32) {
+    if is_llvmpipe(ctx) {
+        (LLVMPIPE_TOLERANCE, LLVMPIPE_TOLERANCE)
+    } else {
+        (ARITHMETIC_TOLERANCE, EXP2_TOLERANCE)
+    }
+}
 
 fn accum_source() -> String {
     oit_gpu::shaders::compose(oit_wboit::ACCUM_WGSL, &|name| match name {
@@ -80,10 +94,11 @@ fn every_weight_on_the_gpu_equals_its_cpu_twin() {
         let expr = format!("weight({}u, x.x, x.y, x.z)", weight.index());
         let gpu =
             eval_f32(&ctx, &source, &expr, &inputs, Some(&uniform), &[]).expect("kernel runs");
+        let (arithmetic, exp2) = tolerances(&ctx);
         let tolerance = if weight == Weight::Range {
-            EXP2_TOLERANCE
+            exp2
         } else {
-            ARITHMETIC_TOLERANCE
+            arithmetic
         };
         let mut worst = 0.0f32;
         for (x, g) in inputs.iter().zip(&gpu) {
@@ -208,12 +223,15 @@ fn view_distance_on_the_gpu_equals_the_camera_twin() {
         let inputs: Vec<[f32; 4]> = windows.iter().map(|&w| [w, a, b, 0.0]).collect();
         let expr = format!("wboit_view_distance(x.x, x.y, x.z, {ortho})");
         let gpu = eval_f32(&ctx, &source, &expr, &inputs, None, &[]).expect("kernel runs");
+        let mut worst = 0.0f32;
         for (w, g) in windows.iter().zip(&gpu) {
             let cpu = camera.view_distance(*w);
+            worst = worst.max(relative(*g, cpu));
             assert!(
-                relative(*g, cpu) <= ARITHMETIC_TOLERANCE,
+                relative(*g, cpu) <= tolerances(&ctx).0,
                 "{projection:?} reverse_z {reverse_z}: window {w}: GPU {g} CPU {cpu}"
             );
         }
+        println!("{projection:?} reverse_z {reverse_z}: worst relative difference {worst:.2e}");
     }
 }
