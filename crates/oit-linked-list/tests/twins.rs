@@ -216,7 +216,7 @@ fn kbuffer_slots_on_the_gpu_equal_their_cpu_twin_word_for_word() {
             let back = eval_f32_with(
                 &ctx,
                 &source,
-                &format!("from_slot({slot}).alpha"),
+                &format!("from_slot({slot}).opacity.x"),
                 &inputs,
                 &group1,
                 &[],
@@ -232,7 +232,7 @@ fn kbuffer_slots_on_the_gpu_equal_their_cpu_twin_word_for_word() {
                         x[3]
                     ));
                 }
-                let a = kbuffer::from_slot(cpu).alpha;
+                let a = kbuffer::from_slot(cpu).opacity[0];
                 worst_alpha_ulps = worst_alpha_ulps.max(a.to_bits().abs_diff(back[i].to_bits()));
             }
         }
