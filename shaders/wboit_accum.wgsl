@@ -93,6 +93,43 @@ fn fs_wboit(v: VertexOut, @builtin(front_facing) front_facing: bool) -> Outputs 
     return out;
 }
 
+// Coloured transmission (McGuire & Mara 2015, G3D's layout): the two accumulation outputs of
+// `fs_wboit` plus the final colour itself as a third target, blended (zero, one-minus-src) on
+// colour only, so the opaque colour behind ends up multiplied by the exact per-channel product
+// of the transmittances t (order-independent). The layers' radiance stays the weighted average
+// under the scalar coverage 1 - mean(t); the composite then adds it without scaling the colour
+// behind again.
+struct ColouredOutputs {
+    @location(0) accum: vec4<f32>,
+    @location(1) reveal: vec4<f32>,
+    @location(2) modulate: vec4<f32>,
+}
+
+fn modulation(s: Shaded) -> vec4<f32> {
+    return vec4<f32>(vec3<f32>(1.0) - s.transmittance, 0.0);
+}
+
+@fragment
+fn fs_wboit_coloured(v: VertexOut, @builtin(front_facing) front_facing: bool) -> ColouredOutputs {
+    let s = shade(v, front_facing);
+    if !s.keep {
+        discard;
+    }
+    let window_z = v.clip.z;
+    var d = window_z;
+    if params.reverse_z != 0u {
+        d = 1.0 - window_z;
+    }
+    let z = wboit_view_distance(window_z, params.proj_a, params.proj_b, params.ortho != 0u);
+    let w = weight(params.weight, z, d, s.alpha);
+    let a = wboit_accumulate(s.color, s.alpha, w, params.color_scale);
+    var out: ColouredOutputs;
+    out.accum = a.accum;
+    out.reveal = a.reveal;
+    out.modulate = modulation(s);
+    return out;
+}
+
 // Weighted average: (sum C, sum alpha) and the fragment count n (additive into .r).
 @fragment
 fn fs_average(v: VertexOut, @builtin(front_facing) front_facing: bool) -> Outputs {
@@ -103,5 +140,18 @@ fn fs_average(v: VertexOut, @builtin(front_facing) front_facing: bool) -> Output
     var out: Outputs;
     out.accum = vec4<f32>(s.color, s.alpha);
     out.reveal = vec4<f32>(1.0, 0.0, 0.0, 0.0);
+    return out;
+}
+
+@fragment
+fn fs_average_coloured(v: VertexOut, @builtin(front_facing) front_facing: bool) -> ColouredOutputs {
+    let s = shade(v, front_facing);
+    if !s.keep {
+        discard;
+    }
+    var out: ColouredOutputs;
+    out.accum = vec4<f32>(s.color, s.alpha);
+    out.reveal = vec4<f32>(1.0, 0.0, 0.0, 0.0);
+    out.modulate = modulation(s);
     return out;
 }

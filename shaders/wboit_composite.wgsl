@@ -2,6 +2,8 @@
 // that keep the output finite and count how often each fires.
 //
 // Output (avg * (1 - T), T) with blending (one, src-alpha) gives avg * (1 - T) + dst * T.
+// With coloured transmission the accumulation pass has already multiplied dst by the
+// per-channel product of the transmittances, so the output is (avg * (1 - T), 1): dst is kept.
 
 struct CompositeParams {
     // 0: weighted blended (reveal = prod(1 - alpha)); 1: weighted average (reveal = count n).
@@ -12,6 +14,12 @@ struct CompositeParams {
     out_max: f32,
     // Unit the colour sums were accumulated in (a power of two; 1 for LDR colours).
     color_scale: f32,
+    // 1 when the accumulation pass modulated the final colour per channel (coloured
+    // transmission): the colour behind is then not scaled by T again.
+    background_modulated: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
 }
 
 @group(0) @binding(0) var accum_tex: texture_2d<f32>;
@@ -128,5 +136,9 @@ fn fs_composite(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32
         avg = vec3<f32>(finite_or(avg.r), finite_or(avg.g), finite_or(avg.b));
         avg = clamp(avg, vec3<f32>(0.0), vec3<f32>(params.out_max));
     }
-    return vec4<f32>(avg * (1.0 - t), t);
+    var behind = t;
+    if params.background_modulated != 0u {
+        behind = 1.0;
+    }
+    return vec4<f32>(avg * (1.0 - t), behind);
 }

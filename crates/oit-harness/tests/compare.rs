@@ -281,7 +281,7 @@ fn approximate_transmission_is_flagged_and_exact_transmission_is_not() {
     let scenes = load_scenes(&[scenes_dir().join("transmission-complementary.json")]).unwrap();
     let specs = resolve_specs(&[
         "sorted-object".to_string(),
-        "wboit".to_string(),
+        "mboit".to_string(),
         "opaque-copy".to_string(),
     ])
     .unwrap();
@@ -292,22 +292,22 @@ fn approximate_transmission_is_flagged_and_exact_transmission_is_not() {
             .iter()
             .any(|p| p == oit_harness::APPROXIMATE_TRANSMISSION)
     };
-    let (sorted, wboit, copy) = (&results.runs[0], &results.runs[1], &results.runs[2]);
+    let (sorted, mboit, copy) = (&results.runs[0], &results.runs[1], &results.runs[2]);
     assert_eq!(
         flagged(sorted),
         !ctx.caps.dual_source_blending,
         "{sorted:?}"
     );
-    assert!(flagged(wboit) && flagged(copy), "{wboit:?} {copy:?}");
-    // The flag is earned: wboit's scalar α misses the complementary filters by far more than
+    assert!(flagged(mboit) && flagged(copy), "{mboit:?} {copy:?}");
+    // The flag is earned: mboit's scalar α misses the complementary filters by far more than
     // sorted blending with dual-source blending does.
     let rmse = |r: &oit_harness::results::Run| r.error.as_ref().unwrap().rmse;
     if ctx.caps.dual_source_blending {
         assert!(
-            rmse(sorted) < 1e-3 && rmse(wboit) > 0.05,
+            rmse(sorted) < 1e-3 && rmse(mboit) > 0.05,
             "{} {}",
             rmse(sorted),
-            rmse(wboit)
+            rmse(mboit)
         );
     }
     let md = std::fs::read_to_string(out.join("results.md")).unwrap();

@@ -171,6 +171,57 @@ pub fn check_formats(
     Ok(())
 }
 
+/// Bytes per sample of colour attachments of `formats` as wgpu validates them against
+/// `max_color_attachment_bytes_per_sample`: each format's byte cost at its component alignment.
+pub fn bytes_per_sample(formats: &[wgpu::TextureFormat]) -> u32 {
+    formats.iter().fold(0, |total, f| {
+        let cost = f.target_pixel_byte_cost().unwrap_or(16);
+        let align = f.target_component_alignment().unwrap_or(4);
+        total.next_multiple_of(align) + cost
+    })
+}
+
+/// Why the coloured accumulation pass (accumulation, revealage and the final colour as a
+/// third, modulated target) cannot run with these formats on `caps`, if so.
+pub fn modulation_unsupported(
+    caps: &oit_gpu::Caps,
+    accum: AccumFormat,
+    reveal: RevealFormat,
+    color: wgpu::TextureFormat,
+) -> Option<String> {
+    let bytes = bytes_per_sample(&[accum.texture_format(), reveal.texture_format(), color]);
+    if caps.max_color_attachments < 3 {
+        return Some(format!(
+            "the per-channel modulation target needs 3 colour attachments, the adapter has {}",
+            caps.max_color_attachments
+        ));
+    }
+    (bytes > caps.max_color_attachment_bytes_per_sample).then(|| {
+        format!(
+            "the per-channel modulation target needs {bytes} colour bytes per sample ({} + {} + {color:?}), the adapter allows {}",
+            accum.name(),
+            reveal.name(),
+            caps.max_color_attachment_bytes_per_sample
+        )
+    })
+}
+
+/// Blend of the modulation target (the final colour, McGuire & Mara 2015): colour
+/// `dst · (1 − src)` with `src = 1 − t`, so the colour behind is multiplied by each layer's
+/// transmittance per channel; alpha kept.
+pub const MODULATE: wgpu::BlendState = wgpu::BlendState {
+    color: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::Zero,
+        dst_factor: wgpu::BlendFactor::OneMinusSrc,
+        operation: wgpu::BlendOperation::Add,
+    },
+    alpha: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::Zero,
+        dst_factor: wgpu::BlendFactor::One,
+        operation: wgpu::BlendOperation::Add,
+    },
+};
+
 /// The composite pipeline for one final colour format.
 #[derive(Debug)]
 struct CompositePipeline {
@@ -198,6 +249,9 @@ pub struct AccumTargets {
     pipeline: Mutex<Option<CompositePipeline>>,
     /// Unit of the colour sums, multiplied back by the composite (1 unless set).
     color_scale: f32,
+    /// Whether the accumulation pass multiplied the final colour by the transmittances per
+    /// channel ([`MODULATE`]); the composite then leaves the colour behind as it is.
+    background_modulated: bool,
     ledger: MemoryLedger,
 }
 
@@ -242,7 +296,7 @@ impl AccumTargets {
             &ctx.device,
             &wgpu::BufferDescriptor {
                 label: Some("wboit composite params"),
-                size: 16,
+                size: 32,
                 usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             },
@@ -320,6 +374,7 @@ impl AccumTargets {
             bind_group,
             pipeline: Mutex::new(None),
             color_scale: 1.0,
+            background_modulated: false,
             ledger,
         })
     }
@@ -356,6 +411,34 @@ impl AccumTargets {
                 write_mask: wgpu::ColorWrites::ALL,
             }),
         ]
+    }
+
+    /// [`Self::color_targets`] plus the final colour (`color`) as the per-channel modulation
+    /// target ([`MODULATE`]), for a pass that writes `1 − t` to location 2.
+    pub fn modulating_color_targets(
+        &self,
+        color: wgpu::TextureFormat,
+    ) -> [Option<wgpu::ColorTargetState>; 3] {
+        let [accum, reveal] = self.color_targets();
+        [
+            accum,
+            reveal,
+            Some(wgpu::ColorTargetState {
+                format: color,
+                blend: Some(MODULATE),
+                write_mask: wgpu::ColorWrites::ALL,
+            }),
+        ]
+    }
+
+    /// Tells [`composite`] whether the accumulation pass modulated the final colour per
+    /// channel (then the colour behind is not scaled by the revealage again). Off unless set.
+    pub fn set_background_modulated(&mut self, modulated: bool) {
+        self.background_modulated = modulated;
+    }
+
+    pub fn background_modulated(&self) -> bool {
+        self.background_modulated
     }
 
     /// The two colour attachments; `clear` sets accumulation to 0 and revealage to 1 (the
@@ -482,11 +565,15 @@ pub fn composite(
         )));
     }
     let pipeline = accum.pipeline(ctx, targets.color_format);
-    let params: [u32; 4] = [
+    let params: [u32; 8] = [
         accum.mode.index(),
         accum.accum_format.max_finite().to_bits(),
         out_max(targets.color_format).to_bits(),
         accum.color_scale.to_bits(),
+        u32::from(accum.background_modulated),
+        0,
+        0,
+        0,
     ];
     ctx.queue
         .write_buffer(&accum.params, 0, bytemuck::cast_slice(&params));

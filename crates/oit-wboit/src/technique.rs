@@ -165,6 +165,17 @@ impl Config {
         })
     }
 
+    /// Why this configuration cannot modulate a final colour of `color` per channel on
+    /// `caps` (McGuire & Mara's coloured transmission), if so.
+    pub fn modulation_unsupported(
+        &self,
+        caps: &Caps,
+        color: wgpu::TextureFormat,
+    ) -> Option<String> {
+        let (_, accum, reveal) = self.formats();
+        tail::modulation_unsupported(caps, accum, reveal, color)
+    }
+
     fn formats(&self) -> (CompositeMode, AccumFormat, RevealFormat) {
         match *self {
             Config::Weighted { accum, reveal, .. } => (CompositeMode::Weighted, accum, reveal),
@@ -177,9 +188,16 @@ impl Config {
     }
 }
 
+/// The widest final colour format: whether the per-channel modulation target fits is judged
+/// for it, so one configuration composites the same way on every final target.
+const WIDEST_COLOR: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+
 #[derive(Debug)]
 struct Pipelines {
     reverse_z: bool,
+    /// The final colour format when the pass also modulates it per channel (coloured
+    /// transmission), else `None`.
+    modulated: Option<wgpu::TextureFormat>,
     scene: ScenePipelines,
 }
 
@@ -234,7 +252,13 @@ impl Wboit {
         }
     }
 
-    fn ensure(&mut self, ctx: &Context, scene: &GpuScene) -> Result<(), GpuError> {
+    /// `modulated`: the final colour format when the pass modulates it per channel.
+    fn ensure(
+        &mut self,
+        ctx: &Context,
+        scene: &GpuScene,
+        modulated: Option<wgpu::TextureFormat>,
+    ) -> Result<(), GpuError> {
         let (mode, accum, reveal) = self.config.formats();
         let res = scene.scene.resolution;
         if self.accum.as_ref().is_none_or(|a| a.resolution != res) {
@@ -270,7 +294,7 @@ impl Wboit {
         if self
             .pipelines
             .as_ref()
-            .is_none_or(|p| p.reverse_z != reverse_z)
+            .is_none_or(|p| p.reverse_z != reverse_z || p.modulated != modulated)
         {
             let accum = self
                 .accum
@@ -289,16 +313,22 @@ impl Wboit {
                         bind_group_layouts: &[Some(ctx.scene_layout()), Some(layout)],
                         immediate_size: 0,
                     });
-            let entry = match self.config {
-                Config::Weighted { .. } => "fs_wboit",
-                Config::Average => "fs_average",
+            let entry = match (self.config, modulated) {
+                (Config::Weighted { .. }, None) => "fs_wboit",
+                (Config::Average, None) => "fs_average",
+                (Config::Weighted { .. }, Some(_)) => "fs_wboit_coloured",
+                (Config::Average, Some(_)) => "fs_average_coloured",
+            };
+            let targets: Vec<_> = match modulated {
+                None => accum.color_targets().to_vec(),
+                Some(color) => accum.modulating_color_targets(color).to_vec(),
             };
             // The shared vertex stage of common.wgsl, depth tested strictly nearer than the
             // opaque depth, no depth writes.
             let pipelines = ScenePipelines::with_layout(
                 ctx,
                 &ScenePipelineDesc {
-                    targets: &accum.color_targets(),
+                    targets: &targets,
                     depth: Some(depth_test(scene.depth_nearer(), false)),
                     ..ScenePipelineDesc::new("wboit accumulate", &module, entry)
                 },
@@ -306,6 +336,7 @@ impl Wboit {
             );
             self.pipelines = Some(Pipelines {
                 reverse_z,
+                modulated,
                 scene: pipelines,
             });
         }
@@ -330,7 +361,15 @@ impl Technique for Wboit {
         targets: &Targets,
         timer: &mut GpuTimer,
     ) -> Result<RenderStats, GpuError> {
-        self.ensure(ctx, scene)?;
+        // Coloured transmission: the final colour is a third target, multiplied per channel
+        // (decided for the widest final target, as `transmission` reports it).
+        let modulated = (scene.scene.has_coloured_transmission()
+            && self
+                .config
+                .modulation_unsupported(&ctx.caps, WIDEST_COLOR)
+                .is_none())
+        .then_some(targets.color_format);
+        self.ensure(ctx, scene, modulated)?;
         let s = &scene.scene;
         let (a, b, ortho) = s.camera.view_depth_terms();
         let range = self.range(scene);
@@ -358,12 +397,16 @@ impl Technique for Wboit {
             .write_buffer(params, 0, bytemuck::cast_slice(&words));
         let accum = self.accum.as_mut().expect("targets built in ensure");
         accum.set_color_scale(color_scale);
+        accum.set_background_modulated(modulated.is_some());
         let accum = &*accum;
         let pipelines = self.pipelines.as_ref().expect("pipelines built in ensure");
         let ts = timer.pass("wboit accumulate");
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         {
-            let attachments = accum.attachments(true);
+            let mut attachments = accum.attachments(true).to_vec();
+            if modulated.is_some() {
+                attachments.push(pass::color(&targets.color_view, wgpu::LoadOp::Load));
+            }
             let mut pass = pass::begin(
                 &mut encoder,
                 "wboit accumulate",
@@ -393,11 +436,15 @@ impl Technique for Wboit {
         self.ledger.total() + self.accum.as_ref().map_or(0, AccumTargets::memory_bytes)
     }
 
-    fn transmission(&self, _caps: &Caps) -> TransmissionSupport {
-        // Scalar alpha: the shader's `Shaded.alpha` is 1 − mean(t) for transmissive fragments.
-        TransmissionSupport::Approximate(
-            "composites 1 − mean(t) as scalar α, exact for grey filters only (a weighted sum with a scalar revealage; McGuire & Mara's coloured variant is not implemented)",
-        )
+    fn transmission(&self, caps: &Caps) -> TransmissionSupport {
+        match self.config.modulation_unsupported(caps, WIDEST_COLOR) {
+            None => TransmissionSupport::Approximate(
+                "McGuire & Mara 2015: what lies behind is multiplied by the exact per-channel product of the layers' transmittances (a third, modulated target); the layers' own radiance is the weighted average under the scalar coverage 1 − mean(t)",
+            ),
+            Some(_) => TransmissionSupport::Approximate(
+                "composites 1 − mean(t) as scalar α, exact for grey filters only (McGuire & Mara's per-channel modulation target does not fit this adapter's colour attachments with these formats)",
+            ),
+        }
     }
 }
 
