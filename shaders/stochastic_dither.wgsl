@@ -5,6 +5,12 @@
 // Wyman & McGuire's hashed alpha), and is then written as an OPAQUE fragment with its straight
 // colour and its depth. The nearest survivor wins the depth test, so the expected colour is
 // Σ c_i α_i Π_{j<i}(1 − α_j) + Π(1 − α_j) C_o: the exact composite, in expectation.
+//
+// Coloured transmission: a scene whose filters differ per channel is dithered once per colour
+// channel (the pipeline constant CHANNEL, a colour write mask for that channel, the depth reset
+// to the opaque depth before each). In channel c a transmissive fragment survives with
+// probability 1 − t_c and writes C_c / (1 − t_c), so the channel's expected value is
+// Σ C_i,c Π_{j<i} t_j,c + Π t_j,c C_o,c: the per-channel composite, in expectation.
 #include "common.wgsl"
 
 // One frame's parameters (bound with a dynamic offset, one entry per averaged frame).
@@ -29,6 +35,9 @@ struct Dither {
 // `tile²` thresholds (rank + ½)/tile², one R32Float texel each (a texture, not a storage
 // buffer: the per-fragment read is several times cheaper on CPU rasterizers).
 @group(1) @binding(1) var table: texture_2d<f32>;
+
+// 0, 1, 2: the colour channel this pass dithers (coloured transmission); 3: all at once by α.
+override CHANNEL: u32 = 3u;
 
 const PATTERN_WHITE: u32 = 0u;
 const PATTERN_TILED: u32 = 1u;
@@ -186,21 +195,29 @@ fn fs_stochastic(v: StochasticOut, @builtin(front_facing) front_facing: bool) ->
     if !s.keep {
         discard;
     }
+    // The coverage this pass tests: α, or for a transmissive material in a per-channel pass
+    // that channel's opacity 1 − t (scalar-alpha materials keep α bit for bit).
+    var opacity = s.alpha;
+    if CHANNEL < 3u && material_of(base).transmission > 0.0 {
+        // `min`: with CHANNEL = 3 a constant index past the vector's end fails validation,
+        // even where the branch is never taken.
+        opacity = 1.0 - s.transmittance[min(CHANNEL, 2u)];
+    }
     let pixel = vec2<u32>(v.clip.xy);
     var survive: bool;
     if dither.pattern == PATTERN_WHITE {
-        survive = s.alpha > white_threshold(pixel, v.seed);
+        survive = opacity > white_threshold(pixel, v.seed);
     } else if dither.pattern == PATTERN_TILED {
-        survive = s.alpha > tiled_threshold(pixel, v.seed);
+        survive = opacity > tiled_threshold(pixel, v.seed);
     } else {
         // The paper's test: discard when α < threshold, threshold in [1e-6, 1].
-        survive = s.alpha >= hashed_threshold(v.world, dx, dy, v.seed);
+        survive = opacity >= hashed_threshold(v.world, dx, dy, v.seed);
     }
     if !survive {
         discard;
     }
-    // Survivors have α > 0. Straight colour, clamped to the largest finite half so a tiny α
-    // under a premultiplied colour cannot overflow a Rgba16Float target.
-    let straight = s.color / s.alpha;
+    // Survivors have opacity > 0. Straight colour, clamped to the largest finite half so a
+    // tiny opacity under a premultiplied colour cannot overflow a Rgba16Float target.
+    let straight = s.color / opacity;
     return vec4<f32>(clamp(straight, vec3<f32>(-65504.0), vec3<f32>(65504.0)), 1.0);
 }

@@ -43,6 +43,9 @@ pub const SEED_WGSL: &str = include_str!("../../../shaders/stochastic_seed.wgsl"
 pub(crate) struct SeedPass {
     layout: wgpu::BindGroupLayout,
     pipeline: wgpu::RenderPipeline,
+    /// The same copy of the depth alone (colour writes off), when asked for
+    /// ([`SeedPass::with_depth_reset`]).
+    depth_reset: Option<wgpu::RenderPipeline>,
 }
 
 impl SeedPass {
@@ -50,6 +53,23 @@ impl SeedPass {
         ctx: &Context,
         color_format: wgpu::TextureFormat,
         multisample: wgpu::MultisampleState,
+    ) -> Result<Self, GpuError> {
+        Self::build(ctx, color_format, multisample, false)
+    }
+
+    /// [`SeedPass::new`] plus the depth-only copy of [`SeedPass::draw_depth_reset`].
+    pub fn with_depth_reset(
+        ctx: &Context,
+        color_format: wgpu::TextureFormat,
+    ) -> Result<Self, GpuError> {
+        Self::build(ctx, color_format, Default::default(), true)
+    }
+
+    fn build(
+        ctx: &Context,
+        color_format: wgpu::TextureFormat,
+        multisample: wgpu::MultisampleState,
+        depth_reset: bool,
     ) -> Result<Self, GpuError> {
         let device = &ctx.device;
         // Depth32Float is bound as an unfilterable float texture (WebGPU allows it): GLSL has
@@ -67,23 +87,44 @@ impl SeedPass {
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let pipeline = oit_gpu::fullscreen_pipeline(
-            ctx,
-            &oit_gpu::FullscreenDesc {
-                label: "stochastic seed",
-                layout: &pipeline_layout,
-                module: &module,
-                fragment_entry: "fs_seed",
-                targets: &[Some(wgpu::ColorTargetState {
-                    format: color_format,
-                    blend: None,
-                    write_mask: wgpu::ColorWrites::ALL,
-                })],
-                depth: Some(oit_gpu::depth_test(wgpu::CompareFunction::Always, true)),
-                multisample,
-            },
-        );
-        Ok(SeedPass { layout, pipeline })
+        let seed = |label, write_mask| {
+            oit_gpu::fullscreen_pipeline(
+                ctx,
+                &oit_gpu::FullscreenDesc {
+                    label,
+                    layout: &pipeline_layout,
+                    module: &module,
+                    fragment_entry: "fs_seed",
+                    targets: &[Some(wgpu::ColorTargetState {
+                        format: color_format,
+                        blend: None,
+                        write_mask,
+                    })],
+                    depth: Some(oit_gpu::depth_test(wgpu::CompareFunction::Always, true)),
+                    multisample,
+                },
+            )
+        };
+        let pipeline = seed("stochastic seed", wgpu::ColorWrites::ALL);
+        let depth_reset =
+            depth_reset.then(|| seed("stochastic depth reset", wgpu::ColorWrites::empty()));
+        Ok(SeedPass {
+            layout,
+            pipeline,
+            depth_reset,
+        })
+    }
+
+    /// Puts the opaque depth back and leaves the colour as it is (between the per-channel
+    /// dither passes of coloured transmission). Needs a pass built `with_depth_reset`.
+    pub fn draw_depth_reset(&self, pass: &mut wgpu::RenderPass<'_>, bind_group: &wgpu::BindGroup) {
+        let pipeline = self
+            .depth_reset
+            .as_ref()
+            .expect("SeedPass built with_depth_reset");
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, bind_group, &[]);
+        pass.draw(0..3, 0..1);
     }
 
     /// The bind group reading `targets` (made per frame: targets are the caller's).

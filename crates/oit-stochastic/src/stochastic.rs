@@ -38,20 +38,26 @@ pub struct Stochastic {
     force_half_sums: bool,
 }
 
-/// Everything allocated for one (colour format, depth direction, resolution).
+/// Everything allocated for one (colour format, depth direction, resolution, coloured
+/// transmission).
 #[derive(Debug)]
 struct Resources {
-    key: (wgpu::TextureFormat, bool, Resolution),
+    key: (wgpu::TextureFormat, bool, Resolution, bool),
     dither: ScenePipelines,
+    /// Coloured transmission: one dither pipeline per colour channel (`CHANNEL` = 0, 1, 2,
+    /// writing that channel only), each frame dithered three times.
+    channels: Option<[ScenePipelines; 3]>,
     dither_bind_group: wgpu::BindGroup,
     dither_stride: u64,
     frames: Option<FrameResources>,
 }
 
-/// Only for `spp > 1`: where each frame renders and where frames are summed.
+/// For `spp > 1` or coloured transmission: where each frame renders and where frames are
+/// summed.
 #[derive(Debug)]
 struct FrameResources {
-    /// Fills each frame's targets with the opaque pass.
+    /// Fills each frame's targets with the opaque pass (and resets the depth between the
+    /// per-channel passes).
     seed: gpu::SeedPass,
     color_view: wgpu::TextureView,
     depth_view: wgpu::TextureView,
@@ -117,10 +123,12 @@ impl Stochastic {
         targets: &Targets,
         config: &StochasticConfig,
     ) -> Result<(), GpuError> {
+        let coloured = scene.scene.has_coloured_transmission();
         let key = (
             targets.color_format,
             scene.scene.camera.reverse_z,
             targets.resolution,
+            coloured,
         );
         if self.gpu.as_ref().is_some_and(|g| g.key == key) {
             return Ok(());
@@ -205,23 +213,34 @@ impl Stochastic {
             bind_group_layouts: &[Some(ctx.scene_layout()), Some(&dither_layout)],
             immediate_size: 0,
         });
-        let dither = ScenePipelines::with_layout(
-            ctx,
-            &ScenePipelineDesc {
-                vertex_entry: "vs_stochastic",
-                // Its vertex outputs repeat the per-vertex interface's fields.
-                material: MaterialSource::PerVertex,
-                targets: &[Some(wgpu::ColorTargetState {
-                    format: targets.color_format,
-                    blend: None,
-                    write_mask: wgpu::ColorWrites::ALL,
-                })],
-                depth: Some(oit_gpu::depth_test(scene.depth_nearer(), true)),
-                ..ScenePipelineDesc::new("stochastic dither", &module, "fs_stochastic")
-            },
-            &layout,
-        );
-        let frames = if config.spp > 1 {
+        let dither_pipelines = |label, write_mask, channel: u32| {
+            ScenePipelines::with_layout(
+                ctx,
+                &ScenePipelineDesc {
+                    vertex_entry: "vs_stochastic",
+                    // Its vertex outputs repeat the per-vertex interface's fields.
+                    material: MaterialSource::PerVertex,
+                    targets: &[Some(wgpu::ColorTargetState {
+                        format: targets.color_format,
+                        blend: None,
+                        write_mask,
+                    })],
+                    depth: Some(oit_gpu::depth_test(scene.depth_nearer(), true)),
+                    constants: &[("CHANNEL", f64::from(channel))],
+                    ..ScenePipelineDesc::new(label, &module, "fs_stochastic")
+                },
+                &layout,
+            )
+        };
+        let dither = dither_pipelines("stochastic dither", wgpu::ColorWrites::ALL, 3);
+        let channels = coloured.then(|| {
+            [
+                dither_pipelines("stochastic dither red", wgpu::ColorWrites::RED, 0),
+                dither_pipelines("stochastic dither green", wgpu::ColorWrites::GREEN, 1),
+                dither_pipelines("stochastic dither blue", wgpu::ColorWrites::BLUE, 2),
+            ]
+        });
+        let frames = if config.spp > 1 || coloured {
             Some(Self::frame_resources(
                 ctx, ledger, targets, config.spp, sum_format,
             )?)
@@ -231,6 +250,7 @@ impl Stochastic {
         self.gpu = Some(Resources {
             key,
             dither,
+            channels,
             dither_bind_group,
             dither_stride,
             frames,
@@ -372,7 +392,7 @@ impl Stochastic {
         Ok(FrameResources {
             to_sum: pipeline(sum_format),
             to_final: pipeline(targets.color_format),
-            seed: gpu::SeedPass::new(ctx, targets.color_format, Default::default())?,
+            seed: gpu::SeedPass::with_depth_reset(ctx, targets.color_format)?,
             color_view,
             depth_view,
             sum_views,
@@ -497,15 +517,30 @@ impl Technique for Stochastic {
             if let Some((seed, group)) = seed {
                 seed.draw(&mut pass, group);
             }
-            scene.bind(&mut pass);
             let offset = (r.dither_stride * u64::from(frame)) as u32;
-            pass.set_bind_group(1, &r.dither_bind_group, &[offset]);
-            for &i in &order {
-                gpu::draw_with_id(&mut pass, scene, &r.dither, i);
+            let dither = |pass: &mut wgpu::RenderPass<'_>, pipelines: &ScenePipelines| {
+                scene.bind(pass);
+                pass.set_bind_group(1, &r.dither_bind_group, &[offset]);
+                for &i in &order {
+                    gpu::draw_with_id(pass, scene, pipelines, i);
+                }
+            };
+            match (&r.channels, seed) {
+                // Coloured transmission: each channel dithered from the opaque depth.
+                (Some(channels), Some((seed, group))) => {
+                    for (c, pipelines) in channels.iter().enumerate() {
+                        if c > 0 {
+                            seed.draw_depth_reset(&mut pass, group);
+                        }
+                        dither(&mut pass, pipelines);
+                    }
+                }
+                _ => dither(&mut pass, &r.dither),
             }
         };
+        let passes_per_frame = if r.channels.is_some() { 3 } else { 1 };
         let stats = RenderStats {
-            geometry_passes: config.spp,
+            geometry_passes: config.spp * passes_per_frame,
             ..Default::default()
         };
         let Some(f) = &r.frames else {
@@ -573,10 +608,9 @@ impl Technique for Stochastic {
     }
 
     fn transmission(&self, _caps: &Caps) -> TransmissionSupport {
-        // Scalar alpha: the shader's `Shaded.alpha` is 1 − mean(t) for transmissive fragments.
-        TransmissionSupport::Approximate(
-            "composites 1 − mean(t) as scalar α, exact for grey filters only (a fragment survives by comparing its scalar α with a threshold; no per-channel scheme is implemented)",
-        )
+        // Per channel in expectation, as its scalar compositing is: one dither pass per colour
+        // channel, where a fragment survives with that channel's opacity 1 − t_c.
+        TransmissionSupport::Exact
     }
 }
 

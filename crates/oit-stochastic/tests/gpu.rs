@@ -397,7 +397,9 @@ fn a2c_interior_and_edge_error() {
 /// order) per bundled scene at 128², measured on lavapipe (llvmpipe 15, Mesa 22.3). The patterns
 /// are deterministic (a spec renders bit-identically), so a run may exceed its value only by 25 %
 /// plus 1e-3: room for another rasterizer's coverage, none for a changed pattern or composite.
-const MEASURED_RMSE: [(&str, [f64; 7]); 17] = [
+/// The four transmission scenes: the stochastic patterns dither per colour channel there;
+/// `a2c` (the last column) composites 1 − mean(t) and is not bounded on them.
+const MEASURED_RMSE: [(&str, [f64; 7]); 21] = [
     (
         "alpha-099-stack",
         [
@@ -502,6 +504,30 @@ const MEASURED_RMSE: [(&str, [f64; 7]); 17] = [
             1.9202e-1, 1.9188e-1, 1.8067e-1, 1.8064e-1, 1.9247e-1, 1.3689e-1, 5.6017e-2,
         ],
     ),
+    (
+        "transmission-complementary",
+        [
+            1.2998e-1, 1.3067e-1, 1.3500e-1, 1.3269e-1, 1.2968e-1, 9.2889e-2, 1.4034e-1,
+        ],
+    ),
+    (
+        "transmission-gltf",
+        [
+            1.7274e-1, 1.7309e-1, 1.7811e-1, 1.7620e-1, 1.7278e-1, 1.2312e-1, 1.3007e-1,
+        ],
+    ),
+    (
+        "transmission-over-blended",
+        [
+            1.6468e-1, 1.6467e-1, 1.5967e-1, 1.6008e-1, 1.6472e-1, 1.1685e-1, 1.0972e-1,
+        ],
+    ),
+    (
+        "transmission-stack-32",
+        [
+            8.8929e-2, 8.9687e-2, 8.5350e-2, 8.3424e-2, 8.9916e-2, 6.2628e-2, 2.3194e-1,
+        ],
+    ),
 ];
 
 #[test]
@@ -547,9 +573,9 @@ fn every_pattern_and_a2c_is_finite_on_every_bundled_scene() {
             );
             line += &format!(" {:.4e}", errors.rmse);
             let stem = path.file_stem().unwrap_or_default().to_string_lossy();
-            // Coloured transmission is composited as 1 − mean(t) by design (flagged
+            // a2c composites coloured transmission as 1 − mean(t) by design (flagged
             // `approximate transmission`): finite is asserted, the bound is for scalar scenes.
-            if scene.has_coloured_transmission() {
+            if scene.has_coloured_transmission() && spec.starts_with("a2c") {
                 continue;
             }
             let (_, measured) = MEASURED_RMSE
