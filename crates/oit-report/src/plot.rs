@@ -17,7 +17,9 @@ use crate::ReportError;
 use crate::pareto::pareto_front;
 
 /// Plot size in pixels (SVG user units and PNG pixels).
-pub const PLOT_SIZE: (u32, u32) = (900, 600);
+pub const PLOT_SIZE: (u32, u32) = (1080, 600);
+/// Pixels at the right kept for the legend, beside the axes.
+pub const LEGEND_WIDTH: u32 = 180;
 
 /// DejaVu Sans 2.37 (Bitstream Vera licence, `fonts/LICENSE-DejaVu.txt`), registered with
 /// plotters' pure-Rust `ab_glyph` text path so that no system font library is needed.
@@ -506,6 +508,10 @@ fn draw<'a, DB: DrawingBackend + 'a>(
 ) -> Result<(), String> {
     let err = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
     root.fill(&WHITE).map_err(err)?;
+    // The legend beside the axes, not over the points (inside them it hid two techniques'
+    // markers on the transmission scenes).
+    let (chart_area, legend) = root.split_horizontally(PLOT_SIZE.0 - LEGEND_WIDTH);
+    let root = &chart_area;
     let ys = plot.points.iter().map(|p| p.y_drawn);
     let (y_lo, y_hi) = log_range(ys, 1e-4, 1.0);
     match plot.kind {
@@ -513,6 +519,7 @@ fn draw<'a, DB: DrawingBackend + 'a>(
             let (x_lo, x_hi) = log_range(plot.points.iter().map(|p| p.x), 0.5, 2.0);
             draw_chart(
                 root,
+                &legend,
                 plot,
                 (x_lo..x_hi).log_scale(),
                 (y_lo..y_hi).log_scale(),
@@ -521,7 +528,13 @@ fn draw<'a, DB: DrawingBackend + 'a>(
         PlotKind::BytesError => {
             let x_max = plot.points.iter().map(|p| p.x).fold(0.0, f64::max);
             let x_hi = if x_max > 0.0 { x_max * 1.1 } else { 1.0 };
-            draw_chart(root, plot, -0.02 * x_hi..x_hi, (y_lo..y_hi).log_scale())
+            draw_chart(
+                root,
+                &legend,
+                plot,
+                -0.02 * x_hi..x_hi,
+                (y_lo..y_hi).log_scale(),
+            )
         }
     }
 }
@@ -546,6 +559,7 @@ fn log_range(values: impl Iterator<Item = f64>, lo: f64, hi: f64) -> (f64, f64) 
 
 fn draw_chart<'a, DB, X, Y>(
     root: &'a DrawingArea<DB, Shift>,
+    legend: &DrawingArea<DB, Shift>,
     plot: &PlotData,
     x: X,
     y: Y,
@@ -618,6 +632,7 @@ where
     let mut styles: Vec<usize> = plot.points.iter().map(|p| p.style).collect();
     styles.sort_unstable();
     styles.dedup();
+    let styles_drawn = styles.clone();
     for style in styles {
         let name = plot.families.get(style).cloned().unwrap_or_default();
         chart
@@ -634,14 +649,7 @@ where
             .label(name)
             .legend(move |at| Marker { at, style });
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font((FONT_FAMILY, 13))
-        .draw()
-        .map_err(err)?;
+    draw_legend(legend, plot, &styles_drawn, grey).map_err(err)?;
     if let Some(z) = plot.zero_y {
         root.draw(&Text::new(
             format!("error 0 (exact) is drawn at {}", short_number(z)),
@@ -651,6 +659,36 @@ where
         .map_err(err)?;
     }
     root.present().map_err(err)?;
+    Ok(())
+}
+
+/// The legend in its own area: the Pareto front's line, then a marker and the family name per
+/// style drawn, one row each from the top.
+fn draw_legend<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    plot: &PlotData,
+    styles: &[usize],
+    front: RGBColor,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    const ROW: i32 = 18;
+    const TOP: i32 = 50;
+    let font = (FONT_FAMILY, 13).into_font();
+    let text = |row: i32, label: &str| {
+        Text::new(label.to_owned(), (30, TOP + row * ROW - 7), font.clone())
+    };
+    area.draw(&PathElement::new(
+        vec![(6, TOP), (22, TOP)],
+        front.mix(0.5).stroke_width(3),
+    ))?;
+    area.draw(&text(0, "Pareto front"))?;
+    for (row, &style) in (1..).zip(styles) {
+        let name = plot.families.get(style).map_or("", String::as_str);
+        area.draw(&Marker {
+            at: (14, TOP + row * ROW),
+            style,
+        })?;
+        area.draw(&text(row, name))?;
+    }
     Ok(())
 }
 

@@ -252,6 +252,58 @@ fn every_plot_has_one_point_per_ok_run_and_labelled_axes() {
     }
 }
 
+/// Left edge (SVG x) of every marker element filled with `hex`: a circle's centre, a square's
+/// corner, a triangle's or diamond's first vertex.
+fn marker_xs(svg: &str, hex: &str) -> Vec<f64> {
+    let attr = |el: &str, name: &str| -> Option<f64> {
+        let start = el.find(&format!(" {name}=\""))? + name.len() + 3;
+        let value = &el[start..];
+        value[..value.find('"')?]
+            .split([',', ' '])
+            .next()?
+            .parse()
+            .ok()
+    };
+    svg.split('<')
+        .filter(|el| el.to_ascii_uppercase().contains(&format!("FILL=\"{hex}\"")))
+        .filter_map(|el| {
+            if el.starts_with("circle") {
+                attr(el, "cx")
+            } else if el.starts_with("rect") {
+                attr(el, "x")
+            } else if el.starts_with("polygon") {
+                attr(el, "points")
+            } else {
+                None
+            }
+        })
+        .collect()
+}
+
+/// The legend sits in its own strip right of the axes, so no data point can hide under it
+/// (inside the axes, its box covered the markers of two techniques on a transmission scene):
+/// every family's legend marker is in the strip, every data marker left of it.
+#[test]
+fn the_legend_is_beside_the_points_not_over_them() {
+    let results = results();
+    let strip = f64::from(oit_report::PLOT_SIZE.0 - oit_report::LEGEND_WIDTH);
+    for metric in [Metric::Flip, Metric::Rmse] {
+        for plot in plot_data(&results, metric) {
+            let svg = render_svg(&plot).unwrap();
+            for (style, hex) in PALETTE_HEX.iter().enumerate() {
+                let n = plot.points.iter().filter(|p| p.style == style).count();
+                if n == 0 {
+                    continue;
+                }
+                let xs = marker_xs(&svg, hex);
+                let (legend, data): (Vec<f64>, Vec<f64>) = xs.iter().partition(|&&x| x >= strip);
+                assert_eq!(legend.len(), 1, "{} style {style}: {xs:?}", plot.stem);
+                assert_eq!(data.len(), n, "{} style {style}: {xs:?}", plot.stem);
+            }
+        }
+    }
+}
+
 #[test]
 fn sweeps_join_one_family_in_parameter_order_and_zero_error_is_drawn() {
     let plots = plot_data(&results(), Metric::Flip);
