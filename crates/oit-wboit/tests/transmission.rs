@@ -106,6 +106,43 @@ fn pure_filters_are_exact_per_channel_in_either_draw_order() {
     }
 }
 
+/// One instance follows the scene it is given: the modulated pipelines and composite on a
+/// coloured scene, the plain ones on a scalar scene (here also with the other depth
+/// convention), each frame bit for bit what a fresh instance renders.
+#[test]
+fn one_instance_follows_coloured_and_scalar_scenes() {
+    let Some(ctx) = context_or_skip("wboit_transmission_reuse") else {
+        return;
+    };
+    let coloured = load_str(FILTERS);
+    let scalar = load_str(
+        &FILTERS
+            .replace(", \"transmission\": 1", "")
+            .replace("\"background\":", "\"reverse_z\": false, \"background\":"),
+    );
+    assert!(coloured.has_coloured_transmission() && !scalar.has_transmission());
+    assert_ne!(coloured.camera.reverse_z, scalar.camera.reverse_z);
+    for config in [Config::DEFAULT, Config::Average] {
+        let mut reused = Wboit::new(config);
+        for (scene, modulated) in [(&coloured, true), (&scalar, false), (&coloured, true)] {
+            let gpu = GpuScene::upload(&ctx, scene).expect("upload");
+            let targets =
+                Targets::new(&ctx, scene.resolution, ColorFormat::Rgba32Float).expect("targets");
+            let mut timer = GpuTimer::wall_clock();
+            render_frame(&ctx, &gpu, &mut reused, &targets, &mut timer).expect("frame");
+            let image = read_color(&ctx, &targets).expect("readback");
+            let accum = reused.accum_targets().expect("targets after a frame");
+            assert_eq!(accum.background_modulated(), modulated, "{}", config.spec());
+            let fresh = render(&ctx, scene, config, ColorFormat::Rgba32Float);
+            assert!(
+                image.pixels == fresh.pixels,
+                "{}: reused instance differs",
+                config.spec()
+            );
+        }
+    }
+}
+
 /// On the bundled transmission scenes (256², default Rgba16Float target), the coloured
 /// composite against the scalar one it replaced (README's earlier table, same adapter):
 /// (scene, RMSE of wboit:range before, measured now, weighted-average now), lavapipe. What is
