@@ -107,24 +107,33 @@ fn pure_filters_are_exact_per_channel_in_either_draw_order() {
 }
 
 /// One instance follows the scene it is given: the modulated pipelines and composite on a
-/// coloured scene, the plain ones on a scalar scene (here also with the other depth
-/// convention), each frame bit for bit what a fresh instance renders.
+/// coloured scene, the plain ones on a scalar scene, the depth test of each scene's depth
+/// convention, each frame bit for bit what a fresh instance renders.
 #[test]
 fn one_instance_follows_coloured_and_scalar_scenes() {
     let Some(ctx) = context_or_skip("wboit_transmission_reuse") else {
         return;
     };
     let coloured = load_str(FILTERS);
-    let scalar = load_str(
+    let scalar = load_str(&FILTERS.replace(", \"transmission\": 1", ""));
+    let scalar_flipped = load_str(
         &FILTERS
             .replace(", \"transmission\": 1", "")
             .replace("\"background\":", "\"reverse_z\": false, \"background\":"),
     );
     assert!(coloured.has_coloured_transmission() && !scalar.has_transmission());
-    assert_ne!(coloured.camera.reverse_z, scalar.camera.reverse_z);
+    assert_eq!(coloured.camera.reverse_z, scalar.camera.reverse_z);
+    assert_ne!(scalar.camera.reverse_z, scalar_flipped.camera.reverse_z);
+    // Each step changes one of (coloured, depth convention), then both.
+    let steps = [
+        (&coloured, true),
+        (&scalar, false),
+        (&scalar_flipped, false),
+        (&coloured, true),
+    ];
     for config in [Config::DEFAULT, Config::Average] {
         let mut reused = Wboit::new(config);
-        for (scene, modulated) in [(&coloured, true), (&scalar, false), (&coloured, true)] {
+        for (scene, modulated) in steps {
             let gpu = GpuScene::upload(&ctx, scene).expect("upload");
             let targets =
                 Targets::new(&ctx, scene.resolution, ColorFormat::Rgba32Float).expect("targets");
