@@ -138,7 +138,9 @@ fn one_instance_follows_coloured_and_scalar_scenes() {
             let targets =
                 Targets::new(&ctx, scene.resolution, ColorFormat::Rgba32Float).expect("targets");
             let mut timer = GpuTimer::wall_clock();
-            render_frame(&ctx, &gpu, &mut reused, &targets, &mut timer).expect("frame");
+            let frame = render_frame(&ctx, &gpu, &mut reused, &targets, &mut timer).expect("frame");
+            // One accumulation pass over the geometry whether or not it modulates.
+            assert_eq!(frame.stats.geometry_passes, 1);
             let image = read_color(&ctx, &targets).expect("readback");
             let accum = reused.accum_targets().expect("targets after a frame");
             assert_eq!(accum.background_modulated(), modulated, "{}", config.spec());
