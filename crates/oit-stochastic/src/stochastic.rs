@@ -529,7 +529,7 @@ impl Technique for Stochastic {
                 // Coloured transmission: each channel dithered from the opaque depth.
                 (Some(channels), Some((seed, group))) => {
                     for (c, pipelines) in channels.iter().enumerate() {
-                        if c > 0 {
+                        if c != 0 {
                             seed.draw_depth_reset(&mut pass, group);
                         }
                         dither(&mut pass, pipelines);

@@ -132,3 +132,90 @@ fn scalar_scenes_keep_one_pass_per_frame() {
         TransmissionSupport::Approximate(_)
     ));
 }
+
+/// One pure red filter (τ = 1, base colour (1, 0.15, 0.1)) over a light wall. Its red
+/// transmittance is exactly 1, so in the red pass no fragment survives and red is the wall's on
+/// every pixel of every frame, already at one sample per pixel. The scalar survival test this
+/// replaced (α = 1 − mean(t) = 0.58) blacked out red wherever the filter survived: off by the
+/// wall's whole 0.9 (measured with a temporary switch).
+#[test]
+fn at_one_sample_a_pure_red_filter_passes_red_untouched() {
+    let Some(ctx) = context_or_skip("stochastic_red_filter") else {
+        return;
+    };
+    let scene = oit_scene::parse(RED_FILTER, "red-filter.json").expect("scene");
+    let reference = oit_reference::render(&scene, &Default::default());
+    for pattern in ["white", "blue", "bayer8", "hashed"] {
+        let spec = format!("stochastic:pattern={pattern}");
+        let (image, _) = render(&ctx, &scene, &spec);
+        let worst = image
+            .pixels
+            .iter()
+            .zip(&reference.image.pixels)
+            .map(|(p, q)| (p[0] - q[0]).abs())
+            .fold(0.0f32, f32::max);
+        // The Rgba16Float target's rounding of the wall's 0.9: 9.8e-5.
+        assert!(worst <= 2.5e-4, "{spec}: red off by {worst}");
+        // Green and blue are dithered: some filter pixels keep the wall, some are black.
+        let covered: Vec<usize> = (0..reference.layers.len())
+            .filter(|&i| reference.layers[i] > 0)
+            .collect();
+        let black = covered
+            .iter()
+            .filter(|&&i| image.pixels[i][1] == 0.0)
+            .count();
+        assert!(
+            black > covered.len() / 2 && black < covered.len(),
+            "{spec}: {black} of {} filter pixels black in green",
+            covered.len()
+        );
+    }
+}
+
+const RED_FILTER: &str = r#"{
+  "name": "red-filter",
+  "resolution": [48, 48],
+  "camera": {"eye": [0, 0, 5], "target": [0, 0, 0], "up": [0, 1, 0], "fov_y": 40, "near": 0.1, "far": 100},
+  "background": [0.2, 0.25, 0.3],
+  "objects": [
+    {"mesh": {"kind": "quad", "size": [3.0, 3.0]}, "transform": {"translate": [0, 0, -1]},
+     "material": {"base_color": [0.9, 0.8, 0.7], "mode": "opaque"}},
+    {"mesh": {"kind": "quad", "size": [1.6, 1.6]},
+     "material": {"base_color": [1, 0.15, 0.1], "mode": "blend", "alpha": 1, "transmission": 1}}
+  ]
+}"#;
+
+/// One instance follows the scene it is given: per-channel passes on a coloured scene, one
+/// pass on a scalar one, each frame bit for bit what a fresh instance renders (the patterns
+/// are deterministic).
+#[test]
+fn one_instance_follows_coloured_and_scalar_scenes() {
+    let Some(ctx) = context_or_skip("stochastic_transmission_reuse") else {
+        return;
+    };
+    let coloured = oit_scene::parse(FILTERS, "filters.json").expect("scene");
+    let scalar = oit_scene::parse(
+        &FILTERS
+            .replace(", \"transmission\": 1", "")
+            .replace(", \"transmission\": 0.6", ""),
+        "filters.json",
+    )
+    .expect("scene");
+    assert!(!scalar.has_transmission());
+    for spec in ["stochastic:pattern=blue", "stochastic:pattern=white,spp=3"] {
+        let mut reused = build(spec);
+        for scene in [&coloured, &scalar, &coloured] {
+            let gpu = GpuScene::upload(&ctx, scene).expect("upload");
+            let targets =
+                Targets::new(&ctx, scene.resolution, Default::default()).expect("targets");
+            let mut timer = GpuTimer::wall_clock();
+            render_frame(&ctx, &gpu, reused.as_mut(), &targets, &mut timer).expect("frame");
+            let image = read_color(&ctx, &targets).expect("readback");
+            let (fresh, _) = render(&ctx, scene, spec);
+            assert!(
+                image.pixels == fresh.pixels,
+                "{spec}: reused instance differs"
+            );
+        }
+    }
+}
