@@ -186,22 +186,24 @@ const RED_FILTER: &str = r#"{
 }"#;
 
 /// One instance follows the scene it is given: per-channel passes on a coloured scene, one
-/// pass on a scalar one, each frame bit for bit what a fresh instance renders (the patterns
-/// are deterministic).
+/// pass on a scalar one of another size, each frame bit for bit what a fresh instance renders
+/// (the patterns are deterministic).
 #[test]
 fn one_instance_follows_coloured_and_scalar_scenes() {
     let Some(ctx) = context_or_skip("stochastic_transmission_reuse") else {
         return;
     };
     let coloured = oit_scene::parse(FILTERS, "filters.json").expect("scene");
+    // Scalar, and at another size: the frame targets must follow too.
     let scalar = oit_scene::parse(
         &FILTERS
             .replace(", \"transmission\": 1", "")
-            .replace(", \"transmission\": 0.6", ""),
+            .replace(", \"transmission\": 0.6", "")
+            .replace("[64, 48]", "[40, 32]"),
         "filters.json",
     )
     .expect("scene");
-    assert!(!scalar.has_transmission());
+    assert!(!scalar.has_transmission() && scalar.resolution != coloured.resolution);
     for spec in ["stochastic:pattern=blue", "stochastic:pattern=white,spp=3"] {
         let mut reused = build(spec);
         for scene in [&coloured, &scalar, &coloured] {
