@@ -108,7 +108,7 @@ fn pure_filters_are_exact_per_channel_in_either_draw_order() {
 
 /// One instance follows the scene it is given: the modulated pipelines and composite on a
 /// coloured scene, the plain ones on a scalar scene, the depth test of each scene's depth
-/// convention, each frame bit for bit what a fresh instance renders.
+/// convention and targets of its size, each frame bit for bit what a fresh instance renders.
 #[test]
 fn one_instance_follows_coloured_and_scalar_scenes() {
     let Some(ctx) = context_or_skip("wboit_transmission_reuse") else {
@@ -119,11 +119,13 @@ fn one_instance_follows_coloured_and_scalar_scenes() {
     let scalar_flipped = load_str(
         &FILTERS
             .replace(", \"transmission\": 1", "")
-            .replace("\"background\":", "\"reverse_z\": false, \"background\":"),
+            .replace("\"background\":", "\"reverse_z\": false, \"background\":")
+            .replace("[48, 40]", "[40, 32]"),
     );
     assert!(coloured.has_coloured_transmission() && !scalar.has_transmission());
     assert_eq!(coloured.camera.reverse_z, scalar.camera.reverse_z);
     assert_ne!(scalar.camera.reverse_z, scalar_flipped.camera.reverse_z);
+    assert_ne!(scalar.resolution, scalar_flipped.resolution);
     // Each step changes one of (coloured, depth convention), then both.
     let steps = [
         (&coloured, true),
