@@ -73,12 +73,8 @@ struct Outputs {
     @location(1) reveal: vec4<f32>,
 }
 
-@fragment
-fn fs_wboit(v: VertexOut, @builtin(front_facing) front_facing: bool) -> Outputs {
-    let s = shade(v, front_facing);
-    if !s.keep {
-        discard;
-    }
+// The weighted accumulation outputs of a kept fragment (the plain and the coloured pass).
+fn weighted(v: VertexOut, s: Shaded) -> WboitAccum {
     let window_z = v.clip.z;
     var d = window_z;
     if params.reverse_z != 0u {
@@ -86,7 +82,16 @@ fn fs_wboit(v: VertexOut, @builtin(front_facing) front_facing: bool) -> Outputs 
     }
     let z = wboit_view_distance(window_z, params.proj_a, params.proj_b, params.ortho != 0u);
     let w = weight(params.weight, z, d, s.alpha);
-    let a = wboit_accumulate(s.color, s.alpha, w, params.color_scale);
+    return wboit_accumulate(s.color, s.alpha, w, params.color_scale);
+}
+
+@fragment
+fn fs_wboit(v: VertexOut, @builtin(front_facing) front_facing: bool) -> Outputs {
+    let s = shade(v, front_facing);
+    if !s.keep {
+        discard;
+    }
+    let a = weighted(v, s);
     var out: Outputs;
     out.accum = a.accum;
     out.reveal = a.reveal;
@@ -115,14 +120,7 @@ fn fs_wboit_coloured(v: VertexOut, @builtin(front_facing) front_facing: bool) ->
     if !s.keep {
         discard;
     }
-    let window_z = v.clip.z;
-    var d = window_z;
-    if params.reverse_z != 0u {
-        d = 1.0 - window_z;
-    }
-    let z = wboit_view_distance(window_z, params.proj_a, params.proj_b, params.ortho != 0u);
-    let w = weight(params.weight, z, d, s.alpha);
-    let a = wboit_accumulate(s.color, s.alpha, w, params.color_scale);
+    let a = weighted(v, s);
     var out: ColouredOutputs;
     out.accum = a.accum;
     out.reveal = a.reveal;
