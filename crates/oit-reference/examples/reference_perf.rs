@@ -32,7 +32,7 @@ fn best_of(scene: &Scene, options: &ReferenceOptions, runs: usize) -> Reference 
 fn row(label: &str, r: &Reference) {
     let s = &r.stats;
     println!(
-        "{label:<28} {:>9.1} ms {:>12} frags {:>8.1} Mfrag/s | setup {:>6.1} bin {:>6.1} raster {:>7.1} sort {:>7.1} composite {:>7.1} ms | max {:>3} mean {:>6.2} | peak tile {:>9} B",
+        "{label:<28} {:>9.1} ms {:>12} frags {:>8.1} Mfrag/s | setup {:>6.1} bin {:>6.1} raster {:>7.1} sort {:>7.1} composite {:>7.1} ms | max {:>3} mean {:>6.2} | peak tile {:>9} B | in order {}/{} tiles",
         s.seconds * 1e3,
         s.fragments,
         s.fragments_per_second / 1e6,
@@ -44,6 +44,8 @@ fn row(label: &str, r: &Reference) {
         s.max_depth_complexity,
         s.mean_depth_complexity,
         s.peak_tile_bytes,
+        s.in_order_tiles,
+        s.tiles,
     );
 }
 
@@ -117,7 +119,8 @@ fn layers_scene(n: usize, size: u32) -> Scene {
 }
 
 fn main() {
-    // Arguments: [SCENES_DIR] [--quick] [--tile N]; --quick stops after the two scenes.
+    // Arguments: [SCENES_DIR] [--quick] [--stored] [--tile N] [--only SCENE]; --quick stops
+    // after the two scenes.
     let args: Vec<String> = std::env::args().skip(1).collect();
     let quick = args.iter().any(|a| a == "--quick");
     let tile = args
@@ -133,12 +136,18 @@ fn main() {
     let dir = args
         .iter()
         .enumerate()
-        .find(|(i, a)| !a.starts_with("--") && (*i == 0 || args[i - 1] != "--tile"))
+        .find(|(i, a)| {
+            !a.starts_with("--")
+                && (*i == 0 || !["--tile", "--only"].contains(&args[i - 1].as_str()))
+        })
         .map(|(_, a)| PathBuf::from(a))
         .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes"));
+    // --stored: every tile with stored, sorted lists (no in-order compositing).
+    let stored = args.iter().any(|a| a == "--stored");
     let options = ReferenceOptions {
         tile_size,
         progress: None,
+        in_order: !stored,
         ..Default::default()
     };
     println!(
@@ -154,7 +163,15 @@ fn main() {
     };
 
     println!("\n== bundled scenes at 1024x1024 ==");
+    // --only NAME: just that scene (for profiling one of them).
+    let only = args
+        .iter()
+        .position(|a| a == "--only")
+        .and_then(|i| args.get(i + 1));
     for name in ["many-layers-64", "particles"] {
+        if only.is_some_and(|o| o != name) {
+            continue;
+        }
         match load(&dir.join(format!("{name}.json"))) {
             Ok(scene) => row(name, &best_of(&at(&scene, 1024), &options, 3)),
             Err(e) => println!("{name}: cannot load ({e})"),

@@ -63,6 +63,19 @@ pub(crate) struct Scratch {
     /// Per slot, only in scenes with coloured transmission: the fragment's transmittance
     /// (`1 − α` in every channel for a scalar-alpha fragment), f64 as it is composited.
     transmittance: Vec<[f64; 3]>,
+    /// Per pixel, only while a tile is composited in arrival order ([`render_rect_in_order`]):
+    /// the f64 premultiplied colour sum so far and, for scalar scenes, the transmittance in
+    /// the fourth element; the per-channel transmittance of scenes with coloured transmission;
+    /// the depth key and the number of the fragments composited so far; the transparent
+    /// fragments kept; whether its fragments arrived out of order. Per row with disordered
+    /// pixels: (row, first, end) of the run the stored path renders.
+    in_order_sum: Vec<[f64; 4]>,
+    in_order_transmittance: Vec<[f64; 3]>,
+    last_depth: Vec<u32>,
+    layer_count: Vec<u32>,
+    kept: Vec<u32>,
+    disordered: Vec<bool>,
+    stored_rows: Vec<[u32; 3]>,
     /// Most bytes held since the tile started, the transient of a reallocation included.
     high_water: u64,
 }
@@ -112,12 +125,20 @@ enum Want {
 }
 
 /// Buffers of [`Scratch::buffers`]: the per-pixel state, the spans, the per-slot arrays, the
-/// sort buffers and the slicing counts, in that order.
-const BUFFERS: usize = 16;
+/// sort buffers, the slicing counts and the in-order state, in that order.
+const BUFFERS: usize = 23;
+/// The per-pixel state both paths share: opaque key and colour, fragment and undecided
+/// counts, tie flag.
+const SHARED_STATE: usize = 5;
 const START: usize = 5;
 const SPANS: usize = 7;
 const COUNTS: usize = 13;
 const TRANSMITTANCE: usize = 15;
+/// The first of the in-order state (sum, transmittance, last depth, layer and kept counts,
+/// disorder flags), then its stored rows.
+const IN_ORDER_SUM: usize = 16;
+const IN_ORDER_TRANSMITTANCE: usize = 17;
+const STORED_ROWS: usize = 22;
 
 /// Bytes of per-pixel state a tile keeps besides its fragment lists: opaque key and colour,
 /// fragment count, undecided count, list start and end, tie flag.
@@ -196,6 +217,13 @@ impl Scratch {
             &mut self.counts,
             &mut self.row_spans,
             &mut self.transmittance,
+            &mut self.in_order_sum,
+            &mut self.in_order_transmittance,
+            &mut self.last_depth,
+            &mut self.layer_count,
+            &mut self.kept,
+            &mut self.disordered,
+            &mut self.stored_rows,
         ]
     }
 
@@ -316,6 +344,8 @@ pub(crate) struct TileStats {
     pub peak_tile_bytes: u64,
     /// Tiles rendered in slices because their fragments did not fit at once.
     pub sliced_tiles: u64,
+    /// Tiles composited in arrival order ([`render_rect_in_order`]).
+    pub in_order_tiles: u64,
 }
 
 impl TileStats {
@@ -333,6 +363,7 @@ impl TileStats {
         self.composite += o.composite;
         self.peak_tile_bytes = self.peak_tile_bytes.max(o.peak_tile_bytes);
         self.sliced_tiles += o.sliced_tiles;
+        self.in_order_tiles += o.in_order_tiles;
         self
     }
 }
@@ -753,7 +784,6 @@ fn shade_span(
     sink: &mut impl Fragments,
 ) {
     let y = tile.y0 + row;
-    let py = y as f64 + 0.5;
     let base = (row * tile.width) as usize;
     if tri.inv_farea2 == 0.0 {
         for x in first..end {
@@ -785,34 +815,11 @@ fn shade_span(
         }
         return;
     }
-    // E_i(px, py) = dx_i·(py − ya) − dy_i·(px − xa): the first product is constant along a row.
-    let mut along_row = [0.0f64; 3];
-    let mut dy = [0.0f64; 3];
-    let mut xa = [0.0f64; 3];
-    for i in 0..3 {
-        let (a, b) = ((i + 1) % 3, (i + 2) % 3);
-        along_row[i] = (tri.fx[b] - tri.fx[a]) * (py - tri.fy[a]);
-        dy[i] = tri.fy[b] - tri.fy[a];
-        xa[i] = tri.fx[a];
-    }
-    // Barycentric weights of the batch of pixels from `x`.
-    let inv_farea2 = tri.inv_farea2;
-    let weights = |x: u32| -> [[f64; LANES]; 3] {
-        // Pixel centres; small integers plus 0.5, so the sum is exact.
-        let px0 = (tile.x0 + x) as f64 + 0.5;
-        let px: [f64; LANES] = std::array::from_fn(|j| px0 + j as f64);
-        std::array::from_fn(|i| {
-            std::array::from_fn(|j| (along_row[i] - dy[i] * (px[j] - xa[i])) * inv_farea2)
-        })
-    };
+    let row_weights = RowWeights::new(tri, tile, row);
+    let weights = |x: u32| row_weights.at(x);
     if let Some(shaded) = tri.constant {
         let open = tri.constant_undecided;
-        if tri.z[0] == tri.z[1] && tri.z[1] == tri.z[2] {
-            // A constant depth interpolates to itself: Σ l_i·z in f64 is z·(1 ± 2^-50) (the
-            // weights sum to 1 up to f64 rounding), which rounds back to the f32 z. So every
-            // fragment of a flat constant triangle (layers, camera-facing billboards) has one
-            // key, bit-identical to what the per-pixel path computes.
-            let dkey = depth_key(tri.z[0].clamp(0.0, 1.0) + 0.0, reverse_z);
+        if let Some(dkey) = flat_depth_key(tri, reverse_z) {
             for x in first..end {
                 sink.fragment(base + x as usize, dkey, shaded, open);
             }
@@ -857,6 +864,66 @@ fn shade_span(
                 );
             }
         }
+    }
+}
+
+/// The depth key every fragment of `tri` has when its window depth is constant (bit-identical
+/// at the vertices) and its float area is not zero, else None.
+///
+/// A constant depth interpolates to itself: Σ l_i·z in f64 is z·(1 ± 2^-50) (the weights sum
+/// to 1 up to f64 rounding), which rounds back to the f32 z. So every fragment of a flat
+/// triangle (layers, camera-facing billboards) has this key, bit-identical to what the
+/// per-pixel path of [`shade_span`] computes.
+#[inline(always)]
+fn flat_depth_key(tri: &SetupTriangle, reverse_z: bool) -> Option<u32> {
+    (tri.inv_farea2 != 0.0 && tri.z[0] == tri.z[1] && tri.z[1] == tri.z[2])
+        .then(|| depth_key(tri.z[0].clamp(0.0, 1.0) + 0.0, reverse_z))
+}
+
+/// Barycentric weights along one tile row of a triangle with non-zero float area, from its
+/// unsnapped f32 window positions ([`shade_span`]), a batch of [`LANES`] pixels at a time.
+struct RowWeights {
+    /// `E_i(px, py) = dx_i·(py − ya) − dy_i·(px − xa)`: the first product is constant along
+    /// a row.
+    along_row: [f64; 3],
+    dy: [f64; 3],
+    xa: [f64; 3],
+    inv_farea2: f64,
+    /// The tile's first pixel column.
+    x0: u32,
+}
+
+impl RowWeights {
+    #[inline(always)]
+    fn new(tri: &SetupTriangle, tile: TileRect, row: u32) -> Self {
+        let py = (tile.y0 + row) as f64 + 0.5;
+        let mut w = RowWeights {
+            along_row: [0.0; 3],
+            dy: [0.0; 3],
+            xa: [0.0; 3],
+            inv_farea2: tri.inv_farea2,
+            x0: tile.x0,
+        };
+        for i in 0..3 {
+            let (a, b) = ((i + 1) % 3, (i + 2) % 3);
+            w.along_row[i] = (tri.fx[b] - tri.fx[a]) * (py - tri.fy[a]);
+            w.dy[i] = tri.fy[b] - tri.fy[a];
+            w.xa[i] = tri.fx[a];
+        }
+        w
+    }
+
+    /// The weights of the pixels `x..x + LANES` of the row (tile-local).
+    #[inline(always)]
+    fn at(&self, x: u32) -> [[f64; LANES]; 3] {
+        // Pixel centres; small integers plus 0.5, so the sum is exact.
+        let px0 = (self.x0 + x) as f64 + 0.5;
+        let px: [f64; LANES] = std::array::from_fn(|j| px0 + j as f64);
+        std::array::from_fn(|i| {
+            std::array::from_fn(|j| {
+                (self.along_row[i] - self.dy[i] * (px[j] - self.xa[i])) * self.inv_farea2
+            })
+        })
     }
 }
 
@@ -994,6 +1061,21 @@ pub(crate) struct TileOutput<'a> {
     pub x_offset: usize,
 }
 
+impl TileOutput<'_> {
+    /// The same outputs, borrowed for a shorter time (an attempt that may give up).
+    fn reborrow(&mut self) -> TileOutput<'_> {
+        TileOutput {
+            image: &mut *self.image,
+            layers: &mut *self.layers,
+            fragments: &mut *self.fragments,
+            undecided: &mut *self.undecided,
+            precision_ties: &mut *self.precision_ties,
+            stride: self.stride,
+            x_offset: self.x_offset,
+        }
+    }
+}
+
 /// What the tiles share: the set-up triangles, textures, plane depths, depth convention and
 /// background.
 pub(crate) struct TileContext<'a> {
@@ -1004,6 +1086,8 @@ pub(crate) struct TileContext<'a> {
     pub background: [f64; 3],
     /// Some draw has coloured transmission: fragments keep a per-channel transmittance.
     pub coloured: bool,
+    /// Try [`render_rect_in_order`] before the stored path ([`crate::ReferenceOptions`]).
+    pub in_order: bool,
 }
 
 /// Why [`render_tile`] did not render a tile.
@@ -1023,25 +1107,46 @@ pub(crate) enum TileFailure {
 }
 
 /// Renders one tile at once with its scratch storage bounded by `limit` bytes
-/// ([`Scratch::bytes`]), the outputs untouched when it fails.
+/// ([`Scratch::bytes`]): in arrival order where [`TileContext::in_order`] allows
+/// ([`render_rect_in_order`], the stored path for the pixels that need it), else with
+/// stored, sorted lists ([`render_rect`]).
 ///
-/// When its fragments do not fit, the transparent coverage is counted per pixel (nothing
-/// stored): [`TileFailure::Pixel`] when one pixel needs more than `hard_limit` (the first in
-/// row-major order), else [`TileFailure::Defer`]: the tile is for [`render_tile_sliced`].
+/// When it does not fit, [`TileFailure::Defer`]: the tile is for [`render_tile_sliced`], and
+/// its outputs, which an in-order attempt may have partly written, are all written again
+/// there. Without the in-order path the transparent coverage is counted per pixel first
+/// (nothing stored, the outputs untouched): [`TileFailure::Pixel`] when one pixel needs more
+/// than `hard_limit` (the first in row-major order).
 pub(crate) fn render_tile(
     ctx: &TileContext<'_>,
     bin: &[u32],
     tile: TileRect,
     scratch: &mut Scratch,
-    out: TileOutput<'_>,
+    mut out: TileOutput<'_>,
     limit: u64,
     hard_limit: u64,
 ) -> Result<TileStats, TileFailure> {
     scratch.high_water = scratch.bytes();
+    let mut attempt = Duration::ZERO;
+    if ctx.in_order {
+        let started = Instant::now();
+        if let Some(stats) = render_rect_in_order(ctx, bin, tile, scratch, out.reborrow(), limit) {
+            return Ok(stats);
+        }
+        attempt = started.elapsed();
+    }
     if let Some(stats) = render_rect(ctx, bin, tile, scratch, out, limit, None) {
-        return Ok(stats);
+        // A failed in-order attempt counts as rasterization time of the tile.
+        return Ok(TileStats {
+            raster: stats.raster + attempt,
+            ..stats
+        });
     }
     scratch.release();
+    if ctx.in_order {
+        // Alone with the whole budget the tile may still be composited in order, whatever
+        // its pixels would need stored: [`render_tile_sliced`] decides.
+        return Err(TileFailure::Defer);
+    }
     let checked = count_tile(ctx, bin, tile, scratch, limit, hard_limit);
     scratch.release();
     checked.and(Err(TileFailure::Defer))
@@ -1051,9 +1156,10 @@ pub(crate) fn render_tile(
 /// and undecided counts, tie flag.
 const OUTPUT_BYTES: u64 = (size_of::<[f32; 4]>() + 3 * size_of::<u32>() + size_of::<bool>()) as u64;
 
-/// Renders a tile alone in slices, bands of rows, runs of a row or single pixels, each
-/// re-rasterizing the tile's triangles; the transparent coverage is counted per pixel first
-/// (nothing stored) to plan them. Every pixel's result depends only on its own fragments, so
+/// Renders a tile alone: in arrival order where [`TileContext::in_order`] allows and that
+/// fits `budget` ([`render_rect_in_order`]), else in slices, bands of rows, runs of a row or
+/// single pixels, each re-rasterizing the tile's triangles; the transparent coverage is
+/// counted per pixel first (nothing stored) to plan them. Every pixel's result depends only on its own fragments, so
 /// the output is the same bit for bit as at once.
 ///
 /// The counts and the slices in flight stay within `budget`: the slices run in parallel, each
@@ -1068,6 +1174,15 @@ pub(crate) fn render_tile_sliced(
     budget: u64,
 ) -> Result<TileStats, TileFailure> {
     let t_start = Instant::now();
+    if ctx.in_order {
+        // With the whole budget the per-pixel state may fit where a thread's share did not.
+        let mut scratch = Scratch::default();
+        if let Some(stats) =
+            render_rect_in_order(ctx, bin, tile, &mut scratch, out.reborrow(), budget)
+        {
+            return Ok(stats);
+        }
+    }
     let mut counter = Scratch::default();
     let largest = count_tile(ctx, bin, tile, &mut counter, budget, budget)?;
     let reserved = counter.bytes();
@@ -1343,7 +1458,7 @@ fn render_rect(
     bin: &[u32],
     tile: TileRect,
     scratch: &mut Scratch,
-    out: TileOutput<'_>,
+    mut out: TileOutput<'_>,
     limit: u64,
     spans: Option<usize>,
 ) -> Option<TileStats> {
@@ -1354,6 +1469,7 @@ fn render_rect(
         reverse_z,
         background,
         coloured,
+        in_order: _,
     } = *ctx;
     let t_start = Instant::now();
     let n = (tile.width * tile.height) as usize;
@@ -1369,19 +1485,12 @@ fn render_rect(
     want[SPANS] = Want::Fresh(spans.unwrap_or(0));
     want[COUNTS] = Want::Keep(0);
     want[COUNTS + 1] = Want::Keep(0);
+    // The in-order path renders its stored rows one by one with this function.
+    want[STORED_ROWS] = Want::Keep(0);
     if !s.ensure(want, limit) {
         return None;
     }
-    s.opaque_key.clear();
-    s.opaque_key.resize(n, far);
-    s.opaque_color.clear();
-    s.opaque_color.resize(n, [0.0; 3]);
-    s.all_count.clear();
-    s.all_count.resize(n, 0);
-    s.undecided.clear();
-    s.undecided.resize(n, 0);
-    s.tie.clear();
-    s.tie.resize(n, false);
+    reset_shared_state(s, n, far);
     s.start.clear();
     s.start.resize(n + 1, 0);
     // Filled after the coverage pass; empty until then, as `ensure` counts what it holds.
@@ -1430,20 +1539,7 @@ fn render_rect(
             });
             continue;
         }
-        let mut sink = OpaqueFragments {
-            rank: tri.key,
-            plane: tri.plane_depth,
-            far,
-            planes,
-            opaque_key: &mut s.opaque_key,
-            opaque_color: &mut s.opaque_color,
-            all_count: &mut s.all_count,
-            undecided: &mut s.undecided,
-            tie: &mut s.tie,
-        };
-        for_each_span(tri, tile, |row, first, end| {
-            shade_span(tri, textures, tile, row, first, end, reverse_z, &mut sink);
-        });
+        shade_opaque(ctx, tri, tile, s, far);
     }
     // Slot indices are u32; only a tile with millions of spans can have more slots.
     if s.spans.len() as u64 * u64::from(tile.width) > u64::from(u32::MAX)
@@ -1592,25 +1688,14 @@ fn render_rect(
                 base,
             )
         };
-        let layers = list.len() as u32;
-        let o = out_row + column;
-        out.image[o] = [rgb[0] as f32, rgb[1] as f32, rgb[2] as f32, 1.0];
-        out.layers[o] = layers;
-        out.fragments[o] = s.all_count[p];
-        // The outputs start zeroed: writing only what is set leaves untouched pages unmapped.
-        if s.undecided[p] > 0 {
-            out.undecided[o] = s.undecided[p];
-        }
-        if tie {
-            out.precision_ties[o] = true;
-        }
-        stats.undecided_fragments += u64::from(s.undecided[p]);
-        stats.undecided_pixels += u64::from(s.undecided[p] > 0);
-        stats.precision_tie_pixels += u64::from(tie);
-        stats.fragments += u64::from(s.all_count[p]);
-        stats.composited_fragments += u64::from(layers);
-        stats.max_layers = stats.max_layers.max(layers);
-        stats.covered_pixels += u64::from(layers > 0);
+        let pixel = PixelResult {
+            rgb,
+            layers: list.len() as u32,
+            fragments: s.all_count[p],
+            undecided: s.undecided[p],
+            tie,
+        };
+        pixel.write(&mut out, out_row + column, &mut stats);
         // Next pixel: the output index follows the tile's rows through the frame's.
         column += 1;
         if column == tile_w {
@@ -1624,6 +1709,615 @@ fn render_rect(
     stats.composite = t_end - t_sort;
     stats.peak_tile_bytes = s.high_water;
     Some(stats)
+}
+
+/// Clears the per-pixel state both paths share for a rectangle of `n` pixels: no opaque
+/// surface yet (`far`), no fragments, nothing undecided, no tie.
+fn reset_shared_state(s: &mut Scratch, n: usize, far: u64) {
+    s.opaque_key.clear();
+    s.opaque_key.resize(n, far);
+    s.opaque_color.clear();
+    s.opaque_color.resize(n, [0.0; 3]);
+    s.all_count.clear();
+    s.all_count.resize(n, 0);
+    s.undecided.clear();
+    s.undecided.resize(n, 0);
+    s.tie.clear();
+    s.tie.resize(n, false);
+}
+
+/// The opaque pass of one opaque (or mask) triangle over `tile`.
+#[inline(always)]
+fn shade_opaque(
+    ctx: &TileContext<'_>,
+    tri: &SetupTriangle,
+    tile: TileRect,
+    s: &mut Scratch,
+    far: u64,
+) {
+    let mut sink = OpaqueFragments {
+        rank: tri.key,
+        plane: tri.plane_depth,
+        far,
+        planes: ctx.planes,
+        opaque_key: &mut s.opaque_key,
+        opaque_color: &mut s.opaque_color,
+        all_count: &mut s.all_count,
+        undecided: &mut s.undecided,
+        tie: &mut s.tie,
+    };
+    for_each_span(tri, tile, |row, first, end| {
+        shade_span(
+            tri,
+            ctx.textures,
+            tile,
+            row,
+            first,
+            end,
+            ctx.reverse_z,
+            &mut sink,
+        );
+    });
+}
+
+/// One pixel's outputs, as both paths produce them.
+struct PixelResult {
+    rgb: [f64; 3],
+    layers: u32,
+    fragments: u32,
+    undecided: u32,
+    tie: bool,
+}
+
+impl PixelResult {
+    /// Writes the pixel at index `o` of the outputs and adds it to `stats`.
+    #[inline(always)]
+    fn write(&self, out: &mut TileOutput<'_>, o: usize, stats: &mut TileStats) {
+        let rgb = self.rgb;
+        out.image[o] = [rgb[0] as f32, rgb[1] as f32, rgb[2] as f32, 1.0];
+        out.layers[o] = self.layers;
+        out.fragments[o] = self.fragments;
+        // The outputs start zeroed: writing only what is set leaves untouched pages unmapped.
+        if self.undecided > 0 {
+            out.undecided[o] = self.undecided;
+        }
+        if self.tie {
+            out.precision_ties[o] = true;
+        }
+        stats.undecided_fragments += u64::from(self.undecided);
+        stats.undecided_pixels += u64::from(self.undecided > 0);
+        stats.precision_tie_pixels += u64::from(self.tie);
+        stats.fragments += u64::from(self.fragments);
+        stats.composited_fragments += u64::from(self.layers);
+        stats.max_layers = stats.max_layers.max(self.layers);
+        stats.covered_pixels += u64::from(self.layers > 0);
+    }
+}
+
+/// The transparent pass of [`render_rect_in_order`]: each fragment strictly nearer than the
+/// opaque depth (or far) is composited into its pixel as it arrives, by the operations of
+/// [`composite_iter`] (scalar) or [`composite_coloured_iter`] (`COLOURED`) in the same order,
+/// so that the sums are bit for bit those of the stored path wherever the arrival order is
+/// the sorted order. A pixel is marked disordered at a fragment that is not farther than the
+/// last one it composited by more than the tie distance: the stored path decides it (sort,
+/// precision ties between neighbours). Bookkeeping as [`TransparentFragments`].
+struct InOrderFragments<'a, const COLOURED: bool> {
+    /// Of the triangle being shaded.
+    plane: f64,
+    far: u64,
+    planes: &'a [f64],
+    opaque_key: &'a [u64],
+    any_opaque: bool,
+    check_ties: bool,
+    undecided: &'a mut [u32],
+    tie: &'a mut [bool],
+    state: InOrderState<'a>,
+}
+
+/// The per-pixel state of the in-order pass ([`Scratch`]'s `in_order_*`, `last_depth`,
+/// `layer_count`, `kept`, `disordered`).
+struct InOrderState<'a> {
+    /// Colour sum, and the scalar transmittance in `[3]` unless the scene is coloured.
+    sum: &'a mut [[f64; 4]],
+    /// Per-channel transmittance, only in scenes with coloured transmission.
+    transmittance: &'a mut [[f64; 3]],
+    /// Depth key of the last composited fragment (0 before the first: every depth key of a
+    /// depth in [0, 1] is far above the tie distance from it).
+    last_depth: &'a mut [u32],
+    layer_count: &'a mut [u32],
+    /// Transparent fragments the cutoff kept (composited or hidden by the opaque depth).
+    kept: &'a mut [u32],
+    disordered: &'a mut [bool],
+}
+
+impl<'a> InOrderState<'a> {
+    fn of(s: &'a mut Scratch) -> (InOrderState<'a>, InOrderShared<'a>) {
+        (
+            InOrderState {
+                sum: &mut s.in_order_sum,
+                transmittance: &mut s.in_order_transmittance,
+                last_depth: &mut s.last_depth,
+                layer_count: &mut s.layer_count,
+                kept: &mut s.kept,
+                disordered: &mut s.disordered,
+            },
+            InOrderShared {
+                opaque_key: &s.opaque_key,
+                undecided: &mut s.undecided,
+                tie: &mut s.tie,
+            },
+        )
+    }
+
+    /// Whether `dkey` may follow the pixel's last composited depth key: farther by more than
+    /// the tie distance. Then it is the next fragment of the sorted list and no neighbour pair
+    /// of it is a precision tie.
+    #[inline(always)]
+    fn follows(last: u32, dkey: u32) -> bool {
+        u64::from(last) + u64::from(PRECISION_TIE_ULPS) < u64::from(dkey)
+    }
+}
+
+/// The shared per-pixel state the in-order pass reads or updates beside its own (it counts
+/// its fragments in `kept`, apart from the opaque pass's `all_count`).
+struct InOrderShared<'a> {
+    opaque_key: &'a [u64],
+    undecided: &'a mut [u32],
+    tie: &'a mut [bool],
+}
+
+impl<const COLOURED: bool> Fragments for InOrderFragments<'_, COLOURED> {
+    #[inline(always)]
+    fn fragment(&mut self, p: usize, dkey: u32, shaded: Shaded, undecided: bool) {
+        if undecided {
+            self.undecided[p] += 1;
+        }
+        let (premultiplied, alpha, transmittance) = match shaded {
+            Shaded::Transparent {
+                premultiplied,
+                alpha,
+            } => (premultiplied, alpha, None),
+            Shaded::Transmissive {
+                premultiplied,
+                opacity,
+                transmittance,
+            } => (premultiplied, opacity, Some(transmittance)),
+            Shaded::Opaque(_) | Shaded::Discarded => return,
+        };
+        let state = &mut self.state;
+        state.kept[p] += 1;
+        let opaque = if self.any_opaque {
+            self.opaque_key[p]
+        } else {
+            self.far
+        };
+        let nearest = (opaque >> 32) as u32;
+        if self.check_ties && ties_opaque(dkey, self.plane, opaque, self.far, self.planes) {
+            self.tie[p] = true;
+        }
+        if dkey < nearest {
+            state.disordered[p] |= !InOrderState::follows(state.last_depth[p], dkey);
+            state.last_depth[p] = dkey;
+            state.layer_count[p] += 1;
+            let sum = &mut state.sum[p];
+            let c = premultiplied.map(f64::from);
+            if COLOURED {
+                let t = match transmittance {
+                    Some(t) => t.map(f64::from),
+                    None => [1.0 - f64::from(alpha); 3],
+                };
+                let through = &mut state.transmittance[p];
+                for k in 0..3 {
+                    sum[k] += through[k] * c[k];
+                    through[k] *= t[k];
+                }
+            } else {
+                let through = sum[3];
+                sum[0] += through * c[0];
+                sum[1] += through * c[1];
+                sum[2] += through * c[2];
+                sum[3] = through * (1.0 - f64::from(alpha));
+            }
+        }
+    }
+}
+
+/// [`InOrderFragments`] for whole spans of a triangle of constant colour in a scalar scene's
+/// tile without opaque fragments (layers, billboards, particles): the colour, the far plane
+/// and what is counted are the same for every fragment, and no fragment can tie with the far
+/// plane unless the whole triangle does, so per pixel only the depth key and the composite
+/// step are left (for a flat triangle only the composite step, over contiguous state the
+/// compiler vectorises). The same operations in the same order, so the same bits.
+struct ConstantSpan {
+    premultiplied: [f64; 3],
+    /// `1 − α`.
+    keep: f64,
+    /// α is in the cutoff's undecided band.
+    undecided: bool,
+    /// The far plane's depth key: fragments must be strictly nearer to be composited.
+    far: u32,
+    /// For a flat triangle: its one depth key, and whether it ties with the far plane
+    /// ([`ties_opaque`]). Otherwise no vertex is within the tie distance of it
+    /// ([`near_far`]), and keys are interpolated per pixel.
+    flat: Option<(u32, bool)>,
+}
+
+impl ConstantSpan {
+    #[inline(always)]
+    fn of<const COLOURED: bool>(
+        tri: &SetupTriangle,
+        any_opaque: bool,
+        far: u64,
+        ctx: &TileContext<'_>,
+    ) -> Option<ConstantSpan> {
+        if COLOURED || any_opaque || tri.inv_farea2 == 0.0 {
+            return None;
+        }
+        let Some(Shaded::Transparent {
+            premultiplied,
+            alpha,
+        }) = tri.constant
+        else {
+            return None;
+        };
+        let flat = match flat_depth_key(tri, ctx.reverse_z) {
+            Some(dkey) => Some((
+                dkey,
+                ties_opaque(dkey, tri.plane_depth, far, far, ctx.planes),
+            )),
+            None if near_far(tri, far, ctx.reverse_z) => return None,
+            None => None,
+        };
+        Some(ConstantSpan {
+            premultiplied: premultiplied.map(f64::from),
+            keep: 1.0 - f64::from(alpha),
+            undecided: tri.constant_undecided,
+            far: (far >> 32) as u32,
+            flat,
+        })
+    }
+
+    /// Composites the span's fragments at the pixels `first..end` of tile row `row`.
+    #[allow(
+        clippy::too_many_arguments,
+        reason = "the per-span entry, as shade_span"
+    )]
+    #[inline(always)]
+    fn composite(
+        &self,
+        tri: &SetupTriangle,
+        tile: TileRect,
+        reverse_z: bool,
+        state: &mut InOrderState<'_>,
+        shared: &mut InOrderShared<'_>,
+        row: u32,
+        first: u32,
+        end: u32,
+    ) {
+        let base = (row * tile.width) as usize;
+        let range = base + first as usize..base + end as usize;
+        for k in &mut state.kept[range.clone()] {
+            *k += 1;
+        }
+        if self.undecided {
+            for u in &mut shared.undecided[range.clone()] {
+                *u += 1;
+            }
+        }
+        let Some((dkey, ties_far)) = self.flat else {
+            let weights = RowWeights::new(tri, tile, row);
+            for x in (first..end).step_by(LANES) {
+                let dkeys = depth_keys(depths(tri, &weights.at(x)), reverse_z);
+                let p = base + x as usize;
+                for (j, &dkey) in dkeys
+                    .iter()
+                    .enumerate()
+                    .take(((end - x) as usize).min(LANES))
+                {
+                    if dkey < self.far {
+                        self.add(state, p + j, dkey);
+                    }
+                }
+            }
+            return;
+        };
+        if ties_far {
+            shared.tie[range.clone()].fill(true);
+        }
+        if dkey >= self.far {
+            return;
+        }
+        for (last, disordered) in state.last_depth[range.clone()]
+            .iter_mut()
+            .zip(&mut state.disordered[range.clone()])
+        {
+            *disordered |= !InOrderState::follows(*last, dkey);
+            *last = dkey;
+        }
+        for layers in &mut state.layer_count[range.clone()] {
+            *layers += 1;
+        }
+        let [r, g, b] = self.premultiplied;
+        for sum in &mut state.sum[range] {
+            let through = sum[3];
+            sum[0] += through * r;
+            sum[1] += through * g;
+            sum[2] += through * b;
+            sum[3] = through * self.keep;
+        }
+    }
+
+    /// One visible fragment at depth key `dkey` composited into pixel `p`.
+    #[inline(always)]
+    fn add(&self, state: &mut InOrderState<'_>, p: usize, dkey: u32) {
+        state.disordered[p] |= !InOrderState::follows(state.last_depth[p], dkey);
+        state.last_depth[p] = dkey;
+        state.layer_count[p] += 1;
+        let sum = &mut state.sum[p];
+        let through = sum[3];
+        sum[0] += through * self.premultiplied[0];
+        sum[1] += through * self.premultiplied[1];
+        sum[2] += through * self.premultiplied[2];
+        sum[3] = through * self.keep;
+    }
+}
+
+/// Renders a rectangle without storing its transparent fragments where they arrive in depth
+/// order: opaque pass as [`render_rect`], then each transparent fragment in front of the
+/// opaque depth composited into its pixel on arrival ([`InOrderFragments`]). Transparent
+/// triangles are binned nearest first ([`in_bin_order`]), so on layered content and
+/// billboards nearly every pixel's fragments do arrive in order, and for those the sort, the
+/// slot storage and the second shading pass disappear. Each row's run from its first to its
+/// last disordered pixel (intersecting or depth-overlapping geometry, a precision tie) is
+/// then rendered by [`render_rect`]; every pixel is written once, bit-identical to what
+/// [`render_rect`] alone gives.
+///
+/// None when the per-pixel state or a stored run does not fit `limit`; the outputs may then
+/// be partly written, and the caller renders the whole tile again.
+fn render_rect_in_order(
+    ctx: &TileContext<'_>,
+    bin: &[u32],
+    tile: TileRect,
+    s: &mut Scratch,
+    mut out: TileOutput<'_>,
+    limit: u64,
+) -> Option<TileStats> {
+    let t_start = Instant::now();
+    let n = (tile.width * tile.height) as usize;
+    let far = far_key(ctx.reverse_z);
+    let mut want = [Want::Fresh(0); BUFFERS];
+    want[..SHARED_STATE].fill(Want::Fresh(n));
+    want[IN_ORDER_SUM..STORED_ROWS].fill(Want::Fresh(n));
+    want[IN_ORDER_TRANSMITTANCE] = Want::Fresh(if ctx.coloured { n } else { 0 });
+    want[STORED_ROWS] = Want::Fresh(tile.height as usize);
+    if !s.ensure(want, limit) {
+        return None;
+    }
+    reset_shared_state(s, n, far);
+    s.in_order_sum.clear();
+    s.in_order_sum.resize(n, [0.0, 0.0, 0.0, 1.0]);
+    s.in_order_transmittance.clear();
+    if ctx.coloured {
+        s.in_order_transmittance.resize(n, [1.0; 3]);
+    }
+    for v in [&mut s.last_depth, &mut s.layer_count, &mut s.kept] {
+        v.clear();
+        v.resize(n, 0);
+    }
+    s.disordered.clear();
+    s.disordered.resize(n, false);
+    for &t in bin {
+        let tri = &ctx.triangles[t as usize];
+        if !tri.transparent {
+            shade_opaque(ctx, tri, tile, s, far);
+        }
+    }
+    let any_opaque = s.opaque_key.iter().any(|&k| k != far);
+    if ctx.coloured {
+        transparent_in_order::<true>(ctx, bin, tile, s, far, any_opaque);
+    } else {
+        transparent_in_order::<false>(ctx, bin, tile, s, far, any_opaque);
+    }
+    let t_raster = Instant::now();
+
+    // Per row, the run of pixels the stored path renders: first to last disordered pixel.
+    let tile_w = tile.width as usize;
+    s.stored_rows.clear();
+    for (row, flags) in s.disordered.chunks_exact(tile_w).enumerate() {
+        if let (Some(lo), Some(hi)) = (
+            flags.iter().position(|&d| d),
+            flags.iter().rposition(|&d| d),
+        ) {
+            s.stored_rows.push([row as u32, lo as u32, hi as u32 + 1]);
+        }
+    }
+    let mut stats = TileStats {
+        in_order_tiles: u64::from(s.stored_rows.is_empty()),
+        ..TileStats::default()
+    };
+    let mut runs = s.stored_rows.iter().peekable();
+    for row in 0..tile.height as usize {
+        let (lo, hi) = match runs.peek() {
+            Some(&&[r, lo, hi]) if r as usize == row => {
+                runs.next();
+                (lo as usize, hi as usize)
+            }
+            _ => (tile_w, tile_w),
+        };
+        for xs in [0..lo, hi..tile_w] {
+            write_in_order(ctx, s, far, &mut out, row * tile_w, xs, row, &mut stats);
+        }
+    }
+    let t_end = Instant::now();
+    stats.raster = t_raster - t_start;
+    stats.composite = t_end - t_raster;
+    stats.peak_tile_bytes = s.high_water;
+
+    // The disordered runs, each a one-row rectangle of the stored path (`stored_rows` is kept
+    // through it).
+    for i in 0..s.stored_rows.len() {
+        let [row, lo, hi] = s.stored_rows[i];
+        let rect = TileRect {
+            x0: tile.x0 + lo,
+            y0: tile.y0 + row,
+            width: hi - lo,
+            height: 1,
+        };
+        let run_out = TileOutput {
+            x_offset: out.x_offset + row as usize * out.stride + lo as usize,
+            ..out.reborrow()
+        };
+        let run = render_rect(ctx, bin, rect, s, run_out, limit, None)?;
+        stats = stats.merge(TileStats {
+            peak_tile_bytes: s.high_water,
+            ..run
+        });
+    }
+    Some(stats)
+}
+
+/// Writes the in-order results of the pixels `xs` of tile row `row` (tile pixel index
+/// `p0 + x`) and adds them to `stats`, as [`PixelResult::write`] does pixel by pixel.
+#[allow(clippy::too_many_arguments, reason = "one row range of one tile")]
+fn write_in_order(
+    ctx: &TileContext<'_>,
+    s: &Scratch,
+    far: u64,
+    out: &mut TileOutput<'_>,
+    p0: usize,
+    xs: std::ops::Range<usize>,
+    row: usize,
+    stats: &mut TileStats,
+) {
+    if xs.is_empty() {
+        return;
+    }
+    let ps = p0 + xs.start..p0 + xs.end;
+    let o0 = out.x_offset + row * out.stride;
+    let os = o0 + xs.start..o0 + xs.end;
+    for (o, p) in out.image[os.clone()].iter_mut().zip(ps.clone()) {
+        let base = if s.opaque_key[p] == far {
+            ctx.background
+        } else {
+            s.opaque_color[p].map(f64::from)
+        };
+        let sum = &s.in_order_sum[p];
+        let through = if ctx.coloured {
+            s.in_order_transmittance[p]
+        } else {
+            [sum[3]; 3]
+        };
+        let rgb: [f64; 3] = std::array::from_fn(|k| sum[k] + through[k] * base[k]);
+        *o = [rgb[0] as f32, rgb[1] as f32, rgb[2] as f32, 1.0];
+    }
+    let layers = &s.layer_count[ps.clone()];
+    out.layers[os.clone()].copy_from_slice(layers);
+    // The transparent pass counted its kept fragments apart from the opaque pass's.
+    let (mut fragments, mut kept) = (0u64, 0u64);
+    for ((o, &all), &k) in out.fragments[os.clone()]
+        .iter_mut()
+        .zip(&s.all_count[ps.clone()])
+        .zip(&s.kept[ps.clone()])
+    {
+        *o = all + k;
+        fragments += u64::from(all + k);
+        kept += u64::from(k);
+    }
+    // The outputs start zeroed: writing only what is set leaves untouched pages unmapped.
+    let (mut undecided, mut undecided_pixels) = (0u64, 0u64);
+    for (o, &u) in out.undecided[os.clone()]
+        .iter_mut()
+        .zip(&s.undecided[ps.clone()])
+    {
+        if u > 0 {
+            *o = u;
+        }
+        undecided += u64::from(u);
+        undecided_pixels += u64::from(u > 0);
+    }
+    let mut ties = 0u64;
+    for (o, &t) in out.precision_ties[os].iter_mut().zip(&s.tie[ps]) {
+        if t {
+            *o = true;
+        }
+        ties += u64::from(t);
+    }
+    stats.fragments += fragments;
+    stats.transparent_fragments += kept;
+    stats.undecided_fragments += undecided;
+    stats.undecided_pixels += undecided_pixels;
+    stats.precision_tie_pixels += ties;
+    stats.composited_fragments += layers.iter().map(|&l| u64::from(l)).sum::<u64>();
+    stats.max_layers = stats
+        .max_layers
+        .max(layers.iter().copied().max().unwrap_or(0));
+    stats.covered_pixels += layers.iter().filter(|&&l| l > 0).count() as u64;
+}
+
+/// The transparent pass of [`render_rect_in_order`].
+fn transparent_in_order<const COLOURED: bool>(
+    ctx: &TileContext<'_>,
+    bin: &[u32],
+    tile: TileRect,
+    s: &mut Scratch,
+    far: u64,
+    any_opaque: bool,
+) {
+    let (mut state, mut shared) = InOrderState::of(s);
+    for &t in bin {
+        let tri = &ctx.triangles[t as usize];
+        if !tri.transparent {
+            continue;
+        }
+        if let Some(span) = ConstantSpan::of::<COLOURED>(tri, any_opaque, far, ctx) {
+            for_each_span(tri, tile, |row, first, end| {
+                span.composite(
+                    tri,
+                    tile,
+                    ctx.reverse_z,
+                    &mut state,
+                    &mut shared,
+                    row,
+                    first,
+                    end,
+                );
+            });
+            continue;
+        }
+        let check_ties = any_opaque || near_far(tri, far, ctx.reverse_z);
+        for_each_span(tri, tile, |row, first, end| {
+            // A sink per span: a short-lived local whose fields the optimiser keeps in
+            // registers (one that lives across spans is reloaded from memory per fragment).
+            let mut sink = InOrderFragments::<COLOURED> {
+                plane: tri.plane_depth,
+                far,
+                planes: ctx.planes,
+                opaque_key: shared.opaque_key,
+                any_opaque,
+                check_ties,
+                undecided: &mut *shared.undecided,
+                tie: &mut *shared.tie,
+                state: InOrderState {
+                    sum: &mut *state.sum,
+                    transmittance: &mut *state.transmittance,
+                    last_depth: &mut *state.last_depth,
+                    layer_count: &mut *state.layer_count,
+                    kept: &mut *state.kept,
+                    disordered: &mut *state.disordered,
+                },
+            };
+            shade_span(
+                tri,
+                ctx.textures,
+                tile,
+                row,
+                first,
+                end,
+                ctx.reverse_z,
+                &mut sink,
+            );
+        });
+    }
 }
 
 /// Marks an entry of a permutation as moved while [`permute`] follows its cycles.

@@ -157,15 +157,16 @@ fn options_debug_shows_every_field_and_whether_a_callback_is_set() {
     let plain = format!("{:?}", ReferenceOptions::default());
     assert_eq!(
         plain,
-        "ReferenceOptions { tile_size: 32, progress: None, memory_budget: 2147483648 }"
+        "ReferenceOptions { tile_size: 32, progress: None, memory_budget: 2147483648, in_order: true }"
     );
     let with = ReferenceOptions {
         tile_size: 8,
         progress: Some(Arc::new(|_, _| {})),
         memory_budget: 1 << 20,
+        in_order: false,
     };
     assert_eq!(
         format!("{with:?}"),
-        "ReferenceOptions { tile_size: 8, progress: Some(\"callback\"), memory_budget: 1048576 }"
+        "ReferenceOptions { tile_size: 8, progress: Some(\"callback\"), memory_budget: 1048576, in_order: false }"
     );
 }

@@ -114,8 +114,19 @@ fn particles_at_2048_stay_within_a_per_tile_bound() {
 
 /// Renders on a pool of `threads` workers (the budget is shared among them).
 fn render_on(threads: usize, scene: &Scene, budget: u64) -> Result<Reference, ReferenceError> {
+    render_on_with(threads, scene, budget, true)
+}
+
+/// [`render_on`] with the in-order path allowed or not.
+fn render_on_with(
+    threads: usize,
+    scene: &Scene,
+    budget: u64,
+    in_order: bool,
+) -> Result<Reference, ReferenceError> {
     let options = ReferenceOptions {
         memory_budget: budget,
+        in_order,
         ..ReferenceOptions::default()
     };
     rayon::ThreadPoolBuilder::new()
@@ -179,7 +190,11 @@ const SMALL_BUDGET: u64 = 256 << 10;
 #[test]
 fn tiles_over_the_budget_render_in_slices_bit_identically() {
     let scene = deep_stack();
-    let full = render(&scene, &ReferenceOptions::default());
+    let stored = ReferenceOptions {
+        in_order: false,
+        ..ReferenceOptions::default()
+    };
+    let full = render(&scene, &stored);
     assert_eq!(full.stats.sliced_tiles, 0, "the default budget holds it");
     assert!(
         full.stats.peak_tile_bytes > 10 * SMALL_BUDGET,
@@ -187,24 +202,33 @@ fn tiles_over_the_budget_render_in_slices_bit_identically() {
         full.stats.peak_tile_bytes
     );
     // Every tile is over a thread's share at once, so each is rendered alone afterwards, its
-    // slices in parallel (on 8 threads a share is even below a tile's per-pixel state).
+    // slices in parallel (on 8 threads a share is even below a tile's per-pixel state). The
+    // layers are shuffled in depth, so the in-order path hands every tile on too.
     for threads in [1, 2, 8] {
-        let r = render_on(threads, &scene, SMALL_BUDGET).expect("renders in slices");
-        let what = format!("{threads} threads");
-        assert_same_output(&full, &r, &what);
-        assert_eq!(r.stats.sliced_tiles, 4, "{what}: every tile is sliced");
-        assert!(
-            r.stats.peak_tile_bytes <= SMALL_BUDGET,
-            "{what}: a tile held {} bytes, over the budget of {SMALL_BUDGET}",
-            r.stats.peak_tile_bytes
-        );
+        for in_order in [false, true] {
+            let r =
+                render_on_with(threads, &scene, SMALL_BUDGET, in_order).expect("renders in slices");
+            let what = format!("{threads} threads, in order {in_order}");
+            assert_same_output(&full, &r, &what);
+            // In order (the shuffled layers are binned nearest first), but for the pixels
+            // where the mask-blend quad is coplanar with a layer, which the stored path
+            // renders; or sliced where that does not fit.
+            if !in_order {
+                assert_eq!(r.stats.sliced_tiles, 4, "{what}: every tile is sliced");
+            }
+            assert!(
+                r.stats.peak_tile_bytes <= SMALL_BUDGET,
+                "{what}: a tile held {} bytes, over the budget of {SMALL_BUDGET}",
+                r.stats.peak_tile_bytes
+            );
+        }
     }
 }
 
-#[test]
-fn a_pixel_over_the_budget_is_an_error_naming_it() {
-    // Three full-screen layers, and 6 000 tiny quads over pixel (5, 9) only: 6 003 fragments
-    // there, about 312 KB to sort and composite, over a 256 KiB budget.
+/// 6 000 tiny quads over pixel (5, 9) only, beside three full-screen layers, and a fragment
+/// count there of 6 003; with `coplanar_pairs` the quads come in pairs at one depth, which no
+/// arrival order decides, so the pixel's fragments must be stored and sorted.
+fn deep_pixel(coplanar_pairs: bool) -> Scene {
     let mut b = SceneBuilder::new(64, 64);
     for z in [-1.0, -2.0, -3.0] {
         b.quad(blend([0.5, 0.5, 0.9], 0.3), fullscreen(z), white());
@@ -216,7 +240,8 @@ fn a_pixel_over_the_budget_is_an_error_naming_it() {
     let h = 0.3 * 2.0 / 64.0;
     let quads: Vec<[Vec3; 3]> = (0..6000)
         .flat_map(|i| {
-            let z = -5.0 - i as f32 * 0.01;
+            let step = if coplanar_pairs { i / 2 } else { i };
+            let z = -5.0 - step as f32 * 0.01;
             let [a, b, c, d] = rect(
                 (x - h) as f32,
                 (y - h) as f32,
@@ -228,7 +253,38 @@ fn a_pixel_over_the_budget_is_an_error_naming_it() {
         })
         .collect();
     b.triangles(blend([0.9, 0.1, 0.1], 0.1), &quads, white());
-    let scene = b.build();
+    b.build()
+}
+
+#[test]
+fn a_deep_pixel_whose_fragments_arrive_in_order_needs_no_storage() {
+    let scene = deep_pixel(false);
+    let fits = render(&scene, &ReferenceOptions::default());
+    assert_eq!(fits.fragments[9 * 64 + 5], 6003);
+    assert_eq!(fits.stats.in_order_tiles, fits.stats.tiles);
+    for threads in [1, 2, 4] {
+        let r = render_on(threads, &scene, SMALL_BUDGET).expect("composited in order");
+        assert_same_output(&fits, &r, &format!("{threads} threads"));
+        // A 32×32 tile's per-pixel state (74 bytes a pixel in order), nothing per fragment.
+        assert!(
+            r.stats.peak_tile_bytes <= 32 * 32 * 80,
+            "{} bytes",
+            r.stats.peak_tile_bytes
+        );
+    }
+    // Stored and sorted, the same pixel needs more than the budget.
+    let e = render_on_with(1, &scene, SMALL_BUDGET, false).expect_err("stored");
+    assert!(
+        matches!(e, ReferenceError::PixelOverBudget { x: 5, y: 9, .. }),
+        "{e:?}"
+    );
+}
+
+#[test]
+fn a_pixel_over_the_budget_is_an_error_naming_it() {
+    // 6 003 fragments at pixel (5, 9) that must be sorted: about 312 KB to sort and
+    // composite, over a 256 KiB budget.
+    let scene = deep_pixel(true);
     let fits = render(&scene, &ReferenceOptions::default());
     assert_eq!(fits.fragments[9 * 64 + 5], 6003);
 

@@ -207,18 +207,24 @@ fn a_small_budget_slices_coloured_tiles_and_changes_no_bit() {
     }
     let scene = b.build();
     let whole = render(&scene, &ReferenceOptions::default());
-    let tight = try_render(
-        &scene,
-        &ReferenceOptions {
-            memory_budget: 256 * 1024,
-            ..ReferenceOptions::default()
-        },
-    )
-    .expect("fits when sliced");
-    assert!(bits(&whole.image) == bits(&tight.image));
-    assert!(
-        tight.stats.sliced_tiles > 0,
-        "the budget must force slicing"
-    );
-    assert!(tight.stats.peak_tile_bytes <= 256 * 1024);
+    // The panes arrive nearest first: composited in order they need no slot storage at all.
+    assert_eq!(whole.stats.in_order_tiles, whole.stats.tiles);
+    for in_order in [false, true] {
+        let tight = try_render(
+            &scene,
+            &ReferenceOptions {
+                memory_budget: 256 * 1024,
+                in_order,
+                ..ReferenceOptions::default()
+            },
+        )
+        .expect("fits when sliced");
+        assert!(bits(&whole.image) == bits(&tight.image));
+        assert_eq!(
+            tight.stats.sliced_tiles > 0,
+            !in_order,
+            "stored, the budget must force slicing; in order, it need not"
+        );
+        assert!(tight.stats.peak_tile_bytes <= 256 * 1024);
+    }
 }
