@@ -111,9 +111,10 @@ impl ReferenceOptions {
     /// fragment of the longest pixel list (sort buffers), and for a tile rendered in slices 4
     /// bytes per pixel of counts and 29 per pixel of each slice's outputs. A pixel alone thus
     /// needs about 90 bytes plus 48 per covered transparent fragment, beside its tile's counts.
-    /// A tile composited in arrival order ([`ReferenceOptions::in_order`]) holds 74 bytes per
-    /// pixel of state (98 with coloured transmission) and 12 per row instead, and nothing per
-    /// fragment but for the runs of pixels it hands to the stored path, one row at a time.
+    /// A tile composited in arrival order ([`ReferenceOptions::in_order`]) holds 77 bytes per
+    /// pixel of state (101 with coloured transmission) and 16 per row instead, and nothing
+    /// per fragment but for the rectangles of pixels it hands to the stored path, one at a
+    /// time.
     ///
     /// **Not counted** (proportional to the input or the resolution, bounded by the loader's
     /// caps): the scene (36 bytes per vertex: 432 MB for 4 M triangles); the set-up triangles,
@@ -259,6 +260,11 @@ pub struct ReferenceStats {
     /// without being stored ([`ReferenceOptions::in_order`]).
     #[serde(default)]
     pub in_order_tiles: u64,
+    /// Pixels composited from stored, sorted lists (all of them without
+    /// [`ReferenceOptions::in_order`]; with it, those whose fragments did not arrive in depth
+    /// order and the rest of their row's run).
+    #[serde(default)]
+    pub stored_pixels: u64,
     pub tile_size: u32,
     pub tiles: u64,
     pub threads: usize,
@@ -654,6 +660,7 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
         peak_tile_bytes: stats.peak_tile_bytes,
         sliced_tiles: stats.sliced_tiles,
         in_order_tiles: stats.in_order_tiles,
+        stored_pixels: stats.stored_pixels,
         tile_size: tile,
         tiles: tile_count as u64,
         threads: rayon::current_num_threads(),

@@ -63,19 +63,12 @@ pub(crate) struct Scratch {
     /// Per slot, only in scenes with coloured transmission: the fragment's transmittance
     /// (`1 − α` in every channel for a scalar-alpha fragment), f64 as it is composited.
     transmittance: Vec<[f64; 3]>,
-    /// Per pixel, only while a tile is composited in arrival order ([`render_rect_in_order`]):
-    /// the f64 premultiplied colour sum so far and, for scalar scenes, the transmittance in
-    /// the fourth element; the per-channel transmittance of scenes with coloured transmission;
-    /// the depth key and the number of the fragments composited so far; the transparent
-    /// fragments kept; whether its fragments arrived out of order. Per row with disordered
-    /// pixels: (row, first, end) of the run the stored path renders.
-    in_order_sum: Vec<[f64; 4]>,
+    /// Only while a tile is composited in arrival order ([`render_rect_in_order`]): per pixel
+    /// its state, and in scenes with coloured transmission its per-channel transmittance;
+    /// the rectangles (first row, end row, first column, end column) the stored path renders.
+    in_order: Vec<InOrderPixel>,
     in_order_transmittance: Vec<[f64; 3]>,
-    last_depth: Vec<u32>,
-    layer_count: Vec<u32>,
-    kept: Vec<u32>,
-    disordered: Vec<bool>,
-    stored_rows: Vec<[u32; 3]>,
+    stored_rects: Vec<[u32; 4]>,
     /// Most bytes held since the tile started, the transient of a reallocation included.
     high_water: u64,
 }
@@ -126,7 +119,7 @@ enum Want {
 
 /// Buffers of [`Scratch::buffers`]: the per-pixel state, the spans, the per-slot arrays, the
 /// sort buffers, the slicing counts and the in-order state, in that order.
-const BUFFERS: usize = 23;
+const BUFFERS: usize = 19;
 /// The per-pixel state both paths share: opaque key and colour, fragment and undecided
 /// counts, tie flag.
 const SHARED_STATE: usize = 5;
@@ -134,11 +127,9 @@ const START: usize = 5;
 const SPANS: usize = 7;
 const COUNTS: usize = 13;
 const TRANSMITTANCE: usize = 15;
-/// The first of the in-order state (sum, transmittance, last depth, layer and kept counts,
-/// disorder flags), then its stored rows.
-const IN_ORDER_SUM: usize = 16;
+const IN_ORDER: usize = 16;
 const IN_ORDER_TRANSMITTANCE: usize = 17;
-const STORED_ROWS: usize = 22;
+const STORED_RECTS: usize = 18;
 
 /// Bytes of per-pixel state a tile keeps besides its fragment lists: opaque key and colour,
 /// fragment count, undecided count, list start and end, tie flag.
@@ -217,13 +208,9 @@ impl Scratch {
             &mut self.counts,
             &mut self.row_spans,
             &mut self.transmittance,
-            &mut self.in_order_sum,
+            &mut self.in_order,
             &mut self.in_order_transmittance,
-            &mut self.last_depth,
-            &mut self.layer_count,
-            &mut self.kept,
-            &mut self.disordered,
-            &mut self.stored_rows,
+            &mut self.stored_rects,
         ]
     }
 
@@ -346,6 +333,8 @@ pub(crate) struct TileStats {
     pub sliced_tiles: u64,
     /// Tiles composited in arrival order ([`render_rect_in_order`]).
     pub in_order_tiles: u64,
+    /// Pixels composited from stored, sorted lists.
+    pub stored_pixels: u64,
 }
 
 impl TileStats {
@@ -364,6 +353,7 @@ impl TileStats {
         self.peak_tile_bytes = self.peak_tile_bytes.max(o.peak_tile_bytes);
         self.sliced_tiles += o.sliced_tiles;
         self.in_order_tiles += o.in_order_tiles;
+        self.stored_pixels += o.stored_pixels;
         self
     }
 }
@@ -1485,8 +1475,8 @@ fn render_rect(
     want[SPANS] = Want::Fresh(spans.unwrap_or(0));
     want[COUNTS] = Want::Keep(0);
     want[COUNTS + 1] = Want::Keep(0);
-    // The in-order path renders its stored rows one by one with this function.
-    want[STORED_ROWS] = Want::Keep(0);
+    // The in-order path renders its stored rectangles one by one with this function.
+    want[STORED_RECTS] = Want::Keep(0);
     if !s.ensure(want, limit) {
         return None;
     }
@@ -1708,6 +1698,7 @@ fn render_rect(
     stats.sort = t_sort - t_raster;
     stats.composite = t_end - t_sort;
     stats.peak_tile_bytes = s.high_water;
+    stats.stored_pixels = n as u64;
     Some(stats)
 }
 
@@ -1794,13 +1785,83 @@ impl PixelResult {
     }
 }
 
+/// One pixel's state while its tile is composited in arrival order ([`render_rect_in_order`]),
+/// together in one struct: a fragment touches one cache line and one bounds check.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct InOrderPixel {
+    /// Premultiplied colour sum so far, f64; in scalar scenes the transmittance in `[3]`
+    /// (scenes with coloured transmission keep it per channel beside it).
+    sum: [f64; 4],
+    /// Depth key of the last composited fragment (0 before the first: every depth key of a
+    /// depth in [0, 1] is far above the tie distance from it).
+    last_depth: u32,
+    /// Fragments composited.
+    layers: u32,
+    /// Transparent fragments the cutoff kept (composited or hidden by the opaque depth).
+    kept: u32,
+    /// Some fragment did not follow the last one ([`InOrderPixel::follows`]): the stored path
+    /// decides this pixel.
+    disordered: bool,
+}
+
+impl InOrderPixel {
+    /// Nothing composited yet.
+    const EMPTY: InOrderPixel = InOrderPixel {
+        sum: [0.0, 0.0, 0.0, 1.0],
+        last_depth: 0,
+        layers: 0,
+        kept: 0,
+        disordered: false,
+    };
+
+    /// Whether `dkey` may follow the last composited depth key: farther by more than the tie
+    /// distance. Then it is the next fragment of the sorted list and no neighbour pair of it
+    /// is a precision tie.
+    #[inline(always)]
+    fn follows(&self, dkey: u32) -> bool {
+        u64::from(self.last_depth) + u64::from(PRECISION_TIE_ULPS) < u64::from(dkey)
+    }
+
+    /// Composites a visible fragment of a scalar scene: [`composite_iter`]'s step.
+    #[inline(always)]
+    fn add(&mut self, dkey: u32, premultiplied: [f64; 3], keep: f64) {
+        self.disordered |= !self.follows(dkey);
+        self.last_depth = dkey;
+        self.layers += 1;
+        let through = self.sum[3];
+        self.sum[0] += through * premultiplied[0];
+        self.sum[1] += through * premultiplied[1];
+        self.sum[2] += through * premultiplied[2];
+        self.sum[3] = through * keep;
+    }
+
+    /// Composites a visible fragment of a scene with coloured transmission, `through` being
+    /// the pixel's per-channel transmittance: [`composite_coloured_iter`]'s step.
+    #[inline(always)]
+    fn add_coloured(
+        &mut self,
+        through: &mut [f64; 3],
+        dkey: u32,
+        premultiplied: [f64; 3],
+        t: [f64; 3],
+    ) {
+        self.disordered |= !self.follows(dkey);
+        self.last_depth = dkey;
+        self.layers += 1;
+        for k in 0..3 {
+            self.sum[k] += through[k] * premultiplied[k];
+            through[k] *= t[k];
+        }
+    }
+}
+
 /// The transparent pass of [`render_rect_in_order`]: each fragment strictly nearer than the
 /// opaque depth (or far) is composited into its pixel as it arrives, by the operations of
 /// [`composite_iter`] (scalar) or [`composite_coloured_iter`] (`COLOURED`) in the same order,
 /// so that the sums are bit for bit those of the stored path wherever the arrival order is
-/// the sorted order. A pixel is marked disordered at a fragment that is not farther than the
-/// last one it composited by more than the tie distance: the stored path decides it (sort,
-/// precision ties between neighbours). Bookkeeping as [`TransparentFragments`].
+/// the sorted order; pixels where it is not are marked ([`InOrderPixel::disordered`]).
+/// Bookkeeping as [`TransparentFragments`]. The pass's own fragments are counted in
+/// [`InOrderPixel::kept`], apart from the opaque pass's `all_count`.
 struct InOrderFragments<'a, const COLOURED: bool> {
     /// Of the triangle being shaded.
     plane: f64,
@@ -1811,59 +1872,9 @@ struct InOrderFragments<'a, const COLOURED: bool> {
     check_ties: bool,
     undecided: &'a mut [u32],
     tie: &'a mut [bool],
-    state: InOrderState<'a>,
-}
-
-/// The per-pixel state of the in-order pass ([`Scratch`]'s `in_order_*`, `last_depth`,
-/// `layer_count`, `kept`, `disordered`).
-struct InOrderState<'a> {
-    /// Colour sum, and the scalar transmittance in `[3]` unless the scene is coloured.
-    sum: &'a mut [[f64; 4]],
-    /// Per-channel transmittance, only in scenes with coloured transmission.
+    pixels: &'a mut [InOrderPixel],
+    /// Per pixel, only when `COLOURED`: the per-channel transmittance.
     transmittance: &'a mut [[f64; 3]],
-    /// Depth key of the last composited fragment (0 before the first: every depth key of a
-    /// depth in [0, 1] is far above the tie distance from it).
-    last_depth: &'a mut [u32],
-    layer_count: &'a mut [u32],
-    /// Transparent fragments the cutoff kept (composited or hidden by the opaque depth).
-    kept: &'a mut [u32],
-    disordered: &'a mut [bool],
-}
-
-impl<'a> InOrderState<'a> {
-    fn of(s: &'a mut Scratch) -> (InOrderState<'a>, InOrderShared<'a>) {
-        (
-            InOrderState {
-                sum: &mut s.in_order_sum,
-                transmittance: &mut s.in_order_transmittance,
-                last_depth: &mut s.last_depth,
-                layer_count: &mut s.layer_count,
-                kept: &mut s.kept,
-                disordered: &mut s.disordered,
-            },
-            InOrderShared {
-                opaque_key: &s.opaque_key,
-                undecided: &mut s.undecided,
-                tie: &mut s.tie,
-            },
-        )
-    }
-
-    /// Whether `dkey` may follow the pixel's last composited depth key: farther by more than
-    /// the tie distance. Then it is the next fragment of the sorted list and no neighbour pair
-    /// of it is a precision tie.
-    #[inline(always)]
-    fn follows(last: u32, dkey: u32) -> bool {
-        u64::from(last) + u64::from(PRECISION_TIE_ULPS) < u64::from(dkey)
-    }
-}
-
-/// The shared per-pixel state the in-order pass reads or updates beside its own (it counts
-/// its fragments in `kept`, apart from the opaque pass's `all_count`).
-struct InOrderShared<'a> {
-    opaque_key: &'a [u64],
-    undecided: &'a mut [u32],
-    tie: &'a mut [bool],
 }
 
 impl<const COLOURED: bool> Fragments for InOrderFragments<'_, COLOURED> {
@@ -1884,8 +1895,8 @@ impl<const COLOURED: bool> Fragments for InOrderFragments<'_, COLOURED> {
             } => (premultiplied, opacity, Some(transmittance)),
             Shaded::Opaque(_) | Shaded::Discarded => return,
         };
-        let state = &mut self.state;
-        state.kept[p] += 1;
+        let pixel = &mut self.pixels[p];
+        pixel.kept += 1;
         let opaque = if self.any_opaque {
             self.opaque_key[p]
         } else {
@@ -1896,27 +1907,15 @@ impl<const COLOURED: bool> Fragments for InOrderFragments<'_, COLOURED> {
             self.tie[p] = true;
         }
         if dkey < nearest {
-            state.disordered[p] |= !InOrderState::follows(state.last_depth[p], dkey);
-            state.last_depth[p] = dkey;
-            state.layer_count[p] += 1;
-            let sum = &mut state.sum[p];
             let c = premultiplied.map(f64::from);
             if COLOURED {
                 let t = match transmittance {
                     Some(t) => t.map(f64::from),
                     None => [1.0 - f64::from(alpha); 3],
                 };
-                let through = &mut state.transmittance[p];
-                for k in 0..3 {
-                    sum[k] += through[k] * c[k];
-                    through[k] *= t[k];
-                }
+                pixel.add_coloured(&mut self.transmittance[p], dkey, c, t);
             } else {
-                let through = sum[3];
-                sum[0] += through * c[0];
-                sum[1] += through * c[1];
-                sum[2] += through * c[2];
-                sum[3] = through * (1.0 - f64::from(alpha));
+                pixel.add(dkey, c, 1.0 - f64::from(alpha));
             }
         }
     }
@@ -1926,8 +1925,8 @@ impl<const COLOURED: bool> Fragments for InOrderFragments<'_, COLOURED> {
 /// tile without opaque fragments (layers, billboards, particles): the colour, the far plane
 /// and what is counted are the same for every fragment, and no fragment can tie with the far
 /// plane unless the whole triangle does, so per pixel only the depth key and the composite
-/// step are left (for a flat triangle only the composite step, over contiguous state the
-/// compiler vectorises). The same operations in the same order, so the same bits.
+/// step are left (for a flat triangle only the composite step). The same operations in the
+/// same order, so the same bits.
 struct ConstantSpan {
     premultiplied: [f64; 3],
     /// `1 − α`.
@@ -1988,79 +1987,52 @@ impl ConstantSpan {
         tri: &SetupTriangle,
         tile: TileRect,
         reverse_z: bool,
-        state: &mut InOrderState<'_>,
-        shared: &mut InOrderShared<'_>,
+        s: &mut Scratch,
         row: u32,
         first: u32,
         end: u32,
     ) {
         let base = (row * tile.width) as usize;
         let range = base + first as usize..base + end as usize;
-        for k in &mut state.kept[range.clone()] {
-            *k += 1;
-        }
         if self.undecided {
-            for u in &mut shared.undecided[range.clone()] {
+            for u in &mut s.undecided[range.clone()] {
                 *u += 1;
             }
         }
+        let pixels = &mut s.in_order[range.clone()];
         let Some((dkey, ties_far)) = self.flat else {
             let weights = RowWeights::new(tri, tile, row);
-            for x in (first..end).step_by(LANES) {
+            for (batch, x) in pixels.chunks_mut(LANES).zip((first..end).step_by(LANES)) {
                 let dkeys = depth_keys(depths(tri, &weights.at(x)), reverse_z);
-                let p = base + x as usize;
-                for (j, &dkey) in dkeys
-                    .iter()
-                    .enumerate()
-                    .take(((end - x) as usize).min(LANES))
-                {
+                for (pixel, &dkey) in batch.iter_mut().zip(&dkeys) {
+                    pixel.kept += 1;
                     if dkey < self.far {
-                        self.add(state, p + j, dkey);
+                        pixel.add(dkey, self.premultiplied, self.keep);
                     }
                 }
             }
             return;
         };
         if ties_far {
-            shared.tie[range.clone()].fill(true);
+            s.tie[range].fill(true);
         }
         if dkey >= self.far {
+            for pixel in pixels {
+                pixel.kept += 1;
+            }
             return;
         }
-        for (last, disordered) in state.last_depth[range.clone()]
-            .iter_mut()
-            .zip(&mut state.disordered[range.clone()])
-        {
-            *disordered |= !InOrderState::follows(*last, dkey);
-            *last = dkey;
+        for pixel in pixels {
+            pixel.kept += 1;
+            pixel.add(dkey, self.premultiplied, self.keep);
         }
-        for layers in &mut state.layer_count[range.clone()] {
-            *layers += 1;
-        }
-        let [r, g, b] = self.premultiplied;
-        for sum in &mut state.sum[range] {
-            let through = sum[3];
-            sum[0] += through * r;
-            sum[1] += through * g;
-            sum[2] += through * b;
-            sum[3] = through * self.keep;
-        }
-    }
-
-    /// One visible fragment at depth key `dkey` composited into pixel `p`.
-    #[inline(always)]
-    fn add(&self, state: &mut InOrderState<'_>, p: usize, dkey: u32) {
-        state.disordered[p] |= !InOrderState::follows(state.last_depth[p], dkey);
-        state.last_depth[p] = dkey;
-        state.layer_count[p] += 1;
-        let sum = &mut state.sum[p];
-        let through = sum[3];
-        sum[0] += through * self.premultiplied[0];
-        sum[1] += through * self.premultiplied[1];
-        sum[2] += through * self.premultiplied[2];
-        sum[3] = through * self.keep;
     }
 }
+
+/// Most pixels a stored rectangle of [`render_rect_in_order`] may hold beyond its rows' runs
+/// when runs of neighbouring rows are merged into one rectangle: each rectangle costs a pass
+/// over the tile's triangles, about what this many pixels cost the stored path.
+const STORED_MERGE_SLACK: u32 = 64;
 
 /// Renders a rectangle without storing its transparent fragments where they arrive in depth
 /// order: opaque pass as [`render_rect`], then each transparent fragment in front of the
@@ -2069,11 +2041,12 @@ impl ConstantSpan {
 /// billboards nearly every pixel's fragments do arrive in order, and for those the sort, the
 /// slot storage and the second shading pass disappear. Each row's run from its first to its
 /// last disordered pixel (intersecting or depth-overlapping geometry, a precision tie) is
-/// then rendered by [`render_rect`]; every pixel is written once, bit-identical to what
-/// [`render_rect`] alone gives.
+/// then rendered by [`render_rect`], runs of neighbouring rows merged into rectangles where
+/// that adds few pixels; every pixel is written once, bit-identical to what [`render_rect`]
+/// alone gives.
 ///
-/// None when the per-pixel state or a stored run does not fit `limit`; the outputs may then
-/// be partly written, and the caller renders the whole tile again.
+/// None when the per-pixel state or a stored rectangle does not fit `limit`; the outputs may
+/// then be partly written, and the caller renders the whole tile again.
 fn render_rect_in_order(
     ctx: &TileContext<'_>,
     bin: &[u32],
@@ -2087,25 +2060,19 @@ fn render_rect_in_order(
     let far = far_key(ctx.reverse_z);
     let mut want = [Want::Fresh(0); BUFFERS];
     want[..SHARED_STATE].fill(Want::Fresh(n));
-    want[IN_ORDER_SUM..STORED_ROWS].fill(Want::Fresh(n));
+    want[IN_ORDER] = Want::Fresh(n);
     want[IN_ORDER_TRANSMITTANCE] = Want::Fresh(if ctx.coloured { n } else { 0 });
-    want[STORED_ROWS] = Want::Fresh(tile.height as usize);
+    want[STORED_RECTS] = Want::Fresh(tile.height as usize);
     if !s.ensure(want, limit) {
         return None;
     }
     reset_shared_state(s, n, far);
-    s.in_order_sum.clear();
-    s.in_order_sum.resize(n, [0.0, 0.0, 0.0, 1.0]);
+    s.in_order.clear();
+    s.in_order.resize(n, InOrderPixel::EMPTY);
     s.in_order_transmittance.clear();
     if ctx.coloured {
         s.in_order_transmittance.resize(n, [1.0; 3]);
     }
-    for v in [&mut s.last_depth, &mut s.layer_count, &mut s.kept] {
-        v.clear();
-        v.resize(n, 0);
-    }
-    s.disordered.clear();
-    s.disordered.resize(n, false);
     for &t in bin {
         let tri = &ctx.triangles[t as usize];
         if !tri.transparent {
@@ -2120,30 +2087,45 @@ fn render_rect_in_order(
     }
     let t_raster = Instant::now();
 
-    // Per row, the run of pixels the stored path renders: first to last disordered pixel.
+    // The rectangles the stored path renders: per row the run from its first to its last
+    // disordered pixel, merged with the next row's while that adds few pixels.
     let tile_w = tile.width as usize;
-    s.stored_rows.clear();
-    for (row, flags) in s.disordered.chunks_exact(tile_w).enumerate() {
-        if let (Some(lo), Some(hi)) = (
-            flags.iter().position(|&d| d),
-            flags.iter().rposition(|&d| d),
-        ) {
-            s.stored_rows.push([row as u32, lo as u32, hi as u32 + 1]);
+    s.stored_rects.clear();
+    let mut covered = 0;
+    for (row, pixels) in s.in_order.chunks_exact(tile_w).enumerate() {
+        let (Some(lo), Some(hi)) = (
+            pixels.iter().position(|p| p.disordered),
+            pixels.iter().rposition(|p| p.disordered),
+        ) else {
+            continue;
+        };
+        let (row, lo, hi) = (row as u32, lo as u32, hi as u32 + 1);
+        if let Some(last) = s.stored_rects.last_mut() {
+            let [r0, r1, l, h] = *last;
+            let (ml, mh) = (l.min(lo), h.max(hi));
+            if r1 == row && (r1 + 1 - r0) * (mh - ml) <= covered + (hi - lo) + STORED_MERGE_SLACK {
+                *last = [r0, row + 1, ml, mh];
+                covered += hi - lo;
+                continue;
+            }
         }
+        s.stored_rects.push([row, row + 1, lo, hi]);
+        covered = hi - lo;
     }
     let mut stats = TileStats {
-        in_order_tiles: u64::from(s.stored_rows.is_empty()),
+        in_order_tiles: u64::from(s.stored_rects.is_empty()),
         ..TileStats::default()
     };
-    let mut runs = s.stored_rows.iter().peekable();
-    for row in 0..tile.height as usize {
-        let (lo, hi) = match runs.peek() {
-            Some(&&[r, lo, hi]) if r as usize == row => {
-                runs.next();
-                (lo as usize, hi as usize)
-            }
+    let mut rects = s.stored_rects.iter().peekable();
+    for row in 0..tile.height {
+        while rects.peek().is_some_and(|r| r[1] <= row) {
+            rects.next();
+        }
+        let (lo, hi) = match rects.peek() {
+            Some(&&[r0, _, lo, hi]) if r0 <= row => (lo as usize, hi as usize),
             _ => (tile_w, tile_w),
         };
+        let row = row as usize;
         for xs in [0..lo, hi..tile_w] {
             write_in_order(ctx, s, far, &mut out, row * tile_w, xs, row, &mut stats);
         }
@@ -2153,24 +2135,23 @@ fn render_rect_in_order(
     stats.composite = t_end - t_raster;
     stats.peak_tile_bytes = s.high_water;
 
-    // The disordered runs, each a one-row rectangle of the stored path (`stored_rows` is kept
-    // through it).
-    for i in 0..s.stored_rows.len() {
-        let [row, lo, hi] = s.stored_rows[i];
+    // The stored rectangles (`stored_rects` is kept through `render_rect`).
+    for i in 0..s.stored_rects.len() {
+        let [r0, r1, lo, hi] = s.stored_rects[i];
         let rect = TileRect {
             x0: tile.x0 + lo,
-            y0: tile.y0 + row,
+            y0: tile.y0 + r0,
             width: hi - lo,
-            height: 1,
+            height: r1 - r0,
         };
-        let run_out = TileOutput {
-            x_offset: out.x_offset + row as usize * out.stride + lo as usize,
+        let rect_out = TileOutput {
+            x_offset: out.x_offset + r0 as usize * out.stride + lo as usize,
             ..out.reborrow()
         };
-        let run = render_rect(ctx, bin, rect, s, run_out, limit, None)?;
+        let stored = render_rect(ctx, bin, rect, s, rect_out, limit, None)?;
         stats = stats.merge(TileStats {
             peak_tile_bytes: s.high_water,
-            ..run
+            ..stored
         });
     }
     Some(stats)
@@ -2195,13 +2176,19 @@ fn write_in_order(
     let ps = p0 + xs.start..p0 + xs.end;
     let o0 = out.x_offset + row * out.stride;
     let os = o0 + xs.start..o0 + xs.end;
-    for (o, p) in out.image[os.clone()].iter_mut().zip(ps.clone()) {
-        let base = if s.opaque_key[p] == far {
+    let pixels = &s.in_order[ps.clone()];
+    for (((o, pixel), &key), (&colour, p)) in out.image[os.clone()]
+        .iter_mut()
+        .zip(pixels)
+        .zip(&s.opaque_key[ps.clone()])
+        .zip(s.opaque_color[ps.clone()].iter().zip(ps.clone()))
+    {
+        let base = if key == far {
             ctx.background
         } else {
-            s.opaque_color[p].map(f64::from)
+            colour.map(f64::from)
         };
-        let sum = &s.in_order_sum[p];
+        let sum = &pixel.sum;
         let through = if ctx.coloured {
             s.in_order_transmittance[p]
         } else {
@@ -2210,18 +2197,20 @@ fn write_in_order(
         let rgb: [f64; 3] = std::array::from_fn(|k| sum[k] + through[k] * base[k]);
         *o = [rgb[0] as f32, rgb[1] as f32, rgb[2] as f32, 1.0];
     }
-    let layers = &s.layer_count[ps.clone()];
-    out.layers[os.clone()].copy_from_slice(layers);
-    // The transparent pass counted its kept fragments apart from the opaque pass's.
-    let (mut fragments, mut kept) = (0u64, 0u64);
-    for ((o, &all), &k) in out.fragments[os.clone()]
+    let (mut fragments, mut kept, mut composited, mut covered, mut most) = (0, 0, 0, 0, 0);
+    for ((layers, count), (pixel, &all)) in out.layers[os.clone()]
         .iter_mut()
-        .zip(&s.all_count[ps.clone()])
-        .zip(&s.kept[ps.clone()])
+        .zip(&mut out.fragments[os.clone()])
+        .zip(pixels.iter().zip(&s.all_count[ps.clone()]))
     {
-        *o = all + k;
-        fragments += u64::from(all + k);
-        kept += u64::from(k);
+        // The transparent pass counted its kept fragments apart from the opaque pass's.
+        *layers = pixel.layers;
+        *count = all + pixel.kept;
+        fragments += u64::from(all + pixel.kept);
+        kept += u64::from(pixel.kept);
+        composited += u64::from(pixel.layers);
+        covered += u64::from(pixel.layers > 0);
+        most = most.max(pixel.layers);
     }
     // The outputs start zeroed: writing only what is set leaves untouched pages unmapped.
     let (mut undecided, mut undecided_pixels) = (0u64, 0u64);
@@ -2247,11 +2236,9 @@ fn write_in_order(
     stats.undecided_fragments += undecided;
     stats.undecided_pixels += undecided_pixels;
     stats.precision_tie_pixels += ties;
-    stats.composited_fragments += layers.iter().map(|&l| u64::from(l)).sum::<u64>();
-    stats.max_layers = stats
-        .max_layers
-        .max(layers.iter().copied().max().unwrap_or(0));
-    stats.covered_pixels += layers.iter().filter(|&&l| l > 0).count() as u64;
+    stats.composited_fragments += composited;
+    stats.max_layers = stats.max_layers.max(most);
+    stats.covered_pixels += covered;
 }
 
 /// The transparent pass of [`render_rect_in_order`].
@@ -2263,7 +2250,6 @@ fn transparent_in_order<const COLOURED: bool>(
     far: u64,
     any_opaque: bool,
 ) {
-    let (mut state, mut shared) = InOrderState::of(s);
     for &t in bin {
         let tri = &ctx.triangles[t as usize];
         if !tri.transparent {
@@ -2271,16 +2257,7 @@ fn transparent_in_order<const COLOURED: bool>(
         }
         if let Some(span) = ConstantSpan::of::<COLOURED>(tri, any_opaque, far, ctx) {
             for_each_span(tri, tile, |row, first, end| {
-                span.composite(
-                    tri,
-                    tile,
-                    ctx.reverse_z,
-                    &mut state,
-                    &mut shared,
-                    row,
-                    first,
-                    end,
-                );
+                span.composite(tri, tile, ctx.reverse_z, s, row, first, end);
             });
             continue;
         }
@@ -2292,19 +2269,13 @@ fn transparent_in_order<const COLOURED: bool>(
                 plane: tri.plane_depth,
                 far,
                 planes: ctx.planes,
-                opaque_key: shared.opaque_key,
+                opaque_key: &s.opaque_key,
                 any_opaque,
                 check_ties,
-                undecided: &mut *shared.undecided,
-                tie: &mut *shared.tie,
-                state: InOrderState {
-                    sum: &mut *state.sum,
-                    transmittance: &mut *state.transmittance,
-                    last_depth: &mut *state.last_depth,
-                    layer_count: &mut *state.layer_count,
-                    kept: &mut *state.kept,
-                    disordered: &mut *state.disordered,
-                },
+                undecided: &mut s.undecided,
+                tie: &mut s.tie,
+                pixels: &mut s.in_order,
+                transmittance: &mut s.in_order_transmittance,
             };
             shade_span(
                 tri,
