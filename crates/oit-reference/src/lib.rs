@@ -111,8 +111,8 @@ impl ReferenceOptions {
     /// fragment of the longest pixel list (sort buffers), and for a tile rendered in slices 4
     /// bytes per pixel of counts and 29 per pixel of each slice's outputs. A pixel alone thus
     /// needs about 90 bytes plus 48 per covered transparent fragment, beside its tile's counts.
-    /// A tile composited in arrival order ([`ReferenceOptions::in_order`]) holds 77 bytes per
-    /// pixel of state (101 with coloured transmission) and 16 per row instead, and nothing
+    /// A tile composited in arrival order ([`ReferenceOptions::in_order`]) holds 85 bytes per
+    /// pixel of state (109 with coloured transmission) and 16 per row instead, and nothing
     /// per fragment but for the rectangles of pixels it hands to the stored path, one at a
     /// time.
     ///
@@ -356,54 +356,7 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
     let (width, height) = (scene.resolution.width, scene.resolution.height);
     let tile = options.tile_size;
 
-    // Setup, in (draw.id, triangle index) order: the index into `triangles` order is the
-    // tie-break order, independent of the draw list's order.
-    let mut by_id: Vec<usize> = (0..scene.draws.len()).collect();
-    by_id.sort_by_key(|&i| scene.draws[i].id);
-    let mut first_rank = Vec::with_capacity(by_id.len() + 1);
-    let mut total: u64 = 0;
-    for &i in &by_id {
-        first_rank.push(total);
-        total += u64::from(scene.draws[i].triangle_count());
-    }
-    first_rank.push(total);
-    if total > u64::from(MAX_TRIANGLES) {
-        return Err(ReferenceError::TooManyTriangles(total));
-    }
-    const CHUNK: u64 = 2048;
-    let chunks = total.div_ceil(CHUNK);
-    // Only for telling coplanar flat triangles from ones rounding merged (`plane_depth`).
-    let view_proj64 = scene.camera.view_proj.as_dmat4();
-    let pieces: Vec<Vec<SetupTriangle>> = (0..chunks)
-        .into_par_iter()
-        .map(|c| {
-            let mut out = Vec::new();
-            let (lo, hi) = (c * CHUNK, ((c + 1) * CHUNK).min(total));
-            let mut d = first_rank.partition_point(|&f| f <= lo) - 1;
-            for rank in lo..hi {
-                while first_rank[d + 1] <= rank {
-                    d += 1;
-                }
-                let draw = &scene.draws[by_id[d]];
-                let material = scene.material_of(draw);
-                let t = (rank - first_rank[d]) as usize;
-                let v0 = draw.first_vertex as usize + 3 * t;
-                let clip = std::array::from_fn(|k| {
-                    let v = &scene.vertices[v0 + k];
-                    (
-                        scene.camera.clip(glam::Vec3::from(v.position)),
-                        v.color,
-                        v.uv,
-                    )
-                });
-                let p = glam::Vec3::from(scene.vertices[v0].position).as_dvec3();
-                let plane = view_proj64 * p.extend(1.0);
-                let plane_depth = plane.z / plane.w;
-                setup::setup_triangle(scene, material, clip, rank as u32, plane_depth, &mut out);
-            }
-            out
-        })
-        .collect();
+    let (pieces, total) = set_up(scene)?;
     // Stored in the order they are binned in, so that tiles read them front to back.
     let triangles = raster::in_bin_order(pieces, scene.camera.reverse_z);
     // Per rank: the plane depth of a flat triangle, NaN otherwise (fan pieces share both).
@@ -673,6 +626,59 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
         precision_ties,
         stats,
     })
+}
+
+/// Every triangle of `scene` set up (clipped, snapped, culled), in pieces of consecutive
+/// ranks, and the number of input triangles. Ranks follow (draw.id, triangle index): the
+/// tie-break order, independent of the draw list's order.
+pub(crate) fn set_up(scene: &Scene) -> Result<(Vec<Vec<SetupTriangle>>, u64), ReferenceError> {
+    let mut by_id: Vec<usize> = (0..scene.draws.len()).collect();
+    by_id.sort_by_key(|&i| scene.draws[i].id);
+    let mut first_rank = Vec::with_capacity(by_id.len() + 1);
+    let mut total: u64 = 0;
+    for &i in &by_id {
+        first_rank.push(total);
+        total += u64::from(scene.draws[i].triangle_count());
+    }
+    first_rank.push(total);
+    if total > u64::from(MAX_TRIANGLES) {
+        return Err(ReferenceError::TooManyTriangles(total));
+    }
+    const CHUNK: u64 = 2048;
+    let chunks = total.div_ceil(CHUNK);
+    // Only for telling coplanar flat triangles from ones rounding merged (`plane_depth`).
+    let view_proj64 = scene.camera.view_proj.as_dmat4();
+    let pieces = (0..chunks)
+        .into_par_iter()
+        .map(|c| {
+            let mut out = Vec::new();
+            let (lo, hi) = (c * CHUNK, ((c + 1) * CHUNK).min(total));
+            let mut d = first_rank.partition_point(|&f| f <= lo) - 1;
+            for rank in lo..hi {
+                while first_rank[d + 1] <= rank {
+                    d += 1;
+                }
+                let draw = &scene.draws[by_id[d]];
+                let material = scene.material_of(draw);
+                let t = (rank - first_rank[d]) as usize;
+                let v0 = draw.first_vertex as usize + 3 * t;
+                let clip = std::array::from_fn(|k| {
+                    let v = &scene.vertices[v0 + k];
+                    (
+                        scene.camera.clip(glam::Vec3::from(v.position)),
+                        v.color,
+                        v.uv,
+                    )
+                });
+                let p = glam::Vec3::from(scene.vertices[v0].position).as_dvec3();
+                let plane = view_proj64 * p.extend(1.0);
+                let plane_depth = plane.z / plane.w;
+                setup::setup_triangle(scene, material, clip, rank as u32, plane_depth, &mut out);
+            }
+            out
+        })
+        .collect();
+    Ok((pieces, total))
 }
 
 fn validate(scene: &Scene, options: &ReferenceOptions) -> Result<(), ReferenceError> {

@@ -917,6 +917,35 @@ impl RowWeights {
     }
 }
 
+/// Bounds (inclusive) on the depth key of every fragment of `tri` (non-zero float area), or
+/// None for a sliver, whose weights round too loosely to bound this simply.
+///
+/// A covered pixel centre lies in the snapped triangle, whose vertices are within 1/512 px of
+/// the float ones the interpolated depth plane passes through, so the plane's depth there is
+/// a convex combination of its depths at the snapped vertices, each within |∇z|₁/512 of a
+/// vertex depth. The f64 rounding of the weights and their sum adds a few units of 2^-53 of
+/// (1 + 2·stretch)·Σ|z_i|, with `stretch` = (W + 1)(H + 1)/|2A| (W, H the float triangle's
+/// extent in pixels, A its area): the magnitude of the edge-function terms over the area.
+/// Both are taken with wide margins (1/256, 2^-48). The f32 rounding, the clamp and
+/// [`depth_key`] are monotone, so the keys of the widened depth range bound the fragments'.
+fn depth_key_bounds(tri: &SetupTriangle, reverse_z: bool) -> Option<(u32, u32)> {
+    let (x, y) = (tri.fx, tri.fy);
+    let z = tri.z.map(f64::from);
+    let extent = |v: [f64; 3]| v[0].max(v[1]).max(v[2]) - v[0].min(v[1]).min(v[2]);
+    let stretch = (extent(x) + 1.0) * (extent(y) + 1.0) * tri.inv_farea2.abs();
+    if stretch.is_nan() || stretch > 64.0 {
+        return None;
+    }
+    let zx = ((z[1] - z[0]) * (y[2] - y[0]) - (z[2] - z[0]) * (y[1] - y[0])) * tri.inv_farea2;
+    let zy = ((z[2] - z[0]) * (x[1] - x[0]) - (z[1] - z[0]) * (x[2] - x[0])) * tri.inv_farea2;
+    let rounding = (1.0 + 2.0 * stretch) * (z[0].abs() + z[1].abs() + z[2].abs());
+    let margin = (zx.abs() + zy.abs()) / 256.0 + rounding * (2.0f64).powi(-48);
+    let key = |v: f64| depth_key((v as f32).clamp(0.0, 1.0) + 0.0, reverse_z);
+    let a = key(z[0].min(z[1]).min(z[2]) - margin);
+    let b = key(z[0].max(z[1]).max(z[2]) + margin);
+    margin.is_finite().then_some((a.min(b), a.max(b)))
+}
+
 /// One fragment of a textured triangle: the material's texture samples at `uv`, the material
 /// rule, and whether α is in the cutoff's undecided band (widened by the texture's reach).
 #[inline(always)]
@@ -1792,9 +1821,12 @@ pub(crate) struct InOrderPixel {
     /// Premultiplied colour sum so far, f64; in scalar scenes the transmittance in `[3]`
     /// (scenes with coloured transmission keep it per channel beside it).
     sum: [f64; 4],
-    /// Depth key of the last composited fragment (0 before the first: every depth key of a
-    /// depth in [0, 1] is far above the tie distance from it).
+    /// Depth key of the last composited fragment, or an upper bound of it where that was
+    /// enough to know it in order ([`ConstantSpan`]); 0 before the first (every depth key of
+    /// a depth in [0, 1] is far above the tie distance from it).
     last_depth: u32,
+    /// The triangle whose fragment `last_depth` is only an upper bound of, or [`EXACT`].
+    bound_of: u32,
     /// Fragments composited.
     layers: u32,
     /// Transparent fragments the cutoff kept (composited or hidden by the opaque depth).
@@ -1809,6 +1841,7 @@ impl InOrderPixel {
     const EMPTY: InOrderPixel = InOrderPixel {
         sum: [0.0, 0.0, 0.0, 1.0],
         last_depth: 0,
+        bound_of: EXACT,
         layers: 0,
         kept: 0,
         disordered: false,
@@ -1827,6 +1860,13 @@ impl InOrderPixel {
     fn add(&mut self, dkey: u32, premultiplied: [f64; 3], keep: f64) {
         self.disordered |= !self.follows(dkey);
         self.last_depth = dkey;
+        self.bound_of = EXACT;
+        self.composite(premultiplied, keep);
+    }
+
+    /// [`composite_iter`]'s step for a fragment known to follow the last one.
+    #[inline(always)]
+    fn composite(&mut self, premultiplied: [f64; 3], keep: f64) {
         self.layers += 1;
         let through = self.sum[3];
         self.sum[0] += through * premultiplied[0];
@@ -1847,6 +1887,7 @@ impl InOrderPixel {
     ) {
         self.disordered |= !self.follows(dkey);
         self.last_depth = dkey;
+        self.bound_of = EXACT;
         self.layers += 1;
         for k in 0..3 {
             self.sum[k] += through[k] * premultiplied[k];
@@ -1854,6 +1895,9 @@ impl InOrderPixel {
         }
     }
 }
+
+/// [`InOrderPixel::bound_of`] when `last_depth` is exact.
+const EXACT: u32 = u32::MAX;
 
 /// The transparent pass of [`render_rect_in_order`]: each fragment strictly nearer than the
 /// opaque depth (or far) is composited into its pixel as it arrives, by the operations of
@@ -1939,6 +1983,10 @@ struct ConstantSpan {
     /// ([`ties_opaque`]). Otherwise no vertex is within the tie distance of it
     /// ([`near_far`]), and keys are interpolated per pixel.
     flat: Option<(u32, bool)>,
+    /// Otherwise, where the triangle is no sliver and lies in front of the far plane: bounds
+    /// on its fragments' depth keys ([`depth_key_bounds`]). A pixel whose last key is below
+    /// the lower one by more than the tie distance needs no key of its own.
+    bounds: Option<(u32, u32)>,
 }
 
 impl ConstantSpan {
@@ -1967,12 +2015,19 @@ impl ConstantSpan {
             None if near_far(tri, far, ctx.reverse_z) => return None,
             None => None,
         };
+        let far = (far >> 32) as u32;
+        let bounds = flat
+            .is_none()
+            .then(|| depth_key_bounds(tri, ctx.reverse_z))
+            .flatten()
+            .filter(|&(_, hi)| hi < far);
         Some(ConstantSpan {
             premultiplied: premultiplied.map(f64::from),
             keep: 1.0 - f64::from(alpha),
             undecided: tri.constant_undecided,
-            far: (far >> 32) as u32,
+            far,
             flat,
+            bounds,
         })
     }
 
@@ -1984,7 +2039,8 @@ impl ConstantSpan {
     #[inline(always)]
     fn composite(
         &self,
-        tri: &SetupTriangle,
+        triangles: &[SetupTriangle],
+        t: u32,
         tile: TileRect,
         reverse_z: bool,
         s: &mut Scratch,
@@ -1992,6 +2048,7 @@ impl ConstantSpan {
         first: u32,
         end: u32,
     ) {
+        let tri = &triangles[t as usize];
         let base = (row * tile.width) as usize;
         let range = base + first as usize..base + end as usize;
         if self.undecided {
@@ -2000,6 +2057,30 @@ impl ConstantSpan {
             }
         }
         let pixels = &mut s.in_order[range.clone()];
+        if let Some((lo, hi)) = self.bounds {
+            let weights = RowWeights::new(tri, tile, row);
+            let key_at = |x: u32| depth_key(depths(tri, &weights.at(x))[0], reverse_z);
+            for (pixel, x) in pixels.iter_mut().zip(first..end) {
+                pixel.kept += 1;
+                if u64::from(pixel.last_depth) + u64::from(PRECISION_TIE_ULPS) < u64::from(lo) {
+                    debug_assert!((lo..=hi).contains(&key_at(x)), "depth key out of bounds");
+                    pixel.last_depth = hi;
+                    pixel.bound_of = t;
+                    pixel.composite(self.premultiplied, self.keep);
+                    continue;
+                }
+                let dkey = key_at(x);
+                debug_assert!((lo..=hi).contains(&dkey), "depth key out of bounds");
+                if !pixel.follows(dkey) && pixel.bound_of != EXACT {
+                    // Only a bound of the last fragment's key is known: its own key decides.
+                    let last = &triangles[pixel.bound_of as usize];
+                    let weights = RowWeights::new(last, tile, row);
+                    pixel.last_depth = depth_key(depths(last, &weights.at(x))[0], reverse_z);
+                }
+                pixel.add(dkey, self.premultiplied, self.keep);
+            }
+            return;
+        }
         let Some((dkey, ties_far)) = self.flat else {
             let weights = RowWeights::new(tri, tile, row);
             for (batch, x) in pixels.chunks_mut(LANES).zip((first..end).step_by(LANES)) {
@@ -2257,7 +2338,7 @@ fn transparent_in_order<const COLOURED: bool>(
         }
         if let Some(span) = ConstantSpan::of::<COLOURED>(tri, any_opaque, far, ctx) {
             for_each_span(tri, tile, |row, first, end| {
-                span.composite(tri, tile, ctx.reverse_z, s, row, first, end);
+                span.composite(ctx.triangles, t, tile, ctx.reverse_z, s, row, first, end);
             });
             continue;
         }
@@ -2612,5 +2693,65 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Checks [`depth_key_bounds`] against the exact key of every covered pixel of every
+    /// triangle it bounds; the number of triangles and fragments checked.
+    fn check_depth_key_bounds(scene: &oit_scene::Scene, what: &str) -> (u64, u64) {
+        let (pieces, _) = crate::set_up(scene).expect("a valid scene");
+        let tile = TileRect {
+            x0: 0,
+            y0: 0,
+            width: scene.resolution.width,
+            height: scene.resolution.height,
+        };
+        let reverse_z = scene.camera.reverse_z;
+        let (mut bounded, mut fragments) = (0, 0);
+        for tri in pieces.iter().flatten() {
+            if tri.inv_farea2 == 0.0 {
+                continue;
+            }
+            let Some((lo, hi)) = depth_key_bounds(tri, reverse_z) else {
+                continue;
+            };
+            bounded += 1;
+            for_each_span(tri, tile, |row, first, end| {
+                let weights = RowWeights::new(tri, tile, row);
+                for x in first..end {
+                    let key = depth_key(depths(tri, &weights.at(x))[0], reverse_z);
+                    assert!(
+                        (lo..=hi).contains(&key),
+                        "{what}: triangle {} at ({x}, {row}): key {key} outside {lo}..={hi}",
+                        tri.key
+                    );
+                    fragments += 1;
+                }
+            });
+        }
+        (bounded, fragments)
+    }
+
+    #[test]
+    fn depth_key_bounds_hold_for_every_fragment() {
+        let (mut bounded, mut fragments) = (0, 0);
+        for seed in 0..200 {
+            let (text, about) = oit_scene::random::random_scene_json(seed);
+            let scene = oit_scene::parse(&text, "random").expect("random scene");
+            let (b, f) = check_depth_key_bounds(&scene, &format!("seed {seed}: {about:?}"));
+            (bounded, fragments) = (bounded + b, fragments + f);
+        }
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+        for (path, scene) in oit_scene::load_dir(&dir).expect("bundled scenes") {
+            let scene = scene.with_resolution(oit_scene::Resolution {
+                width: 256,
+                height: 256,
+            });
+            let (b, f) = check_depth_key_bounds(&scene, &path.display().to_string());
+            (bounded, fragments) = (bounded + b, fragments + f);
+        }
+        assert!(
+            bounded > 10_000 && fragments > 1_000_000,
+            "{bounded} triangles, {fragments} fragments"
+        );
     }
 }
