@@ -445,23 +445,47 @@ fn every_argument_has_a_description() {
 #[test]
 fn a_reference_over_its_memory_budget_is_one_clear_line() {
     let dir = temp_dir("budget");
-    // 60 000 screen-filling layers on 8×8 pixels: every pixel needs more than 1 MiB.
-    let scene = dir.join("deep.json");
-    std::fs::write(
-        &scene,
-        r#"{"name": "deep", "description": "", "resolution": [8, 8],
-        "camera": {"eye": [0, 0, 5], "target": [0, 0, 0], "up": [0, 1, 0], "fov_y": 45, "near": 0.1, "far": 100},
-        "background": [0, 0, 0],
-        "objects": [{"mesh": {"kind": "quad", "size": [20, 20]},
-            "material": {"base_color": [1, 1, 1], "alpha": 0.01, "mode": "blend"},
-            "instances": {"counts": [1, 1, 60000], "spacing": [0, 0, -0.0001]}}]}"#,
-    )
-    .unwrap();
+    // 60 000 screen-filling layers on 8×8 pixels, `spacing` apart in depth.
+    let deep = |name: &str, spacing: &str| {
+        let scene = dir.join(name);
+        std::fs::write(
+            &scene,
+            format!(
+                r#"{{"name": "deep", "description": "", "resolution": [8, 8],
+                "camera": {{"eye": [0, 0, 5], "target": [0, 0, 0], "up": [0, 1, 0], "fov_y": 45, "near": 0.1, "far": 100}},
+                "background": [0, 0, 0],
+                "objects": [{{"mesh": {{"kind": "quad", "size": [20, 20]}},
+                    "material": {{"base_color": [1, 1, 1], "alpha": 0.01, "mode": "blend"}},
+                    "instances": {{"counts": [1, 1, 60000], "spacing": [0, 0, {spacing}]}}}}]}}"#
+            ),
+        )
+        .unwrap();
+        scene
+    };
+    // Several f32 ulps of window depth apart, the layers arrive in depth order and are
+    // composited as they come: no pixel stores its fragments, 1 MiB is plenty.
+    let exr = dir.join("in-order.exr");
+    let out = oit()
+        .arg("reference")
+        .arg(deep("apart.json", "-0.0001"))
+        .args(["--memory-budget", "1", "-o"])
+        .arg(&exr)
+        .output()
+        .unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(exr.exists());
+    // Within the tie distance of each other, every pixel's 60 000 fragments must be stored
+    // and sorted: more than 1 MiB each.
     let exr = dir.join("never.exr");
     let start = std::time::Instant::now();
     let out = oit()
         .arg("reference")
-        .arg(&scene)
+        .arg(deep("tied.json", "-0.000001"))
         .args(["--memory-budget", "1", "-o"])
         .arg(&exr)
         .output()
