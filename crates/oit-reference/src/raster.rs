@@ -671,28 +671,82 @@ impl Fragments for OpaqueFragments<'_> {
     }
 }
 
+/// What a transparent pass composites of a fragment: its premultiplied colour, its scalar α
+/// (the opacity of a transmissive one) and, if transmissive, its per-channel transmittance.
+/// None for what is not composited (discarded, or opaque).
+#[inline(always)]
+fn transparent_parts(shaded: Shaded) -> Option<([f32; 3], f32, Option<[f32; 3]>)> {
+    match shaded {
+        Shaded::Transparent {
+            premultiplied,
+            alpha,
+        } => Some((premultiplied, alpha, None)),
+        Shaded::Transmissive {
+            premultiplied,
+            opacity,
+            transmittance,
+        } => Some((premultiplied, opacity, Some(transmittance))),
+        Shaded::Opaque(_) | Shaded::Discarded => None,
+    }
+}
+
 /// The transparent pass: fragments strictly nearer than the opaque depth (or far) appended to
 /// their pixel's list; cutoff discards, undecided counts, ties with the opaque surface.
 struct TransparentFragments<'a> {
     /// Of the triangle being shaded.
     rank: u32,
-    plane: f64,
-    far: u64,
-    planes: &'a [f64],
+    behind: Behind<'a>,
     keys: &'a mut [u64],
     colors: &'a mut [[f32; 4]],
     /// Per slot, empty unless the scene has coloured transmission.
     transmittance: &'a mut [[f64; 3]],
     end: &'a mut [u32],
     all_count: &'a mut [u32],
-    opaque_key: &'a [u64],
-    /// False when no opaque fragment reached the tile: every opaque key is `far`, no load.
-    any_opaque: bool,
-    /// Whether this triangle's fragments can tie with the opaque depth or the far plane.
-    check_ties: bool,
     undecided: &'a mut [u32],
     tie: &'a mut [bool],
     discarded: u64,
+}
+
+/// What a transparent fragment must lie strictly in front of to be composited: its pixel's
+/// opaque surface, or the far plane where none is; shared by the transparent passes.
+#[derive(Clone, Copy)]
+struct Behind<'a> {
+    far: u64,
+    planes: &'a [f64],
+    opaque_key: &'a [u64],
+    /// False when no opaque fragment reached the tile: every opaque key is `far`, no load.
+    any_opaque: bool,
+    /// Of the triangle being shaded: its plane depth, and whether its fragments can tie with
+    /// the opaque depth or the far plane.
+    plane: f64,
+    check_ties: bool,
+}
+
+impl Behind<'_> {
+    /// The depth key fragment `dkey` at pixel `p` must be below, after flagging in `tie` a
+    /// precision tie with what it is (kept or hidden by rounding when this close).
+    #[inline(always)]
+    fn nearest(&self, p: usize, dkey: u32, tie: &mut [bool]) -> u32 {
+        let opaque = if self.any_opaque {
+            self.opaque_key[p]
+        } else {
+            self.far
+        };
+        if self.check_ties && ties_opaque(dkey, self.plane, opaque, self.far, self.planes) {
+            tie[p] = true;
+        }
+        (opaque >> 32) as u32
+    }
+}
+
+/// The transmittance a transparent fragment gives what is behind it, per channel in f64: its
+/// own for a transmissive one, `1 − α` in every channel otherwise.
+#[inline(always)]
+fn transmittance_of(alpha: f32, transmittance: Option<[f32; 3]>) -> [f64; 3] {
+    match transmittance {
+        Some(t) => t.map(f64::from),
+        None => [1.0 - f64::from(alpha); 3],
+    }
 }
 
 impl Fragments for TransparentFragments<'_> {
@@ -701,43 +755,18 @@ impl Fragments for TransparentFragments<'_> {
         if undecided {
             self.undecided[p] += 1;
         }
-        let (premultiplied, alpha, transmittance) = match shaded {
-            Shaded::Transparent {
-                premultiplied,
-                alpha,
-            } => (premultiplied, alpha, None),
-            Shaded::Transmissive {
-                premultiplied,
-                opacity,
-                transmittance,
-            } => (premultiplied, opacity, Some(transmittance)),
-            Shaded::Opaque(_) | Shaded::Discarded => {
-                self.all_count[p] -= 1;
-                self.discarded += 1;
-                return;
-            }
+        let Some((premultiplied, alpha, transmittance)) = transparent_parts(shaded) else {
+            self.all_count[p] -= 1;
+            self.discarded += 1;
+            return;
         };
-        // Kept or hidden by rounding when this close to the opaque depth (or far).
-        let opaque = if self.any_opaque {
-            self.opaque_key[p]
-        } else {
-            self.far
-        };
-        let nearest = (opaque >> 32) as u32;
-        if self.check_ties && ties_opaque(dkey, self.plane, opaque, self.far, self.planes) {
-            self.tie[p] = true;
-        }
-        // Strictly nearer than the opaque depth, or than the far plane where none is.
-        if dkey < nearest {
+        if dkey < self.behind.nearest(p, dkey, self.tie) {
             let slot = self.end[p] as usize;
             self.keys[slot] = transparent_key(dkey, self.rank);
             let [r, g, b] = premultiplied;
             self.colors[slot] = [r, g, b, alpha];
             if !self.transmittance.is_empty() {
-                self.transmittance[slot] = match transmittance {
-                    Some(t) => t.map(f64::from),
-                    None => [1.0 - f64::from(alpha); 3],
-                };
+                self.transmittance[slot] = transmittance_of(alpha, transmittance);
             }
             self.end[p] += 1;
         }
@@ -1602,19 +1631,21 @@ fn render_rect(
         // A sink per span: a short-lived local whose fields the optimiser keeps in registers.
         let mut sink = TransparentFragments {
             rank: tri.key,
-            plane: tri.plane_depth,
-            far,
-            planes,
+            behind: Behind {
+                far,
+                planes,
+                opaque_key: &s.opaque_key,
+                any_opaque,
+                plane: tri.plane_depth,
+                // Without opaque fragments in the tile, only a triangle reaching the far
+                // plane's tie distance can tie with it (its depths lie within its vertices').
+                check_ties: any_opaque || near_far(tri, far, reverse_z),
+            },
             keys: &mut s.keys,
             colors: &mut s.colors,
             transmittance: &mut s.transmittance,
             end: &mut s.end,
             all_count: &mut s.all_count,
-            any_opaque,
-            // Without opaque fragments in the tile, only a triangle reaching the far plane's
-            // tie distance can tie with it (its depths lie within its vertices').
-            check_ties: any_opaque || near_far(tri, far, reverse_z),
-            opaque_key: &s.opaque_key,
             undecided: &mut s.undecided,
             tie: &mut s.tie,
             discarded: 0,
@@ -1907,13 +1938,7 @@ const EXACT: u32 = u32::MAX;
 /// Bookkeeping as [`TransparentFragments`]. The pass's own fragments are counted in
 /// [`InOrderPixel::kept`], apart from the opaque pass's `all_count`.
 struct InOrderFragments<'a, const COLOURED: bool> {
-    /// Of the triangle being shaded.
-    plane: f64,
-    far: u64,
-    planes: &'a [f64],
-    opaque_key: &'a [u64],
-    any_opaque: bool,
-    check_ties: bool,
+    behind: Behind<'a>,
     undecided: &'a mut [u32],
     tie: &'a mut [bool],
     pixels: &'a mut [InOrderPixel],
@@ -1927,36 +1952,15 @@ impl<const COLOURED: bool> Fragments for InOrderFragments<'_, COLOURED> {
         if undecided {
             self.undecided[p] += 1;
         }
-        let (premultiplied, alpha, transmittance) = match shaded {
-            Shaded::Transparent {
-                premultiplied,
-                alpha,
-            } => (premultiplied, alpha, None),
-            Shaded::Transmissive {
-                premultiplied,
-                opacity,
-                transmittance,
-            } => (premultiplied, opacity, Some(transmittance)),
-            Shaded::Opaque(_) | Shaded::Discarded => return,
+        let Some((premultiplied, alpha, transmittance)) = transparent_parts(shaded) else {
+            return;
         };
         let pixel = &mut self.pixels[p];
         pixel.kept += 1;
-        let opaque = if self.any_opaque {
-            self.opaque_key[p]
-        } else {
-            self.far
-        };
-        let nearest = (opaque >> 32) as u32;
-        if self.check_ties && ties_opaque(dkey, self.plane, opaque, self.far, self.planes) {
-            self.tie[p] = true;
-        }
-        if dkey < nearest {
+        if dkey < self.behind.nearest(p, dkey, self.tie) {
             let c = premultiplied.map(f64::from);
             if COLOURED {
-                let t = match transmittance {
-                    Some(t) => t.map(f64::from),
-                    None => [1.0 - f64::from(alpha); 3],
-                };
+                let t = transmittance_of(alpha, transmittance);
                 pixel.add_coloured(&mut self.transmittance[p], dkey, c, t);
             } else {
                 pixel.add(dkey, c, 1.0 - f64::from(alpha));
@@ -2347,12 +2351,14 @@ fn transparent_in_order<const COLOURED: bool>(
             // A sink per span: a short-lived local whose fields the optimiser keeps in
             // registers (one that lives across spans is reloaded from memory per fragment).
             let mut sink = InOrderFragments::<COLOURED> {
-                plane: tri.plane_depth,
-                far,
-                planes: ctx.planes,
-                opaque_key: &s.opaque_key,
-                any_opaque,
-                check_ties,
+                behind: Behind {
+                    far,
+                    planes: ctx.planes,
+                    opaque_key: &s.opaque_key,
+                    any_opaque,
+                    plane: tri.plane_depth,
+                    check_ties,
+                },
                 undecided: &mut s.undecided,
                 tie: &mut s.tie,
                 pixels: &mut s.in_order,

@@ -20,14 +20,7 @@ fn options(in_order: bool, tile_size: u32) -> ReferenceOptions {
 
 /// Everything but timings, peak storage and which path rendered the tiles must agree.
 fn assert_same(a: &Reference, b: &Reference, what: &str) {
-    let bits = |r: &Reference| -> Vec<u32> {
-        r.image
-            .pixels
-            .iter()
-            .flat_map(|p| p.map(f32::to_bits))
-            .collect()
-    };
-    let (ia, ib) = (bits(a), bits(b));
+    let (ia, ib) = (image_bits(&a.image), image_bits(&b.image));
     if let Some(i) = ia.iter().zip(&ib).position(|(x, y)| x != y) {
         let w = a.image.width as usize;
         panic!(

@@ -150,15 +150,10 @@ fn render_on_with(
 }
 
 fn assert_same_output(a: &Reference, b: &Reference, what: &str) {
-    // Bit patterns: the image must be identical, not merely equal as floats.
-    let bits = |r: &Reference| -> Vec<u32> {
-        r.image
-            .pixels
-            .iter()
-            .flat_map(|p| p.map(f32::to_bits))
-            .collect()
-    };
-    assert!(bits(a) == bits(b), "{what}: image differs");
+    assert!(
+        image_bits(&a.image) == image_bits(&b.image),
+        "{what}: image differs"
+    );
     assert_eq!(a.layers, b.layers, "{what}: layers");
     assert_eq!(a.fragments, b.fragments, "{what}: fragments");
     assert_eq!(a.undecided, b.undecided, "{what}: undecided");

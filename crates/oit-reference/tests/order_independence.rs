@@ -10,16 +10,11 @@ use proptest::prelude::*;
 
 const SIZE: u32 = 48;
 
-fn bits(r: &Reference) -> Vec<u32> {
-    r.image
-        .pixels
-        .iter()
-        .flat_map(|p| p.map(f32::to_bits))
-        .collect()
-}
-
 fn assert_identical(a: &Reference, b: &Reference, what: &str) {
-    assert!(bits(a) == bits(b), "{what}: images differ");
+    assert!(
+        image_bits(&a.image) == image_bits(&b.image),
+        "{what}: images differ"
+    );
     assert_eq!(a.layers, b.layers, "{what}: layer counts differ");
     assert_eq!(a.fragments, b.fragments, "{what}: fragment counts differ");
 }

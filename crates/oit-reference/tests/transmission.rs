@@ -44,14 +44,6 @@ fn assert_close(got: [f32; 4], want: [f64; 3], tol: f64, what: &str) {
     }
 }
 
-fn bits(image: &oit_scene::LinearImage) -> Vec<u32> {
-    image
-        .pixels
-        .iter()
-        .flat_map(|p| p.map(f32::to_bits))
-        .collect()
-}
-
 /// Two overlapping tinted panes of complementary colours over a grey background, in `order`;
 /// the front pane covers the left half of the frame more than the back one.
 fn complementary(front_first: bool) -> Scene {
@@ -107,7 +99,7 @@ fn two_tinted_panes_match_the_closed_form_per_channel() {
 fn draw_order_does_not_change_a_bit() {
     let a = render(&complementary(true), &ReferenceOptions::default());
     let b = render(&complementary(false), &ReferenceOptions::default());
-    assert!(bits(&a.image) == bits(&b.image));
+    assert!(image_bits(&a.image) == image_bits(&b.image));
     // A 32-pane stack of alternating tints, in both orders.
     let stack = |reverse: bool| {
         let mut b = SceneBuilder::new(16, 16).background([1.0; 3]);
@@ -122,7 +114,7 @@ fn draw_order_does_not_change_a_bit() {
         render(&b.build(), &ReferenceOptions::default())
     };
     let (front, back) = (stack(false), stack(true));
-    assert!(bits(&front.image) == bits(&back.image));
+    assert!(image_bits(&front.image) == image_bits(&back.image));
     // And the stack is what the f64 formula gives for its 32 fragments.
     let fragments: Vec<_> = (0..32)
         .map(|i| {
@@ -166,7 +158,7 @@ fn scalar_alpha_is_the_grey_case_bit_for_bit() {
         render(&b.build(), &ReferenceOptions::default())
     };
     let (plain, clear) = (layered(false), layered(true));
-    assert!(bits(&plain.image) == bits(&clear.image));
+    assert!(image_bits(&plain.image) == image_bits(&clear.image));
     assert_eq!(clear.stats.max_depth_complexity, 3);
 }
 
@@ -219,7 +211,7 @@ fn a_small_budget_slices_coloured_tiles_and_changes_no_bit() {
             },
         )
         .expect("fits when sliced");
-        assert!(bits(&whole.image) == bits(&tight.image));
+        assert!(image_bits(&whole.image) == image_bits(&tight.image));
         assert_eq!(
             tight.stats.sliced_tiles > 0,
             !in_order,

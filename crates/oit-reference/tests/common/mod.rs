@@ -169,6 +169,15 @@ pub fn world_of_window_y(p: f64, size: u32) -> f32 {
     (1.0 - p * 2.0 / f64::from(size)) as f32
 }
 
+/// The image's bit patterns: outputs must be identical, not merely equal as floats.
+pub fn image_bits(image: &LinearImage) -> Vec<u32> {
+    image
+        .pixels
+        .iter()
+        .flat_map(|p| p.map(f32::to_bits))
+        .collect()
+}
+
 pub fn assert_all_finite(image: &LinearImage) {
     for (i, px) in image.pixels.iter().enumerate() {
         assert!(
