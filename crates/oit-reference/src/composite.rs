@@ -21,10 +21,7 @@ pub(crate) fn composite_iter(
     let mut color = [0.0f64; 3];
     let mut transmittance = 1.0f64;
     for (premultiplied, alpha) in fragments {
-        for k in 0..3 {
-            color[k] += transmittance * premultiplied[k];
-        }
-        transmittance *= 1.0 - alpha;
+        over_step(&mut color, &mut transmittance, premultiplied, 1.0 - alpha);
     }
     [
         color[0] + transmittance * background[0],
@@ -55,14 +52,41 @@ pub(crate) fn composite_coloured_iter(
     let mut color = [0.0f64; 3];
     let mut transmittance = [1.0f64; 3];
     for (premultiplied, t) in fragments {
-        for k in 0..3 {
-            color[k] += transmittance[k] * premultiplied[k];
-            transmittance[k] *= t[k];
-        }
+        over_step_coloured(&mut color, &mut transmittance, premultiplied, t);
     }
     [
         color[0] + transmittance[0] * background[0],
         color[1] + transmittance[1] * background[1],
         color[2] + transmittance[2] * background[2],
     ]
+}
+
+/// One front-to-back step: `C += T·C_i`, then `T *= 1 − α_i` (`keep` = `1 − α_i`). The one
+/// place this arithmetic is written: the stored path ([`composite_iter`]) and the in-order
+/// path of the renderer both call it, so they give the same bits.
+#[inline(always)]
+pub(crate) fn over_step(
+    color: &mut [f64; 3],
+    transmittance: &mut f64,
+    premultiplied: [f64; 3],
+    keep: f64,
+) {
+    for k in 0..3 {
+        color[k] += *transmittance * premultiplied[k];
+    }
+    *transmittance *= keep;
+}
+
+/// [`over_step`] with a per-channel transmittance `t` (`C += T ⊙ C_i`, `T ⊙= t_i`).
+#[inline(always)]
+pub(crate) fn over_step_coloured(
+    color: &mut [f64; 3],
+    transmittance: &mut [f64; 3],
+    premultiplied: [f64; 3],
+    t: [f64; 3],
+) {
+    for k in 0..3 {
+        color[k] += transmittance[k] * premultiplied[k];
+        transmittance[k] *= t[k];
+    }
 }

@@ -11,7 +11,7 @@ use rayon::slice::ParallelSliceMut;
 
 use oit_scene::{Material, Shaded, Texels, Texture};
 
-use crate::composite::{composite_coloured_iter, composite_iter};
+use crate::composite::{composite_coloured_iter, composite_iter, over_step, over_step_coloured};
 use crate::setup::{HALF, ONE, SetupTriangle, same_plane, undecided, undecided_textured};
 
 /// One row's run of pixels covered by a transparent triangle, recorded by the coverage pass
@@ -1849,9 +1849,11 @@ impl PixelResult {
 /// together in one struct: a fragment touches one cache line and one bounds check.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct InOrderPixel {
-    /// Premultiplied colour sum so far, f64; in scalar scenes the transmittance in `[3]`
-    /// (scenes with coloured transmission keep it per channel beside it).
-    sum: [f64; 4],
+    /// Premultiplied colour sum so far, f64.
+    color: [f64; 3],
+    /// Transmittance so far in scalar scenes (scenes with coloured transmission keep it per
+    /// channel beside the pixel).
+    through: f64,
     /// Depth key of the last composited fragment, or an upper bound of it where that was
     /// enough to know it in order ([`ConstantSpan`]); 0 before the first (every depth key of
     /// a depth in [0, 1] is far above the tie distance from it).
@@ -1870,7 +1872,8 @@ pub(crate) struct InOrderPixel {
 impl InOrderPixel {
     /// Nothing composited yet.
     const EMPTY: InOrderPixel = InOrderPixel {
-        sum: [0.0, 0.0, 0.0, 1.0],
+        color: [0.0; 3],
+        through: 1.0,
         last_depth: 0,
         bound_of: EXACT,
         layers: 0,
@@ -1886,7 +1889,7 @@ impl InOrderPixel {
         u64::from(self.last_depth) + u64::from(PRECISION_TIE_ULPS) < u64::from(dkey)
     }
 
-    /// Composites a visible fragment of a scalar scene: [`composite_iter`]'s step.
+    /// Composites a visible fragment of a scalar scene ([`over_step`]).
     #[inline(always)]
     fn add(&mut self, dkey: u32, premultiplied: [f64; 3], keep: f64) {
         self.disordered |= !self.follows(dkey);
@@ -1895,19 +1898,15 @@ impl InOrderPixel {
         self.composite(premultiplied, keep);
     }
 
-    /// [`composite_iter`]'s step for a fragment known to follow the last one.
+    /// [`over_step`] for a fragment known to follow the last one.
     #[inline(always)]
     fn composite(&mut self, premultiplied: [f64; 3], keep: f64) {
         self.layers += 1;
-        let through = self.sum[3];
-        self.sum[0] += through * premultiplied[0];
-        self.sum[1] += through * premultiplied[1];
-        self.sum[2] += through * premultiplied[2];
-        self.sum[3] = through * keep;
+        over_step(&mut self.color, &mut self.through, premultiplied, keep);
     }
 
     /// Composites a visible fragment of a scene with coloured transmission, `through` being
-    /// the pixel's per-channel transmittance: [`composite_coloured_iter`]'s step.
+    /// the pixel's per-channel transmittance ([`over_step_coloured`]).
     #[inline(always)]
     fn add_coloured(
         &mut self,
@@ -1920,10 +1919,7 @@ impl InOrderPixel {
         self.last_depth = dkey;
         self.bound_of = EXACT;
         self.layers += 1;
-        for k in 0..3 {
-            self.sum[k] += through[k] * premultiplied[k];
-            through[k] *= t[k];
-        }
+        over_step_coloured(&mut self.color, through, premultiplied, t);
     }
 }
 
@@ -2273,13 +2269,12 @@ fn write_in_order(
         } else {
             colour.map(f64::from)
         };
-        let sum = &pixel.sum;
         let through = if ctx.coloured {
             s.in_order_transmittance[p]
         } else {
-            [sum[3]; 3]
+            [pixel.through; 3]
         };
-        let rgb: [f64; 3] = std::array::from_fn(|k| sum[k] + through[k] * base[k]);
+        let rgb: [f64; 3] = std::array::from_fn(|k| pixel.color[k] + through[k] * base[k]);
         *o = [rgb[0] as f32, rgb[1] as f32, rgb[2] as f32, 1.0];
     }
     let (mut fragments, mut kept, mut composited, mut covered, mut most) = (0, 0, 0, 0, 0);
