@@ -1,5 +1,6 @@
 //! CPU ordering: per-object (Babylon's transparent sort) and per-triangle (a radix sort on
-//! depth keys).
+//! depth keys: split into L2-sized buckets by the leading bits of the key range, then an LSD
+//! radix sort of each bucket in cache).
 
 use glam::{Mat4, Vec3};
 use oit_scene::Scene;
@@ -25,45 +26,34 @@ pub fn back_to_front_key(view_depth: f32) -> u32 {
     !ordered_bits(view_depth)
 }
 
-/// Below this many keys they are computed on one thread (spawning costs more).
+/// Below this many pairs the key pass and a split run on one thread (spawning costs more).
 const PARALLEL: usize = 1 << 15;
-/// Below this many keys a comparison sort of the packed `(key, index)` pairs is faster.
-const SMALL: usize = 1 << 8;
-/// Radix digits of the 32-bit key for large inputs, least significant first, as
-/// `(shift, bits)`: two bytes, then the top 16 bits in one pass. Depth keys are float bits,
-/// whose top 16 bits (sign, exponent, 7 leading mantissa bits) take few distinct values in a
-/// scene, so that pass writes to few buckets, as the byte passes do. 11-bit digits (2048
-/// buckets: 16 KiB of scattered write heads instead of 2 KiB) were 1.5–2× slower per pass on
-/// 1M keys.
-const LARGE_DIGITS: [(u32, u32); 3] = [(0, 8), (8, 8), (16, 16)];
-/// Digits below [`LARGE`] keys, where the pairs fit in L2 and clearing and scanning a
-/// 2^16-entry histogram would cost more than the wide digits do.
-const SMALL_DIGITS: [(u32, u32); 3] = [(0, 11), (11, 11), (22, 10)];
-/// From this many keys on, [`LARGE_DIGITS`] (the two sets were equally fast at 40k–70k).
-const LARGE: usize = 1 << 16;
-/// Keys computed per block before their digits are counted: the key loop vectorizes only
-/// without the counting in it (fused, it was 1.5× slower), and the block is still in L1.
-const BLOCK: usize = 1024;
+/// Runs of at most this many pairs are sorted where they lie by an LSD radix sort: with their
+/// scratch they take 256 KiB, which stays in L2. Larger runs are split first. (8k was slower
+/// on 1M random keys, as fewer and smaller buckets per split; 32k and 64k were no faster.)
+const LOCAL: usize = 1 << 14;
+/// A split sorts a run into at most 2^8 buckets by its leading key bits. Few enough write
+/// heads that a scatter through all of memory stays fast; 10 bits won on uniform keys but
+/// lost 1.2–1.8× on narrow and clustered ones.
+const SPLIT_BITS: u32 = 8;
+/// Up to this many pairs a comparison sort is faster than counting digits.
+const SMALL: usize = 1 << 6;
+/// Widest digit of the in-cache LSD sort (a 2^11-entry histogram, 8 KiB on the stack).
+const MAX_DIGIT: u32 = 11;
+/// Buckets are handed to threads in groups of about this many pairs.
+const GROUP: usize = 1 << 15;
 
-fn digits(n: usize) -> [(u32, u32); 3] {
-    if n >= LARGE {
-        LARGE_DIGITS
-    } else {
-        SMALL_DIGITS
-    }
-}
-
-/// Reusable scratch for sorting triangles back to front (allocations survive between frames).
+/// Reusable scratch for sorting triangles back to front (allocations survive between frames):
+/// 20 bytes a triangle.
 #[derive(Debug, Default, Clone)]
 pub struct DepthSorter {
-    /// Two buffers of `n` u64s, ping-ponged by the passes. The keys (as u32s) start in the
-    /// second; `(key << 32) | index` pairs go between passes; the last pass writes the
-    /// indices (as u32s) into whichever buffer it does not read. Sharing them keeps the
-    /// working set at 16 bytes per triangle.
-    bufs: [Vec<u64>; 2],
-    /// One set of digit histograms per chunk of keys ([`hist_len`] each); the first becomes
-    /// the total, then the running bucket offsets.
-    hists: Vec<u32>,
+    /// `(key << 32) | index` pairs: ordered as u64s they order by key, then by index, which
+    /// is what makes every step of the sort stable.
+    pairs: Vec<u64>,
+    /// Where a split scatters its buckets to; the pairs and the scratch swap roles each level.
+    scratch: Vec<u64>,
+    /// The sorted indices.
+    order: Vec<u32>,
 }
 
 impl DepthSorter {
@@ -75,217 +65,278 @@ impl DepthSorter {
     /// of the centroid under `view` (a right-handed view matrix, camera looking down −z). Returns
     /// the triangle indices, farthest first. Stable: equal depths keep their input order.
     ///
-    /// Method: one pass computes the keys ([`back_to_front_key`]) and the histograms of all
-    /// three radix digits (in parallel chunks above 32k triangles), then an LSD radix sort in
-    /// up to three scatter passes (8, 8 and 16-bit digits from 65 536 triangles, 11, 11 and
-    /// 10 below). The first pass reads the keys and makes `(key << 32) | index` pairs, the last
-    /// writes the indices out, and passes whose digit is the same for every key are skipped.
-    /// Below 256 triangles, a comparison sort of the pairs.
+    /// Method ([`DepthSorter::sort_keys`] on [`back_to_front_key`]s): one parallel pass makes
+    /// `(key << 32) | index` pairs and finds the key range; runs larger than 16k pairs are
+    /// split by their leading key bits into up to 256 buckets (chunks scattered in parallel),
+    /// recursively, and the buckets, sized for L2, are radix-sorted in parallel where they lie.
+    /// Splitting on the key *range* keeps buckets even for any depth range, so a narrow one
+    /// costs no more than a wide one; a far outlier costs one more split.
     pub fn sort_back_to_front(&mut self, view: &Mat4, centroids: &[Vec3]) -> &[u32] {
-        let n = centroids.len();
-        assert!(n <= u32::MAX as usize, "at most 2^32 triangles");
         // z_view = row 2 of the view matrix · (p, 1).
         let row = view.row(2);
-        let key =
-            move |p: &Vec3| back_to_front_key(-(row.x * p.x + row.y * p.y + row.z * p.z + row.w));
-        self.resize(n);
-        let keys = &mut bytemuck::cast_slice_mut::<u64, u32>(&mut self.bufs[1])[..n];
-        if n < SMALL {
-            for (k, p) in keys.iter_mut().zip(centroids) {
-                *k = key(p);
-            }
-            return self.small_sort(n);
-        }
-        let chunks = if n >= PARALLEL {
-            rayon::current_num_threads().clamp(1, 16)
-        } else {
-            1
-        };
-        let chunk = n.div_ceil(chunks);
-        let chunks = n.div_ceil(chunk);
-        let digits = digits(n);
-        let len = hist_len(digits);
-        self.hists.clear();
-        self.hists.resize(chunks * len, 0);
-        let fill = |((keys, points), hist): ((&mut [u32], &[Vec3]), &mut [u32])| {
-            let mut counts = Counts::new(hist, digits);
-            for (keys, points) in keys.chunks_mut(BLOCK).zip(points.chunks(BLOCK)) {
-                for (k, p) in keys.iter_mut().zip(points) {
-                    *k = key(p);
-                }
-                counts.add(keys);
-            }
-        };
-        if chunks > 1 {
-            keys.par_chunks_mut(chunk)
-                .zip(centroids.par_chunks(chunk))
-                .zip(self.hists.par_chunks_mut(len))
-                .for_each(fill);
-            let (total, rest) = self.hists.split_at_mut(len);
-            for h in rest.chunks(len) {
-                total.iter_mut().zip(h).for_each(|(t, c)| *t += c);
-            }
-        } else {
-            fill(((keys, centroids), &mut self.hists[..]));
-        }
-        self.radix_sort(n, digits)
+        self.sort_by(centroids, move |p: &Vec3| {
+            back_to_front_key(-(row.x * p.x + row.y * p.y + row.z * p.z + row.w))
+        })
     }
 
     /// Stable ascending argsort of `keys`: the indices `i` ordered by `keys[i]`, equal keys in
     /// index order. The sort [`DepthSorter::sort_back_to_front`] runs on its depth keys.
     pub fn sort_keys(&mut self, keys: &[u32]) -> &[u32] {
-        let n = keys.len();
+        self.sort_by(keys, |&k| k)
+    }
+
+    /// Stable argsort of `items` by `key`.
+    fn sort_by<T: Sync>(&mut self, items: &[T], key: impl Fn(&T) -> u32 + Sync) -> &[u32] {
+        let n = items.len();
         assert!(n <= u32::MAX as usize, "at most 2^32 keys");
-        self.resize(n);
-        bytemuck::cast_slice_mut::<u64, u32>(&mut self.bufs[1])[..n].copy_from_slice(keys);
-        if n < SMALL {
-            return self.small_sort(n);
+        self.pairs.resize(n, 0);
+        self.scratch.resize(n, 0);
+        self.order.resize(n, 0);
+        let chunk = chunk_len(n);
+        let (lo, hi) = self.pairs[..n]
+            .par_chunks_mut(chunk)
+            .zip(items.par_chunks(chunk))
+            .enumerate()
+            .map(|(c, (pairs, items))| {
+                let mut range = (u32::MAX, 0);
+                for (i, (pair, item)) in pairs.iter_mut().zip(items).enumerate() {
+                    let k = key(item);
+                    *pair = (u64::from(k) << 32) | (c * chunk + i) as u64;
+                    range = (range.0.min(k), range.1.max(k));
+                }
+                range
+            })
+            .reduce(|| (u32::MAX, 0), |a, b| (a.0.min(b.0), a.1.max(b.1)));
+        if n > 0 {
+            sort_run(
+                &mut self.pairs[..n],
+                &mut self.scratch[..n],
+                &mut self.order,
+                lo,
+                hi,
+            );
         }
-        let digits = digits(n);
-        self.hists.clear();
-        self.hists.resize(hist_len(digits), 0);
-        Counts::new(&mut self.hists, digits).add(keys);
-        self.radix_sort(n, digits)
+        &self.order
     }
+}
 
-    /// Sizes both buffers for `n` keys (they only grow).
-    fn resize(&mut self, n: usize) {
-        for b in &mut self.bufs {
-            b.resize(n, 0);
-        }
+/// Pairs per parallel chunk: one chunk per thread from [`PARALLEL`] pairs on.
+fn chunk_len(n: usize) -> usize {
+    let chunks = if n >= PARALLEL {
+        rayon::current_num_threads().clamp(1, 16)
+    } else {
+        1
+    };
+    n.div_ceil(chunks).max(1)
+}
+
+/// Key of a pair.
+fn key_of(pair: u64) -> u32 {
+    (pair >> 32) as u32
+}
+
+/// Stable sort of the pairs in `src`, whose keys lie in `lo..=hi`; the indices go to `out`,
+/// and `tmp` (as long as `src`) is scratch. A run that fits in L2 is sorted in place; a larger
+/// one is split by its leading key bits into buckets (its chunks in parallel), which are
+/// sorted in turn.
+fn sort_run(src: &mut [u64], tmp: &mut [u64], out: &mut [u32], lo: u32, hi: u32) {
+    let n = src.len();
+    if n <= LOCAL || lo == hi {
+        return local_sort(src, tmp, out, lo, hi);
     }
-
-    /// Argsort of a few keys: the `(key << 32) | index` values are distinct and order exactly
-    /// as (key, index), so an unstable sort of them is a stable sort of the keys.
-    fn small_sort(&mut self, n: usize) -> &[u32] {
-        let [pairs, keys] = &mut self.bufs;
-        let keys = &mut bytemuck::cast_slice_mut::<u64, u32>(keys)[..n];
-        for ((i, p), &k) in pairs.iter_mut().enumerate().zip(keys.iter()) {
-            *p = (u64::from(k) << 32) | i as u64;
+    // Fine buckets by the leading bits of `key - lo` (see `fine_range`).
+    let fine_bits = (n.ilog2() - 2).clamp(8, 16);
+    let shift = bit_len(hi - lo).saturating_sub(fine_bits);
+    let fine = move |pair: u64| ((key_of(pair) - lo) >> shift) as usize;
+    let fines = fine(u64::from(hi) << 32) + 1;
+    let chunk = chunk_len(n);
+    let fine_counts: Vec<Vec<u32>> = src
+        .par_chunks(chunk)
+        .map(|pairs| {
+            let mut count = vec![0u32; fines];
+            for &p in pairs {
+                count[fine(p)] += 1;
+            }
+            count
+        })
+        .collect();
+    // Buckets of consecutive fine buckets, closed before they would exceed `target` pairs: a
+    // bucket is either small enough or one fine bucket (empty ones around it are left in
+    // buckets of their own), whose range is 2^fine_bits times narrower. So the buckets are even whatever the key distribution (few of them, so the
+    // scatter has few write heads) and the recursion ends.
+    let target = n.div_ceil(1 << SPLIT_BITS).max(LOCAL / 4);
+    let totals: Vec<usize> = (0..fines)
+        .map(|f| fine_counts.iter().map(|c| c[f] as usize).sum())
+        .collect();
+    if let Some(f) = totals.iter().position(|&count| count == n) {
+        // Every key is in one fine bucket: narrow the range instead of copying the run.
+        let (first, last) = fine_range(lo, hi, shift, f, f + 1);
+        return sort_run(src, tmp, out, first, last);
+    }
+    let mut bucket_of = vec![0u16; fines];
+    let mut starts = vec![0usize];
+    let mut filling = 0;
+    for (f, (slot, &count)) in bucket_of.iter_mut().zip(&totals).enumerate() {
+        if f > starts[starts.len() - 1] && filling + count > target {
+            starts.push(f);
+            filling = 0;
         }
-        pairs.sort_unstable();
-        for (o, &p) in keys.iter_mut().zip(pairs.iter()) {
+        filling += count;
+        *slot = (starts.len() - 1) as u16;
+    }
+    let buckets = starts.len();
+    starts.push(fines);
+    let counts: Vec<Vec<u32>> = fine_counts
+        .iter()
+        .map(|c| {
+            starts
+                .windows(2)
+                .map(|w| c[w[0]..w[1]].iter().sum())
+                .collect()
+        })
+        .collect();
+    let bucket = |pair: u64| usize::from(bucket_of[fine(pair)]);
+    // Each chunk's share of each bucket, bucket by bucket and, within one, chunks in input
+    // order (which keeps the split stable), cut from `tmp` so that chunks write in parallel.
+    let mut shares: Vec<Vec<&mut [u64]>> =
+        counts.iter().map(|_| Vec::with_capacity(buckets)).collect();
+    let mut sizes = Vec::with_capacity(buckets);
+    let mut rest = &mut tmp[..];
+    for b in 0..buckets {
+        let mut size = 0;
+        for (count, chunk_shares) in counts.iter().zip(&mut shares) {
+            let (share, tail) = std::mem::take(&mut rest).split_at_mut(count[b] as usize);
+            chunk_shares.push(share);
+            rest = tail;
+            size += count[b] as usize;
+        }
+        sizes.push(size);
+    }
+    src.par_chunks(chunk)
+        .zip(shares.par_iter_mut())
+        .for_each(|(pairs, shares)| {
+            let mut filled = vec![0u32; buckets];
+            for &p in pairs {
+                let b = bucket(p);
+                shares[b][filled[b] as usize] = p;
+                filled[b] += 1;
+            }
+        });
+    // The buckets, in parallel groups of about GROUP pairs; the roles of the buffers swap.
+    let mut groups = Vec::new();
+    let (mut pairs, mut scratch, mut order) = (tmp, src, out);
+    let mut b = 0;
+    while b < buckets {
+        let first = b;
+        let mut len = 0;
+        while b < buckets && (len == 0 || len + sizes[b] <= GROUP) {
+            len += sizes[b];
+            b += 1;
+        }
+        let (p, s, o) = (
+            take_front(&mut pairs, len),
+            take_front(&mut scratch, len),
+            take_front(&mut order, len),
+        );
+        groups.push((p, s, o, first..b));
+    }
+    groups
+        .into_par_iter()
+        .for_each(|(mut pairs, mut scratch, mut order, range)| {
+            for b in range {
+                let size = sizes[b];
+                let (p, s, o) = (
+                    take_front(&mut pairs, size),
+                    take_front(&mut scratch, size),
+                    take_front(&mut order, size),
+                );
+                if size > 0 {
+                    let (first, last) = fine_range(lo, hi, shift, starts[b], starts[b + 1]);
+                    sort_run(p, s, o, first, last);
+                }
+            }
+        });
+}
+
+/// Key bounds of the fine buckets `start..end` of a run with keys in `lo..=hi`: fine bucket f
+/// holds the keys lo + [f << shift, (f + 1) << shift).
+fn fine_range(lo: u32, hi: u32, shift: u32, start: usize, end: usize) -> (u32, u32) {
+    let first = lo + ((start as u32) << shift);
+    let last = (u64::from(lo) + ((end as u64) << shift) - 1).min(u64::from(hi));
+    (first, last as u32)
+}
+
+/// Splits the first `len` elements off `slice`.
+fn take_front<'a, T>(slice: &mut &'a mut [T], len: usize) -> &'a mut [T] {
+    let (front, back) = std::mem::take(slice).split_at_mut(len);
+    *slice = back;
+    front
+}
+
+/// Bits needed to write `x`.
+fn bit_len(x: u32) -> u32 {
+    u32::BITS - x.leading_zeros()
+}
+
+/// Stable LSD radix sort of a run that fits in cache (keys in `lo..=hi`), indices to `out`.
+/// It sorts `key − lo`, in as few equal digits of at most [`MAX_DIGIT`] bits (and at most
+/// log2 of the run's length, so the histogram never outweighs the run) as cover the range,
+/// and skips a digit that every key shares. Tiny runs take a comparison sort of the pairs.
+fn local_sort(pairs: &mut [u64], scratch: &mut [u64], out: &mut [u32], lo: u32, hi: u32) {
+    let n = pairs.len();
+    if n <= SMALL {
+        if lo != hi {
+            // The pairs are distinct, so an unstable sort of them is a stable sort of the keys.
+            pairs.sort_unstable();
+        }
+        for (o, &p) in out.iter_mut().zip(pairs.iter()) {
             *o = p as u32;
         }
-        keys
+        return;
     }
-
-    /// LSD radix argsort of the `n` keys in the second buffer, given the histograms of their
-    /// `digits` at the start of `hists`.
-    fn radix_sort(&mut self, n: usize, digits: [(u32, u32); 3]) -> &[u32] {
-        // Turn the histograms into bucket starts. A digit that every key shares would make
-        // its pass the identity permutation, so that pass is left out.
-        let mut passes = Vec::with_capacity(3);
-        let mut rest = &mut self.hists[..];
-        for (shift, bits) in digits {
-            let (hist, tail) = rest.split_at_mut(1 << bits);
-            rest = tail;
-            if hist.contains(&(n as u32)) {
-                continue;
-            }
-            let mut sum = 0;
-            for h in hist.iter_mut() {
-                let c = *h;
-                *h = sum;
-                sum += c;
-            }
-            passes.push((shift, ((1u64 << bits) - 1) as u32, hist));
+    let bits = bit_len(hi - lo);
+    let widest = n.ilog2().clamp(4, MAX_DIGIT);
+    let passes = bits.div_ceil(widest);
+    // At most MAX_DIGIT: `passes` digits of `width` bits cover `bits`.
+    let width = bits.div_ceil(passes.max(1));
+    let mask = (1u32 << width) - 1;
+    let mut next = [0u32; 1 << MAX_DIGIT];
+    let next = &mut next[..1 << width];
+    let (mut src, mut dst) = (pairs, scratch);
+    for pass in 0..passes {
+        let shift = pass * width;
+        let digit = |pair: u64| (((key_of(pair) - lo) >> shift) & mask) as usize;
+        next.fill(0);
+        for &p in src.iter() {
+            next[digit(p)] += 1;
         }
-        // The buffer the next pass reads: the keys are in buffer 1.
-        let mut from = 1;
-        let count = passes.len();
-        for (p, (shift, mask, next)) in passes.into_iter().enumerate() {
-            let digit = |k: u32| ((k >> shift) & mask) as usize;
-            let [a, b] = &mut self.bufs;
-            let (src, dst) = if from == 1 {
-                (&b[..n], &mut a[..n])
-            } else {
-                (&a[..n], &mut b[..n])
-            };
-            match (p == 0, p + 1 == count) {
-                (true, true) => {
-                    let order = &mut bytemuck::cast_slice_mut::<u64, u32>(dst)[..n];
-                    for (i, &k) in bytemuck::cast_slice::<u64, u32>(src)[..n]
-                        .iter()
-                        .enumerate()
-                    {
-                        let slot = &mut next[digit(k)];
-                        order[*slot as usize] = i as u32;
-                        *slot += 1;
-                    }
-                }
-                (true, false) => {
-                    for (i, &k) in bytemuck::cast_slice::<u64, u32>(src)[..n]
-                        .iter()
-                        .enumerate()
-                    {
-                        let slot = &mut next[digit(k)];
-                        dst[*slot as usize] = (u64::from(k) << 32) | i as u64;
-                        *slot += 1;
-                    }
-                }
-                (false, true) => {
-                    let order = &mut bytemuck::cast_slice_mut::<u64, u32>(dst)[..n];
-                    for &x in src {
-                        let slot = &mut next[digit((x >> 32) as u32)];
-                        order[*slot as usize] = x as u32;
-                        *slot += 1;
-                    }
-                }
-                (false, false) => {
-                    for &x in src {
-                        let slot = &mut next[digit((x >> 32) as u32)];
-                        dst[*slot as usize] = x;
-                        *slot += 1;
-                    }
-                }
-            }
-            from = 1 - from;
+        if next.contains(&(n as u32)) {
+            // Every key has this digit: the pass would not move anything.
+            continue;
         }
-        let out = &mut bytemuck::cast_slice_mut::<u64, u32>(&mut self.bufs[from])[..n];
-        if count == 0 {
-            // Every key is equal: index order.
-            for (i, o) in out.iter_mut().enumerate() {
-                *o = i as u32;
-            }
+        let mut sum = 0;
+        for slot in next.iter_mut() {
+            let count = *slot;
+            *slot = sum;
+            sum += count;
         }
-        out
+        if pass + 1 == passes {
+            for &p in src.iter() {
+                let slot = &mut next[digit(p)];
+                out[*slot as usize] = p as u32;
+                *slot += 1;
+            }
+            return;
+        }
+        for &p in src.iter() {
+            let slot = &mut next[digit(p)];
+            dst[*slot as usize] = p;
+            *slot += 1;
+        }
+        std::mem::swap(&mut src, &mut dst);
     }
-}
-
-/// Entries of the three histograms of `digits`.
-fn hist_len(digits: [(u32, u32); 3]) -> usize {
-    digits.iter().map(|&(_, bits)| 1usize << bits).sum()
-}
-
-/// The three digit histograms of a chunk of keys, in one [`hist_len`] slice.
-struct Counts<'h> {
-    hists: [&'h mut [u32]; 3],
-    shifts: [u32; 3],
-    masks: [u32; 3],
-}
-
-impl<'h> Counts<'h> {
-    fn new(hist: &'h mut [u32], digits: [(u32, u32); 3]) -> Self {
-        let (low, rest) = hist.split_at_mut(1 << digits[0].1);
-        let (mid, rest) = rest.split_at_mut(1 << digits[1].1);
-        let high = &mut rest[..1 << digits[2].1];
-        Counts {
-            hists: [low, mid, high],
-            shifts: digits.map(|d| d.0),
-            masks: digits.map(|d| ((1u64 << d.1) - 1) as u32),
-        }
-    }
-
-    fn add(&mut self, keys: &[u32]) {
-        let [low, mid, high] = &mut self.hists;
-        let [s0, s1, s2] = self.shifts;
-        let [m0, m1, m2] = self.masks;
-        for &k in keys {
-            low[((k >> s0) & m0) as usize] += 1;
-            mid[((k >> s1) & m1) as usize] += 1;
-            high[((k >> s2) & m2) as usize] += 1;
-        }
+    for (o, &p) in out.iter_mut().zip(src.iter()) {
+        *o = p as u32;
     }
 }
 
@@ -348,14 +399,15 @@ mod tests {
         ]
     }
 
-    /// Sizes on both sides of every threshold: comparison sort, 11-bit digits, parallel
-    /// keys, 8/8/16-bit digits.
+    /// Sizes on both sides of every threshold: comparison sort, in-cache radix sort, split,
+    /// parallel chunks, and runs large enough that buckets are split again.
     fn sizes() -> impl Strategy<Value = usize> {
         prop_oneof![
             0..SMALL + 50,
             SMALL..4000,
+            LOCAL - 20..LOCAL + 500,
             PARALLEL - 20..PARALLEL + 500,
-            LARGE - 20..LARGE + 500,
+            GROUP * 3..GROUP * 4,
         ]
     }
 
@@ -466,6 +518,31 @@ mod tests {
         radix_sort_pairs(&mut keys, &mut values);
         let got: Vec<(u32, u32)> = keys.into_iter().zip(values).collect();
         assert_eq!(got, expected);
+    }
+
+    /// Content whose key range a few outliers stretch: the bulk lands in one bucket of the
+    /// first split and must be split again (twice for the tightest cluster), in parallel
+    /// chunks, with ties and a bucket at the top of the range.
+    #[test]
+    fn clustered_keys_with_outliers_are_split_again_and_stay_stable() {
+        let mut next = random(11);
+        for (spread, outliers) in [(1u64 << 20, 3), (1 << 12, 1), (5, 2), (1 << 30, 0)] {
+            let keys: Vec<u32> = (0..200_000)
+                .map(|i| {
+                    if i % 50_000 < outliers {
+                        [0, u32::MAX, 1 << 31][i % 3]
+                    } else {
+                        0x3c00_0000 + (next() % spread) as u32
+                    }
+                })
+                .collect();
+            let mut sorter = DepthSorter::new();
+            assert_eq!(
+                sorter.sort_keys(&keys),
+                &stable_argsort(&keys)[..],
+                "spread {spread}, {outliers} outliers"
+            );
+        }
     }
 
     #[test]
