@@ -118,10 +118,10 @@ impl ReferenceOptions {
     ///
     /// **Not counted** (proportional to the input or the resolution, bounded by the loader's
     /// caps): the scene (36 bytes per vertex: 432 MB for 4 M triangles); the set-up triangles,
-    /// 328 bytes per triangle reaching the screen (clipping can make up to 7 of one) plus 8
-    /// per input triangle, and up to twice that plus 24 while they are put in binning order:
-    /// 1.3 GB, 2.8 GB during setup, for 4 M unclipped triangles; the outputs, 29 bytes per pixel: 1.9 GB at
-    /// 8192².
+    /// 344 bytes per triangle reaching the screen (clipping can make up to 7 of one) and 4
+    /// for the binning order, plus 8 per input triangle, and up to twice that plus 16 while
+    /// they are gathered and ordered: 1.4 GB, 2.9 GB during setup, for 4 M unclipped
+    /// triangles; the outputs, 29 bytes per pixel: 1.9 GB at 8192².
     ///
     /// Why 2 GiB: the deepest bundled tiles take under 4 MB at once (faint-haze; particles
     /// near 1 MB), so nothing realistic is sliced even with 64 threads sharing it; one pixel
@@ -357,8 +357,8 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
     let tile = options.tile_size;
 
     let (pieces, total) = set_up(scene)?;
-    // Stored in the order they are binned in, so that tiles read them front to back.
-    let triangles = raster::in_bin_order(pieces, scene.camera.reverse_z);
+    // The order tiles read them in: front to back.
+    let (triangles, bin_order) = raster::in_bin_order(pieces, scene.camera.reverse_z);
     // Per rank: the plane depth of a flat triangle, NaN otherwise (fan pieces share both).
     let mut plane_depths = vec![f64::NAN; total as usize];
     for t in &triangles {
@@ -366,9 +366,8 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
     }
     let setup_done = Instant::now();
 
-    // Binning: counting pass, prefix sum, fill. Each bin lists triangle indices ascending, which
-    // is `in_bin_order` (transparent triangles nearest first: most pixels' fragments arrive
-    // sorted).
+    // Binning: counting pass, prefix sum, fill. Each bin lists triangle indices in
+    // `bin_order` (transparent triangles nearest first: most pixels' fragments arrive sorted).
     let tiles_x = width.div_ceil(tile) as usize;
     let tiles_y = height.div_ceil(tile) as usize;
     let tile_count = tiles_x * tiles_y;
@@ -411,12 +410,12 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
     }
     let mut cursor = bin_start.clone();
     let mut bins = vec![0u32; bin_start[tile_count] as usize];
-    for (i, t) in triangles.iter().enumerate() {
-        let (xs, ys) = tile_range(t);
+    for &i in &bin_order {
+        let (xs, ys) = tile_range(&triangles[i as usize]);
         for ty in ys {
             for tx in xs.clone() {
                 let c = &mut cursor[ty * tiles_x + tx];
-                bins[*c as usize] = i as u32;
+                bins[*c as usize] = i;
                 *c += 1;
             }
         }
@@ -651,8 +650,9 @@ pub(crate) fn set_up(scene: &Scene) -> Result<(Vec<Vec<SetupTriangle>>, u64), Re
     let pieces = (0..chunks)
         .into_par_iter()
         .map(|c| {
-            let mut out = Vec::new();
             let (lo, hi) = (c * CHUNK, ((c + 1) * CHUNK).min(total));
+            // One piece per triangle unless clipping cuts it: sized once, never regrown.
+            let mut out = Vec::with_capacity((hi - lo) as usize);
             let mut d = first_rank.partition_point(|&f| f <= lo) - 1;
             for rank in lo..hi {
                 while first_rank[d + 1] <= rank {

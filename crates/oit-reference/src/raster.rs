@@ -5,7 +5,8 @@ use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use rayon::iter::{
-    IndexedParallelIterator, IntoParallelRefIterator, ParallelBridge, ParallelIterator,
+    IndexedParallelIterator, IntoParallelIterator, IntoParallelRefIterator, ParallelBridge,
+    ParallelIterator,
 };
 use rayon::slice::ParallelSliceMut;
 
@@ -472,39 +473,58 @@ fn transparent_key(dkey: u32, rank: u32) -> u64 {
     (u64::from(dkey) << 32) | u64::from(u32::MAX - rank)
 }
 
-/// The set-up triangles (pieces in rank order) in the order they are binned in, which every
-/// tile then sees: opaque triangles in rank order, then transparent ones nearest first by
-/// their nearest vertex's key (at equal depth the higher rank first, as [`transparent_key`]
-/// orders fragments). A fragment's depth lies between its triangle's vertex depths, so where
-/// triangles' depth ranges do not overlap (layers, billboards) each pixel's list is appended
-/// in key order and its sort is one check; stored in that order, tiles read them front to
-/// back. No result depends on the order: lists are sorted by their unique keys, and the
-/// opaque pass keeps the nearest key whatever the order.
-pub(crate) fn in_bin_order(pieces: Vec<Vec<SetupTriangle>>, reverse_z: bool) -> Vec<SetupTriangle> {
-    let mut keyed: Vec<(bool, u64, u32, u32)> = pieces
+/// The set-up triangles (pieces in rank order), in one list, and the order they are binned
+/// in (positions in that list), which every tile then sees: opaque triangles in rank order,
+/// then transparent ones nearest first by their nearest vertex's key (at equal depth the
+/// higher rank first, as [`transparent_key`] orders fragments). A fragment's depth lies
+/// between its triangle's vertex depths, so where triangles' depth ranges do not overlap
+/// (layers, billboards) each pixel's list is appended in key order and its sort is one check.
+/// No result depends on the order: lists are sorted by their unique keys, and the opaque pass
+/// keeps the nearest key whatever the order. The triangles themselves stay where they are:
+/// moving 300-byte structs into a second list cost more (fresh pages) than the tiles gain
+/// from reading them in order.
+pub(crate) fn in_bin_order(
+    pieces: Vec<Vec<SetupTriangle>>,
+    reverse_z: bool,
+) -> (Vec<SetupTriangle>, Vec<u32>) {
+    // Concatenated in parallel: most of the cost is the first touch of the new pages.
+    let starts: Vec<usize> = pieces
+        .iter()
+        .scan(0, |end, p| {
+            *end += p.len();
+            Some(*end - p.len())
+        })
+        .collect();
+    let total = pieces.iter().map(Vec::len).sum();
+    let triangles: Vec<SetupTriangle> = (0..total)
+        .into_par_iter()
+        .with_min_len(1024)
+        .map(|i| {
+            let c = starts.partition_point(|&s| s <= i) - 1;
+            pieces[c][i - starts[c]].clone()
+        })
+        .collect();
+    drop(pieces);
+    let mut keyed: Vec<(bool, u64, u32)> = triangles
         .par_iter()
         .enumerate()
-        .flat_map_iter(|(c, piece)| {
-            piece.iter().enumerate().map(move |(i, t)| {
-                let key = if t.transparent {
-                    let nearest =
-                        t.z.iter()
-                            .map(|&z| depth_key(z.clamp(0.0, 1.0) + 0.0, reverse_z))
-                            .min()
-                            .unwrap_or(u32::MAX);
-                    transparent_key(nearest, t.key)
-                } else {
-                    0
-                };
-                (t.transparent, key, c as u32, i as u32)
-            })
+        .map(|(i, t)| {
+            let key = if t.transparent {
+                let nearest =
+                    t.z.iter()
+                        .map(|&z| depth_key(z.clamp(0.0, 1.0) + 0.0, reverse_z))
+                        .min()
+                        .unwrap_or(u32::MAX);
+                transparent_key(nearest, t.key)
+            } else {
+                0
+            };
+            (t.transparent, key, i as u32)
         })
         .collect();
     keyed.par_sort_unstable();
-    keyed
-        .par_iter()
-        .map(|&(_, _, c, i)| pieces[c as usize][i as usize].clone())
-        .collect()
+    let order = keyed.into_iter().map(|(_, _, i)| i).collect();
+    (triangles, order)
 }
 
 /// Rectangle of a tile in pixels.

@@ -438,3 +438,13 @@ pub(crate) fn same_plane(a: f64, b: f64) -> bool {
 
 /// Clip-space position and colour of one input vertex.
 pub(crate) type ClipInput = (Vec4, [f32; 4], [f32; 2]);
+
+#[cfg(test)]
+mod tests {
+    /// The memory the crate documents for set-up triangles (`ReferenceOptions::memory_budget`,
+    /// README) is this size: a new field must update those figures.
+    #[test]
+    fn a_set_up_triangle_is_the_size_the_memory_docs_state() {
+        assert_eq!(std::mem::size_of::<super::SetupTriangle>(), 344);
+    }
+}
