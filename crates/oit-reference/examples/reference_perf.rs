@@ -32,7 +32,7 @@ fn best_of(scene: &Scene, options: &ReferenceOptions, runs: usize) -> Reference 
 fn row(label: &str, r: &Reference) {
     let s = &r.stats;
     println!(
-        "{label:<28} {:>9.1} ms {:>12} frags {:>8.1} Mfrag/s | setup {:>6.1} bin {:>6.1} raster {:>7.1} sort {:>7.1} composite {:>7.1} ms | max {:>3} mean {:>6.2} | peak tile {:>9} B | in order {}/{} tiles, {} px stored",
+        "{label:<28} {:>9.1} ms {:>12} frags {:>8.1} Mfrag/s | setup {:>6.1} bin {:>6.1} raster {:>7.1} sort {:>7.1} composite {:>7.1} ms | max {:>3} mean {:>6.2} | peak tile {:>9} B | in order {}/{} tiles ({} in bands), {} px stored",
         s.seconds * 1e3,
         s.fragments,
         s.fragments_per_second / 1e6,
@@ -46,6 +46,7 @@ fn row(label: &str, r: &Reference) {
         s.peak_tile_bytes,
         s.in_order_tiles,
         s.tiles,
+        s.banded_tiles,
         s.stored_pixels,
     );
 }

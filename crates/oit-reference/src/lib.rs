@@ -54,6 +54,10 @@ pub use setup::CUTOFF_UNDECIDED_BOUND;
 /// plane are never visible; undecided-cutoff and precision-tie outputs.
 pub const OUTPUT_VERSION: u32 = 3;
 
+/// Fewest triangles in a tile's bin for it to be rendered alone on every thread when it holds
+/// a thread's part of all binned triangles (below this it is quick anyway).
+const HEAVY_BIN: usize = 1024;
+
 /// Most input triangles a scene may have (ranks are u32 sort keys).
 pub const MAX_TRIANGLES: u32 = u32::MAX - 1;
 
@@ -260,6 +264,10 @@ pub struct ReferenceStats {
     /// without being stored ([`ReferenceOptions::in_order`]).
     #[serde(default)]
     pub in_order_tiles: u64,
+    /// Of those, tiles over a thread's share that were rendered alone afterwards, in bands of
+    /// rows on all threads (a deep stack over few tiles).
+    #[serde(default)]
+    pub banded_tiles: u64,
     /// Pixels composited from stored, sorted lists (all of them without
     /// [`ReferenceOptions::in_order`]; with it, those whose fragments did not arrive in depth
     /// order and the rest of their row's run).
@@ -430,6 +438,17 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
     let tile_budget = options.memory_budget - reserved;
     let threads = rayon::current_num_threads();
     let share = tile_budget / threads as u64;
+    // A tile holding a thread's part of all the binned triangles would be the critical path
+    // (a deep stack over few tiles): it waits until the others are done and then runs alone,
+    // in order in bands of rows on every thread. Only a scheduling choice: the output is the
+    // same.
+    let heavy = |t: usize| {
+        let len = (bin_start[t + 1] - bin_start[t]) as usize;
+        options.in_order
+            && threads > 1
+            && len >= HEAVY_BIN
+            && len * threads >= bin_start[tile_count] as usize
+    };
 
     let w = width as usize;
     // Every pixel is written by its tile. Zeroed allocations get their pages lazily, so the
@@ -515,6 +534,10 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
                     if t > first_failure.load(Ordering::Relaxed) {
                         break;
                     }
+                    if heavy(t) {
+                        deferred.lock().unwrap().push(t);
+                        continue;
+                    }
                     let rect = tile_rect(t, band_height);
                     let out = TileOutput {
                         image: &mut *img,
@@ -555,8 +578,9 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
     if let Some((_, e)) = failure.into_inner().unwrap() {
         return Err(e);
     }
-    // Deferred tiles one at a time, each with the whole tile budget (the scratches of the
-    // parallel pass are gone by now), in slices that run in parallel.
+    // Deferred tiles (over a thread's share, or heavy) one at a time, each with the whole tile
+    // budget (the scratches of the parallel pass are gone by now), in bands or slices that run
+    // in parallel.
     let mut stats = stats;
     let mut deferred = deferred.into_inner().unwrap();
     deferred.sort_unstable();
@@ -612,6 +636,7 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
         peak_tile_bytes: stats.peak_tile_bytes,
         sliced_tiles: stats.sliced_tiles,
         in_order_tiles: stats.in_order_tiles,
+        banded_tiles: stats.banded_tiles,
         stored_pixels: stats.stored_pixels,
         tile_size: tile,
         tiles: tile_count as u64,

@@ -334,6 +334,8 @@ pub(crate) struct TileStats {
     pub sliced_tiles: u64,
     /// Tiles composited in arrival order ([`render_rect_in_order`]).
     pub in_order_tiles: u64,
+    /// Tiles composited in order in row bands ([`in_order_in_bands`]).
+    pub banded_tiles: u64,
     /// Pixels composited from stored, sorted lists.
     pub stored_pixels: u64,
 }
@@ -354,6 +356,7 @@ impl TileStats {
         self.peak_tile_bytes = self.peak_tile_bytes.max(o.peak_tile_bytes);
         self.sliced_tiles += o.sliced_tiles;
         self.in_order_tiles += o.in_order_tiles;
+        self.banded_tiles += o.banded_tiles;
         self.stored_pixels += o.stored_pixels;
         self
     }
@@ -1142,6 +1145,37 @@ impl TileOutput<'_> {
             x_offset: self.x_offset,
         }
     }
+
+    /// The first `rows` rows of the tile, and the rest.
+    fn split_rows(self, rows: usize) -> (Self, Self) {
+        let at = (rows * self.stride).min(self.image.len());
+        let (image, image_rest) = self.image.split_at_mut(at);
+        let (layers, layers_rest) = self.layers.split_at_mut(at);
+        let (fragments, fragments_rest) = self.fragments.split_at_mut(at);
+        let (undecided, undecided_rest) = self.undecided.split_at_mut(at);
+        let (precision_ties, ties_rest) = self.precision_ties.split_at_mut(at);
+        let (stride, x_offset) = (self.stride, self.x_offset);
+        (
+            TileOutput {
+                image,
+                layers,
+                fragments,
+                undecided,
+                precision_ties,
+                stride,
+                x_offset,
+            },
+            TileOutput {
+                image: image_rest,
+                layers: layers_rest,
+                fragments: fragments_rest,
+                undecided: undecided_rest,
+                precision_ties: ties_rest,
+                stride,
+                x_offset,
+            },
+        )
+    }
 }
 
 /// What the tiles share: the set-up triangles, textures, plane depths, depth convention and
@@ -1225,7 +1259,8 @@ pub(crate) fn render_tile(
 const OUTPUT_BYTES: u64 = (size_of::<[f32; 4]>() + 3 * size_of::<u32>() + size_of::<bool>()) as u64;
 
 /// Renders a tile alone: in arrival order where [`TileContext::in_order`] allows and that
-/// fits `budget` ([`render_rect_in_order`]), else in slices, bands of rows, runs of a row or
+/// fits `budget` ([`render_rect_in_order`]; in bands on all threads when each fits its
+/// share, [`in_order_in_bands`]), else in slices, bands of rows, runs of a row or
 /// single pixels, each re-rasterizing the tile's triangles; the transparent coverage is
 /// counted per pixel first (nothing stored) to plan them. Every pixel's result depends only on its own fragments, so
 /// the output is the same bit for bit as at once.
@@ -1243,6 +1278,9 @@ pub(crate) fn render_tile_sliced(
 ) -> Result<TileStats, TileFailure> {
     let t_start = Instant::now();
     if ctx.in_order {
+        if let Some(stats) = in_order_in_bands(ctx, bin, tile, out.reborrow(), budget) {
+            return Ok(stats);
+        }
         // With the whole budget the per-pixel state may fit where a thread's share did not.
         let mut scratch = Scratch::default();
         if let Some(stats) =
@@ -1320,6 +1358,54 @@ pub(crate) fn render_tile_sliced(
     stats.peak_tile_bytes += reserved;
     stats.sliced_tiles = 1;
     Ok(stats)
+}
+
+/// A tile rendered alone, composited in arrival order in bands of rows, one per thread, each
+/// within an equal share of `budget`: a tile deferred for its depth (a deep stack covering
+/// one tile) would otherwise run on one thread. Every pixel's result depends only on its own
+/// fragments, so the output is the same bit for bit. `None` when there are not two threads
+/// and two rows, or a band does not fit its share; the caller then writes every output again.
+fn in_order_in_bands(
+    ctx: &TileContext<'_>,
+    bin: &[u32],
+    tile: TileRect,
+    out: TileOutput<'_>,
+    budget: u64,
+) -> Option<TileStats> {
+    let bands = (rayon::current_num_threads() as u32).min(tile.height);
+    if bands < 2 {
+        return None;
+    }
+    let rows = tile.height.div_ceil(bands);
+    let share = budget / u64::from(bands);
+    let mut parts = Vec::new();
+    let mut rest = out;
+    for y0 in (tile.y0..tile.y0 + tile.height).step_by(rows as usize) {
+        let height = rows.min(tile.y0 + tile.height - y0);
+        let (band, tail) = rest.split_rows(height as usize);
+        parts.push((TileRect { y0, height, ..tile }, band));
+        rest = tail;
+    }
+    let bands: Vec<Option<TileStats>> = parts
+        .into_par_iter()
+        .map(|(rect, band)| {
+            render_rect_in_order(ctx, bin, rect, &mut Scratch::default(), band, share)
+        })
+        .collect();
+    // The bands ran at once: their peaks add up.
+    let mut peak = 0;
+    let mut stats = TileStats::default();
+    for band in bands {
+        let band = band?;
+        peak += band.peak_tile_bytes;
+        stats = stats.merge(band);
+    }
+    Some(TileStats {
+        peak_tile_bytes: peak,
+        in_order_tiles: 1,
+        banded_tiles: 1,
+        ..stats
+    })
 }
 
 /// Counts the covered transparent fragments per pixel of `tile` and its spans per row into

@@ -288,6 +288,79 @@ fn a_deep_pixel_whose_fragments_arrive_in_order_needs_no_storage() {
     );
 }
 
+/// `count` full-screen layers of varied colour and alpha at `size`².
+fn layer_stack(count: u32, size: u32) -> Scene {
+    let mut b = SceneBuilder::new(size, size).background([0.1, 0.2, 0.3]);
+    for i in 0..count {
+        let t = i as f32 / count as f32;
+        let alpha = 0.02 + 0.2 * ((i * 7) % 11) as f32 / 10.0;
+        b.quad(
+            blend([t, 1.0 - t, 0.5], alpha),
+            fullscreen(-0.5 - i as f32 * 0.01),
+            white(),
+        );
+    }
+    b.build()
+}
+
+#[test]
+fn a_tile_over_a_thread_share_is_composited_in_bands_on_every_thread() {
+    // Four 32-pixel tiles.
+    let scene = layer_stack(300, 64);
+    let whole = render(&scene, &ReferenceOptions::default());
+    assert_eq!(whole.stats.in_order_tiles, 4);
+    assert_eq!(
+        whole.stats.banded_tiles, 0,
+        "the default budget holds every tile"
+    );
+    // A tile's in-order state (85 bytes a pixel: 87 KB) is over a thread's share of 128 KiB
+    // on two or four threads, so every tile is deferred; a band of 16 or 8 rows fits its
+    // share of the whole budget.
+    let budget = 128 << 10;
+    for threads in [2, 4] {
+        let r = render_on(threads, &scene, budget).expect("fits in bands");
+        let what = format!("{threads} threads");
+        assert_same_output(&whole, &r, &what);
+        assert_eq!(r.stats.banded_tiles, 4, "{what}");
+        assert_eq!(r.stats.in_order_tiles, 4, "{what}");
+        assert_eq!(r.stats.sliced_tiles, 0, "{what}");
+        assert!(
+            r.stats.peak_tile_bytes <= budget,
+            "{what}: the bands held {} bytes at once",
+            r.stats.peak_tile_bytes
+        );
+    }
+    // On one thread its share is the whole budget: nothing is deferred.
+    let one = render_on(1, &scene, budget).expect("fits");
+    assert_same_output(&whole, &one, "1 thread");
+    assert_eq!(one.stats.banded_tiles, 0);
+}
+
+#[test]
+fn a_deep_tile_that_is_the_whole_frame_runs_on_every_thread() {
+    // One 32-pixel tile of 1200 triangles: it would keep one thread busy while the other has
+    // nothing to do, so it waits for the others (none) and renders in bands on all threads.
+    let scene = layer_stack(600, 32);
+    let one = render_on(1, &scene, ReferenceOptions::DEFAULT_MEMORY_BUDGET).expect("renders");
+    assert_eq!(one.stats.banded_tiles, 0, "one thread has nothing to share");
+    for threads in [2, 3] {
+        let r =
+            render_on(threads, &scene, ReferenceOptions::DEFAULT_MEMORY_BUDGET).expect("renders");
+        assert_same_output(&one, &r, &format!("{threads} threads"));
+        assert_eq!(r.stats.banded_tiles, 1, "{threads} threads");
+    }
+    // A tile that is not the critical path stays in the parallel pass: many-layers-like
+    // content over 16 tiles.
+    let spread = render_on(
+        2,
+        &layer_stack(600, 128),
+        ReferenceOptions::DEFAULT_MEMORY_BUDGET,
+    )
+    .expect("renders");
+    assert_eq!(spread.stats.banded_tiles, 0);
+    assert_eq!(spread.stats.in_order_tiles, 16);
+}
+
 #[test]
 fn a_pixel_over_the_budget_is_an_error_naming_it() {
     // 6 003 fragments at pixel (5, 9) that must be sorted: about 312 KB to sort and
