@@ -123,7 +123,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             println!(
                 "rendered in {:.2} s (setup {:.2} s, binning {:.2} s; thread time raster {:.2} s, \
                  sort {:.2} s, composite {:.2} s): {} fragments, max depth {}, peak tile {} bytes, \
-                 {} of {} tiles sliced",
+                 {} of {} tiles sliced, {} in order ({} in bands)",
                 s.seconds,
                 s.setup_seconds,
                 s.binning_seconds,
@@ -134,7 +134,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 s.max_depth_complexity,
                 s.peak_tile_bytes,
                 s.sliced_tiles,
-                s.tiles
+                s.tiles,
+                s.in_order_tiles,
+                s.banded_tiles,
             );
         }
         Err(e) => println!(
