@@ -8,6 +8,8 @@
 /// `fragments` are `(premultiplied RGB, alpha)` pairs, nearest first; `background` is the
 /// colour of the nearest opaque surface, or the scene background. The reference uses exactly
 /// this function per pixel, so GPU-side tests and closed-form checks can call it directly.
+/// A transmittance below 2^-1000 is taken as 0 ([`negligible`]), which leaves the result the
+/// same once rounded to f32.
 pub fn composite_front_to_back(fragments: &[([f64; 3], f64)], background: [f64; 3]) -> [f64; 3] {
     composite_iter(fragments.iter().copied(), background)
 }
