@@ -1997,18 +1997,18 @@ impl InOrderPixel {
 
     /// Composites a visible fragment of a scalar scene ([`over_step`]).
     #[inline(always)]
-    fn add(&mut self, dkey: u32, premultiplied: [f64; 3], keep: f64) {
+    fn add<const MAY_UNDERFLOW: bool>(&mut self, dkey: u32, premultiplied: [f64; 3], keep: f64) {
         self.disordered |= !self.follows(dkey);
         self.last_depth = dkey;
         self.bound_of = EXACT;
-        self.composite(premultiplied, keep);
+        self.composite::<MAY_UNDERFLOW>(premultiplied, keep);
     }
 
     /// [`over_step`] for a fragment known to follow the last one.
     #[inline(always)]
-    fn composite(&mut self, premultiplied: [f64; 3], keep: f64) {
+    fn composite<const MAY_UNDERFLOW: bool>(&mut self, premultiplied: [f64; 3], keep: f64) {
         self.layers += 1;
-        over_step(&mut self.color, &mut self.through, premultiplied, keep);
+        over_step::<MAY_UNDERFLOW>(&mut self.color, &mut self.through, premultiplied, keep);
     }
 
     /// Composites a visible fragment of a scene with coloured transmission, `through` being
@@ -2039,7 +2039,7 @@ const EXACT: u32 = u32::MAX;
 /// the sorted order; pixels where it is not are marked ([`InOrderPixel::disordered`]).
 /// Bookkeeping as [`TransparentFragments`]. The pass's own fragments are counted in
 /// [`InOrderPixel::kept`], apart from the opaque pass's `all_count`.
-struct InOrderFragments<'a, const COLOURED: bool> {
+struct InOrderFragments<'a, const COLOURED: bool, const MAY_UNDERFLOW: bool> {
     behind: Behind<'a>,
     undecided: &'a mut [u32],
     tie: &'a mut [bool],
@@ -2048,7 +2048,9 @@ struct InOrderFragments<'a, const COLOURED: bool> {
     transmittance: &'a mut [[f64; 3]],
 }
 
-impl<const COLOURED: bool> Fragments for InOrderFragments<'_, COLOURED> {
+impl<const COLOURED: bool, const MAY_UNDERFLOW: bool> Fragments
+    for InOrderFragments<'_, COLOURED, MAY_UNDERFLOW>
+{
     #[inline(always)]
     fn fragment(&mut self, p: usize, dkey: u32, shaded: Shaded, undecided: bool) {
         if undecided {
@@ -2065,7 +2067,7 @@ impl<const COLOURED: bool> Fragments for InOrderFragments<'_, COLOURED> {
                 let t = transmittance_of(alpha, transmittance);
                 pixel.add_coloured(&mut self.transmittance[p], dkey, c, t);
             } else {
-                pixel.add(dkey, c, 1.0 - f64::from(alpha));
+                pixel.add::<MAY_UNDERFLOW>(dkey, c, 1.0 - f64::from(alpha));
             }
         }
     }
@@ -2143,7 +2145,7 @@ impl ConstantSpan {
         reason = "the per-span entry, as shade_span"
     )]
     #[inline(always)]
-    fn composite(
+    fn composite<const MAY_UNDERFLOW: bool>(
         &self,
         triangles: &[SetupTriangle],
         t: u32,
@@ -2172,7 +2174,7 @@ impl ConstantSpan {
                     debug_assert!((lo..=hi).contains(&key_at(x)), "depth key out of bounds");
                     pixel.last_depth = hi;
                     pixel.bound_of = t;
-                    pixel.composite(self.premultiplied, self.keep);
+                    pixel.composite::<MAY_UNDERFLOW>(self.premultiplied, self.keep);
                     continue;
                 }
                 let dkey = key_at(x);
@@ -2183,7 +2185,7 @@ impl ConstantSpan {
                     let weights = RowWeights::new(last, tile, row);
                     pixel.last_depth = depth_key(depths(last, &weights.at(x))[0], reverse_z);
                 }
-                pixel.add(dkey, self.premultiplied, self.keep);
+                pixel.add::<MAY_UNDERFLOW>(dkey, self.premultiplied, self.keep);
             }
             return;
         }
@@ -2194,7 +2196,7 @@ impl ConstantSpan {
                 for (pixel, &dkey) in batch.iter_mut().zip(&dkeys) {
                     pixel.kept += 1;
                     if dkey < self.far {
-                        pixel.add(dkey, self.premultiplied, self.keep);
+                        pixel.add::<MAY_UNDERFLOW>(dkey, self.premultiplied, self.keep);
                     }
                 }
             }
@@ -2211,7 +2213,7 @@ impl ConstantSpan {
         }
         for pixel in pixels {
             pixel.kept += 1;
-            pixel.add(dkey, self.premultiplied, self.keep);
+            pixel.add::<MAY_UNDERFLOW>(dkey, self.premultiplied, self.keep);
         }
     }
 }
@@ -2268,9 +2270,12 @@ fn render_rect_in_order(
     }
     let any_opaque = s.opaque_key.iter().any(|&k| k != far);
     if ctx.coloured {
-        transparent_in_order::<true>(ctx, bin, tile, s, far, any_opaque);
+        // Coloured steps always check ([`over_step_coloured`]).
+        transparent_in_order::<true, true>(ctx, bin, tile, s, far, any_opaque);
+    } else if may_underflow(ctx.triangles, bin) {
+        transparent_in_order::<false, true>(ctx, bin, tile, s, far, any_opaque);
     } else {
-        transparent_in_order::<false>(ctx, bin, tile, s, far, any_opaque);
+        transparent_in_order::<false, false>(ctx, bin, tile, s, far, any_opaque);
     }
     let t_raster = Instant::now();
 
@@ -2427,8 +2432,37 @@ fn write_in_order(
     stats.covered_pixels += covered;
 }
 
+/// Whether a pixel of a tile with this bin may see its transmittance fall below
+/// [`crate::composite::NEGLIGIBLE_TRANSMITTANCE`], so that every step must check for it ([`over_step`]). No
+/// when every transparent triangle is of constant colour and the sum over them of
+/// −⌊log2(1 − α)⌋ is at most 990: a pixel takes at most one fragment of each, its
+/// transmittance is a product of some of their `1 − α` (one that is 0 leaves 0 for good), and
+/// with f64 rounding that product stays above 2^-990 · (1 − n·2^-53) > 2^-1000.
+fn may_underflow(triangles: &[SetupTriangle], bin: &[u32]) -> bool {
+    let mut halvings = 0i64;
+    for &t in bin {
+        let tri = &triangles[t as usize];
+        if !tri.transparent {
+            continue;
+        }
+        let Some(Shaded::Transparent { alpha, .. }) = tri.constant else {
+            return true;
+        };
+        let keep = 1.0 - f64::from(alpha);
+        if keep > 0.0 {
+            // keep ≥ 2^e, e its binary exponent (keep ≥ 2^-24: alpha is an f32).
+            let e = ((keep.to_bits() >> 52) & 0x7ff) as i64 - 1023;
+            halvings -= e;
+            if halvings > 990 {
+                return true;
+            }
+        }
+    }
+    false
+}
+
 /// The transparent pass of [`render_rect_in_order`].
-fn transparent_in_order<const COLOURED: bool>(
+fn transparent_in_order<const COLOURED: bool, const MAY_UNDERFLOW: bool>(
     ctx: &TileContext<'_>,
     bin: &[u32],
     tile: TileRect,
@@ -2443,7 +2477,16 @@ fn transparent_in_order<const COLOURED: bool>(
         }
         if let Some(span) = ConstantSpan::of::<COLOURED>(tri, any_opaque, far, ctx) {
             for_each_span(tri, tile, |row, first, end| {
-                span.composite(ctx.triangles, t, tile, ctx.reverse_z, s, row, first, end);
+                span.composite::<MAY_UNDERFLOW>(
+                    ctx.triangles,
+                    t,
+                    tile,
+                    ctx.reverse_z,
+                    s,
+                    row,
+                    first,
+                    end,
+                );
             });
             continue;
         }
@@ -2451,7 +2494,7 @@ fn transparent_in_order<const COLOURED: bool>(
         for_each_span(tri, tile, |row, first, end| {
             // A sink per span: a short-lived local whose fields the optimiser keeps in
             // registers (one that lives across spans is reloaded from memory per fragment).
-            let mut sink = InOrderFragments::<COLOURED> {
+            let mut sink = InOrderFragments::<COLOURED, MAY_UNDERFLOW> {
                 behind: Behind {
                     far,
                     planes: ctx.planes,
@@ -2860,5 +2903,46 @@ mod tests {
             bounded > 10_000 && fragments > 1_000_000,
             "{bounded} triangles, {fragments} fragments"
         );
+    }
+
+    /// A stack of `count` full-screen constant layers of alpha `alpha` (two triangles each),
+    /// set up, and every triangle as one bin.
+    fn layer_bin(count: u32, alpha: f32) -> (Vec<SetupTriangle>, Vec<u32>) {
+        let text = format!(
+            r#"{{"name": "stack", "resolution": [8, 8],
+              "camera": {{"eye": [0, 0, 5], "target": [0, 0, 0], "up": [0, 1, 0],
+                          "fov_y": 45, "near": 0.1, "far": 100}},
+              "objects": [{{"mesh": {{"kind": "layers", "count": {count}, "spacing": 0.001,
+                            "size": [8, 8], "color_from": [1, 0.5, 0.2],
+                            "color_to": [0.2, 0.5, 1], "alpha_from": {alpha},
+                            "alpha_to": {alpha}}},
+                            "material": {{"mode": "blend"}}}}]}}"#
+        );
+        let scene = oit_scene::parse(&text, "stack").expect("a layer stack");
+        let (pieces, _) = crate::set_up(&scene).expect("a valid scene");
+        let triangles: Vec<SetupTriangle> = pieces.into_iter().flatten().collect();
+        let bin = (0..triangles.len() as u32).collect();
+        (triangles, bin)
+    }
+
+    #[test]
+    fn the_underflow_bound_counts_halvings_of_the_transmittance() {
+        // α = 0.5: each triangle of the bin may halve it once; 990 halvings are allowed.
+        let (triangles, bin) = layer_bin(495, 0.5);
+        assert_eq!(bin.len(), 990);
+        assert!(!may_underflow(&triangles, &bin));
+        let (triangles, bin) = layer_bin(496, 0.5);
+        assert!(may_underflow(&triangles, &bin));
+        // 1 − 0.3 = 0.7 ≥ 2^-1: one halving each, however many digits it has.
+        let (triangles, bin) = layer_bin(495, 0.3);
+        assert!(!may_underflow(&triangles, &bin));
+        // 1 − 0.99 ≥ 2^-7: seven each, so 71 layers (142 triangles, 994) may reach it and 70
+        // (980) may not.
+        let (triangles, bin) = layer_bin(71, 0.99);
+        assert!(may_underflow(&triangles, &bin));
+        assert!(!may_underflow(&triangles, &bin[..140]));
+        // Opaque-as-blend layers (α = 1) leave 0, which is no subnormal, however many.
+        let (triangles, bin) = layer_bin(2000, 1.0);
+        assert!(!may_underflow(&triangles, &bin));
     }
 }
