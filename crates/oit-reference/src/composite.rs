@@ -169,15 +169,17 @@ mod tests {
         ) {
             let scalar: Vec<([f64; 3], [f64; 3])> =
                 stack.iter().map(|&(c, a)| (c, [1.0 - a; 3])).collect();
+            let bits = |c: [f32; 3]| c.map(f32::to_bits);
             let flushed = composite_front_to_back(&stack, background).map(|c| c as f32);
-            prop_assert_eq!(flushed.map(f32::to_bits), unflushed(&scalar, background).map(f32::to_bits));
+            prop_assert_eq!(bits(flushed), bits(unflushed(&scalar, background)));
             // Per-channel transmittance, some channels far more opaque than others.
             let tinted: Vec<([f64; 3], [f64; 3])> = scalar
                 .iter()
                 .map(|&(c, t)| (c, std::array::from_fn(|k| t[k] * tint[k])))
                 .collect();
-            let flushed = composite_transmittance_front_to_back(&tinted, background).map(|c| c as f32);
-            prop_assert_eq!(flushed.map(f32::to_bits), unflushed(&tinted, background).map(f32::to_bits));
+            let flushed =
+                composite_transmittance_front_to_back(&tinted, background).map(|c| c as f32);
+            prop_assert_eq!(bits(flushed), bits(unflushed(&tinted, background)));
         }
     }
 

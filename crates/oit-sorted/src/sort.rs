@@ -32,9 +32,10 @@ const PARALLEL: usize = 1 << 15;
 /// scratch they take 256 KiB, which stays in L2. Larger runs are split first. (8k was slower
 /// on 1M random keys, as fewer and smaller buckets per split; 32k and 64k were no faster.)
 const LOCAL: usize = 1 << 14;
-/// A split sorts a run into at most 2^8 buckets by its leading key bits. Few enough write
-/// heads that a scatter through all of memory stays fast; 10 bits won on uniform keys but
-/// lost 1.2–1.8× on narrow and clustered ones.
+/// A split aims at about 2^8 buckets (of n / 2^8 pairs, at least `LOCAL / 4`): few enough
+/// write heads that a scatter through all of memory stays fast. (An earlier split on the raw
+/// key range with 2^10 buckets won on uniform keys but lost 1.2–1.8× on narrow and clustered
+/// ones.)
 const SPLIT_BITS: u32 = 8;
 /// Up to this many pairs a comparison sort is faster than counting digits.
 const SMALL: usize = 1 << 6;
@@ -162,8 +163,9 @@ fn sort_run(src: &mut [u64], tmp: &mut [u64], out: &mut [u32], lo: u32, hi: u32)
         .collect();
     // Buckets of consecutive fine buckets, closed before they would exceed `target` pairs: a
     // bucket is either small enough or one fine bucket (empty ones around it are left in
-    // buckets of their own), whose range is 2^fine_bits times narrower. So the buckets are even whatever the key distribution (few of them, so the
-    // scatter has few write heads) and the recursion ends.
+    // buckets of their own), whose range is 2^fine_bits times narrower. So the buckets are
+    // even whatever the key distribution (few of them, so the scatter has few write heads),
+    // there are fewer than 2^16, and the recursion ends.
     let target = n.div_ceil(1 << SPLIT_BITS).max(LOCAL / 4);
     let totals: Vec<usize> = (0..fines)
         .map(|f| fine_counts.iter().map(|c| c[f] as usize).sum())
