@@ -39,7 +39,7 @@ const LOCAL: usize = 1 << 14;
 const SPLIT_BITS: u32 = 8;
 /// Up to this many pairs a comparison sort is faster than counting digits.
 const SMALL: usize = 1 << 6;
-/// Widest digit of the in-cache LSD sort (a 2^11-entry histogram, 8 KiB on the stack).
+/// Widest digit of the in-cache LSD sort (two 2^11-entry histograms, 16 KiB on the stack).
 const MAX_DIGIT: u32 = 11;
 /// Buckets are handed to threads in groups of about this many pairs.
 const GROUP: usize = 1 << 15;
@@ -283,7 +283,9 @@ fn bit_len(x: u32) -> u32 {
 /// Stable LSD radix sort of a run that fits in cache (keys in `lo..=hi`), indices to `out`.
 /// It sorts `key − lo`, in as few equal digits of at most [`MAX_DIGIT`] bits (and at most
 /// log2 of the run's length, so the histogram never outweighs the run) as cover the range,
-/// and skips a digit that every key shares. Tiny runs take a comparison sort of the pairs.
+/// and skips a digit that every key shares. Each scatter also counts the next pass's digit, so
+/// only the first pass reads the run just to count. Tiny runs take a comparison sort of the
+/// pairs.
 fn local_sort(pairs: &mut [u64], scratch: &mut [u64], out: &mut [u32], lo: u32, hi: u32) {
     let n = pairs.len();
     if n <= SMALL {
@@ -302,16 +304,22 @@ fn local_sort(pairs: &mut [u64], scratch: &mut [u64], out: &mut [u32], lo: u32, 
     // At most MAX_DIGIT: `passes` digits of `width` bits cover `bits`.
     let width = bits.div_ceil(passes.max(1));
     let mask = (1u32 << width) - 1;
-    let mut next = [0u32; 1 << MAX_DIGIT];
-    let next = &mut next[..1 << width];
+    let digit =
+        move |pair: u64, pass: u32| (((key_of(pair) - lo) >> (pass * width)) & mask) as usize;
+    let mut counts = [[0u32; 1 << MAX_DIGIT]; 2];
+    let [next, following] = &mut counts;
+    let (mut next, mut following) = (&mut next[..1 << width], &mut following[..1 << width]);
+    // Whether `next` already holds this pass's counts (made while the last pass scattered).
+    let mut counted = false;
     let (mut src, mut dst) = (pairs, scratch);
     for pass in 0..passes {
-        let shift = pass * width;
-        let digit = |pair: u64| (((key_of(pair) - lo) >> shift) & mask) as usize;
-        next.fill(0);
-        for &p in src.iter() {
-            next[digit(p)] += 1;
+        if !counted {
+            next.fill(0);
+            for &p in src.iter() {
+                next[digit(p, pass)] += 1;
+            }
         }
+        counted = false;
         if next.contains(&(n as u32)) {
             // Every key has this digit: the pass would not move anything.
             continue;
@@ -324,17 +332,21 @@ fn local_sort(pairs: &mut [u64], scratch: &mut [u64], out: &mut [u32], lo: u32, 
         }
         if pass + 1 == passes {
             for &p in src.iter() {
-                let slot = &mut next[digit(p)];
+                let slot = &mut next[digit(p, pass)];
                 out[*slot as usize] = p as u32;
                 *slot += 1;
             }
             return;
         }
+        following.fill(0);
         for &p in src.iter() {
-            let slot = &mut next[digit(p)];
+            let slot = &mut next[digit(p, pass)];
             dst[*slot as usize] = p;
             *slot += 1;
+            following[digit(p, pass + 1)] += 1;
         }
+        std::mem::swap(&mut next, &mut following);
+        counted = true;
         std::mem::swap(&mut src, &mut dst);
     }
     for (o, &p) in out.iter_mut().zip(src.iter()) {
