@@ -84,10 +84,53 @@ fn step(name: &str, args: &[&str]) -> Result<()> {
         .status()
         .with_context(|| format!("could not start `{cargo}`"))?;
     println!("xtask ci: {name}: {:.1} s", started.elapsed().as_secs_f64());
+    report_disk(name);
     if !status.success() {
         bail!("step `{name}` failed ({status})");
     }
     Ok(())
+}
+
+/// Prints how much the build directory holds and how much disk is left after a step: a CI run
+/// once failed with "No space left on device" while linking tests, and the log did not say how
+/// close it was.
+fn report_disk(name: &str) {
+    let target = std::env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from("target"));
+    let gib = |bytes: u64| bytes as f64 / f64::from(1u32 << 30);
+    println!(
+        "xtask ci: {name}: {} holds {:.2} GiB",
+        target.display(),
+        gib(tree_bytes(&target))
+    );
+    // `df` is on every machine CI runs on; when it is missing the size above still printed.
+    if let Ok(out) = Command::new("df")
+        .args(["-h", "--output=avail,target"])
+        .arg(&target)
+        .output()
+        && let Some(line) = String::from_utf8_lossy(&out.stdout).lines().nth(1)
+    {
+        println!(
+            "xtask ci: {name}: free disk (avail, mount): {}",
+            line.trim()
+        );
+    }
+}
+
+/// Bytes in the files under `dir` (links not followed); unreadable entries count as 0.
+fn tree_bytes(dir: &Path) -> u64 {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return 0;
+    };
+    entries
+        .flatten()
+        .map(|entry| match entry.file_type() {
+            Ok(kind) if kind.is_dir() => tree_bytes(&entry.path()),
+            Ok(kind) if kind.is_file() => entry.metadata().map_or(0, |m| m.len()),
+            _ => 0,
+        })
+        .sum()
 }
 
 /// One published result set: a name (its folder) and the `oit compare` arguments after the
