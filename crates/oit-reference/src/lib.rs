@@ -122,10 +122,10 @@ impl ReferenceOptions {
     ///
     /// **Not counted** (proportional to the input or the resolution, bounded by the loader's
     /// caps): the scene (36 bytes per vertex: 432 MB for 4 M triangles); the set-up triangles,
-    /// 344 bytes per triangle reaching the screen (clipping can make up to 7 of one) and 4
-    /// for the binning order, plus 8 per input triangle, and up to twice that plus 16 while
-    /// they are gathered and ordered: 1.4 GB, 2.9 GB during setup, for 4 M unclipped
-    /// triangles; the outputs, 29 bytes per pixel: 1.9 GB at 8192².
+    /// 344 bytes per triangle reaching the screen (clipping can make up to 7 of one) and 20
+    /// for the binning order (position and bounding box), plus 8 per input triangle, and up
+    /// to 2 × 344 + 48 while they are gathered and ordered: 1.5 GB, 3.0 GB during setup, for
+    /// 4 M unclipped triangles; the outputs, 29 bytes per pixel: 1.9 GB at 8192².
     ///
     /// Why 2 GiB: the deepest bundled tiles take under 4 MB at once (faint-haze; particles
     /// near 1 MB), so nothing realistic is sliced even with 64 threads sharing it; one pixel
@@ -366,12 +366,11 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
 
     let (pieces, total) = set_up(scene)?;
     // The order tiles read them in: front to back.
-    let (triangles, bin_order) = raster::in_bin_order(pieces, scene.camera.reverse_z);
-    // Per rank: the plane depth of a flat triangle, NaN otherwise (fan pieces share both).
-    let mut plane_depths = vec![f64::NAN; total as usize];
-    for t in &triangles {
-        plane_depths[t.key as usize] = t.plane_depth;
-    }
+    let raster::Ordered {
+        triangles,
+        order: bin_order,
+        plane_depths,
+    } = raster::in_bin_order(pieces, total as usize, scene.camera.reverse_z);
     let setup_done = Instant::now();
 
     // Binning: counting pass, prefix sum, fill. Each bin lists triangle indices in
@@ -379,8 +378,7 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
     let tiles_x = width.div_ceil(tile) as usize;
     let tiles_y = height.div_ceil(tile) as usize;
     let tile_count = tiles_x * tiles_y;
-    let tile_range = |t: &SetupTriangle| {
-        let [x0, y0, x1, y1] = t.bbox;
+    let tile_range = |&[x0, y0, x1, y1]: &[u32; 4]| {
         (
             (x0 / tile) as usize..=(x1 / tile) as usize,
             (y0 / tile) as usize..=(y1 / tile) as usize,
@@ -388,10 +386,10 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
     };
     // Checked before anything is allocated: the overlaps are a product of triangles and tiles
     // (4 M full-screen triangles at 1024² would take 16 GiB), and bin offsets are u32.
-    let overlaps: u64 = triangles
+    let overlaps: u64 = bin_order
         .iter()
-        .map(|t| {
-            let (xs, ys) = tile_range(t);
+        .map(|(_, bbox)| {
+            let (xs, ys) = tile_range(bbox);
             (xs.count() * ys.count()) as u64
         })
         .sum();
@@ -405,8 +403,8 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
         });
     }
     let mut bin_start = vec![0u32; tile_count + 1];
-    for t in &triangles {
-        let (xs, ys) = tile_range(t);
+    for (_, bbox) in &bin_order {
+        let (xs, ys) = tile_range(bbox);
         for ty in ys {
             for tx in xs.clone() {
                 bin_start[ty * tiles_x + tx + 1] += 1;
@@ -418,8 +416,8 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
     }
     let mut cursor = bin_start.clone();
     let mut bins = vec![0u32; bin_start[tile_count] as usize];
-    for &i in &bin_order {
-        let (xs, ys) = tile_range(&triangles[i as usize]);
+    for &(i, ref bbox) in &bin_order {
+        let (xs, ys) = tile_range(bbox);
         for ty in ys {
             for tx in xs.clone() {
                 let c = &mut cursor[ty * tiles_x + tx];

@@ -446,5 +446,9 @@ mod tests {
     #[test]
     fn a_set_up_triangle_is_the_size_the_memory_docs_state() {
         assert_eq!(std::mem::size_of::<super::SetupTriangle>(), 344);
+        // The binning order keeps a position and a bounding box per triangle, and ordering
+        // holds one `Keyed` per triangle beside the two lists of triangles.
+        assert_eq!(std::mem::size_of::<(u32, [u32; 4])>(), 20);
+        assert_eq!(crate::raster::KEYED_BYTES, 48);
     }
 }
