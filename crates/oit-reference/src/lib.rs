@@ -58,11 +58,12 @@ pub const OUTPUT_VERSION: u32 = 3;
 /// a thread's part of all binned triangles (below this it is quick anyway).
 const HEAVY_BIN: usize = 1024;
 
-/// Most input triangles a scene may have (ranks are u32 sort keys).
-pub const MAX_TRIANGLES: u32 = u32::MAX - 1;
+/// Most input triangles a scene may have: 2^28 (268 M, 67 times the loader's cap). Set-up
+/// triangles are named by u32 ids of their setup task's list and position in it.
+pub const MAX_TRIANGLES: u32 = 1 << 28;
+const _: () = assert!(MAX_TRIANGLES as u64 <= setup::Triangles::MAX_RANKS);
 
 use raster::{Scratch, TileFailure, TileOutput, TileRect, TileStats};
-use setup::SetupTriangle;
 
 /// Progress callback: `(tiles done, tiles total)`. Called from worker threads after each tile.
 pub type Progress = Arc<dyn Fn(usize, usize) + Send + Sync>;
@@ -123,9 +124,9 @@ impl ReferenceOptions {
     /// **Not counted** (proportional to the input or the resolution, bounded by the loader's
     /// caps): the scene (36 bytes per vertex: 432 MB for 4 M triangles); the set-up triangles,
     /// 344 bytes per triangle reaching the screen (clipping can make up to 7 of one) and 20
-    /// for the binning order (position and bounding box), plus 8 per input triangle, and up
-    /// to 2 × 344 + 48 while they are gathered and ordered: 1.5 GB, 3.0 GB during setup, for
-    /// 4 M unclipped triangles; the outputs, 29 bytes per pixel: 1.9 GB at 8192².
+    /// for the binning order (id and bounding box), plus 8 per input triangle, and 48 more
+    /// while they are ordered: 1.5 GB, 1.7 GB during setup, for 4 M unclipped triangles; the
+    /// outputs, 29 bytes per pixel: 1.9 GB at 8192².
     ///
     /// Why 2 GiB: the deepest bundled tiles take under 4 MB at once (faint-haze; particles
     /// near 1 MB), so nothing realistic is sliced even with 64 threads sharing it; one pixel
@@ -364,13 +365,13 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
     let (width, height) = (scene.resolution.width, scene.resolution.height);
     let tile = options.tile_size;
 
-    let (pieces, total) = set_up(scene)?;
+    let (triangles, total) = set_up(scene)?;
     // The order tiles read them in: front to back.
     let raster::Ordered {
         triangles,
         order: bin_order,
         plane_depths,
-    } = raster::in_bin_order(pieces, total as usize, scene.camera.reverse_z);
+    } = raster::in_bin_order(triangles, total as usize, scene.camera.reverse_z);
     let setup_done = Instant::now();
 
     // Binning: counting pass, prefix sum, fill. Each bin lists triangle indices in
@@ -653,7 +654,7 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
 /// Every triangle of `scene` set up (clipped, snapped, culled), in pieces of consecutive
 /// ranks, and the number of input triangles. Ranks follow (draw.id, triangle index): the
 /// tie-break order, independent of the draw list's order.
-pub(crate) fn set_up(scene: &Scene) -> Result<(Vec<Vec<SetupTriangle>>, u64), ReferenceError> {
+pub(crate) fn set_up(scene: &Scene) -> Result<(setup::Triangles, u64), ReferenceError> {
     let mut by_id: Vec<usize> = (0..scene.draws.len()).collect();
     by_id.sort_by_key(|&i| scene.draws[i].id);
     let mut first_rank = Vec::with_capacity(by_id.len() + 1);
@@ -666,7 +667,7 @@ pub(crate) fn set_up(scene: &Scene) -> Result<(Vec<Vec<SetupTriangle>>, u64), Re
     if total > u64::from(MAX_TRIANGLES) {
         return Err(ReferenceError::TooManyTriangles(total));
     }
-    const CHUNK: u64 = 2048;
+    const CHUNK: u64 = setup::CHUNK_RANKS as u64;
     let chunks = total.div_ceil(CHUNK);
     // Only for telling coplanar flat triangles from ones rounding merged (`plane_depth`).
     let view_proj64 = scene.camera.view_proj.as_dmat4();
@@ -701,7 +702,7 @@ pub(crate) fn set_up(scene: &Scene) -> Result<(Vec<Vec<SetupTriangle>>, u64), Re
             out
         })
         .collect();
-    Ok((pieces, total))
+    Ok((setup::Triangles::new(pieces), total))
 }
 
 fn validate(scene: &Scene, options: &ReferenceOptions) -> Result<(), ReferenceError> {

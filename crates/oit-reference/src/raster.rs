@@ -12,7 +12,9 @@ use rayon::slice::ParallelSliceMut;
 use oit_scene::{Material, Shaded, Texels, Texture};
 
 use crate::composite::{composite_coloured_iter, composite_iter, over_step, over_step_coloured};
-use crate::setup::{HALF, ONE, SetupTriangle, same_plane, undecided, undecided_textured};
+use crate::setup::{
+    HALF, ONE, SetupTriangle, Triangles, same_plane, undecided, undecided_textured,
+};
 
 /// One row's run of pixels covered by a transparent triangle, recorded by the coverage pass
 /// and replayed by the shading pass.
@@ -479,51 +481,42 @@ fn transparent_key(dkey: u32, rank: u32) -> u64 {
 /// binning and the tiles then never walk the 344-byte triangles again to find them.
 #[derive(Debug)]
 pub(crate) struct Ordered {
-    /// The pieces in rank order, in one list.
-    pub triangles: Vec<SetupTriangle>,
-    /// The order they are binned in: positions in `triangles`, each with its triangle's
-    /// pixel bounding box (`SetupTriangle::bbox`), so that the binning passes read 20
-    /// sequential bytes per triangle instead of a cache line of a scattered struct.
+    /// The pieces, where setup wrote them.
+    pub triangles: Triangles,
+    /// The order they are binned in: ids in `triangles`, each with its triangle's pixel
+    /// bounding box (`SetupTriangle::bbox`), so that the binning passes read 20 sequential
+    /// bytes per triangle instead of a cache line of a scattered struct.
     pub order: Vec<(u32, [u32; 4])>,
     /// Per rank: the plane depth of a flat triangle, NaN otherwise (fan pieces share both)
     /// ([`TileContext::planes`]).
     pub plane_depths: Vec<f64>,
 }
 
-/// The set-up triangles (pieces in rank order), in one list, and the order they are binned
-/// in (positions in that list), which every tile then sees: opaque triangles in rank order,
-/// then transparent ones nearest first by their nearest vertex's key (at equal depth the
-/// higher rank first, as [`transparent_key`] orders fragments). A fragment's depth lies
-/// between its triangle's vertex depths, so where triangles' depth ranges do not overlap
-/// (layers, billboards) each pixel's list is appended in key order and its sort is one check.
-/// No result depends on the order: lists are sorted by their unique keys, and the opaque pass
-/// keeps the nearest key whatever the order. The triangles themselves stay where they are:
-/// moving 300-byte structs into a second list cost more (fresh pages) than the tiles gain
-/// from reading them in order. `ranks` is the number of scene triangles (pieces' `key`s are
-/// below it).
-pub(crate) fn in_bin_order(
-    pieces: Vec<Vec<SetupTriangle>>,
-    ranks: usize,
-    reverse_z: bool,
-) -> Ordered {
-    let starts: Vec<usize> = pieces
+/// The order the set-up triangles are binned in, which every tile then sees: opaque
+/// triangles in rank order, then transparent ones nearest first by their nearest vertex's key
+/// (at equal depth the higher rank first, as [`transparent_key`] orders fragments). A
+/// fragment's depth lies between its triangle's vertex depths, so where triangles' depth
+/// ranges do not overlap (layers, billboards) each pixel's list is appended in key order and
+/// its sort is one check. No result depends on the order: lists are sorted by their unique
+/// keys, and the opaque pass keeps the nearest key whatever the order. The triangles
+/// themselves stay where setup wrote them ([`Triangles`]). `ranks` is the number of scene
+/// triangles (pieces' `key`s are below it).
+pub(crate) fn in_bin_order(triangles: Triangles, ranks: usize, reverse_z: bool) -> Ordered {
+    let chunks = triangles.chunks();
+    let starts: Vec<usize> = chunks
         .iter()
         .scan(0, |end, p| {
             *end += p.len();
             Some(*end - p.len())
         })
         .collect();
-    let total = pieces.iter().map(Vec::len).sum();
-    // One parallel pass concatenates the pieces (most of its cost is the first touch of the
-    // new pages) and, while each triangle is in cache, takes what binning needs of it.
-    let mut triangles = Vec::new();
-    let mut keyed: Vec<Keyed> = Vec::new();
-    (0..total)
+    let total = chunks.iter().map(Vec::len).sum();
+    let mut keyed: Vec<Keyed> = (0..total)
         .into_par_iter()
         .with_min_len(1024)
         .map(|i| {
             let c = starts.partition_point(|&s| s <= i) - 1;
-            let t = pieces[c][i - starts[c]].clone();
+            let t = &chunks[c][i - starts[c]];
             let key = if t.transparent {
                 let nearest =
                     t.z.iter()
@@ -534,16 +527,14 @@ pub(crate) fn in_bin_order(
             } else {
                 0
             };
-            let keyed = Keyed {
-                sort: (t.transparent, key, i as u32),
+            Keyed {
+                sort: (t.transparent, key, Triangles::id(c, i - starts[c])),
                 bbox: t.bbox,
                 rank: t.key,
                 plane_depth: t.plane_depth,
-            };
-            (t, keyed)
+            }
         })
-        .unzip_into_vecs(&mut triangles, &mut keyed);
-    drop(pieces);
+        .collect();
     keyed.par_sort_unstable_by_key(|k| k.sort);
     let mut plane_depths = vec![f64::NAN; ranks];
     for k in &keyed {
@@ -1222,7 +1213,7 @@ impl TileOutput<'_> {
 /// What the tiles share: the set-up triangles, textures, plane depths, depth convention and
 /// background.
 pub(crate) struct TileContext<'a> {
-    pub triangles: &'a [SetupTriangle],
+    pub triangles: &'a Triangles,
     pub textures: &'a [Texture],
     pub planes: &'a [f64],
     pub reverse_z: bool,
@@ -1476,7 +1467,7 @@ fn count_tile(
     s.row_spans.clear();
     s.row_spans.resize(h, 0);
     for &t in bin {
-        let tri = &ctx.triangles[t as usize];
+        let tri = &ctx.triangles[t];
         if tri.transparent {
             for_each_span(tri, tile, |row, first, end| {
                 let b = row as usize * (w + 1);
@@ -1708,7 +1699,7 @@ fn render_rect(
     // Opaque (and mask) triangles first: they define the depth transparent fragments must beat.
     // Transparent triangles only record their spans and count the slots they may need.
     for &t in bin {
-        let tri = &triangles[t as usize];
+        let tri = &triangles[t];
         if tri.transparent {
             if room == 0 {
                 room = (s.spans.capacity() - s.spans.len()) / rows;
@@ -1774,7 +1765,7 @@ fn render_rect(
     let any_opaque = s.opaque_key.iter().any(|&k| k != far);
     let mut discarded = 0;
     for span in &s.spans {
-        let tri = &triangles[span.triangle as usize];
+        let tri = &triangles[span.triangle];
         // A sink per span: a short-lived local whose fields the optimiser keeps in registers.
         let mut sink = TransparentFragments {
             rank: tri.key,
@@ -2188,7 +2179,7 @@ impl ConstantSpan {
     #[inline(always)]
     fn composite<const MAY_UNDERFLOW: bool>(
         &self,
-        triangles: &[SetupTriangle],
+        triangles: &Triangles,
         t: u32,
         tile: TileRect,
         reverse_z: bool,
@@ -2197,7 +2188,7 @@ impl ConstantSpan {
         first: u32,
         end: u32,
     ) {
-        let tri = &triangles[t as usize];
+        let tri = &triangles[t];
         let base = (row * tile.width) as usize;
         let range = base + first as usize..base + end as usize;
         if self.undecided {
@@ -2222,7 +2213,7 @@ impl ConstantSpan {
                 debug_assert!((lo..=hi).contains(&dkey), "depth key out of bounds");
                 if !pixel.follows(dkey) && pixel.bound_of != EXACT {
                     // Only a bound of the last fragment's key is known: its own key decides.
-                    let last = &triangles[pixel.bound_of as usize];
+                    let last = &triangles[pixel.bound_of];
                     let weights = RowWeights::new(last, tile, row);
                     pixel.last_depth = depth_key(depths(last, &weights.at(x))[0], reverse_z);
                 }
@@ -2304,7 +2295,7 @@ fn render_rect_in_order(
         s.in_order_transmittance.resize(n, [1.0; 3]);
     }
     for &t in bin {
-        let tri = &ctx.triangles[t as usize];
+        let tri = &ctx.triangles[t];
         if !tri.transparent {
             shade_opaque(ctx, tri, tile, s, far);
         }
@@ -2479,10 +2470,10 @@ fn write_in_order(
 /// −⌊log2(1 − α)⌋ is at most 990: a pixel takes at most one fragment of each, its
 /// transmittance is a product of some of their `1 − α` (one that is 0 leaves 0 for good), and
 /// with f64 rounding that product stays above 2^-990 · (1 − n·2^-53) > 2^-1000.
-fn may_underflow(triangles: &[SetupTriangle], bin: &[u32]) -> bool {
+fn may_underflow(triangles: &Triangles, bin: &[u32]) -> bool {
     let mut halvings = 0i64;
     for &t in bin {
-        let tri = &triangles[t as usize];
+        let tri = &triangles[t];
         if !tri.transparent {
             continue;
         }
@@ -2512,7 +2503,7 @@ fn transparent_in_order<const COLOURED: bool, const MAY_UNDERFLOW: bool>(
     any_opaque: bool,
 ) {
     for &t in bin {
-        let tri = &ctx.triangles[t as usize];
+        let tri = &ctx.triangles[t];
         if !tri.transparent {
             continue;
         }
@@ -2898,7 +2889,7 @@ mod tests {
         };
         let reverse_z = scene.camera.reverse_z;
         let (mut bounded, mut fragments) = (0, 0);
-        for tri in pieces.iter().flatten() {
+        for tri in pieces.chunks().iter().flatten() {
             if tri.inv_farea2 == 0.0 {
                 continue;
             }
@@ -2948,7 +2939,7 @@ mod tests {
 
     /// A stack of `count` full-screen constant layers of alpha `alpha` (two triangles each),
     /// set up, and every triangle as one bin.
-    fn layer_bin(count: u32, alpha: f32) -> (Vec<SetupTriangle>, Vec<u32>) {
+    fn layer_bin(count: u32, alpha: f32) -> (Triangles, Vec<u32>) {
         let text = format!(
             r#"{{"name": "stack", "resolution": [8, 8],
               "camera": {{"eye": [0, 0, 5], "target": [0, 0, 0], "up": [0, 1, 0],
@@ -2960,9 +2951,8 @@ mod tests {
                             "material": {{"mode": "blend"}}}}]}}"#
         );
         let scene = oit_scene::parse(&text, "stack").expect("a layer stack");
-        let (pieces, _) = crate::set_up(&scene).expect("a valid scene");
-        let triangles: Vec<SetupTriangle> = pieces.into_iter().flatten().collect();
-        let bin = (0..triangles.len() as u32).collect();
+        let (triangles, _) = crate::set_up(&scene).expect("a valid scene");
+        let bin = triangles.ids().collect();
         (triangles, bin)
     }
 
