@@ -478,7 +478,7 @@ fn transparent_key(dkey: u32, rank: u32) -> u64 {
 }
 
 /// The set-up triangles of [`in_bin_order`] and what binning reads of them, in compact lists:
-/// binning and the tiles then never walk the 344-byte triangles again to find them.
+/// binning never walks the 344-byte triangles (only the tiles read them, each its own bin).
 #[derive(Debug)]
 pub(crate) struct Ordered {
     /// The pieces, where setup wrote them.
@@ -510,8 +510,7 @@ pub(crate) fn in_bin_order(triangles: Triangles, ranks: usize, reverse_z: bool) 
             Some(*end - p.len())
         })
         .collect();
-    let total = chunks.iter().map(Vec::len).sum();
-    let mut keyed: Vec<Keyed> = (0..total)
+    let mut keyed: Vec<Keyed> = (0..triangles.len())
         .into_par_iter()
         .with_min_len(1024)
         .map(|i| {
