@@ -483,8 +483,18 @@ fn reference(
         memory_budget,
         ..Default::default()
     };
+    let before = oit_harness::interference::sample();
     let reference = oit_reference::try_render(&scene, &options)
         .with_context(|| format!("reference of {}", scene_path.display()))?;
+    let interference = before
+        .zip(oit_harness::interference::sample())
+        .and_then(|(a, b)| {
+            oit_harness::interference::Interference::between(
+                a,
+                b,
+                oit_harness::interference::TICKS_PER_SECOND,
+            )
+        });
     bar.finish_and_clear();
     oit_harness::write_reference_exr(&output, &reference)?;
     oit_metrics::write_png_preview(&png, &reference.image)?;
@@ -502,6 +512,13 @@ fn reference(
     );
     for caveat in oit_harness::results::reference_caveats(st) {
         println!("note: {caveat}");
+    }
+    if let Some(i) = interference.filter(|i| i.notable()) {
+        println!(
+            "note: timed while {:.0} % of the machine's CPU time went elsewhere ({}): on a quiet machine it takes less",
+            100.0 * i.lost(),
+            i.describe()
+        );
     }
     println!("preview: {}", png.display());
     Ok(())

@@ -6,6 +6,7 @@
 
 pub mod cache;
 pub mod goldens;
+pub mod interference;
 pub mod report;
 pub mod results;
 mod run;

@@ -50,6 +50,9 @@ pub fn markdown(results: &Results) -> String {
         for caveat in scene_caveats(&runs) {
             let _ = writeln!(out, "Reference: {caveat}.\n");
         }
+        if let Some(caveat) = timing_caveat(results, &scene, &runs) {
+            let _ = writeln!(out, "Timing: {caveat}.\n");
+        }
         let _ = writeln!(
             out,
             "| technique | GPU ms | cost × unsorted | cost × floor | bytes/px | RMSE | max error | FLIP | order dep. | inexact |"
@@ -96,6 +99,9 @@ pub fn terminal_table(results: &Results) -> String {
         for caveat in scene_caveats(&runs) {
             let _ = writeln!(out, "  reference: {caveat}");
         }
+        if let Some(caveat) = timing_caveat(results, &scene, &runs) {
+            let _ = writeln!(out, "  timing: {caveat}");
+        }
         let line = |cells: &[String]| {
             cells
                 .iter()
@@ -120,6 +126,40 @@ pub fn terminal_table(results: &Results) -> String {
         }
     }
     out
+}
+
+/// Which of the scene's timings (runs marked †, and its floor) were taken while more than
+/// [`NOTABLE`](crate::interference::NOTABLE) of the machine's CPU time went elsewhere, with
+/// the worst share; None when none were.
+pub fn timing_caveat(results: &Results, scene: &str, runs: &[&Run]) -> Option<String> {
+    let floor = results
+        .floors
+        .iter()
+        .find(|f| f.scene == scene)
+        .and_then(|f| f.gpu_ms.interference);
+    let marked: Vec<_> = runs
+        .iter()
+        .filter_map(|r| r.gpu_ms.as_ref()?.interference)
+        .filter(|i| i.notable())
+        .collect();
+    let floor = floor.filter(|i| i.notable());
+    let worst = marked
+        .iter()
+        .chain(&floor)
+        .max_by(|a, b| a.lost().total_cmp(&b.lost()))?;
+    Some(format!(
+        "{} of {} runs{} timed while over {:.0} % of the machine's CPU time went elsewhere \
+         (†; worst {}): their times, and ratios to runs timed at quieter moments, carry that noise",
+        marked.len(),
+        runs.len(),
+        if floor.is_some() {
+            " and the floor"
+        } else {
+            ""
+        },
+        100.0 * crate::interference::NOTABLE,
+        worst.describe()
+    ))
 }
 
 /// The scene's reference caveats, from its first run that recorded them.
@@ -323,7 +363,12 @@ fn row_cells(r: &Run) -> Vec<String> {
             } else {
                 " (wall)"
             };
-            format!("{:.3}{flag}", g.median)
+            let marked = if g.interference.is_some_and(|i| i.notable()) {
+                "†"
+            } else {
+                ""
+            };
+            format!("{:.3}{flag}{marked}", g.median)
         })
         .unwrap_or_default();
     let ratio = |c: Option<f64>| c.map(|c| format!("{c:.2}")).unwrap_or_else(|| "–".into());
@@ -467,6 +512,62 @@ mod tests {
             text.contains("| **mean** | **0.5000** | **0.5000** |"),
             "{text}"
         );
+    }
+
+    #[test]
+    fn timings_taken_while_the_machine_was_busy_are_marked_where_people_look() {
+        use crate::interference::Interference;
+        use crate::results::{FloorJson, GpuMs};
+        let timed = |ms: f64, steal: f64| GpuMs {
+            median: ms,
+            min: ms,
+            max: ms,
+            frames: 3,
+            source: "timestamp".into(),
+            interference: Some(Interference {
+                steal,
+                other_processes: 0.02,
+                cpu_seconds: 4.0,
+            }),
+        };
+        let mut quiet = run("s1", "t", 1.0, 0.0, 0.1);
+        quiet.gpu_ms = Some(timed(2.0, 0.05));
+        let mut busy = run("s1", "u", 1.0, 0.0, 0.1);
+        busy.gpu_ms = Some(timed(3.0, 0.35));
+        let mut elsewhere = run("s2", "t", 1.0, 0.0, 0.1);
+        elsewhere.gpu_ms = Some(timed(2.0, 0.0));
+        let results = Results {
+            schema: crate::results::SCHEMA.into(),
+            adapter: AdapterJson {
+                name: "a".into(),
+                backend: "b".into(),
+                device_type: "c".into(),
+                driver: "d".into(),
+            },
+            runs: vec![quiet, busy, elsewhere],
+            floors: vec![FloorJson {
+                scene: "s1".into(),
+                resolution: [4, 4],
+                gpu_ms: timed(1.0, 0.5),
+                passes: Vec::new(),
+            }],
+            scenes: Vec::new(),
+        };
+        let text = markdown(&results);
+        assert!(text.contains("| u | 3.000† |"), "{text}");
+        assert!(text.contains("| t | 2.000 |"), "{text}");
+        assert!(
+            text.contains(
+                "Timing: 1 of 2 runs and the floor timed while over 10 % of the machine's CPU \
+                 time went elsewhere (†; worst steal 50 %, other processes 2 %)"
+            ),
+            "{text}"
+        );
+        // The quiet scene says nothing.
+        assert_eq!(text.matches("Timing:").count(), 1, "{text}");
+        let table = terminal_table(&results);
+        assert!(table.contains("3.000†"), "{table}");
+        assert_eq!(table.matches("timing: 1 of 2 runs").count(), 1, "{table}");
     }
 
     #[test]

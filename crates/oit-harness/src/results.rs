@@ -133,6 +133,10 @@ pub struct GpuMs {
     pub frames: u32,
     /// `timestamp` (GPU timestamp queries) or `wall-clock` (submit-and-wait; includes CPU work).
     pub source: String,
+    /// The share of the machine's CPU time that was stolen or spent by other processes while
+    /// the frames were timed (Linux only; absent elsewhere and in older files).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub interference: Option<crate::interference::Interference>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

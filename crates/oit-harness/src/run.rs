@@ -13,7 +13,7 @@ use crate::results::{
     AdapterJson, FloorJson, GpuMs, Outputs, PassMs, Results, Run, RunInputs, RunStatus, SCHEMA,
     SceneJson, Stats,
 };
-use crate::{HarnessError, SceneEntry, at_resolution, file_stem, registry};
+use crate::{HarnessError, SceneEntry, at_resolution, file_stem, interference, registry};
 
 /// Where `compare` keeps computed references.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -569,6 +569,7 @@ fn time_frames(
     let mut per_pass: Vec<(String, Vec<f64>)> = Vec::new();
     let mut last = None;
     let mut source = TimingSource::WallClock;
+    let before = interference::sample();
     for _ in 0..frames {
         let frame = render_frame(ctx, scene, technique, targets, &mut timer)?;
         source = frame.timings.source;
@@ -586,6 +587,7 @@ fn time_frames(
         }
         last = Some(frame.stats);
     }
+    let after = interference::sample();
     let mut stats = last.expect("at least one frame");
     stats.cpu_ms = median(&mut cpu);
     let gpu = GpuMs {
@@ -594,6 +596,9 @@ fn time_frames(
         max: totals.iter().copied().fold(0.0, f64::max),
         frames,
         source: source.name().to_owned(),
+        interference: before.zip(after).and_then(|(a, b)| {
+            interference::Interference::between(a, b, interference::TICKS_PER_SECOND)
+        }),
     };
     let passes = per_pass
         .into_iter()
@@ -679,6 +684,7 @@ mod tests {
             max: median,
             frames: 1,
             source: "timestamp".into(),
+            interference: None,
         });
         run
     }

@@ -154,7 +154,8 @@ fn html(results: &Results, dir: &Path) -> String {
     out.push_str("</ul></nav>\n");
     for (scene, runs) in &scenes {
         let about = results.scenes.iter().find(|s| s.scene == *scene);
-        scene_section(&mut out, dir, scene, about, runs, &members);
+        let timing = oit_harness::report::timing_caveat(results, scene, runs);
+        scene_section(&mut out, dir, scene, about, timing, runs, &members);
     }
     out.push_str("</body>\n</html>\n");
     out
@@ -165,6 +166,7 @@ fn scene_section(
     dir: &Path,
     scene: &str,
     about: Option<&SceneJson>,
+    timing: Option<String>,
     runs: &[&Run],
     members: &std::collections::BTreeSet<(String, String)>,
 ) {
@@ -183,6 +185,9 @@ fn scene_section(
     }
     for caveat in oit_harness::report::scene_caveats(runs) {
         let _ = writeln!(out, "<p class=\"caveat\">Reference: {}.</p>", esc(&caveat));
+    }
+    if let Some(timing) = timing {
+        let _ = writeln!(out, "<p class=\"caveat\">Timing: {}.</p>", esc(&timing));
     }
 
     out.push_str("<div class=\"plots\">\n");
@@ -237,7 +242,15 @@ fn scene_section(
         let opt = |v: Option<f64>, f: fn(f64) -> String| v.map_or_else(|| "–".to_owned(), f);
         let (median, spread) = match &run.gpu_ms {
             Some(g) => (
-                format!("{:.3}", g.median),
+                format!(
+                    "{:.3}{}",
+                    g.median,
+                    if g.interference.is_some_and(|i| i.notable()) {
+                        "†"
+                    } else {
+                        ""
+                    }
+                ),
                 format!(
                     "{:.3}–{:.3} ({}, {})",
                     g.min,

@@ -56,6 +56,7 @@ fn ok_run(scene: &str, row: Row) -> Run {
         max: cost * 0.6,
         frames: 20,
         source: "timestamp".into(),
+        interference: None,
     });
     run.cost_vs_unsorted = Some(cost);
     run.bytes_per_pixel = Some(bpp);
