@@ -2197,17 +2197,29 @@ impl ConstantSpan {
         }
         let pixels = &mut s.in_order[range.clone()];
         if let Some((lo, hi)) = self.bounds {
-            let weights = RowWeights::new(tri, tile, row);
-            let key_at = |x: u32| depth_key(depths(tri, &weights.at(x))[0], reverse_z);
-            for (pixel, x) in pixels.iter_mut().zip(first..end) {
+            // Only pixels whose last key is not clearly nearer need their own key: the row's
+            // weights are set up at the first of them.
+            let mut weights = None;
+            let mut key_at = |x: u32| {
+                let w = weights.get_or_insert_with(|| RowWeights::new(tri, tile, row));
+                depth_key(depths(tri, &w.at(x))[0], reverse_z)
+            };
+            // `last + tie < lo`, as in `follows` (never when `lo <= tie`).
+            let clearly_nearer = lo.saturating_sub(PRECISION_TIE_ULPS);
+            let (premultiplied, keep) = (self.premultiplied, self.keep);
+            for (i, pixel) in pixels.iter_mut().enumerate() {
                 pixel.kept += 1;
-                if u64::from(pixel.last_depth) + u64::from(PRECISION_TIE_ULPS) < u64::from(lo) {
-                    debug_assert!((lo..=hi).contains(&key_at(x)), "depth key out of bounds");
+                if pixel.last_depth < clearly_nearer {
+                    debug_assert!(
+                        (lo..=hi).contains(&key_at(first + i as u32)),
+                        "depth key out of bounds"
+                    );
                     pixel.last_depth = hi;
                     pixel.bound_of = t;
-                    pixel.composite::<MAY_UNDERFLOW>(self.premultiplied, self.keep);
+                    pixel.composite::<MAY_UNDERFLOW>(premultiplied, keep);
                     continue;
                 }
+                let x = first + i as u32;
                 let dkey = key_at(x);
                 debug_assert!((lo..=hi).contains(&dkey), "depth key out of bounds");
                 if !pixel.follows(dkey) && pixel.bound_of != EXACT {
@@ -2216,7 +2228,7 @@ impl ConstantSpan {
                     let weights = RowWeights::new(last, tile, row);
                     pixel.last_depth = depth_key(depths(last, &weights.at(x))[0], reverse_z);
                 }
-                pixel.add::<MAY_UNDERFLOW>(dkey, self.premultiplied, self.keep);
+                pixel.add::<MAY_UNDERFLOW>(dkey, premultiplied, keep);
             }
             return;
         }
