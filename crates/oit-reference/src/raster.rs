@@ -2408,62 +2408,63 @@ fn write_in_order(
     if xs.is_empty() {
         return;
     }
+    // One pass over the run, every slice cut to its length `n` (so no index is checked).
+    let n = xs.len();
     let ps = p0 + xs.start..p0 + xs.end;
     let o0 = out.x_offset + row * out.stride;
     let os = o0 + xs.start..o0 + xs.end;
-    let pixels = &s.in_order[ps.clone()];
-    for (((o, pixel), &key), (&colour, p)) in out.image[os.clone()]
-        .iter_mut()
-        .zip(pixels)
-        .zip(&s.opaque_key[ps.clone()])
-        .zip(s.opaque_color[ps.clone()].iter().zip(ps.clone()))
-    {
-        let base = if key == far {
+    let pixels = &s.in_order[ps.clone()][..n];
+    let keys = &s.opaque_key[ps.clone()][..n];
+    let colours = &s.opaque_color[ps.clone()][..n];
+    let all_counts = &s.all_count[ps.clone()][..n];
+    let undecided_counts = &s.undecided[ps.clone()][..n];
+    let tie_flags = &s.tie[ps.clone()][..n];
+    let coloured = if ctx.coloured {
+        &s.in_order_transmittance[ps][..n]
+    } else {
+        &[]
+    };
+    let image = &mut out.image[os.clone()][..n];
+    let layers = &mut out.layers[os.clone()][..n];
+    let counts = &mut out.fragments[os.clone()][..n];
+    let undecided_out = &mut out.undecided[os.clone()][..n];
+    let ties_out = &mut out.precision_ties[os][..n];
+    let (mut fragments, mut kept, mut composited, mut covered, mut most) = (0, 0, 0, 0, 0);
+    let (mut undecided, mut undecided_pixels, mut ties) = (0u64, 0u64, 0u64);
+    for j in 0..n {
+        let pixel = &pixels[j];
+        let base = if keys[j] == far {
             ctx.background
         } else {
-            colour.map(f64::from)
+            colours[j].map(f64::from)
         };
         let through = if ctx.coloured {
-            s.in_order_transmittance[p]
+            coloured[j]
         } else {
             [pixel.through; 3]
         };
         let rgb: [f64; 3] = std::array::from_fn(|k| pixel.color[k] + through[k] * base[k]);
-        *o = [rgb[0] as f32, rgb[1] as f32, rgb[2] as f32, 1.0];
-    }
-    let (mut fragments, mut kept, mut composited, mut covered, mut most) = (0, 0, 0, 0, 0);
-    for ((layers, count), (pixel, &all)) in out.layers[os.clone()]
-        .iter_mut()
-        .zip(&mut out.fragments[os.clone()])
-        .zip(pixels.iter().zip(&s.all_count[ps.clone()]))
-    {
+        image[j] = [rgb[0] as f32, rgb[1] as f32, rgb[2] as f32, 1.0];
         // The transparent pass counted its kept fragments apart from the opaque pass's.
-        *layers = pixel.layers;
-        *count = all + pixel.kept;
-        fragments += u64::from(all + pixel.kept);
+        let count = all_counts[j] + pixel.kept;
+        layers[j] = pixel.layers;
+        counts[j] = count;
+        fragments += u64::from(count);
         kept += u64::from(pixel.kept);
         composited += u64::from(pixel.layers);
         covered += u64::from(pixel.layers > 0);
         most = most.max(pixel.layers);
-    }
-    // The outputs start zeroed: writing only what is set leaves untouched pages unmapped.
-    let (mut undecided, mut undecided_pixels) = (0u64, 0u64);
-    for (o, &u) in out.undecided[os.clone()]
-        .iter_mut()
-        .zip(&s.undecided[ps.clone()])
-    {
+        // The outputs start zeroed: writing only what is set leaves untouched pages unmapped.
+        let u = undecided_counts[j];
         if u > 0 {
-            *o = u;
+            undecided_out[j] = u;
         }
         undecided += u64::from(u);
         undecided_pixels += u64::from(u > 0);
-    }
-    let mut ties = 0u64;
-    for (o, &t) in out.precision_ties[os].iter_mut().zip(&s.tie[ps]) {
-        if t {
-            *o = true;
+        if tie_flags[j] {
+            ties_out[j] = true;
         }
-        ties += u64::from(t);
+        ties += u64::from(tie_flags[j]);
     }
     stats.fragments += fragments;
     stats.transparent_fragments += kept;
