@@ -99,10 +99,14 @@ pub(crate) fn over_step<const MAY_UNDERFLOW: bool>(
     premultiplied: [f64; 3],
     keep: f64,
 ) {
-    for k in 0..3 {
-        color[k] += *transmittance * premultiplied[k];
-    }
-    *transmittance *= keep;
+    // Four lanes of one multiply-add, `[C, 0] + T·[C_i, keep]`, which the compiler can turn
+    // into SIMD; `0 + T·keep` is `T·keep` exactly (it is never −0: T ≥ 0, keep ≥ 0).
+    let t = *transmittance;
+    let sums = [color[0], color[1], color[2], 0.0];
+    let factors = [premultiplied[0], premultiplied[1], premultiplied[2], keep];
+    let next: [f64; 4] = std::array::from_fn(|k| sums[k] + t * factors[k]);
+    *color = [next[0], next[1], next[2]];
+    *transmittance = next[3];
     if MAY_UNDERFLOW {
         *transmittance = negligible(*transmittance);
     }

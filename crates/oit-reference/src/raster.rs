@@ -1983,8 +1983,11 @@ impl PixelResult {
 }
 
 /// One pixel's state while its tile is composited in arrival order ([`render_rect_in_order`]),
-/// together in one struct: a fragment touches one cache line and one bounds check.
+/// together in one struct: a fragment touches one cache line and one bounds check. `color`
+/// and `through` lead, in that order (`repr(C)`), so that a composite step loads and stores
+/// them as two 16-byte pairs ([`over_step`]).
 #[derive(Debug, Clone, Copy)]
+#[repr(C)]
 pub(crate) struct InOrderPixel {
     /// Premultiplied colour sum so far, f64.
     color: [f64; 3],
@@ -1999,8 +2002,10 @@ pub(crate) struct InOrderPixel {
     bound_of: u32,
     /// Fragments composited.
     layers: u32,
-    /// Transparent fragments the cutoff kept (composited or hidden by the opaque depth).
-    kept: u32,
+    /// Transparent fragments the cutoff kept that were not composited (hidden by the opaque
+    /// depth or the far plane): with `layers`, every fragment it kept. Counted apart so that
+    /// a composited fragment, nearly all of them, costs no second counter.
+    hidden: u32,
     /// Some fragment did not follow the last one ([`InOrderPixel::follows`]): the stored path
     /// decides this pixel.
     disordered: bool,
@@ -2014,7 +2019,7 @@ impl InOrderPixel {
         last_depth: 0,
         bound_of: EXACT,
         layers: 0,
-        kept: 0,
+        hidden: 0,
         disordered: false,
     };
 
@@ -2069,7 +2074,7 @@ const EXACT: u32 = u32::MAX;
 /// so that the sums are bit for bit those of the stored path wherever the arrival order is
 /// the sorted order; pixels where it is not are marked ([`InOrderPixel::disordered`]).
 /// Bookkeeping as [`TransparentFragments`]. The pass's own fragments are counted in
-/// [`InOrderPixel::kept`], apart from the opaque pass's `all_count`.
+/// [`InOrderPixel::layers`] and [`InOrderPixel::hidden`], apart from the opaque pass's `all_count`.
 struct InOrderFragments<'a, const COLOURED: bool, const MAY_UNDERFLOW: bool> {
     behind: Behind<'a>,
     undecided: &'a mut [u32],
@@ -2091,7 +2096,6 @@ impl<const COLOURED: bool, const MAY_UNDERFLOW: bool> Fragments
             return;
         };
         let pixel = &mut self.pixels[p];
-        pixel.kept += 1;
         if dkey < self.behind.nearest(p, dkey, self.tie) {
             let c = premultiplied.map(f64::from);
             if COLOURED {
@@ -2100,6 +2104,8 @@ impl<const COLOURED: bool, const MAY_UNDERFLOW: bool> Fragments
             } else {
                 pixel.add::<MAY_UNDERFLOW>(dkey, c, 1.0 - f64::from(alpha));
             }
+        } else {
+            pixel.hidden += 1;
         }
     }
 }
@@ -2208,7 +2214,6 @@ impl ConstantSpan {
             let clearly_nearer = lo.saturating_sub(PRECISION_TIE_ULPS);
             let (premultiplied, keep) = (self.premultiplied, self.keep);
             for (i, pixel) in pixels.iter_mut().enumerate() {
-                pixel.kept += 1;
                 if pixel.last_depth < clearly_nearer {
                     debug_assert!(
                         (lo..=hi).contains(&key_at(first + i as u32)),
@@ -2237,9 +2242,10 @@ impl ConstantSpan {
             for (batch, x) in pixels.chunks_mut(LANES).zip((first..end).step_by(LANES)) {
                 let dkeys = depth_keys(depths(tri, &weights.at(x)), reverse_z);
                 for (pixel, &dkey) in batch.iter_mut().zip(&dkeys) {
-                    pixel.kept += 1;
                     if dkey < self.far {
                         pixel.add::<MAY_UNDERFLOW>(dkey, self.premultiplied, self.keep);
+                    } else {
+                        pixel.hidden += 1;
                     }
                 }
             }
@@ -2250,12 +2256,11 @@ impl ConstantSpan {
         }
         if dkey >= self.far {
             for pixel in pixels {
-                pixel.kept += 1;
+                pixel.hidden += 1;
             }
             return;
         }
         for pixel in pixels {
-            pixel.kept += 1;
             pixel.add::<MAY_UNDERFLOW>(dkey, self.premultiplied, self.keep);
         }
     }
@@ -2446,11 +2451,12 @@ fn write_in_order(
         let rgb: [f64; 3] = std::array::from_fn(|k| pixel.color[k] + through[k] * base[k]);
         image[j] = [rgb[0] as f32, rgb[1] as f32, rgb[2] as f32, 1.0];
         // The transparent pass counted its kept fragments apart from the opaque pass's.
-        let count = all_counts[j] + pixel.kept;
+        let pixel_kept = pixel.layers + pixel.hidden;
+        let count = all_counts[j] + pixel_kept;
         layers[j] = pixel.layers;
         counts[j] = count;
         fragments += u64::from(count);
-        kept += u64::from(pixel.kept);
+        kept += u64::from(pixel_kept);
         composited += u64::from(pixel.layers);
         covered += u64::from(pixel.layers > 0);
         most = most.max(pixel.layers);
