@@ -100,7 +100,9 @@ pub(crate) fn over_step<const MAY_UNDERFLOW: bool>(
     keep: f64,
 ) {
     // Four lanes of one multiply-add, `[C, 0] + T·[C_i, keep]`, which the compiler can turn
-    // into SIMD; `0 + T·keep` is `T·keep` exactly (it is never −0: T ≥ 0, keep ≥ 0).
+    // into SIMD. `0 + T·keep` is `T·keep` exactly except that −0 becomes +0 (T = 0 with an α
+    // interpolated a rounding above 1); a zero T of either sign leaves every output bit the
+    // same, as C never is −0 (it starts at +0 and only adds).
     let t = *transmittance;
     let sums = [color[0], color[1], color[2], 0.0];
     let factors = [premultiplied[0], premultiplied[1], premultiplied[2], keep];
