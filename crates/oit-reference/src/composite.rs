@@ -189,6 +189,31 @@ mod tests {
         }
     }
 
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 2000, ..ProptestConfig::default() })]
+
+        /// The four-lane step is the textbook `C += T·C_i; T *= keep` bit for bit, but for
+        /// the sign of a zero T when keep < 0 (α a rounding above 1).
+        #[test]
+        fn the_four_lane_step_is_the_plain_arithmetic(
+            color in [colour(), colour(), colour()],
+            premultiplied in [colour(), colour(), colour()],
+            through in prop_oneof![Just(0.0), Just(1.0), 0.0f64..1.0, colour()],
+            keep in prop_oneof![Just(0.0), Just(1.0), 0.0f64..1.0, -1e-7f64..0.0],
+        ) {
+            let (mut c, mut t) = (color, through);
+            over_step::<false>(&mut c, &mut t, premultiplied, keep);
+            let plain: [f64; 3] = std::array::from_fn(|k| color[k] + through * premultiplied[k]);
+            prop_assert_eq!(c.map(f64::to_bits), plain.map(f64::to_bits));
+            let plain_t = through * keep;
+            if plain_t == 0.0 {
+                prop_assert_eq!(t, 0.0);
+            } else {
+                prop_assert_eq!(t.to_bits(), plain_t.to_bits());
+            }
+        }
+    }
+
     #[test]
     fn the_negligible_transmittance_is_2_to_the_minus_1000() {
         assert_eq!(NEGLIGIBLE_TRANSMITTANCE, 2f64.powi(-1000));
