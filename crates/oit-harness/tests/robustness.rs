@@ -11,11 +11,33 @@ use oit_harness::{
 };
 use oit_scene::Resolution;
 
-fn temp_dir(name: &str) -> PathBuf {
+/// A fresh scratch folder under the system's temp dir, removed when the test passes and kept
+/// (its path printed) when it fails, to look at.
+struct TempDir(PathBuf);
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        if std::thread::panicking() {
+            eprintln!("kept {} for inspection", self.0.display());
+        } else {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+}
+
+impl std::ops::Deref for TempDir {
+    type Target = Path;
+
+    fn deref(&self) -> &Path {
+        &self.0
+    }
+}
+
+fn temp_dir(name: &str) -> TempDir {
     let dir = std::env::temp_dir().join(format!("oit-robust-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    dir
+    TempDir(dir)
 }
 
 /// A two-layer scene named `name`, as if loaded from `file`.
@@ -117,7 +139,8 @@ fn scenes_that_would_share_files_are_refused() {
     let Some(ctx) = oit_gpu::testing::context_or_skip("colliding_names") else {
         return;
     };
-    let out = temp_dir("collide").join("out");
+    let root = temp_dir("collide");
+    let out = root.join("out");
     let specs = resolve_specs(&["unsorted".into()]).unwrap();
     for (a, b) in [("same", "same"), ("a/b", "a:b"), ("Case", "case")] {
         let scenes = [scene(a, "first.json"), scene(b, "second.json")];
