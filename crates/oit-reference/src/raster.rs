@@ -1983,11 +1983,8 @@ impl PixelResult {
 }
 
 /// One pixel's state while its tile is composited in arrival order ([`render_rect_in_order`]),
-/// together in one struct: a fragment touches one cache line and one bounds check. `color`
-/// and `through` lead, in that order (`repr(C)`), so that a composite step loads and stores
-/// them as two 16-byte pairs ([`over_step`]).
+/// together in one struct: a fragment touches one cache line and one bounds check.
 #[derive(Debug, Clone, Copy)]
-#[repr(C)]
 pub(crate) struct InOrderPixel {
     /// Premultiplied colour sum so far, f64.
     color: [f64; 3],
