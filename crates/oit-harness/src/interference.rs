@@ -15,9 +15,9 @@ use serde::{Deserialize, Serialize};
 /// off by about that much.
 pub const NOTABLE: f64 = 0.10;
 
-/// Fewer clock ticks (all CPUs together; usually 100 per second per CPU) than this in a window
-/// and the shares are too coarse to report.
-const MIN_TICKS: u64 = 20;
+/// Windows shorter than this (CPU time over all CPUs: 20 ticks of the kernel's 10 ms clock)
+/// are too coarse to judge alone; several are judged together ([`Interference::combine`]).
+pub const MIN_CPU_SECONDS: f64 = 0.2;
 
 /// The kernel's CPU accounting at one moment, in clock ticks.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -45,10 +45,10 @@ pub struct Interference {
 }
 
 impl Interference {
-    /// The shares between two samples, or None when the window is too short to tell.
+    /// The shares between two samples, or None when no tick passed or a counter went back.
     pub fn between(start: CpuSample, end: CpuSample, ticks_per_second: u64) -> Option<Self> {
         let total = end.total.checked_sub(start.total)?;
-        if total < MIN_TICKS || ticks_per_second == 0 {
+        if total == 0 || ticks_per_second == 0 {
             return None;
         }
         let steal = end.steal.checked_sub(start.steal)?;
@@ -69,9 +69,29 @@ impl Interference {
         self.steal + self.other_processes
     }
 
-    /// Whether reports mark the timing ([`NOTABLE`]).
+    /// Whether the window is long enough to judge ([`MIN_CPU_SECONDS`]).
+    pub fn conclusive(&self) -> bool {
+        self.cpu_seconds >= MIN_CPU_SECONDS
+    }
+
+    /// Whether reports mark the timing: conclusive and over [`NOTABLE`].
     pub fn notable(&self) -> bool {
-        self.lost() > NOTABLE
+        self.conclusive() && self.lost() > NOTABLE
+    }
+
+    /// Several windows as one, each weighted by its length; None for none.
+    pub fn combine(windows: impl IntoIterator<Item = Interference>) -> Option<Interference> {
+        let (mut seconds, mut steal, mut others) = (0.0, 0.0, 0.0);
+        for w in windows {
+            seconds += w.cpu_seconds;
+            steal += w.steal * w.cpu_seconds;
+            others += w.other_processes * w.cpu_seconds;
+        }
+        (seconds > 0.0).then(|| Interference {
+            steal: steal / seconds,
+            other_processes: others / seconds,
+            cpu_seconds: seconds,
+        })
     }
 
     /// "steal 35 %, other processes 4 %".
@@ -184,12 +204,14 @@ mod tests {
     }
 
     #[test]
-    fn too_short_or_backwards_windows_say_nothing() {
+    fn short_windows_are_inconclusive_alone_and_backwards_ones_say_nothing() {
         let a = sample(1000, 400, 50, 300);
-        assert_eq!(
-            Interference::between(a, sample(1019, 419, 50, 319), 100),
-            None
-        );
+        // 19 ticks, all stolen: not enough to mark a run.
+        let short = Interference::between(a, sample(1019, 400, 69, 300), 100).expect("a tick");
+        assert_eq!(short.steal, 1.0);
+        assert!(!short.conclusive());
+        assert!(!short.notable());
+        assert_eq!(Interference::between(a, a, 100), None);
         assert_eq!(
             Interference::between(a, sample(900, 400, 50, 300), 100),
             None
@@ -198,6 +220,23 @@ mod tests {
             Interference::between(a, sample(2000, 300, 50, 300), 100),
             None
         );
+    }
+
+    #[test]
+    fn combined_windows_weigh_each_by_its_length() {
+        let w = |steal, other_processes, cpu_seconds| Interference {
+            steal,
+            other_processes,
+            cpu_seconds,
+        };
+        // Three short windows: none conclusive, together 0.25 s with 36 % stolen.
+        let all = Interference::combine([w(0.5, 0.0, 0.1), w(0.0, 0.0, 0.05), w(0.4, 0.2, 0.1)])
+            .expect("windows");
+        assert!((all.cpu_seconds - 0.25).abs() < 1e-12);
+        assert!((all.steal - 0.36).abs() < 1e-12);
+        assert!((all.other_processes - 0.08).abs() < 1e-12);
+        assert!(all.notable());
+        assert_eq!(Interference::combine([]), None);
     }
 
     #[test]

@@ -2,6 +2,7 @@
 
 use std::fmt::Write as _;
 
+use crate::interference::Interference;
 use crate::results::{Results, Run, RunStatus};
 
 /// One row per run, grouped by scene, in run order.
@@ -21,6 +22,9 @@ pub fn markdown(results: &Results) -> String {
          order and reversed draw order.\n",
         a.name, a.backend, a.device_type, a.driver
     );
+    if let Some(caveat) = overall_timing_caveat(results) {
+        let _ = writeln!(out, "**Timing:** {caveat}.\n");
+    }
     out.push_str(&summary_markdown(results));
     out.push_str(&matrix_markdown(
         results,
@@ -82,6 +86,9 @@ pub fn terminal_table(results: &Results) -> String {
         "inexact",
     ];
     let mut out = String::new();
+    if let Some(caveat) = overall_timing_caveat(results) {
+        let _ = writeln!(out, "\ntiming: {caveat}");
+    }
     for (scene, runs) in by_scene(results) {
         let rows: Vec<Vec<String>> = runs.iter().map(|r| row_cells(r)).collect();
         let mut widths: Vec<usize> = HEAD.iter().map(|h| h.chars().count()).collect();
@@ -130,35 +137,68 @@ pub fn terminal_table(results: &Results) -> String {
 
 /// Which of the scene's timings (runs marked †, and its floor) were taken while more than
 /// [`NOTABLE`](crate::interference::NOTABLE) of the machine's CPU time went elsewhere, with
-/// the worst share; None when none were.
+/// the worst share; or, when no window was long enough to judge alone, whether all of them
+/// together were. None when neither.
 pub fn timing_caveat(results: &Results, scene: &str, runs: &[&Run]) -> Option<String> {
     let floor = results
         .floors
         .iter()
         .find(|f| f.scene == scene)
         .and_then(|f| f.gpu_ms.interference);
-    let marked: Vec<_> = runs
+    let windows: Vec<Interference> = runs
         .iter()
         .filter_map(|r| r.gpu_ms.as_ref()?.interference)
-        .filter(|i| i.notable())
         .collect();
-    let floor = floor.filter(|i| i.notable());
-    let worst = marked
+    let marked: Vec<_> = windows.iter().filter(|i| i.notable()).collect();
+    let marked_floor = floor.filter(|i| i.notable());
+    let limit = 100.0 * crate::interference::NOTABLE;
+    if let Some(worst) = marked
         .iter()
-        .chain(&floor)
-        .max_by(|a, b| a.lost().total_cmp(&b.lost()))?;
+        .copied()
+        .chain(&marked_floor)
+        .max_by(|a, b| a.lost().total_cmp(&b.lost()))
+    {
+        return Some(format!(
+            "{} of {} runs{} timed while over {limit:.0} % of the machine's CPU time went \
+             elsewhere (†; worst {}): their times, and ratios to runs timed at quieter moments, \
+             carry that noise",
+            marked.len(),
+            runs.len(),
+            if marked_floor.is_some() {
+                " and the floor"
+            } else {
+                ""
+            },
+            worst.describe()
+        ));
+    }
+    let all = Interference::combine(windows.iter().copied().chain(floor))?;
+    (all.notable() && !windows.iter().chain(&floor).any(|i| i.conclusive())).then(|| {
+        format!(
+            "the timed frames of this scene, each run too short to judge alone, together ran \
+             while {:.0} % of the machine's CPU time went elsewhere ({}): its times carry that \
+             noise",
+            100.0 * all.lost(),
+            all.describe()
+        )
+    })
+}
+
+/// The share of the machine's CPU time that went elsewhere over every timed frame of the
+/// comparison, when it is over [`NOTABLE`](crate::interference::NOTABLE): a line for the
+/// top of a report.
+pub fn overall_timing_caveat(results: &Results) -> Option<String> {
+    let windows = (results.runs.iter().filter_map(|r| r.gpu_ms.as_ref()))
+        .chain(results.floors.iter().map(|f| &f.gpu_ms))
+        .filter_map(|g| g.interference);
+    let all = Interference::combine(windows).filter(Interference::notable)?;
     Some(format!(
-        "{} of {} runs{} timed while over {:.0} % of the machine's CPU time went elsewhere \
-         (†; worst {}): their times, and ratios to runs timed at quieter moments, carry that noise",
-        marked.len(),
-        runs.len(),
-        if floor.is_some() {
-            " and the floor"
-        } else {
-            ""
-        },
-        100.0 * crate::interference::NOTABLE,
-        worst.describe()
+        "over all timed frames ({:.1} CPU-seconds), {:.0} % of the machine's CPU time went \
+         elsewhere ({}): absolute times are slower than this adapter can do, and ratios \
+         between runs timed at different moments carry the difference",
+        all.cpu_seconds,
+        100.0 * all.lost(),
+        all.describe()
     ))
 }
 
@@ -531,7 +571,7 @@ mod tests {
             }),
         };
         let mut quiet = run("s1", "t", 1.0, 0.0, 0.1);
-        quiet.gpu_ms = Some(timed(2.0, 0.05));
+        quiet.gpu_ms = Some(timed(2.0, 0.06));
         let mut busy = run("s1", "u", 1.0, 0.0, 0.1);
         busy.gpu_ms = Some(timed(3.0, 0.35));
         let mut elsewhere = run("s2", "t", 1.0, 0.0, 0.1);
@@ -563,11 +603,72 @@ mod tests {
             ),
             "{text}"
         );
-        // The quiet scene says nothing.
-        assert_eq!(text.matches("Timing:").count(), 1, "{text}");
+        // The quiet scene says nothing; the top says what all of it amounted to.
+        assert_eq!(text.matches("\nTiming:").count(), 1, "{text}");
+        assert!(
+            text.contains(
+                "**Timing:** over all timed frames (16.0 CPU-seconds), 25 % of the machine's \
+                 CPU time went elsewhere (steal 23 %, other processes 2 %)"
+            ),
+            "{text}"
+        );
         let table = terminal_table(&results);
         assert!(table.contains("3.000†"), "{table}");
         assert_eq!(table.matches("timing: 1 of 2 runs").count(), 1, "{table}");
+        assert!(table.contains("timing: over all timed frames"), "{table}");
+    }
+
+    #[test]
+    fn short_runs_are_judged_together() {
+        use crate::interference::Interference;
+        use crate::results::GpuMs;
+        // Four runs of 0.1 CPU-seconds each: none can be judged alone.
+        let timed = |steal: f64| GpuMs {
+            median: 1.0,
+            min: 1.0,
+            max: 1.0,
+            frames: 3,
+            source: "timestamp".into(),
+            interference: Some(Interference {
+                steal,
+                other_processes: 0.0,
+                cpu_seconds: 0.1,
+            }),
+        };
+        let runs = |steal: f64| -> Vec<Run> {
+            ["t", "u", "v", "w"]
+                .iter()
+                .map(|t| {
+                    let mut r = run("s", t, 1.0, 0.0, 0.1);
+                    r.gpu_ms = Some(timed(steal));
+                    r
+                })
+                .collect()
+        };
+        let results = |runs: Vec<Run>| Results {
+            schema: crate::results::SCHEMA.into(),
+            adapter: AdapterJson {
+                name: "a".into(),
+                backend: "b".into(),
+                device_type: "c".into(),
+                driver: "d".into(),
+            },
+            runs,
+            floors: Vec::new(),
+            scenes: Vec::new(),
+        };
+        let busy = results(runs(0.3));
+        let text = markdown(&busy);
+        assert!(!text.contains('†'), "{text}");
+        assert!(
+            text.contains(
+                "Timing: the timed frames of this scene, each run too short to judge alone, \
+                 together ran while 30 % of the machine's CPU time went elsewhere"
+            ),
+            "{text}"
+        );
+        let quiet = results(runs(0.05));
+        assert!(!markdown(&quiet).contains("Timing"));
     }
 
     #[test]

@@ -141,6 +141,9 @@ fn html(results: &Results, dir: &Path) -> String {
         esc(&a.device_type),
         esc(&a.driver)
     );
+    if let Some(caveat) = oit_harness::report::overall_timing_caveat(results) {
+        let _ = writeln!(out, "<p class=\"caveat\">Timing: {}.</p>", esc(&caveat));
+    }
     let scenes = runs_by_scene(results);
     out.push_str("<nav><ul>\n");
     for (scene, _) in &scenes {
