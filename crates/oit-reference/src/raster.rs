@@ -2071,7 +2071,8 @@ const EXACT: u32 = u32::MAX;
 /// so that the sums are bit for bit those of the stored path wherever the arrival order is
 /// the sorted order; pixels where it is not are marked ([`InOrderPixel::disordered`]).
 /// Bookkeeping as [`TransparentFragments`]. The pass's own fragments are counted in
-/// [`InOrderPixel::layers`] and [`InOrderPixel::hidden`], apart from the opaque pass's `all_count`.
+/// [`InOrderPixel::layers`] and [`InOrderPixel::hidden`], apart from the opaque pass's
+/// `all_count`.
 struct InOrderFragments<'a, const COLOURED: bool, const MAY_UNDERFLOW: bool> {
     behind: Behind<'a>,
     undecided: &'a mut [u32],
