@@ -490,29 +490,36 @@ mod tests {
         r
     }
 
+    /// Results of `runs` (and `floors`) on a made-up adapter.
+    fn results_of(runs: Vec<Run>, floors: Vec<crate::results::FloorJson>) -> Results {
+        Results {
+            schema: crate::results::SCHEMA.into(),
+            adapter: AdapterJson {
+                name: "a".into(),
+                backend: "b".into(),
+                device_type: "c".into(),
+                driver: "d".into(),
+            },
+            runs,
+            floors,
+            scenes: Vec::new(),
+        }
+    }
+
     #[test]
     fn summary_aggregates_per_technique_over_scenes() {
-        let adapter = AdapterJson {
-            name: "a".into(),
-            backend: "b".into(),
-            device_type: "c".into(),
-            driver: "d".into(),
-        };
         let mut skipped = run("s3", "t", 9.0, 9.0, 9.0);
         skipped.status = RunStatus::Skipped;
-        let results = Results {
-            schema: crate::results::SCHEMA.into(),
-            adapter,
-            runs: vec![
+        let results = results_of(
+            vec![
                 run("s1", "t", 1.0, 1e-3, 0.1),
                 run("s2", "t", 3.0, 0.5, 0.3),
                 run("s4", "t", 2.0, 4e-3, 0.2),
                 skipped,
                 run("s1", "u", 1.0, 0.2, 0.5),
             ],
-            floors: Vec::new(),
-            scenes: Vec::new(),
-        };
+            Vec::new(),
+        );
         let text = summary_markdown(&results);
         // t: 3 ok scenes, median cost 2, mean FLIP 0.2, 2 exact (1e-3 and exactly 4e-3), max order 0.25.
         assert!(
@@ -527,23 +534,14 @@ mod tests {
 
     #[test]
     fn matrix_has_one_cell_per_scene_and_technique_and_a_mean_row() {
-        let adapter = AdapterJson {
-            name: "a".into(),
-            backend: "b".into(),
-            device_type: "c".into(),
-            driver: "d".into(),
-        };
-        let results = Results {
-            schema: crate::results::SCHEMA.into(),
-            adapter,
-            runs: vec![
+        let results = results_of(
+            vec![
                 run("s1", "t", 1.0, 0.0, 0.25),
                 run("s1", "u", 1.0, 0.0, 0.5),
                 run("s2", "t", 1.0, 0.0, 0.75),
             ],
-            floors: Vec::new(),
-            scenes: Vec::new(),
-        };
+            Vec::new(),
+        );
         let text = matrix_markdown(&results, "FLIP", |r| r.error.map(|e| e.flip_mean));
         assert!(text.contains("| scene | t | u |"), "{text}");
         assert!(text.contains("| s1 | 0.2500 | 0.5000 |"), "{text}");
@@ -576,23 +574,15 @@ mod tests {
         busy.gpu_ms = Some(timed(3.0, 0.35));
         let mut elsewhere = run("s2", "t", 1.0, 0.0, 0.1);
         elsewhere.gpu_ms = Some(timed(2.0, 0.0));
-        let results = Results {
-            schema: crate::results::SCHEMA.into(),
-            adapter: AdapterJson {
-                name: "a".into(),
-                backend: "b".into(),
-                device_type: "c".into(),
-                driver: "d".into(),
-            },
-            runs: vec![quiet, busy, elsewhere],
-            floors: vec![FloorJson {
+        let results = results_of(
+            vec![quiet, busy, elsewhere],
+            vec![FloorJson {
                 scene: "s1".into(),
                 resolution: [4, 4],
                 gpu_ms: timed(1.0, 0.5),
                 passes: Vec::new(),
             }],
-            scenes: Vec::new(),
-        };
+        );
         let text = markdown(&results);
         assert!(text.contains("| u | 3.000† |"), "{text}");
         assert!(text.contains("| t | 2.000 |"), "{text}");
@@ -645,19 +635,7 @@ mod tests {
                 })
                 .collect()
         };
-        let results = |runs: Vec<Run>| Results {
-            schema: crate::results::SCHEMA.into(),
-            adapter: AdapterJson {
-                name: "a".into(),
-                backend: "b".into(),
-                device_type: "c".into(),
-                driver: "d".into(),
-            },
-            runs,
-            floors: Vec::new(),
-            scenes: Vec::new(),
-        };
-        let busy = results(runs(0.3));
+        let busy = results_of(runs(0.3), Vec::new());
         let text = markdown(&busy);
         assert!(!text.contains('†'), "{text}");
         assert!(
@@ -667,7 +645,7 @@ mod tests {
             ),
             "{text}"
         );
-        let quiet = results(runs(0.05));
+        let quiet = results_of(runs(0.05), Vec::new());
         assert!(!markdown(&quiet).contains("Timing"));
     }
 
