@@ -9,7 +9,7 @@
 //! per-phase times (setup and binning are wall time; raster, sort and composite are summed
 //! over the worker threads) and the peak per-tile storage. Each figure is the best of 3 runs.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 use oit_reference::{Reference, ReferenceOptions, render};
@@ -32,7 +32,7 @@ fn best_of(scene: &Scene, options: &ReferenceOptions, runs: usize) -> Reference 
 fn row(label: &str, r: &Reference) {
     let s = &r.stats;
     println!(
-        "{label:<28} {:>9.1} ms {:>12} frags {:>8.1} Mfrag/s | setup {:>6.1} bin {:>6.1} raster {:>7.1} sort {:>7.1} composite {:>7.1} ms | max {:>3} mean {:>6.2} | peak tile {:>9} B | in order {}/{} tiles ({} in bands), {} px stored",
+        "{label:<28} {:>9.1} ms {:>12} frags {:>8.1} Mfrag/s | setup {:>6.1} bin {:>6.1} raster {:>7.1} sort {:>7.1} composite {:>7.1} ms | max {:>3} mean {:>6.2} | peak tile {:>9} B | in order {}/{} tiles ({} in bands, {} given up), {} px stored",
         s.seconds * 1e3,
         s.fragments,
         s.fragments_per_second / 1e6,
@@ -47,6 +47,7 @@ fn row(label: &str, r: &Reference) {
         s.in_order_tiles,
         s.tiles,
         s.banded_tiles,
+        s.given_up_tiles,
         s.stored_pixels,
     );
 }
@@ -140,7 +141,8 @@ fn main() {
         .enumerate()
         .find(|(i, a)| {
             !a.starts_with("--")
-                && (*i == 0 || !["--tile", "--only"].contains(&args[i - 1].as_str()))
+                && (*i == 0
+                    || !["--tile", "--only", "--each", "--size"].contains(&args[i - 1].as_str()))
         })
         .map(|(_, a)| PathBuf::from(a))
         .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes"));
@@ -157,6 +159,22 @@ fn main() {
         rayon::current_num_threads(),
         options.tile_size
     );
+    // --each DIR: every scene file in DIR at 512², composited in order (with stored
+    // rectangles where needed) against stored lists everywhere: whether the in-order path
+    // pays off on content nobody tuned it for.
+    if let Some(each) = args
+        .iter()
+        .position(|a| a == "--each")
+        .and_then(|i| args.get(i + 1))
+    {
+        let size = args
+            .iter()
+            .position(|a| a == "--size")
+            .and_then(|i| args.get(i + 1))
+            .map_or(512, |s| s.parse().expect("--size N: pixels"));
+        each_scene(Path::new(each), &options, size);
+        return;
+    }
     let at = |s: &Scene, n: u32| {
         s.with_resolution(Resolution {
             width: n,
@@ -219,4 +237,54 @@ fn main() {
             row(&format!("particles tile {tile_size}"), &best_of(p, &o, 3));
         }
     }
+}
+
+/// `--each DIR`: in-order against stored-only time per scene, and the ratio over them all.
+fn each_scene(dir: &Path, options: &ReferenceOptions, size: u32) {
+    let mut paths: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .filter_map(|entry| entry.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "json"))
+        .collect();
+    paths.sort();
+    let stored = ReferenceOptions {
+        in_order: false,
+        ..options.clone()
+    };
+    let (mut in_order_total, mut stored_total) = (0.0, 0.0);
+    println!(
+        "scene                     in order ms  stored ms  ratio  stored px %  given up  fragments"
+    );
+    for path in &paths {
+        let scene = match load(path) {
+            Ok(s) => s.with_resolution(Resolution {
+                width: size,
+                height: size,
+            }),
+            Err(e) => {
+                println!("{}: cannot load ({e})", path.display());
+                continue;
+            }
+        };
+        let a = best_of(&scene, options, 3).stats;
+        let b = best_of(&scene, &stored, 3).stats;
+        in_order_total += a.seconds;
+        stored_total += b.seconds;
+        println!(
+            "{:<25} {:>11.2} {:>10.2} {:>6.2} {:>12.1} {:>9} {:>10}",
+            path.file_stem().unwrap_or_default().to_string_lossy(),
+            a.seconds * 1e3,
+            b.seconds * 1e3,
+            a.seconds / b.seconds,
+            100.0 * a.stored_pixels as f64 / (f64::from(size) * f64::from(size)),
+            a.given_up_tiles,
+            a.fragments,
+        );
+    }
+    println!(
+        "total: in order {:.1} ms, stored {:.1} ms, ratio {:.2}",
+        in_order_total * 1e3,
+        stored_total * 1e3,
+        in_order_total / stored_total
+    );
 }

@@ -274,6 +274,11 @@ pub struct ReferenceStats {
     /// order and the rest of their row's run).
     #[serde(default)]
     pub stored_pixels: u64,
+    /// Tiles that stopped compositing in order once most of their pixels had received a
+    /// fragment out of depth order, and were rendered with stored lists instead (cheaper than
+    /// finishing and then storing nearly every pixel; the output is the same).
+    #[serde(default)]
+    pub given_up_tiles: u64,
     pub tile_size: u32,
     pub tiles: u64,
     pub threads: usize,
@@ -637,6 +642,7 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
         in_order_tiles: stats.in_order_tiles,
         banded_tiles: stats.banded_tiles,
         stored_pixels: stats.stored_pixels,
+        given_up_tiles: stats.given_up_tiles,
         tile_size: tile,
         tiles: tile_count as u64,
         threads: rayon::current_num_threads(),

@@ -7,6 +7,7 @@ mod common;
 use std::path::Path;
 
 use common::*;
+use glam::Vec3;
 use oit_reference::{Reference, ReferenceOptions, render};
 use oit_scene::{Resolution, Scene};
 
@@ -207,4 +208,71 @@ fn layers_within_the_tie_distance_are_flagged_as_the_stored_path_does() {
             "reverse_z {reverse_z}: the closest pair ties, the farthest does not"
         );
     }
+}
+
+/// Tiles no triangle touches take a short cut (the background, no per-pixel state): it must
+/// give the general path's bits, including `0 + 1 · (−0) = +0` for a background channel of
+/// −0, and zero counts, beside tiles that composite.
+#[test]
+fn untouched_tiles_are_the_background_as_the_general_path_writes_it() {
+    let mut b = SceneBuilder::new(64, 64).background([-0.0, 0.25, 3.0]);
+    b.quad(
+        blend([0.9, 0.4, 0.1], 0.5),
+        rect(-0.2, -0.2, 0.2, 0.2, 0.0),
+        white(),
+    );
+    let scene = b.build();
+    let a = render(&scene, &options(true, 8));
+    let s = render(&scene, &options(false, 8));
+    assert_same(&a, &s, "a small quad in a large empty frame");
+    // The top-left pixel is background; −0 came out as +0, as the stored path writes it.
+    assert_eq!(
+        a.image.pixels[0].map(f32::to_bits),
+        [0.0f32, 0.25, 3.0, 1.0].map(f32::to_bits)
+    );
+    assert_eq!((a.layers[0], a.fragments[0]), (0, 0));
+    // The quad's pixels composited: the comparison covered both kinds of tile.
+    assert!(a.stats.covered_pixels > 0 && a.stats.covered_pixels < 64 * 64 / 4);
+    assert_eq!(a.stats.in_order_tiles, a.stats.tiles);
+}
+
+/// Sixteen full-screen planes tilted every which way through one another: nearly every pixel
+/// receives them out of the order they were binned in, so the in-order pass gives the tile
+/// up early and renders it with stored lists. Same output as the stored path alone.
+#[test]
+fn a_mostly_disordered_tile_gives_up_compositing_in_order() {
+    let mut b = SceneBuilder::new(32, 32);
+    let mut state = 0x2545_f491_u32;
+    let mut next = move || {
+        state ^= state << 13;
+        state ^= state >> 17;
+        state ^= state << 5;
+        state as f32 / u32::MAX as f32 * 2.0 - 1.0
+    };
+    for i in 0..16 {
+        let (gx, gy, z) = (next(), next(), next() * 0.5);
+        let corner = |x: f32, y: f32| Vec3::new(x, y, z + gx * x + gy * y);
+        b.quad(
+            blend([i as f32 / 16.0, 0.5, 1.0 - i as f32 / 16.0], 0.3),
+            [
+                corner(-1.5, -1.5),
+                corner(1.5, -1.5),
+                corner(1.5, 1.5),
+                corner(-1.5, 1.5),
+            ],
+            white(),
+        );
+    }
+    let scene = b.build();
+    let a = render(&scene, &options(true, 32));
+    let s = render(&scene, &options(false, 32));
+    assert_same(&a, &s, "sixteen tilted planes");
+    assert_eq!(a.stats.tiles, 1);
+    assert_eq!(a.stats.given_up_tiles, 1, "{:?}", a.stats);
+    assert_eq!(
+        (a.stats.in_order_tiles, a.stats.stored_pixels),
+        (0, 32 * 32)
+    );
+    // Every pixel has all sixteen layers: no plane left the view volume.
+    assert!(a.layers.iter().all(|&l| l == 16));
 }
