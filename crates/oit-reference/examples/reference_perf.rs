@@ -159,7 +159,7 @@ fn main() {
         rayon::current_num_threads(),
         options.tile_size
     );
-    // --each DIR: every scene file in DIR at 512², composited in order (with stored
+    // --each DIR: every scene file (.json, .gltf, .glb) in DIR at 512², composited in order (with stored
     // rectangles where needed) against stored lists everywhere: whether the in-order path
     // pays off on content nobody tuned it for.
     if let Some(each) = args
@@ -244,7 +244,10 @@ fn each_scene(dir: &Path, options: &ReferenceOptions, size: u32) {
     let mut paths: Vec<PathBuf> = std::fs::read_dir(dir)
         .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
         .filter_map(|entry| entry.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|x| x == "json"))
+        .filter(|p| {
+            p.extension()
+                .is_some_and(|x| x == "json" || x == "gltf" || x == "glb")
+        })
         .collect();
     paths.sort();
     let stored = ReferenceOptions {

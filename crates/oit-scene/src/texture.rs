@@ -31,6 +31,11 @@ impl Wrap {
     /// `i` brought into `0..size` (size > 0). Mirrors `wrap_texel` in shaders/common.wgsl.
     #[inline(always)]
     pub fn apply(self, i: i32, size: i32) -> i32 {
+        // Inside the texture every mode leaves `i` as it is; only the rest pays for the
+        // remainders (two integer divisions per texel, four texels per bilinear sample).
+        if (0..size).contains(&i) {
+            return i;
+        }
         match self {
             Wrap::Repeat => i.rem_euclid(size),
             Wrap::MirroredRepeat => {
@@ -209,6 +214,32 @@ mod tests {
         // Clamp: beyond the edge is the edge texel.
         let c = ramp(4, 4, Wrap::ClampToEdge);
         assert_eq!(c.sample([5.0, 0.125]), c.texels[3]);
+    }
+
+    /// The in-range short cut of [`Wrap::apply`] changes no index: against the remainders
+    /// written out, for every mode, small and odd sizes, and indices far outside.
+    #[test]
+    fn wrapping_equals_the_remainder_formulas_everywhere() {
+        for size in [1, 2, 3, 4, 7, 8, 255, 8192] {
+            for i in (-3 * size - 5..3 * size + 5).chain([i32::MIN / 2, i32::MAX / 2]) {
+                let mirrored = i.rem_euclid(2 * size);
+                let expected = [
+                    (Wrap::Repeat, i.rem_euclid(size)),
+                    (
+                        Wrap::MirroredRepeat,
+                        if mirrored >= size {
+                            2 * size - 1 - mirrored
+                        } else {
+                            mirrored
+                        },
+                    ),
+                    (Wrap::ClampToEdge, i.clamp(0, size - 1)),
+                ];
+                for (wrap, want) in expected {
+                    assert_eq!(wrap.apply(i, size), want, "{wrap:?} of {i} in {size}");
+                }
+            }
+        }
     }
 
     #[test]
