@@ -2430,6 +2430,8 @@ fn render_rect_in_order(
 /// [`render_rect_in_order`] of a tile no triangle touches: every pixel is the background,
 /// computed by the write pass's expression (`color + through · base` with nothing
 /// composited, so −0 becomes +0 as there), with no fragment, layer, undecided count or tie.
+/// Only the image is written: the frame's counts start zeroed, and such a tile is never
+/// attempted before (it cannot fail), so its count pages need not be touched at all.
 /// Sparse content (a model in the middle of the frame, the seeded conformance scenes) has
 /// many such tiles, and the per-pixel state of the general path cost them as much as
 /// covered ones.
@@ -2447,8 +2449,6 @@ fn write_background(
     for row in 0..tile.height as usize {
         let o = out.x_offset + row * out.stride;
         out.image[o..o + width].fill(colour);
-        out.layers[o..o + width].fill(0);
-        out.fragments[o..o + width].fill(0);
     }
     TileStats {
         in_order_tiles: 1,
