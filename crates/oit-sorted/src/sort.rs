@@ -37,6 +37,8 @@ const LOCAL: usize = 1 << 14;
 /// key range with 2^10 buckets won on uniform keys but lost 1.2–1.8× on narrow and clustered
 /// ones.)
 const SPLIT_BITS: u32 = 8;
+/// Most fine buckets a split counts (16 bits of key).
+const FINES: usize = 1 << 16;
 /// Up to this many pairs a comparison sort is faster than counting digits.
 const SMALL: usize = 1 << 6;
 /// Widest digit of the in-cache LSD sort (two 2^11-entry histograms, 16 KiB on the stack).
@@ -53,7 +55,7 @@ pub struct DepthSorter {
     pairs: Vec<u64>,
     /// Where a split scatters its buckets to; the pairs and the scratch swap roles each level.
     scratch: Vec<u64>,
-    /// The sorted indices.
+    /// The keys, until the sorted indices replace them.
     order: Vec<u32>,
 }
 
@@ -66,10 +68,11 @@ impl DepthSorter {
     /// of the centroid under `view` (a right-handed view matrix, camera looking down −z). Returns
     /// the triangle indices, farthest first. Stable: equal depths keep their input order.
     ///
-    /// Method ([`DepthSorter::sort_keys`] on [`back_to_front_key`]s): one parallel pass makes
-    /// `(key << 32) | index` pairs and finds the key range; runs larger than 16k pairs are
-    /// split by their leading key bits into up to 256 buckets (chunks scattered in parallel),
-    /// recursively, and the buckets, sized for L2, are radix-sorted in parallel where they lie.
+    /// Method ([`DepthSorter::sort_keys`] on [`back_to_front_key`]s): one parallel pass writes
+    /// the keys and finds their range; runs larger than 16k keys are split by their leading key
+    /// bits into up to 256 buckets of `(key << 32) | index` pairs (chunks scattered in
+    /// parallel), recursively, and the buckets, sized for L2, are radix-sorted in parallel
+    /// where they lie.
     /// Splitting on the key *range* keeps buckets even for any depth range, so a narrow one
     /// costs no more than a wide one; a far outlier costs one more split.
     pub fn sort_back_to_front(&mut self, view: &Mat4, centroids: &[Vec3]) -> &[u32] {
@@ -93,29 +96,47 @@ impl DepthSorter {
         self.pairs.resize(n, 0);
         self.scratch.resize(n, 0);
         self.order.resize(n, 0);
+        // The keys alone (4 bytes each, in `order` until the indices replace them): the first
+        // split reads them and writes the pairs, so the largest pass over all of memory moves
+        // half the bytes that pairs would.
         let chunk = chunk_len(n);
-        let (lo, hi) = self.pairs[..n]
+        let (mut lo, mut hi) = self
+            .order
             .par_chunks_mut(chunk)
             .zip(items.par_chunks(chunk))
-            .enumerate()
-            .map(|(c, (pairs, items))| {
+            .map(|(keys, items)| {
                 let mut range = (u32::MAX, 0);
-                for (i, (pair, item)) in pairs.iter_mut().zip(items).enumerate() {
+                for (slot, item) in keys.iter_mut().zip(items) {
                     let k = key(item);
-                    *pair = (u64::from(k) << 32) | (c * chunk + i) as u64;
+                    *slot = k;
                     range = (range.0.min(k), range.1.max(k));
                 }
                 range
             })
             .reduce(|| (u32::MAX, 0), |a, b| (a.0.min(b.0), a.1.max(b.1)));
-        if n > 0 {
-            sort_run(
-                &mut self.pairs[..n],
-                &mut self.scratch[..n],
-                &mut self.order,
-                lo,
-                hi,
-            );
+        if n == 0 {
+            return &self.order;
+        }
+        loop {
+            if n <= LOCAL || lo == hi {
+                for (i, (pair, &k)) in self.pairs.iter_mut().zip(&self.order).enumerate() {
+                    *pair = k.pair(i);
+                }
+                local_sort(&mut self.pairs, &mut self.scratch, &mut self.order, lo, hi);
+                break;
+            }
+            match split(&self.order, &mut self.scratch, lo, hi) {
+                Split::Narrow(first, last) => (lo, hi) = (first, last),
+                Split::Buckets(buckets) => {
+                    sort_buckets(
+                        &mut self.scratch,
+                        &mut self.pairs,
+                        &mut self.order,
+                        &buckets,
+                    );
+                    break;
+                }
+            }
         }
         &self.order
     }
@@ -136,27 +157,76 @@ fn key_of(pair: u64) -> u32 {
     (pair >> 32) as u32
 }
 
+/// What a split reads: a bare key (whose index is its position) or a `(key << 32) | index`
+/// pair.
+trait Sortable: Copy + Sync {
+    fn key(self) -> u32;
+    /// The pair of this item at `index` in its input.
+    fn pair(self, index: usize) -> u64;
+}
+
+impl Sortable for u32 {
+    fn key(self) -> u32 {
+        self
+    }
+    fn pair(self, index: usize) -> u64 {
+        (u64::from(self) << 32) | index as u64
+    }
+}
+
+impl Sortable for u64 {
+    fn key(self) -> u32 {
+        key_of(self)
+    }
+    fn pair(self, _index: usize) -> u64 {
+        self
+    }
+}
+
+/// The outcome of a split.
+enum Split {
+    /// Every key lies in this narrower range: nothing was written; split again.
+    Narrow(u32, u32),
+    /// The pairs were scattered into buckets, in key order.
+    Buckets(Buckets),
+}
+
+/// Consecutive buckets of a split: their sizes and key ranges.
+struct Buckets {
+    sizes: Vec<usize>,
+    ranges: Vec<(u32, u32)>,
+}
+
 /// Stable sort of the pairs in `src`, whose keys lie in `lo..=hi`; the indices go to `out`,
 /// and `tmp` (as long as `src`) is scratch. A run that fits in L2 is sorted in place; a larger
-/// one is split by its leading key bits into buckets (its chunks in parallel), which are
-/// sorted in turn.
+/// one is split into buckets, which are sorted in turn.
 fn sort_run(src: &mut [u64], tmp: &mut [u64], out: &mut [u32], lo: u32, hi: u32) {
-    let n = src.len();
-    if n <= LOCAL || lo == hi {
+    if src.len() <= LOCAL || lo == hi {
         return local_sort(src, tmp, out, lo, hi);
     }
+    match split(src, tmp, lo, hi) {
+        Split::Narrow(first, last) => sort_run(src, tmp, out, first, last),
+        Split::Buckets(buckets) => sort_buckets(tmp, src, out, &buckets),
+    }
+}
+
+/// Scatters `src` (keys in `lo..=hi`) as pairs into `dst` by the leading bits of their keys
+/// (chunks in parallel), in up to about 2^[`SPLIT_BITS`] buckets, stably.
+fn split<T: Sortable>(src: &[T], dst: &mut [u64], lo: u32, hi: u32) -> Split {
+    let n = src.len();
     // Fine buckets by the leading bits of `key - lo` (see `fine_range`).
     let fine_bits = (n.ilog2() - 2).clamp(8, 16);
     let shift = bit_len(hi - lo).saturating_sub(fine_bits);
-    let fine = move |pair: u64| ((key_of(pair) - lo) >> shift) as usize;
-    let fines = fine(u64::from(hi) << 32) + 1;
+    // At most 2^16 fine buckets; the mask (a no-op) lets indexing by it go unchecked.
+    let fine = move |key: u32| ((key - lo) >> shift) as usize & (FINES - 1);
+    let fines = fine(hi) + 1;
     let chunk = chunk_len(n);
-    let fine_counts: Vec<Vec<u32>> = src
+    let fine_counts: Vec<Box<[u32; FINES]>> = src
         .par_chunks(chunk)
-        .map(|pairs| {
-            let mut count = vec![0u32; fines];
-            for &p in pairs {
-                count[fine(p)] += 1;
+        .map(|items| {
+            let mut count = zeroed::<u32, FINES>();
+            for &item in items {
+                count[fine(item.key())] += 1;
             }
             count
         })
@@ -173,12 +243,12 @@ fn sort_run(src: &mut [u64], tmp: &mut [u64], out: &mut [u32], lo: u32, hi: u32)
     if let Some(f) = totals.iter().position(|&count| count == n) {
         // Every key is in one fine bucket: narrow the range instead of copying the run.
         let (first, last) = fine_range(lo, hi, shift, f, f + 1);
-        return sort_run(src, tmp, out, first, last);
+        return Split::Narrow(first, last);
     }
-    let mut bucket_of = vec![0u16; fines];
+    let mut bucket_of = zeroed::<u16, FINES>();
     let mut starts = vec![0usize];
     let mut filling = 0;
-    for (f, (slot, &count)) in bucket_of.iter_mut().zip(&totals).enumerate() {
+    for (f, (slot, &count)) in bucket_of[..fines].iter_mut().zip(&totals).enumerate() {
         if f > starts[starts.len() - 1] && filling + count > target {
             starts.push(f);
             filling = 0;
@@ -197,13 +267,13 @@ fn sort_run(src: &mut [u64], tmp: &mut [u64], out: &mut [u32], lo: u32, hi: u32)
                 .collect()
         })
         .collect();
-    let bucket = |pair: u64| usize::from(bucket_of[fine(pair)]);
+    let bucket = |key: u32| usize::from(bucket_of[fine(key)]);
     // Each chunk's share of each bucket, bucket by bucket and, within one, chunks in input
-    // order (which keeps the split stable), cut from `tmp` so that chunks write in parallel.
+    // order (which keeps the split stable), cut from `dst` so that chunks write in parallel.
     let mut shares: Vec<Vec<&mut [u64]>> =
         counts.iter().map(|_| Vec::with_capacity(buckets)).collect();
     let mut sizes = Vec::with_capacity(buckets);
-    let mut rest = &mut tmp[..];
+    let mut rest = &mut dst[..];
     for b in 0..buckets {
         let mut size = 0;
         for (count, chunk_shares) in counts.iter().zip(&mut shares) {
@@ -216,22 +286,33 @@ fn sort_run(src: &mut [u64], tmp: &mut [u64], out: &mut [u32], lo: u32, hi: u32)
     }
     src.par_chunks(chunk)
         .zip(shares.par_iter_mut())
-        .for_each(|(pairs, shares)| {
-            let mut filled = vec![0u32; buckets];
-            for &p in pairs {
-                let b = bucket(p);
-                shares[b][filled[b] as usize] = p;
-                filled[b] += 1;
+        .enumerate()
+        .for_each(|(c, (items, shares))| {
+            // Write heads: one iterator per bucket (one check per write, not two).
+            let mut heads: Vec<_> = shares.iter_mut().map(|share| share.iter_mut()).collect();
+            for (i, &item) in items.iter().enumerate() {
+                let head = heads[bucket(item.key())].next();
+                *head.expect("a bucket's share holds its count") = item.pair(c * chunk + i);
             }
         });
-    // The buckets, in parallel groups of about GROUP pairs; the roles of the buffers swap.
+    let ranges = starts
+        .windows(2)
+        .map(|w| fine_range(lo, hi, shift, w[0], w[1]))
+        .collect();
+    Split::Buckets(Buckets { sizes, ranges })
+}
+
+/// Sorts the buckets a split wrote to `pairs` (`scratch` as long), their indices to `out`,
+/// in parallel groups of about [`GROUP`] pairs.
+fn sort_buckets(pairs: &mut [u64], scratch: &mut [u64], out: &mut [u32], buckets: &Buckets) {
+    let Buckets { sizes, ranges } = buckets;
     let mut groups = Vec::new();
-    let (mut pairs, mut scratch, mut order) = (tmp, src, out);
+    let (mut pairs, mut scratch, mut order) = (pairs, scratch, out);
     let mut b = 0;
-    while b < buckets {
+    while b < sizes.len() {
         let first = b;
         let mut len = 0;
-        while b < buckets && (len == 0 || len + sizes[b] <= GROUP) {
+        while b < sizes.len() && (len == 0 || len + sizes[b] <= GROUP) {
             len += sizes[b];
             b += 1;
         }
@@ -253,7 +334,7 @@ fn sort_run(src: &mut [u64], tmp: &mut [u64], out: &mut [u32], lo: u32, hi: u32)
                     take_front(&mut order, size),
                 );
                 if size > 0 {
-                    let (first, last) = fine_range(lo, hi, shift, starts[b], starts[b + 1]);
+                    let (first, last) = ranges[b];
                     sort_run(p, s, o, first, last);
                 }
             }
@@ -266,6 +347,15 @@ fn fine_range(lo: u32, hi: u32, shift: u32, start: usize, end: usize) -> (u32, u
     let first = lo + ((start as u32) << shift);
     let last = (u64::from(lo) + ((end as u64) << shift) - 1).min(u64::from(hi));
     (first, last as u32)
+}
+
+/// A zeroed array on the heap (never on the stack, where a debug build would first make it).
+fn zeroed<T: Copy + Default, const N: usize>() -> Box<[T; N]> {
+    let all: Box<[T]> = vec![T::default(); N].into_boxed_slice();
+    match all.try_into() {
+        Ok(array) => array,
+        Err(_) => unreachable!("a vector of N elements"),
+    }
 }
 
 /// Splits the first `len` elements off `slice`.
@@ -304,28 +394,30 @@ fn local_sort(pairs: &mut [u64], scratch: &mut [u64], out: &mut [u32], lo: u32, 
     // At most MAX_DIGIT: `passes` digits of `width` bits cover `bits`.
     let width = bits.div_ceil(passes.max(1));
     let mask = (1u32 << width) - 1;
-    let digit =
-        move |pair: u64, pass: u32| (((key_of(pair) - lo) >> (pass * width)) & mask) as usize;
+    // The last mask is `mask` again, spelled so that indexing the histograms needs no check.
+    let digit = move |pair: u64, pass: u32| {
+        (((key_of(pair) - lo) >> (pass * width)) & mask) as usize & ((1 << MAX_DIGIT) - 1)
+    };
     let mut counts = [[0u32; 1 << MAX_DIGIT]; 2];
     let [next, following] = &mut counts;
-    let (mut next, mut following) = (&mut next[..1 << width], &mut following[..1 << width]);
+    let (mut next, mut following) = (next, following);
     // Whether `next` already holds this pass's counts (made while the last pass scattered).
     let mut counted = false;
     let (mut src, mut dst) = (pairs, scratch);
     for pass in 0..passes {
         if !counted {
-            next.fill(0);
+            next[..1 << width].fill(0);
             for &p in src.iter() {
                 next[digit(p, pass)] += 1;
             }
         }
         counted = false;
-        if next.contains(&(n as u32)) {
+        if next[..1 << width].contains(&(n as u32)) {
             // Every key has this digit: the pass would not move anything.
             continue;
         }
         let mut sum = 0;
-        for slot in next.iter_mut() {
+        for slot in &mut next[..1 << width] {
             let count = *slot;
             *slot = sum;
             sum += count;
@@ -338,7 +430,7 @@ fn local_sort(pairs: &mut [u64], scratch: &mut [u64], out: &mut [u32], lo: u32, 
             }
             return;
         }
-        following.fill(0);
+        following[..1 << width].fill(0);
         for &p in src.iter() {
             let slot = &mut next[digit(p, pass)];
             dst[*slot as usize] = p;
