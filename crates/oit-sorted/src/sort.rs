@@ -37,8 +37,6 @@ const LOCAL: usize = 1 << 14;
 /// key range with 2^10 buckets won on uniform keys but lost 1.2–1.8× on narrow and clustered
 /// ones.)
 const SPLIT_BITS: u32 = 8;
-/// Most fine buckets a split counts (16 bits of key).
-const FINES: usize = 1 << 16;
 /// Up to this many pairs a comparison sort is faster than counting digits.
 const SMALL: usize = 1 << 6;
 /// Widest digit of the in-cache LSD sort (two 2^11-entry histograms, 16 KiB on the stack).
@@ -213,11 +211,29 @@ fn sort_run(src: &mut [u64], tmp: &mut [u64], out: &mut [u32], lo: u32, hi: u32)
 /// Scatters `src` (keys in `lo..=hi`) as pairs into `dst` by the leading bits of their keys
 /// (chunks in parallel), in up to about 2^[`SPLIT_BITS`] buckets, stably.
 fn split<T: Sortable>(src: &[T], dst: &mut [u64], lo: u32, hi: u32) -> Split {
+    // Fine buckets by the leading bits of `key - lo` (see `fine_range`): a quarter as many as
+    // keys, from 2^8 to 2^16. Their tables have a fixed size (so indexing them needs no
+    // check), the smaller one for runs of fewer than 2^17 keys, which would spend more time
+    // clearing the larger one than it saves them.
+    let fine_bits = (src.len().ilog2() - 2).clamp(8, 16);
+    if fine_bits <= 14 {
+        split_fine::<T, { 1 << 14 }>(src, dst, lo, hi, fine_bits)
+    } else {
+        split_fine::<T, { 1 << 16 }>(src, dst, lo, hi, fine_bits)
+    }
+}
+
+/// [`split`] with `fine_bits` ≤ log2(`FINES`).
+fn split_fine<T: Sortable, const FINES: usize>(
+    src: &[T],
+    dst: &mut [u64],
+    lo: u32,
+    hi: u32,
+    fine_bits: u32,
+) -> Split {
     let n = src.len();
-    // Fine buckets by the leading bits of `key - lo` (see `fine_range`).
-    let fine_bits = (n.ilog2() - 2).clamp(8, 16);
     let shift = bit_len(hi - lo).saturating_sub(fine_bits);
-    // At most 2^16 fine buckets; the mask (a no-op) lets indexing by it go unchecked.
+    // At most `FINES` fine buckets; the mask (a no-op) lets indexing by them go unchecked.
     let fine = move |key: u32| ((key - lo) >> shift) as usize & (FINES - 1);
     let fines = fine(hi) + 1;
     let chunk = chunk_len(n);
