@@ -124,9 +124,9 @@ impl ReferenceOptions {
     /// **Not counted** (proportional to the input or the resolution, bounded by the loader's
     /// caps): the scene (36 bytes per vertex: 432 MB for 4 M triangles); the set-up triangles,
     /// 344 bytes per triangle reaching the screen (clipping can make up to 7 of one) and 20
-    /// for the binning order (id and bounding box), plus 8 per input triangle, and 48 more
-    /// while they are ordered: 1.5 GB, 1.7 GB during setup, for 4 M unclipped triangles; the
-    /// outputs, 29 bytes per pixel: 1.9 GB at 8192².
+    /// for the binning order (id and bounding box), plus 8 per input triangle, and a 16-byte
+    /// sort key while they are ordered: 1.5 GB, 1.55 GB during setup, for 4 M unclipped
+    /// triangles; the outputs, 29 bytes per pixel: 1.9 GB at 8192².
     ///
     /// Why 2 GiB: the deepest bundled tiles take under 4 MB at once (faint-haze; particles
     /// near 1 MB), so nothing realistic is sliced even with 64 threads sharing it; one pixel

@@ -521,8 +521,8 @@ mod tests {
     fn a_set_up_triangle_is_the_size_the_memory_docs_state() {
         assert_eq!(std::mem::size_of::<super::SetupTriangle>(), 344);
         // The binning order keeps an id and a bounding box per triangle, and ordering holds
-        // one `Keyed` per triangle beside them.
+        // one sort key per triangle beside them.
         assert_eq!(std::mem::size_of::<(u32, [u32; 4])>(), 20);
-        assert_eq!(crate::raster::KEYED_BYTES, 48);
+        assert_eq!(crate::raster::SORT_KEY_BYTES, 16);
     }
 }
