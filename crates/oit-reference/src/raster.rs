@@ -1919,6 +1919,12 @@ fn reset_shared_state(s: &mut Scratch, n: usize, far: u64) {
     s.opaque_color.resize(n, [0.0; 3]);
     s.all_count.clear();
     s.all_count.resize(n, 0);
+    reset_transparent_state(s, n);
+}
+
+/// The part of [`reset_shared_state`] a rectangle without opaque triangles uses: nothing
+/// undecided, no tie.
+fn reset_transparent_state(s: &mut Scratch, n: usize) {
     s.undecided.clear();
     s.undecided.resize(n, 0);
     s.tie.clear();
@@ -2317,22 +2323,32 @@ fn render_rect_in_order(
     if !s.ensure(want, limit) {
         return Err(InOrderStop::OverLimit);
     }
-    reset_shared_state(s, n, far);
+    // Without opaque triangles in the bin (layers, particles) no pixel can hold an opaque
+    // fragment or count one: the opaque state is left empty, neither cleared nor read.
+    let opaque_triangles = bin.iter().any(|&t| !ctx.triangles[t].transparent);
+    if opaque_triangles {
+        reset_shared_state(s, n, far);
+    } else {
+        // Emptied, so that reading it would fail loudly.
+        s.opaque_key.clear();
+        s.opaque_color.clear();
+        s.all_count.clear();
+        reset_transparent_state(s, n);
+    }
     s.in_order.clear();
     s.in_order.resize(n, InOrderPixel::EMPTY);
     s.in_order_transmittance.clear();
     if ctx.coloured {
         s.in_order_transmittance.resize(n, [1.0; 3]);
     }
-    let mut opaque_triangles = false;
-    for &t in bin {
-        let tri = &ctx.triangles[t];
-        if !tri.transparent {
-            opaque_triangles = true;
-            shade_opaque(ctx, tri, tile, s, far);
+    if opaque_triangles {
+        for &t in bin {
+            let tri = &ctx.triangles[t];
+            if !tri.transparent {
+                shade_opaque(ctx, tri, tile, s, far);
+            }
         }
     }
-    // Without opaque triangles in the bin no pixel can hold an opaque fragment.
     let any_opaque = opaque_triangles && s.opaque_key.iter().any(|&k| k != far);
     let finished = if ctx.coloured {
         // Coloured steps always check ([`over_step_coloured`]).
@@ -2391,7 +2407,11 @@ fn render_rect_in_order(
         };
         let row = row as usize;
         for xs in [0..lo, hi..tile_w] {
-            write_in_order(ctx, s, far, &mut out, row * tile_w, xs, row, &mut stats);
+            if opaque_triangles {
+                write_in_order::<true>(ctx, s, far, &mut out, row * tile_w, xs, row, &mut stats);
+            } else {
+                write_in_order::<false>(ctx, s, far, &mut out, row * tile_w, xs, row, &mut stats);
+            }
         }
     }
     let t_end = Instant::now();
@@ -2454,9 +2474,11 @@ fn write_background(
 }
 
 /// Writes the in-order results of the pixels `xs` of tile row `row` (tile pixel index
-/// `p0 + x`) and adds them to `stats`, as [`PixelResult::write`] does pixel by pixel.
+/// `p0 + x`) and adds them to `stats`, as [`PixelResult::write`] does pixel by pixel. Without
+/// `OPAQUE` triangles in the bin the opaque state was never set up: every pixel's base is
+/// the background and the transparent pass's counts are all its fragments.
 #[allow(clippy::too_many_arguments, reason = "one row range of one tile")]
-fn write_in_order(
+fn write_in_order<const OPAQUE: bool>(
     ctx: &TileContext<'_>,
     s: &Scratch,
     far: u64,
@@ -2475,9 +2497,15 @@ fn write_in_order(
     let o0 = out.x_offset + row * out.stride;
     let os = o0 + xs.start..o0 + xs.end;
     let pixels = &s.in_order[ps.clone()][..n];
-    let keys = &s.opaque_key[ps.clone()][..n];
-    let colours = &s.opaque_color[ps.clone()][..n];
-    let all_counts = &s.all_count[ps.clone()][..n];
+    let (keys, colours, all_counts) = if OPAQUE {
+        (
+            &s.opaque_key[ps.clone()][..n],
+            &s.opaque_color[ps.clone()][..n],
+            &s.all_count[ps.clone()][..n],
+        )
+    } else {
+        (&[][..], &[][..], &[][..])
+    };
     let undecided_counts = &s.undecided[ps.clone()][..n];
     let tie_flags = &s.tie[ps.clone()][..n];
     let coloured = if ctx.coloured {
@@ -2494,7 +2522,7 @@ fn write_in_order(
     let (mut undecided, mut undecided_pixels, mut ties) = (0u64, 0u64, 0u64);
     for j in 0..n {
         let pixel = &pixels[j];
-        let base = if keys[j] == far {
+        let base = if !OPAQUE || keys[j] == far {
             ctx.background
         } else {
             colours[j].map(f64::from)
@@ -2508,7 +2536,11 @@ fn write_in_order(
         image[j] = [rgb[0] as f32, rgb[1] as f32, rgb[2] as f32, 1.0];
         // The transparent pass counted its kept fragments apart from the opaque pass's.
         let pixel_kept = pixel.layers + pixel.hidden;
-        let count = all_counts[j] + pixel_kept;
+        let count = if OPAQUE {
+            all_counts[j] + pixel_kept
+        } else {
+            pixel_kept
+        };
         layers[j] = pixel.layers;
         counts[j] = count;
         fragments += u64::from(count);
