@@ -125,8 +125,9 @@ impl ReferenceOptions {
     /// caps): the scene (36 bytes per vertex: 432 MB for 4 M triangles); the set-up triangles,
     /// 344 bytes per triangle reaching the screen (clipping can make up to 7 of one) and 20
     /// for the binning order (id and bounding box), plus 8 per input triangle, and a 16-byte
-    /// sort key while they are ordered: 1.5 GB, 1.55 GB during setup, for 4 M unclipped
-    /// triangles; the outputs, 29 bytes per pixel: 1.9 GB at 8192².
+    /// sort key and a 16-byte copy of the bounding box while they are ordered: 1.5 GB, 1.6 GB
+    /// during setup, for 4 M unclipped triangles; the outputs, 29 bytes per pixel: 1.9 GB at
+    /// 8192².
     ///
     /// Why 2 GiB: the deepest bundled tiles take under 4 MB at once (faint-haze; particles
     /// near 1 MB), so nothing realistic is sliced even with 64 threads sharing it; one pixel
@@ -370,13 +371,13 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
     let (width, height) = (scene.resolution.width, scene.resolution.height);
     let tile = options.tile_size;
 
-    let (triangles, total) = set_up(scene)?;
+    let (set_up, total) = set_up(scene)?;
     // The order tiles read them in: front to back.
     let raster::Ordered {
         triangles,
         order: bin_order,
         plane_depths,
-    } = raster::in_bin_order(triangles, total as usize, scene.camera.reverse_z);
+    } = raster::in_bin_order(set_up);
     let setup_done = Instant::now();
 
     // Binning: counting pass, prefix sum, fill. Each bin lists triangle indices in
@@ -658,9 +659,10 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
 }
 
 /// Every triangle of `scene` set up (clipped, snapped, culled), in pieces of consecutive
-/// ranks, and the number of input triangles. Ranks follow (draw.id, triangle index): the
-/// tie-break order, independent of the draw list's order.
-pub(crate) fn set_up(scene: &Scene) -> Result<(setup::Triangles, u64), ReferenceError> {
+/// ranks, with what ordering needs of them ([`raster::SetUp`]), and the number of input
+/// triangles. Ranks follow (draw.id, triangle index): the tie-break order, independent of the
+/// draw list's order.
+pub(crate) fn set_up(scene: &Scene) -> Result<(raster::SetUp, u64), ReferenceError> {
     let mut by_id: Vec<usize> = (0..scene.draws.len()).collect();
     by_id.sort_by_key(|&i| scene.draws[i].id);
     let mut first_rank = Vec::with_capacity(by_id.len() + 1);
@@ -673,18 +675,21 @@ pub(crate) fn set_up(scene: &Scene) -> Result<(setup::Triangles, u64), Reference
     if total > u64::from(MAX_TRIANGLES) {
         return Err(ReferenceError::TooManyTriangles(total));
     }
-    const CHUNK: u64 = setup::CHUNK_RANKS as u64;
-    let chunks = total.div_ceil(CHUNK);
+    const CHUNK: usize = setup::CHUNK_RANKS;
+    let reverse_z = scene.camera.reverse_z;
     // Only for telling coplanar flat triangles from ones rounding merged (`plane_depth`).
     let view_proj64 = scene.camera.view_proj.as_dmat4();
-    let pieces = (0..chunks)
-        .into_par_iter()
-        .map(|c| {
-            let (lo, hi) = (c * CHUNK, ((c + 1) * CHUNK).min(total));
+    let mut plane_depths = vec![f64::NAN; total as usize];
+    let pieces: Vec<_> = plane_depths
+        .par_chunks_mut(CHUNK)
+        .enumerate()
+        .map(|(c, planes)| {
+            let lo = (c * CHUNK) as u64;
             // One piece per triangle unless clipping cuts it: sized once, never regrown.
-            let mut out = Vec::with_capacity((hi - lo) as usize);
+            let mut out = Vec::with_capacity(planes.len());
+            let mut keys = Vec::with_capacity(planes.len());
             let mut d = first_rank.partition_point(|&f| f <= lo) - 1;
-            for rank in lo..hi {
+            for (rank, plane_out) in (lo..).zip(planes.iter_mut()) {
                 while first_rank[d + 1] <= rank {
                     d += 1;
                 }
@@ -703,12 +708,39 @@ pub(crate) fn set_up(scene: &Scene) -> Result<(setup::Triangles, u64), Reference
                 let p = glam::Vec3::from(scene.vertices[v0].position).as_dvec3();
                 let plane = view_proj64 * p.extend(1.0);
                 let plane_depth = plane.z / plane.w;
+                let first = out.len();
                 setup::setup_triangle(scene, material, clip, rank as u32, plane_depth, &mut out);
+                for (j, piece) in out.iter().enumerate().skip(first) {
+                    keys.push(raster::bin_key(
+                        piece,
+                        setup::Triangles::id(c, j),
+                        reverse_z,
+                    ));
+                }
+                if let Some(last) = out[first..].last() {
+                    *plane_out = last.plane_depth;
+                }
             }
-            out
+            let bboxes = out.iter().map(|t| t.bbox).collect::<Vec<_>>();
+            (out, keys, bboxes)
         })
         .collect();
-    Ok((setup::Triangles::new(pieces), total))
+    // One list of keys for the sort; each chunk's are freed as they are copied.
+    let mut keys = Vec::with_capacity(pieces.iter().map(|(_, k, _)| k.len()).sum());
+    let mut chunks = Vec::with_capacity(pieces.len());
+    let mut bboxes = Vec::with_capacity(pieces.len());
+    for (chunk, chunk_keys, chunk_bboxes) in pieces {
+        keys.extend_from_slice(&chunk_keys);
+        chunks.push(chunk);
+        bboxes.push(chunk_bboxes);
+    }
+    let set_up = raster::SetUp {
+        triangles: setup::Triangles::new(chunks),
+        keys,
+        bboxes,
+        plane_depths,
+    };
+    Ok((set_up, total))
 }
 
 fn validate(scene: &Scene, options: &ReferenceOptions) -> Result<(), ReferenceError> {

@@ -490,8 +490,25 @@ fn transparent_key(dkey: u32, rank: u32) -> u64 {
     (u64::from(dkey) << 32) | u64::from(u32::MAX - rank)
 }
 
-/// The set-up triangles of [`in_bin_order`] and what binning reads of them, in compact lists:
-/// binning never walks the 344-byte triangles (only the tiles read them, each its own bin).
+/// What setup hands the ordering ([`in_bin_order`]): the set-up triangles and, written by the
+/// setup tasks while their pieces were still in cache, each piece's sort key and bounding box
+/// and each rank's plane depth. Ordering then never reads the 344-byte triangles (three passes
+/// over them, one of them serial and one in random order, cost `particles` about 1.5 ms of a
+/// 45 ms render at 1024²).
+#[derive(Debug)]
+pub(crate) struct SetUp {
+    pub triangles: Triangles,
+    /// Per piece, in id order ([`Triangles::id`]): [`bin_key`].
+    pub keys: Vec<u128>,
+    /// Per chunk of [`Triangles`], per piece: its `SetupTriangle::bbox`.
+    pub bboxes: Vec<Vec<[u32; 4]>>,
+    /// Per rank: the plane depth of its last piece ([`Ordered::plane_depths`]).
+    pub plane_depths: Vec<f64>,
+}
+
+/// The set-up triangles in the order they are binned and what binning reads of them, in
+/// compact lists: binning never walks the 344-byte triangles (only the tiles read them, each
+/// its own bin).
 #[derive(Debug)]
 pub(crate) struct Ordered {
     /// The pieces, where setup wrote them.
@@ -505,6 +522,24 @@ pub(crate) struct Ordered {
     pub plane_depths: Vec<f64>,
 }
 
+/// The key piece `id` is binned by ([`in_bin_order`]): opaque triangles first, in id (that is
+/// rank) order, then transparent ones by [`transparent_key`] of their nearest vertex, the id
+/// in the low 32 bits.
+#[inline]
+pub(crate) fn bin_key(t: &SetupTriangle, id: u32, reverse_z: bool) -> u128 {
+    let key = if t.transparent {
+        let nearest =
+            t.z.iter()
+                .map(|&z| depth_key(z.clamp(0.0, 1.0) + 0.0, reverse_z))
+                .min()
+                .unwrap_or(u32::MAX);
+        transparent_key(nearest, t.key)
+    } else {
+        0
+    };
+    (u128::from(t.transparent) << 96) | (u128::from(key) << 32) | u128::from(id)
+}
+
 /// The order the set-up triangles are binned in, which every tile then sees: opaque
 /// triangles in rank order, then transparent ones nearest first by their nearest vertex's key
 /// (at equal depth the higher rank first, as [`transparent_key`] orders fragments). A
@@ -512,50 +547,24 @@ pub(crate) struct Ordered {
 /// ranges do not overlap (layers, billboards) each pixel's list is appended in key order and
 /// its sort is one check. No result depends on the order: lists are sorted by their unique
 /// keys, and the opaque pass keeps the nearest key whatever the order. The triangles
-/// themselves stay where setup wrote them ([`Triangles`]). `ranks` is the number of scene
-/// triangles (pieces' `key`s are below it).
-pub(crate) fn in_bin_order(triangles: Triangles, ranks: usize, reverse_z: bool) -> Ordered {
-    let chunks = triangles.chunks();
-    let starts: Vec<usize> = chunks
-        .iter()
-        .scan(0, |end, p| {
-            *end += p.len();
-            Some(*end - p.len())
-        })
-        .collect();
-    // Sorted as bare 16-byte keys (transparent, depth and rank key, id), the bounding boxes
-    // gathered afterwards: moving 48-byte records through the sort cost more than the sort.
-    let mut keys: Vec<u128> = (0..triangles.len())
-        .into_par_iter()
-        .with_min_len(1024)
-        .map(|i| {
-            let c = starts.partition_point(|&s| s <= i) - 1;
-            let t = &chunks[c][i - starts[c]];
-            let key = if t.transparent {
-                let nearest =
-                    t.z.iter()
-                        .map(|&z| depth_key(z.clamp(0.0, 1.0) + 0.0, reverse_z))
-                        .min()
-                        .unwrap_or(u32::MAX);
-                transparent_key(nearest, t.key)
-            } else {
-                0
-            };
-            let id = Triangles::id(c, i - starts[c]);
-            (u128::from(t.transparent) << 96) | (u128::from(key) << 32) | u128::from(id)
-        })
-        .collect();
+/// themselves stay where setup wrote them ([`Triangles`]).
+pub(crate) fn in_bin_order(set_up: SetUp) -> Ordered {
+    let SetUp {
+        triangles,
+        mut keys,
+        bboxes,
+        plane_depths,
+    } = set_up;
+    // Bare 16-byte keys, the bounding boxes gathered afterwards: moving 48-byte records
+    // through the sort cost more than the sort.
     keys.par_sort_unstable();
-    let mut plane_depths = vec![f64::NAN; ranks];
-    for t in chunks.iter().flatten() {
-        plane_depths[t.key as usize] = t.plane_depth;
-    }
     let order = keys
         .into_par_iter()
         .with_min_len(1024)
         .map(|k| {
             let id = k as u32;
-            (id, triangles[id].bbox)
+            let (chunk, position) = Triangles::chunk_and_position(id);
+            (id, bboxes[chunk][position])
         })
         .collect();
     Ordered {
@@ -568,6 +577,10 @@ pub(crate) fn in_bin_order(triangles: Triangles, ranks: usize, reverse_z: bool) 
 /// Bytes per triangle [`in_bin_order`] sorts, for the memory docs' test.
 #[cfg(test)]
 pub(crate) const SORT_KEY_BYTES: usize = size_of::<u128>();
+
+/// Bytes per triangle of [`SetUp::bboxes`], for the memory docs' test.
+#[cfg(test)]
+pub(crate) const BOUNDING_BOX_BYTES: usize = size_of::<[u32; 4]>();
 
 /// Rectangle of a tile in pixels.
 #[derive(Debug, Clone, Copy)]
@@ -3018,7 +3031,7 @@ mod tests {
     /// Checks [`depth_key_bounds`] against the exact key of every covered pixel of every
     /// triangle it bounds; the number of triangles and fragments checked.
     fn check_depth_key_bounds(scene: &oit_scene::Scene, what: &str) -> (u64, u64) {
-        let (pieces, _) = crate::set_up(scene).expect("a valid scene");
+        let pieces = crate::set_up(scene).expect("a valid scene").0.triangles;
         let tile = TileRect {
             x0: 0,
             y0: 0,
@@ -3089,7 +3102,7 @@ mod tests {
                             "material": {{"mode": "blend"}}}}]}}"#
         );
         let scene = oit_scene::parse(&text, "stack").expect("a layer stack");
-        let (triangles, _) = crate::set_up(&scene).expect("a valid scene");
+        let triangles = crate::set_up(&scene).expect("a valid scene").0.triangles;
         let bin = triangles.ids().collect();
         (triangles, bin)
     }

@@ -64,6 +64,7 @@ impl Triangles {
     }
 
     /// The lists, in rank order: chunk `c`'s piece `j` has id [`Triangles::id`]`(c, j)`.
+    #[cfg(test)]
     pub(crate) fn chunks(&self) -> &[Vec<SetupTriangle>] {
         &self.chunks
     }
@@ -76,6 +77,15 @@ impl Triangles {
     /// The id of piece `position` of chunk `chunk`; ids increase in rank order.
     pub(crate) fn id(chunk: usize, position: usize) -> u32 {
         ((chunk as u32) << ID_SHIFT) | position as u32
+    }
+
+    /// The chunk and position an id names ([`Triangles::id`]'s inverse).
+    #[inline(always)]
+    pub(crate) fn chunk_and_position(id: u32) -> (usize, usize) {
+        (
+            (id >> ID_SHIFT) as usize,
+            (id & ((1 << ID_SHIFT) - 1)) as usize,
+        )
     }
 
     /// Every id, in rank order.
@@ -93,7 +103,8 @@ impl std::ops::Index<u32> for Triangles {
 
     #[inline(always)]
     fn index(&self, id: u32) -> &SetupTriangle {
-        &self.chunks[(id >> ID_SHIFT) as usize][(id & ((1 << ID_SHIFT) - 1)) as usize]
+        let (chunk, position) = Triangles::chunk_and_position(id);
+        &self.chunks[chunk][position]
     }
 }
 
@@ -521,8 +532,9 @@ mod tests {
     fn a_set_up_triangle_is_the_size_the_memory_docs_state() {
         assert_eq!(std::mem::size_of::<super::SetupTriangle>(), 344);
         // The binning order keeps an id and a bounding box per triangle, and ordering holds
-        // one sort key per triangle beside them.
+        // one sort key and a copy of the bounding box per triangle beside them.
         assert_eq!(std::mem::size_of::<(u32, [u32; 4])>(), 20);
         assert_eq!(crate::raster::SORT_KEY_BYTES, 16);
+        assert_eq!(crate::raster::BOUNDING_BOX_BYTES, 16);
     }
 }
