@@ -1263,7 +1263,8 @@ pub(crate) enum TileFailure {
 /// Renders one tile at once with its scratch storage bounded by `limit` bytes
 /// ([`Scratch::bytes`]): in arrival order where [`TileContext::in_order`] allows
 /// ([`render_rect_in_order`], the stored path for the pixels that need it), else with
-/// stored, sorted lists ([`render_rect`]).
+/// stored, sorted lists ([`render_rect`]). `bin` lists the tile's triangles in binning order
+/// ([`in_bin_order`]), its opaque ones first.
 ///
 /// When it does not fit, [`TileFailure::Defer`]: the tile is for [`render_tile_sliced`], and
 /// its outputs, which an in-order attempt may have partly written, are all written again
@@ -2336,9 +2337,20 @@ fn render_rect_in_order(
     if !s.ensure(want, limit) {
         return Err(InOrderStop::OverLimit);
     }
-    // Without opaque triangles in the bin (layers, particles) no pixel can hold an opaque
-    // fragment or count one: the opaque state is left empty, neither cleared nor read.
-    let opaque_triangles = bin.iter().any(|&t| !ctx.triangles[t].transparent);
+    // Bins list their opaque triangles first ([`in_bin_order`]), so the first transparent one
+    // ends them; on transparent content that is the first triangle, and no scan of the bin
+    // loads every triangle once more. Without opaque triangles (layers, particles) no pixel
+    // can hold an opaque fragment or count one: the opaque state is left empty, neither
+    // cleared nor read.
+    debug_assert!(
+        bin.is_sorted_by_key(|&t| ctx.triangles[t].transparent),
+        "a bin lists its opaque triangles first"
+    );
+    let opaque_count = bin
+        .iter()
+        .position(|&t| ctx.triangles[t].transparent)
+        .unwrap_or(bin.len());
+    let opaque_triangles = opaque_count > 0;
     if opaque_triangles {
         reset_shared_state(s, n, far);
     } else {
@@ -2354,19 +2366,14 @@ fn render_rect_in_order(
     if ctx.coloured {
         s.in_order_transmittance.resize(n, [1.0; 3]);
     }
-    if opaque_triangles {
-        for &t in bin {
-            let tri = &ctx.triangles[t];
-            if !tri.transparent {
-                shade_opaque(ctx, tri, tile, s, far);
-            }
-        }
+    for &t in &bin[..opaque_count] {
+        shade_opaque(ctx, &ctx.triangles[t], tile, s, far);
     }
     let any_opaque = opaque_triangles && s.opaque_key.iter().any(|&k| k != far);
     let finished = if ctx.coloured {
         // Coloured steps always check ([`over_step_coloured`]).
         transparent_in_order::<true, true>(ctx, bin, tile, s, far, any_opaque, give_up)
-    } else if may_underflow(ctx.triangles, bin) {
+    } else if may_underflow(ctx.triangles, &bin[opaque_count..]) {
         transparent_in_order::<false, true>(ctx, bin, tile, s, far, any_opaque, give_up)
     } else {
         transparent_in_order::<false, false>(ctx, bin, tile, s, far, any_opaque, give_up)
