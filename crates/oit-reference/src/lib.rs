@@ -116,8 +116,8 @@ impl ReferenceOptions {
     /// fragment of the longest pixel list (sort buffers), and for a tile rendered in slices 4
     /// bytes per pixel of counts and 29 per pixel of each slice's outputs. A pixel alone thus
     /// needs about 90 bytes plus 48 per covered transparent fragment, beside its tile's counts.
-    /// A tile composited in arrival order ([`ReferenceOptions::in_order`]) holds 85 bytes per
-    /// pixel of state (109 with coloured transmission) and 16 per row instead, and nothing
+    /// A tile composited in arrival order ([`ReferenceOptions::in_order`]) holds 77 bytes per
+    /// pixel of state (101 with coloured transmission) and 16 per row instead, and nothing
     /// per fragment but for the rectangles of pixels it hands to the stored path, one at a
     /// time.
     ///

@@ -67,7 +67,7 @@ pub fn billboards(count: usize, size: u32) -> Scene {
 /// Stated bound: 4 MiB per 32-pixel tile. Stored, a tile holds 37 bytes per pixel plus 24 per
 /// covered transparent fragment (and 12 per covered row of a triangle), so 4 MiB is a tile
 /// where every pixel has about 140 layers; composited in arrival order, as these flat
-/// billboards are, 85 bytes per pixel whatever the depth (87.5 kB a tile), at 1024² and 2048²
+/// billboards are, 77 bytes per pixel whatever the depth (79.4 kB a tile), at 1024² and 2048²
 /// alike, while the whole frame of fragments would take over 1 GiB.
 const PEAK_TILE_BOUND: u64 = 4 << 20;
 
@@ -120,7 +120,7 @@ fn particles_at_2048_stay_within_a_per_tile_bound() {
         if in_order {
             // Flat billboards arrive nearest first: per-pixel state only.
             assert_eq!(r.stats.in_order_tiles, r.stats.tiles);
-            assert!(r.stats.peak_tile_bytes <= 32 * 32 * 88);
+            assert!(r.stats.peak_tile_bytes <= 32 * 32 * 80);
         }
     }
 }
@@ -273,9 +273,9 @@ fn a_deep_pixel_whose_fragments_arrive_in_order_needs_no_storage() {
     for threads in [1, 2, 4] {
         let r = render_on(threads, &scene, SMALL_BUDGET).expect("composited in order");
         assert_same_output(&fits, &r, &format!("{threads} threads"));
-        // A 32×32 tile's per-pixel state (85 bytes a pixel in order), nothing per fragment.
+        // A 32×32 tile's per-pixel state (77 bytes a pixel in order), nothing per fragment.
         assert!(
-            r.stats.peak_tile_bytes <= 32 * 32 * 88,
+            r.stats.peak_tile_bytes <= 32 * 32 * 80,
             "{} bytes",
             r.stats.peak_tile_bytes
         );
@@ -313,7 +313,7 @@ fn a_tile_over_a_thread_share_is_composited_in_bands_on_every_thread() {
         whole.stats.banded_tiles, 0,
         "the default budget holds every tile"
     );
-    // A tile's in-order state (85 bytes a pixel: 87 KB) is over a thread's share of 128 KiB
+    // A tile's in-order state (77 bytes a pixel: 79 KB) is over a thread's share of 128 KiB
     // on two or four threads, so every tile is deferred; a band of 16 or 8 rows fits its
     // share of the whole budget.
     let budget = 128 << 10;
