@@ -380,7 +380,7 @@ impl TileStats {
 /// order [`oit_scene::Camera::nearer`] defines: `nearer(a, b)` ⇔ `depth_key(a) < depth_key(b)`.
 /// Written without branches so that a batch of pixels is keyed with SIMD integer operations.
 #[inline(always)]
-pub(crate) fn depth_key(depth: f32, reverse_z: bool) -> u32 {
+pub(crate) const fn depth_key(depth: f32, reverse_z: bool) -> u32 {
     let bits = depth.to_bits();
     // Order-preserving map from f32 to u32: negative values are flipped entirely (all ones
     // from the arithmetic shift), others get the sign bit set.
@@ -2024,26 +2024,30 @@ pub(crate) struct InOrderPixel {
     through: f64,
     /// Depth key of the last composited fragment, or an upper bound of it where that was
     /// enough to know it in order ([`ConstantSpan`]); 0 before the first (every depth key of
-    /// a depth in [0, 1] is far above the tie distance from it).
+    /// a depth in [0, 1] is far above the tie distance from it); [`DISORDERED`] for good once
+    /// a fragment did not follow the last one ([`InOrderPixel::follows`]): the stored path
+    /// decides this pixel. No fragment follows that value, so the pixel stays disordered, and
+    /// the state needs no flag of its own: 48 bytes instead of 56, so fewer pixels straddle
+    /// two cache lines and a tile's state is 49 kB instead of 57.
     last_depth: u32,
     /// The triangle whose fragment `last_depth` is only an upper bound of, or [`EXACT`].
     bound_of: u32,
     /// Fragments composited.
     layers: u32,
-    /// Low 31 bits: transparent fragments the cutoff kept that were not composited (hidden by
-    /// the opaque depth or the far plane): with `layers`, every fragment it kept. Counted
-    /// apart so that a composited fragment, nearly all of them, costs no second counter. Top
-    /// bit ([`DISORDERED`]): some fragment did not follow the last one
-    /// ([`InOrderPixel::follows`]), so the stored path decides this pixel. One word for both
-    /// keeps the state at 48 bytes instead of 56: fewer pixels straddle two cache lines, and
-    /// a tile's state is 49 kB instead of 57.
-    hidden_disordered: u32,
+    /// Transparent fragments the cutoff kept that were not composited (hidden by the opaque
+    /// depth or the far plane): with `layers`, every fragment it kept. Counted apart so that
+    /// a composited fragment, nearly all of them, costs no second counter.
+    hidden: u32,
 }
 
-/// [`InOrderPixel::hidden_disordered`]'s flag bit. A pixel takes at most one fragment of each
-/// triangle (a clipped triangle's pieces do not overlap), so its counts stay below it.
-const DISORDERED: u32 = 1 << 31;
-const _: () = assert!(crate::MAX_TRIANGLES < DISORDERED);
+/// [`InOrderPixel::last_depth`] of a disordered pixel: above every depth key of a depth in
+/// [0, 1] (at most `0xBF80_0000`, the key of 1.0, or `0x7FFF_FFFF` under reverse-Z), so no key
+/// follows it.
+const DISORDERED: u32 = u32::MAX;
+const _: () = assert!(
+    depth_key(1.0, false) < DISORDERED - PRECISION_TIE_ULPS
+        && depth_key(0.0, true) < DISORDERED - PRECISION_TIE_ULPS
+);
 
 impl InOrderPixel {
     /// Nothing composited yet.
@@ -2053,31 +2057,20 @@ impl InOrderPixel {
         last_depth: 0,
         bound_of: EXACT,
         layers: 0,
-        hidden_disordered: 0,
+        hidden: 0,
     };
-
-    /// Transparent fragments kept but not composited.
-    #[inline(always)]
-    fn hidden(&self) -> u32 {
-        self.hidden_disordered & !DISORDERED
-    }
-
-    /// Counts a kept fragment that is not composited.
-    #[inline(always)]
-    fn hide(&mut self) {
-        self.hidden_disordered += 1;
-    }
 
     /// Whether some fragment did not follow the last one.
     #[inline(always)]
     fn disordered(&self) -> bool {
-        self.hidden_disordered & DISORDERED != 0
+        self.last_depth == DISORDERED
     }
 
-    /// Marks the pixel disordered unless `dkey` follows the last key.
+    /// `dkey` becomes the last key if it follows the last one; otherwise the pixel is
+    /// [`DISORDERED`].
     #[inline(always)]
-    fn check_follows(&mut self, dkey: u32) {
-        self.hidden_disordered |= u32::from(!self.follows(dkey)) << 31;
+    fn step_to(&mut self, dkey: u32) {
+        self.last_depth = if self.follows(dkey) { dkey } else { DISORDERED };
     }
 
     /// Whether `dkey` may follow the last composited depth key: farther by more than the tie
@@ -2091,8 +2084,7 @@ impl InOrderPixel {
     /// Composites a visible fragment of a scalar scene ([`over_step`]).
     #[inline(always)]
     fn add<const MAY_UNDERFLOW: bool>(&mut self, dkey: u32, premultiplied: [f64; 3], keep: f64) {
-        self.check_follows(dkey);
-        self.last_depth = dkey;
+        self.step_to(dkey);
         self.bound_of = EXACT;
         self.composite::<MAY_UNDERFLOW>(premultiplied, keep);
     }
@@ -2114,8 +2106,7 @@ impl InOrderPixel {
         premultiplied: [f64; 3],
         t: [f64; 3],
     ) {
-        self.check_follows(dkey);
-        self.last_depth = dkey;
+        self.step_to(dkey);
         self.bound_of = EXACT;
         self.layers += 1;
         over_step_coloured(&mut self.color, through, premultiplied, t);
@@ -2163,7 +2154,7 @@ impl<const COLOURED: bool, const MAY_UNDERFLOW: bool> Fragments
                 pixel.add::<MAY_UNDERFLOW>(dkey, c, 1.0 - f64::from(alpha));
             }
         } else {
-            pixel.hide();
+            pixel.hidden += 1;
         }
     }
 }
@@ -2282,6 +2273,10 @@ impl ConstantSpan {
                     pixel.composite::<MAY_UNDERFLOW>(premultiplied, keep);
                     continue;
                 }
+                if pixel.disordered() {
+                    // Decided by the stored path: nothing here is read again.
+                    continue;
+                }
                 let x = first + i as u32;
                 let dkey = key_at(x);
                 debug_assert!((lo..=hi).contains(&dkey), "depth key out of bounds");
@@ -2303,7 +2298,7 @@ impl ConstantSpan {
                     if dkey < self.far {
                         pixel.add::<MAY_UNDERFLOW>(dkey, self.premultiplied, self.keep);
                     } else {
-                        pixel.hide();
+                        pixel.hidden += 1;
                     }
                 }
             }
@@ -2314,7 +2309,7 @@ impl ConstantSpan {
         }
         if dkey >= self.far {
             for pixel in pixels {
-                pixel.hide();
+                pixel.hidden += 1;
             }
             return;
         }
@@ -2584,7 +2579,7 @@ fn write_in_order<const OPAQUE: bool>(
         let rgb: [f64; 3] = std::array::from_fn(|k| pixel.color[k] + through[k] * base[k]);
         image[j] = [rgb[0] as f32, rgb[1] as f32, rgb[2] as f32, 1.0];
         // The transparent pass counted its kept fragments apart from the opaque pass's.
-        let pixel_kept = pixel.layers + pixel.hidden();
+        let pixel_kept = pixel.layers + pixel.hidden;
         let count = if OPAQUE {
             all_counts[j] + pixel_kept
         } else {
