@@ -123,9 +123,9 @@ impl ReferenceOptions {
     ///
     /// **Not counted** (proportional to the input or the resolution, bounded by the loader's
     /// caps): the scene (36 bytes per vertex: 432 MB for 4 M triangles); the set-up triangles,
-    /// 344 bytes per triangle reaching the screen (clipping can make up to 7 of one) and 20
+    /// 296 bytes per triangle reaching the screen (clipping can make up to 7 of one) and 20
     /// for the binning order (id and bounding box), plus 8 per input triangle, and a 16-byte
-    /// sort key and a 16-byte copy of the bounding box while they are ordered: 1.5 GB, 1.6 GB
+    /// sort key and a 16-byte copy of the bounding box while they are ordered: 1.3 GB, 1.4 GB
     /// during setup, for 4 M unclipped triangles; the outputs, 29 bytes per pixel: 1.9 GB at
     /// 8192².
     ///

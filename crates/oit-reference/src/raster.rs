@@ -492,7 +492,7 @@ fn transparent_key(dkey: u32, rank: u32) -> u64 {
 
 /// What setup hands the ordering ([`in_bin_order`]): the set-up triangles and, written by the
 /// setup tasks while their pieces were still in cache, each piece's sort key and bounding box
-/// and each rank's plane depth. Ordering then never reads the 344-byte triangles (three passes
+/// and each rank's plane depth. Ordering then never reads the set-up triangles (three passes
 /// over them, one of them serial and one in random order, cost `particles` about 1.5 ms of a
 /// 45 ms render at 1024²).
 #[derive(Debug)]
@@ -507,7 +507,7 @@ pub(crate) struct SetUp {
 }
 
 /// The set-up triangles in the order they are binned and what binning reads of them, in
-/// compact lists: binning never walks the 344-byte triangles (only the tiles read them, each
+/// compact lists: binning never walks the set-up triangles (only the tiles read them, each
 /// its own bin).
 #[derive(Debug)]
 pub(crate) struct Ordered {
@@ -622,11 +622,12 @@ fn for_each_span(tri: &SetupTriangle, tile: TileRect, mut f: impl FnMut(u32, u32
     let mut step_y = [0i64; 3];
     let mut bias = [0i64; 3];
     let mut inside_everywhere = true;
+    let (xs, ys) = (tri.x.map(i64::from), tri.y.map(i64::from));
     for i in 0..3 {
         let (a, b) = ((i + 1) % 3, (i + 2) % 3);
-        let dx = tri.x[b] - tri.x[a];
-        let dy = tri.y[b] - tri.y[a];
-        let edge = |px: i64, py: i64| dx * (py - tri.y[a]) - dy * (px - tri.x[a]);
+        let dx = xs[b] - xs[a];
+        let dy = ys[b] - ys[a];
+        let edge = |px: i64, py: i64| dx * (py - ys[a]) - dy * (px - xs[a]);
         let corners = [
             edge(px0, py0),
             edge(px1, py0),
@@ -880,13 +881,13 @@ fn shade_span(
     let y = tile.y0 + row;
     let base = (row * tile.width) as usize;
     if tri.inv_farea2 == 0.0 {
+        let (xs, ys) = (tri.x.map(i64::from), tri.y.map(i64::from));
         for x in first..end {
             let px = i64::from(tile.x0 + x) * ONE + HALF;
             let pys = i64::from(y) * ONE + HALF;
             let l: [[f64; 1]; 3] = std::array::from_fn(|i| {
                 let (a, b) = ((i + 1) % 3, (i + 2) % 3);
-                let e = (tri.x[b] - tri.x[a]) * (pys - tri.y[a])
-                    - (tri.y[b] - tri.y[a]) * (px - tri.x[a]);
+                let e = (xs[b] - xs[a]) * (pys - ys[a]) - (ys[b] - ys[a]) * (px - xs[a]);
                 [e as f64 * tri.inv_area2]
             });
             let (depth, rgba) = attributes(tri, &l);
@@ -991,6 +992,7 @@ impl RowWeights {
     #[inline(always)]
     fn new(tri: &SetupTriangle, tile: TileRect, row: u32) -> Self {
         let py = (tile.y0 + row) as f64 + 0.5;
+        let (fx, fy) = (tri.fx.map(f64::from), tri.fy.map(f64::from));
         let mut w = RowWeights {
             along_row: [0.0; 3],
             dy: [0.0; 3],
@@ -1000,9 +1002,9 @@ impl RowWeights {
         };
         for i in 0..3 {
             let (a, b) = ((i + 1) % 3, (i + 2) % 3);
-            w.along_row[i] = (tri.fx[b] - tri.fx[a]) * (py - tri.fy[a]);
-            w.dy[i] = tri.fy[b] - tri.fy[a];
-            w.xa[i] = tri.fx[a];
+            w.along_row[i] = (fx[b] - fx[a]) * (py - fy[a]);
+            w.dy[i] = fy[b] - fy[a];
+            w.xa[i] = fx[a];
         }
         w
     }
@@ -1033,7 +1035,7 @@ impl RowWeights {
 /// Both are taken with wide margins (1/256, 2^-48). The f32 rounding, the clamp and
 /// [`depth_key`] are monotone, so the keys of the widened depth range bound the fragments'.
 fn depth_key_bounds(tri: &SetupTriangle, reverse_z: bool) -> Option<(u32, u32)> {
-    let (x, y) = (tri.fx, tri.fy);
+    let (x, y) = (tri.fx.map(f64::from), tri.fy.map(f64::from));
     let z = tri.z.map(f64::from);
     let extent = |v: [f64; 3]| v[0].max(v[1]).max(v[2]) - v[0].min(v[1]).min(v[2]);
     let stretch = (extent(x) + 1.0) * (extent(y) + 1.0) * tri.inv_farea2.abs();

@@ -23,6 +23,11 @@ pub(crate) const HALF: i64 = ONE / 2;
 /// differences of such values, < 2^61) so that i64 arithmetic cannot overflow whatever the input.
 const COORD_LIMIT: i64 = 1 << 29;
 
+/// A snapped coordinate, clamped to ±[`COORD_LIMIT`] by [`to_window`], as stored.
+fn snapped_i32(v: i64) -> i32 {
+    i32::try_from(v).expect("snapped coordinates are clamped to ±2^29")
+}
+
 /// Input triangles (consecutive ranks) set up by one parallel task into one list of
 /// [`Triangles`].
 pub(crate) const CHUNK_RANKS: usize = 2048;
@@ -113,15 +118,17 @@ impl std::ops::Index<u32> for Triangles {
 /// interpolated.
 #[derive(Debug, Clone)]
 pub(crate) struct SetupTriangle {
-    /// Snapped window x, y in 1/256 pixel, y down.
-    pub x: [i64; 3],
-    pub y: [i64; 3],
+    /// Snapped window x, y in 1/256 pixel, y down; within ±[`COORD_LIMIT`], so i32 holds them
+    /// (the edge functions widen them to i64). Half the bytes of i64, as `fx` and `fy` in f32:
+    /// a set-up triangle is 296 bytes instead of 344, and fewer fresh pages and cache lines.
+    pub x: [i32; 3],
+    pub y: [i32; 3],
     /// 1 / (twice the signed area in sub-pixel units², > 0 after normalisation): barycentrics
     /// then cost a multiply per fragment.
     pub inv_area2: f64,
-    /// Unsnapped f32 window positions (as f64) that attributes are interpolated from.
-    pub fx: [f64; 3],
-    pub fy: [f64; 3],
+    /// Unsnapped f32 window positions that attributes are interpolated from (in f64).
+    pub fx: [f32; 3],
+    pub fy: [f32; 3],
     /// 1 / (twice the signed float area in pixels²), or 0 when that area is 0.
     pub inv_farea2: f64,
     /// Inclusive pixel bounding box (min x, min y, max x, max y), clamped to the viewport.
@@ -438,11 +445,11 @@ pub(crate) fn setup_triangle(
         }
         let flat_depth = a.z == b.z && b.z == c.z;
         out.push(SetupTriangle {
-            x: [a.x, b.x, c.x],
-            y: [a.y, b.y, c.y],
+            x: [a.x, b.x, c.x].map(snapped_i32),
+            y: [a.y, b.y, c.y].map(snapped_i32),
             inv_area2: 1.0 / area as f64,
-            fx: [a.xf as f64, b.xf as f64, c.xf as f64],
-            fy: [a.yf as f64, b.yf as f64, c.yf as f64],
+            fx: [a.xf, b.xf, c.xf],
+            fy: [a.yf, b.yf, c.yf],
             inv_farea2: {
                 let fa = (b.xf as f64 - a.xf as f64) * (c.yf as f64 - a.yf as f64)
                     - (b.yf as f64 - a.yf as f64) * (c.xf as f64 - a.xf as f64);
@@ -530,7 +537,7 @@ mod tests {
     /// README) is this size: a new field must update those figures.
     #[test]
     fn a_set_up_triangle_is_the_size_the_memory_docs_state() {
-        assert_eq!(std::mem::size_of::<super::SetupTriangle>(), 344);
+        assert_eq!(std::mem::size_of::<super::SetupTriangle>(), 296);
         // The binning order keeps an id and a bounding box per triangle, and ordering holds
         // one sort key and a copy of the bounding box per triangle beside them.
         assert_eq!(std::mem::size_of::<(u32, [u32; 4])>(), 20);
