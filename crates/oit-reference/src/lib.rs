@@ -133,7 +133,8 @@ impl ReferenceOptions {
     /// near 1 MB), so nothing realistic is sliced even with 64 threads sharing it; one pixel
     /// can hold 41 M fragments, ten times the loader's triangle cap, so no loadable scene
     /// fails for its depth alone; and the worst loadable scene (2 M full-screen layers, 4 M
-    /// triangles) peaks at 3.7 GB resident (crate README), within a 4 GB limit.
+    /// triangles) peaks at 1.9 GB resident (3.7 GB before its tile was composited in
+    /// arrival order; crate README), within a 4 GB limit.
     pub const DEFAULT_MEMORY_BUDGET: u64 = 2 << 30;
 }
 
