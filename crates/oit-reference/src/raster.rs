@@ -13,7 +13,7 @@ use oit_scene::{Material, Shaded, Texels, Texture};
 
 use crate::composite::{composite_coloured_iter, composite_iter, over_step, over_step_coloured};
 use crate::setup::{
-    HALF, ONE, SetupTriangle, Triangles, same_plane, undecided, undecided_textured,
+    HALF, ONE, PixelBox, SetupTriangle, Triangles, same_plane, undecided, undecided_textured,
 };
 
 /// One row's run of pixels covered by a transparent triangle, recorded by the coverage pass
@@ -501,7 +501,7 @@ pub(crate) struct SetUp {
     /// Per piece, in id order ([`Triangles::id`]): [`bin_key`].
     pub keys: Vec<u128>,
     /// Per chunk of [`Triangles`], per piece: its `SetupTriangle::bbox`.
-    pub bboxes: Vec<Vec<[u32; 4]>>,
+    pub bboxes: Vec<Vec<PixelBox>>,
     /// Per rank: the plane depth of its last piece ([`Ordered::plane_depths`]).
     pub plane_depths: Vec<f64>,
 }
@@ -516,7 +516,7 @@ pub(crate) struct Ordered {
     /// The order they are binned in: ids in `triangles`, each with its triangle's pixel
     /// bounding box (`SetupTriangle::bbox`), so that the binning passes read 20 sequential
     /// bytes per triangle instead of a cache line of a scattered struct.
-    pub order: Vec<(u32, [u32; 4])>,
+    pub order: Vec<(u32, PixelBox)>,
     /// Per rank: the plane depth of a flat triangle, NaN otherwise (fan pieces share both)
     /// ([`TileContext::planes`]).
     pub plane_depths: Vec<f64>,
@@ -578,10 +578,6 @@ pub(crate) fn in_bin_order(set_up: SetUp) -> Ordered {
 #[cfg(test)]
 pub(crate) const SORT_KEY_BYTES: usize = size_of::<u128>();
 
-/// Bytes per triangle of [`SetUp::bboxes`], for the memory docs' test.
-#[cfg(test)]
-pub(crate) const BOUNDING_BOX_BYTES: usize = size_of::<[u32; 4]>();
-
 /// Rectangle of a tile in pixels.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct TileRect {
@@ -622,7 +618,7 @@ fn for_each_span(tri: &SetupTriangle, tile: TileRect, mut f: impl FnMut(u32, u32
     let mut step_y = [0i64; 3];
     let mut bias = [0i64; 3];
     let mut inside_everywhere = true;
-    let (xs, ys) = (tri.x.map(i64::from), tri.y.map(i64::from));
+    let (xs, ys) = tri.snapped();
     for i in 0..3 {
         let (a, b) = ((i + 1) % 3, (i + 2) % 3);
         let dx = xs[b] - xs[a];
@@ -881,7 +877,7 @@ fn shade_span(
     let y = tile.y0 + row;
     let base = (row * tile.width) as usize;
     if tri.inv_farea2 == 0.0 {
-        let (xs, ys) = (tri.x.map(i64::from), tri.y.map(i64::from));
+        let (xs, ys) = tri.snapped();
         for x in first..end {
             let px = i64::from(tile.x0 + x) * ONE + HALF;
             let pys = i64::from(y) * ONE + HALF;
@@ -992,7 +988,7 @@ impl RowWeights {
     #[inline(always)]
     fn new(tri: &SetupTriangle, tile: TileRect, row: u32) -> Self {
         let py = (tile.y0 + row) as f64 + 0.5;
-        let (fx, fy) = (tri.fx.map(f64::from), tri.fy.map(f64::from));
+        let (fx, fy) = tri.window();
         let mut w = RowWeights {
             along_row: [0.0; 3],
             dy: [0.0; 3],
@@ -1035,7 +1031,7 @@ impl RowWeights {
 /// Both are taken with wide margins (1/256, 2^-48). The f32 rounding, the clamp and
 /// [`depth_key`] are monotone, so the keys of the widened depth range bound the fragments'.
 fn depth_key_bounds(tri: &SetupTriangle, reverse_z: bool) -> Option<(u32, u32)> {
-    let (x, y) = (tri.fx.map(f64::from), tri.fy.map(f64::from));
+    let (x, y) = tri.window();
     let z = tri.z.map(f64::from);
     let extent = |v: [f64; 3]| v[0].max(v[1]).max(v[2]) - v[0].min(v[1]).min(v[2]);
     let stretch = (extent(x) + 1.0) * (extent(y) + 1.0) * tri.inv_farea2.abs();

@@ -132,7 +132,7 @@ pub(crate) struct SetupTriangle {
     /// 1 / (twice the signed float area in pixels²), or 0 when that area is 0.
     pub inv_farea2: f64,
     /// Inclusive pixel bounding box (min x, min y, max x, max y), clamped to the viewport.
-    pub bbox: [u32; 4],
+    pub bbox: PixelBox,
     /// Window depth per vertex (z_clip · (1 / w_clip), f32 as the GPU computes it).
     pub z: [f32; 3],
     /// 1 / w_clip per vertex, for perspective-correct attributes.
@@ -528,6 +528,23 @@ pub(crate) fn same_plane(a: f64, b: f64) -> bool {
     (a - b).abs() <= 1e-12 * a.abs().max(b.abs())
 }
 
+/// An inclusive pixel bounding box: min x, min y, max x, max y.
+pub(crate) type PixelBox = [u32; 4];
+
+impl SetupTriangle {
+    /// The snapped window x and y, widened to the i64 the edge functions are computed in.
+    #[inline(always)]
+    pub(crate) fn snapped(&self) -> ([i64; 3], [i64; 3]) {
+        (self.x.map(i64::from), self.y.map(i64::from))
+    }
+
+    /// The unsnapped window x and y, widened to the f64 attributes are interpolated in.
+    #[inline(always)]
+    pub(crate) fn window(&self) -> ([f64; 3], [f64; 3]) {
+        (self.fx.map(f64::from), self.fy.map(f64::from))
+    }
+}
+
 /// Clip-space position and colour of one input vertex.
 pub(crate) type ClipInput = (Vec4, [f32; 4], [f32; 2]);
 
@@ -540,8 +557,8 @@ mod tests {
         assert_eq!(std::mem::size_of::<super::SetupTriangle>(), 296);
         // The binning order keeps an id and a bounding box per triangle, and ordering holds
         // one sort key and a copy of the bounding box per triangle beside them.
-        assert_eq!(std::mem::size_of::<(u32, [u32; 4])>(), 20);
+        assert_eq!(std::mem::size_of::<(u32, super::PixelBox)>(), 20);
         assert_eq!(crate::raster::SORT_KEY_BYTES, 16);
-        assert_eq!(crate::raster::BOUNDING_BOX_BYTES, 16);
+        assert_eq!(std::mem::size_of::<super::PixelBox>(), 16);
     }
 }
