@@ -31,6 +31,7 @@ pub struct AlphaToCoverage {
     config: A2cConfig,
     gpu: Option<Resources>,
     ledger: MemoryLedger,
+    order: gpu::DrawOrder,
 }
 
 #[derive(Debug)]
@@ -67,7 +68,16 @@ impl AlphaToCoverage {
             config,
             gpu: None,
             ledger: MemoryLedger::new(),
+            order: gpu::DrawOrder::default(),
         }
+    }
+
+    /// Issues the draws in plain reverse draw order instead of nearest first where no depth
+    /// tie can depend on it (see [`crate::dither_order`]): the same image, more fragments
+    /// shaded. To compare the two.
+    pub fn in_reverse_draw_order(mut self) -> Self {
+        self.order = gpu::DrawOrder::reverse_only();
+        self
     }
 
     /// Refuses a spec that does not describe an a2c configuration.
@@ -249,7 +259,7 @@ impl Technique for AlphaToCoverage {
                 ts.writes(),
             );
             scene.bind(&mut pass);
-            for i in gpu::reversed_transparent_draws(scene) {
+            for &i in self.order.of(scene) {
                 gpu::draw_with_id(&mut pass, scene, &r.a2c, i);
             }
         }

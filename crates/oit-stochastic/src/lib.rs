@@ -12,9 +12,11 @@
 //! - `a2c:samples=4|8`: MSAA with alpha-to-coverage; the driver's α → sample-mask table does
 //!   the dithering, the resolve averages the samples.
 //!
-//! Exact depth ties: transparent draws are issued in reverse draw order with a strictly-nearer
-//! depth test, so among coplanar survivors of different draws the later draw wins, as in the
-//! reference. Within one draw, the earlier triangle wins (the reference picks the later one).
+//! Exact depth ties: with a strictly-nearer depth test, draws that could tie are issued in
+//! reverse draw order, so among coplanar survivors of different draws the later draw wins, as
+//! in the reference. Within one draw, the earlier triangle wins (the reference picks the later
+//! one). Groups of draws whose depth ranges cannot touch go nearest first ([`dither_order`]),
+//! so the depth test rejects what is behind before it is shaded.
 //!
 //! Premultiplied materials survive with probability α and show `C/α`; a premultiplied
 //! fragment with α = 0 (purely additive light) never survives and is lost, a limit of every
@@ -28,6 +30,7 @@ mod stochastic;
 
 pub use a2c::AlphaToCoverage;
 pub use config::{A2cConfig, MAX_SPP, Pattern, Seed, StochasticConfig};
+pub use gpu::dither_order;
 pub use stochastic::{DITHER_WGSL, Stochastic, dither_words};
 
 use oit_gpu::TechniqueInfo;

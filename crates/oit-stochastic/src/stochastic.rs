@@ -36,6 +36,7 @@ pub struct Stochastic {
     ledger: MemoryLedger,
     /// Use the half-float running mean even where Rgba32Float is renderable.
     force_half_sums: bool,
+    order: gpu::DrawOrder,
 }
 
 /// Everything allocated for one (colour format, depth direction, resolution, coloured
@@ -76,6 +77,7 @@ impl Stochastic {
             gpu: None,
             ledger: MemoryLedger::new(),
             force_half_sums: false,
+            order: gpu::DrawOrder::default(),
         }
     }
 
@@ -89,6 +91,14 @@ impl Stochastic {
     pub fn with_half_float_sums(mut self) -> Self {
         self.force_half_sums = true;
         self.gpu = None;
+        self
+    }
+
+    /// Issues the dither draws in plain reverse draw order instead of nearest first where no
+    /// depth tie can depend on it (see [`crate::dither_order`]): the same image, more
+    /// fragments shaded. To compare the two.
+    pub fn in_reverse_draw_order(mut self) -> Self {
+        self.order = gpu::DrawOrder::reverse_only();
         self
     }
 
@@ -478,7 +488,7 @@ impl Technique for Stochastic {
         let config = self.config;
         self.prepare(ctx, scene, targets, &config)?;
         let r = self.gpu.as_ref().expect("resources prepared above");
-        let order = gpu::reversed_transparent_draws(scene);
+        let order = self.order.of(scene);
         let draw_pass = |encoder: &mut wgpu::CommandEncoder,
                          timer: &mut GpuTimer,
                          name: &str,
@@ -521,7 +531,7 @@ impl Technique for Stochastic {
             let dither = |pass: &mut wgpu::RenderPass<'_>, pipelines: &ScenePipelines| {
                 scene.bind(pass);
                 pass.set_bind_group(1, &r.dither_bind_group, &[offset]);
-                for &i in &order {
+                for &i in order {
                     gpu::draw_with_id(pass, scene, pipelines, i);
                 }
             };

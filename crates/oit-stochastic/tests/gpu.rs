@@ -7,7 +7,7 @@ use oit_gpu::{
     render_frame,
 };
 use oit_scene::{LinearImage, Resolution, Scene};
-use oit_stochastic::AlphaToCoverage;
+use oit_stochastic::{AlphaToCoverage, Stochastic};
 use std::path::Path;
 use std::time::Instant;
 
@@ -875,4 +875,128 @@ fn averaged_frames_converge_to_the_reference_without_bias() {
     }
     println!("{report}");
     assert!(failures.is_empty(), "{}\n{report}", failures.join("\n"));
+}
+
+/// A seeded stack of 16 blended quads on 5 depth levels (so that many overlap exactly
+/// coplanar, and ties decide pixels), offset, some tilted so that their depth ranges chain,
+/// in random draw order, with random colours and α, in either depth convention.
+fn quad_stack_json(seed: u64) -> String {
+    let mut state = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+    let mut next = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let objects: Vec<String> = (0..16)
+        .map(|_| {
+            let z = (next() * 5.0).floor() * 0.4 - 1.0;
+            let (x, y) = (next() - 0.5, next() - 0.5);
+            let tilt = if next() < 0.3 { 25.0 } else { 0.0 };
+            let (r, g, b, a) = (next(), next(), next(), 0.2 + 0.7 * next());
+            format!(
+                r#"{{"mesh": {{"kind": "quad", "size": [1.2, 1.2]}}, "transform": {{"translate": [{x:.3}, {y:.3}, {z:.3}], "rotate": [0, {tilt}, 0]}}, "material": {{"base_color": [{r:.3}, {g:.3}, {b:.3}], "alpha": {a:.3}, "mode": "blend"}}}}"#
+            )
+        })
+        .collect();
+    format!(
+        r#"{{"name": "stack-{seed}", "resolution": [64, 64], "reverse_z": {},
+            "camera": {{"eye": [0, 0, 4], "target": [0, 0, 0], "up": [0, 1, 0], "fov_y": 45, "near": 0.1, "far": 100}},
+            "objects": [{}]}}"#,
+        seed.is_multiple_of(2),
+        objects.join(",")
+    )
+}
+
+/// Groups of draws issued nearest first ([`oit_stochastic::dither_order`]) give the image of
+/// plain reverse draw order bit for bit: every bundled scene and 12 seeded quad stacks full of
+/// exact coplanar ties ([`quad_stack_json`]), with blue noise, Bayer over two frames, and a2c.
+/// The scenes whose order changes are counted (the layer stack must be among them), so the
+/// comparison cannot be empty.
+#[test]
+fn nearest_first_groups_give_the_reverse_draw_order_image_bit_for_bit() {
+    let Some(ctx) = context_or_skip("nearest_first_groups_give_the_reverse_draw_order_image")
+    else {
+        return;
+    };
+    let res = Resolution {
+        width: 64,
+        height: 64,
+    };
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+    let mut scenes: Vec<(String, Scene)> = oit_scene::load_dir(&dir)
+        .expect("bundled scenes")
+        .into_iter()
+        .map(|(path, scene)| (path.display().to_string(), scene.with_resolution(res)))
+        .collect();
+    for seed in 0..12 {
+        let text = quad_stack_json(seed);
+        let scene = oit_scene::parse(&text, &format!("stack-{seed}")).expect("quad stack");
+        scenes.push((format!("stack-{seed}"), scene.with_resolution(res)));
+    }
+    let registry = oit_stochastic::techniques();
+    let mut reordered = Vec::new();
+    let mut failures = Vec::new();
+    for (name, scene) in &scenes {
+        let mut reverse: Vec<usize> = (0..scene.draws.len())
+            .filter(|&i| {
+                let d = &scene.draws[i];
+                d.vertex_count > 0 && scene.material_of(d).mode.is_transparent()
+            })
+            .collect();
+        reverse.reverse();
+        if oit_stochastic::dither_order(scene) != reverse {
+            reordered.push(name.clone());
+        }
+        let mut bench = Bench::new(&ctx, scene);
+        for spec in [
+            "stochastic:pattern=blue",
+            "stochastic:pattern=bayer8,spp=2",
+            "a2c:samples=4",
+        ] {
+            let parsed = TechniqueSpec::parse(spec, &registry).expect("spec");
+            let (mut nearest, mut plain): (Box<dyn Technique>, Box<dyn Technique>) =
+                if spec.starts_with("a2c") {
+                    (
+                        Box::new(AlphaToCoverage::from_spec(&parsed).expect("a2c")),
+                        Box::new(
+                            AlphaToCoverage::from_spec(&parsed)
+                                .expect("a2c")
+                                .in_reverse_draw_order(),
+                        ),
+                    )
+                } else {
+                    (
+                        Box::new(Stochastic::from_spec(&parsed).expect("stochastic")),
+                        Box::new(
+                            Stochastic::from_spec(&parsed)
+                                .expect("stochastic")
+                                .in_reverse_draw_order(),
+                        ),
+                    )
+                };
+            let a = bench.render_with(nearest.as_mut());
+            let b = bench.render_with(plain.as_mut());
+            let differ = a
+                .pixels
+                .iter()
+                .zip(&b.pixels)
+                .filter(|(p, q)| p.map(f32::to_bits) != q.map(f32::to_bits))
+                .count();
+            if differ > 0 {
+                failures.push(format!("{spec} on {name}: {differ} pixels differ"));
+            }
+        }
+    }
+    println!(
+        "reordered: {} of {} scenes: {reordered:?}",
+        reordered.len(),
+        scenes.len()
+    );
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+    assert!(
+        reordered.iter().any(|n| n.contains("many-layers-64"))
+            && reordered.iter().filter(|n| n.starts_with("stack-")).count() >= 6,
+        "too few scenes reordered to compare anything: {reordered:?}"
+    );
 }
