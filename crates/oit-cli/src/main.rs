@@ -108,6 +108,11 @@ enum Command {
         /// technique, resolution, frames, warm-up, adapter) and run only the rest.
         #[arg(long)]
         resume: bool,
+        /// Time a run's frames again, up to this many times, when over 10 % of the machine's
+        /// CPU time went elsewhere while they ran (steal, other processes; Linux); the
+        /// quietest attempt is kept and results.json says how many were made.
+        #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=10))]
+        retime: u32,
         /// Refuse comparisons of more runs (scenes × techniques) than this.
         #[arg(long, default_value_t = 2000)]
         max_runs: u64,
@@ -299,6 +304,7 @@ fn run(command: Command) -> Result<()> {
             cache,
             no_cache,
             resume,
+            retime,
             max_runs,
             memory_budget,
             metric,
@@ -319,6 +325,7 @@ fn run(command: Command) -> Result<()> {
                 cache,
                 reference_memory_budget: mib(memory_budget),
                 resume,
+                retime,
                 context: gpu.options(),
             };
             compare(
@@ -627,6 +634,13 @@ fn compare(
             ""
         }
     );
+    if options.retime > 0 {
+        eprintln!(
+            "frames timed while over {:.0} % of the CPU went elsewhere are timed again, up to {} times",
+            100.0 * oit_harness::interference::NOTABLE,
+            options.retime
+        );
+    }
     let bar = progress_bar(runs, "compare");
     let results = oit_harness::compare(&ctx, &scenes, &specs, options, &|event| match event {
         oit_harness::Event::RunDone {

@@ -140,6 +140,26 @@ pub fn terminal_table(results: &Results) -> String {
 /// the worst share; or, when no window was long enough to judge alone, whether all of them
 /// together were. None when neither.
 pub fn timing_caveat(results: &Results, scene: &str, runs: &[&Run]) -> Option<String> {
+    let noise = noise_caveat(results, scene, runs);
+    let retimed = runs
+        .iter()
+        .filter(|r| r.gpu_ms.as_ref().is_some_and(|g| g.attempts > 1))
+        .count();
+    if retimed == 0 {
+        return noise;
+    }
+    let again = format!(
+        "{retimed} of {} runs timed again after a noisy window (`--retime`), the quietest attempt kept",
+        runs.len()
+    );
+    Some(match noise {
+        Some(noise) => format!("{noise}; {again}"),
+        None => again,
+    })
+}
+
+/// [`timing_caveat`] without the re-timed runs.
+fn noise_caveat(results: &Results, scene: &str, runs: &[&Run]) -> Option<String> {
     let floor = results
         .floors
         .iter()
@@ -567,6 +587,7 @@ mod tests {
                 other_processes: 0.02,
                 cpu_seconds: 4.0,
             }),
+            attempts: 1,
         };
         let mut quiet = run("s1", "t", 1.0, 0.0, 0.1);
         quiet.gpu_ms = Some(timed(2.0, 0.06));
@@ -608,6 +629,56 @@ mod tests {
         assert!(table.contains("timing: over all timed frames"), "{table}");
     }
 
+    /// Runs timed again (`--retime`) are counted in the scene's timing line, beside the noise
+    /// caveat when the kept attempt was still noisy, on their own when it was quiet.
+    #[test]
+    fn retimed_runs_are_counted_where_people_look() {
+        use crate::interference::Interference;
+        use crate::results::GpuMs;
+        let timed = |steal: f64, attempts: u32| GpuMs {
+            median: 1.0,
+            min: 1.0,
+            max: 1.0,
+            frames: 3,
+            source: "timestamp".into(),
+            interference: Some(Interference {
+                steal,
+                other_processes: 0.0,
+                cpu_seconds: 4.0,
+            }),
+            attempts,
+        };
+        let with = |steals: [(f64, u32); 2]| {
+            let runs = ["t", "u"]
+                .iter()
+                .zip(steals)
+                .map(|(t, (steal, attempts))| {
+                    let mut r = run("s", t, 1.0, 0.0, 0.1);
+                    r.gpu_ms = Some(timed(steal, attempts));
+                    r
+                })
+                .collect();
+            markdown(&results_of(runs, Vec::new()))
+        };
+        let quiet_after_retry = with([(0.02, 3), (0.01, 1)]);
+        assert!(
+            quiet_after_retry.contains(
+                "Timing: 1 of 2 runs timed again after a noisy window (`--retime`), the quietest \
+                 attempt kept"
+            ),
+            "{quiet_after_retry}"
+        );
+        let still_noisy = with([(0.3, 3), (0.01, 1)]);
+        assert!(
+            still_noisy.contains(
+                "carry that noise; 1 of 2 runs timed again after a noisy window (`--retime`)"
+            ),
+            "{still_noisy}"
+        );
+        let never = with([(0.02, 1), (0.01, 1)]);
+        assert!(!never.contains("Timing:"), "{never}");
+    }
+
     #[test]
     fn short_runs_are_judged_together() {
         use crate::interference::Interference;
@@ -624,6 +695,7 @@ mod tests {
                 other_processes: 0.0,
                 cpu_seconds: 0.1,
             }),
+            attempts: 1,
         };
         let runs = |steal: f64| -> Vec<Run> {
             ["t", "u", "v", "w"]

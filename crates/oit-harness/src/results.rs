@@ -137,6 +137,18 @@ pub struct GpuMs {
     /// the frames were timed (Linux only; absent elsewhere and in older files).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub interference: Option<crate::interference::Interference>,
+    /// Windows of frames timed, this one the quietest (`oit compare --retime`); 1 unless the
+    /// first was noisy.
+    #[serde(default = "one_attempt", skip_serializing_if = "is_one_attempt")]
+    pub attempts: u32,
+}
+
+fn one_attempt() -> u32 {
+    1
+}
+
+fn is_one_attempt(attempts: &u32) -> bool {
+    *attempts == 1
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -236,6 +248,13 @@ pub struct RunInputs {
     pub scene_hash: String,
     pub frames: u32,
     pub warmup: u32,
+    /// `--retime`: how many times a noisy window may be timed again (0 in older files).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub retime: u32,
+}
+
+fn is_zero(n: &u32) -> bool {
+    *n == 0
 }
 
 /// What in a scene's reference rounding decides, one short phrase each; empty when nothing.

@@ -42,6 +42,10 @@ pub struct CompareOptions {
     /// Reuse the runs of `out_dir/results.json` made from identical inputs (see
     /// [`crate::results::RunInputs`]) instead of running them again.
     pub resume: bool,
+    /// Times a run's frames again, up to this many times, while they were taken with more than
+    /// [`NOTABLE`](crate::interference::NOTABLE) of the machine's CPU time going elsewhere
+    /// (a judgeable window only); the quietest attempt is kept and says how many were made.
+    pub retime: u32,
     pub context: ContextOptions,
 }
 
@@ -55,6 +59,7 @@ impl Default for CompareOptions {
             cache: ReferenceCache::Default,
             reference_memory_budget: oit_reference::ReferenceOptions::DEFAULT_MEMORY_BUDGET,
             resume: false,
+            retime: 0,
             context: ContextOptions::default(),
         }
     }
@@ -185,6 +190,7 @@ pub fn compare(
             scene_hash: format!("{:016x}", scene.content_hash()),
             frames: options.frames,
             warmup: options.warmup,
+            retime: options.retime,
         };
         let first_run = results.runs.len();
         let mut all_resumed = true;
@@ -551,7 +557,8 @@ fn inexact(
 pub const APPROXIMATE_TRANSMISSION: &str = "approximate transmission";
 
 /// Warm-up then timed frames. Returns total GPU ms (median/min/max), per-pass medians, and the
-/// last frame's stats with `cpu_ms` replaced by its median over the timed frames.
+/// last frame's stats with `cpu_ms` replaced by its median over the timed frames. With
+/// `options.retime`, frames timed in a noisy window are timed again ([`quietest`]).
 fn time_frames(
     ctx: &Context,
     scene: &GpuScene,
@@ -563,7 +570,61 @@ fn time_frames(
     for _ in 0..options.warmup {
         render_frame(ctx, scene, technique, targets, &mut timer)?;
     }
-    let frames = options.frames;
+    let ((mut gpu, passes, stats), made) = until_quiet(
+        options.retime,
+        || time_window(ctx, scene, technique, targets, options.frames, &mut timer),
+        |attempt| attempt.0.interference,
+    )?;
+    gpu.attempts = made;
+    Ok((gpu, passes, stats))
+}
+
+/// Makes `attempt`s until one's window is not noisy or `retime` more were made after the
+/// first; returns the [`quietest`] and how many were made.
+fn until_quiet<T, E>(
+    retime: u32,
+    mut attempt: impl FnMut() -> Result<T, E>,
+    window: impl Fn(&T) -> Option<crate::interference::Interference>,
+) -> Result<(T, u32), E> {
+    let mut attempts = Vec::new();
+    loop {
+        let made = attempt()?;
+        let quiet = !window(&made).is_some_and(|i| i.notable());
+        attempts.push(made);
+        if quiet || attempts.len() > retime as usize {
+            break;
+        }
+    }
+    let made = attempts.len() as u32;
+    let best = quietest(attempts.iter().map(&window));
+    Ok((attempts.swap_remove(best), made))
+}
+
+/// Which attempt to keep: the first whose window was not noisy (or could not be judged),
+/// else the one that lost the least CPU time to others.
+fn quietest(windows: impl Iterator<Item = Option<crate::interference::Interference>>) -> usize {
+    let mut best: Option<(usize, f64)> = None;
+    for (i, window) in windows.enumerate() {
+        let lost = match window {
+            Some(w) if w.notable() => w.lost(),
+            _ => return i,
+        };
+        if best.is_none_or(|(_, least)| lost < least) {
+            best = Some((i, lost));
+        }
+    }
+    best.map_or(0, |(i, _)| i)
+}
+
+/// One window of `frames` timed frames: the [`time_frames`] results of one attempt.
+fn time_window(
+    ctx: &Context,
+    scene: &GpuScene,
+    technique: &mut dyn Technique,
+    targets: &Targets,
+    frames: u32,
+    timer: &mut GpuTimer,
+) -> Result<(GpuMs, Vec<PassMs>, oit_gpu::RenderStats), HarnessError> {
     let mut totals = Vec::with_capacity(frames as usize);
     let mut cpu = Vec::with_capacity(frames as usize);
     let mut per_pass: Vec<(String, Vec<f64>)> = Vec::new();
@@ -571,7 +632,7 @@ fn time_frames(
     let mut source = TimingSource::WallClock;
     let before = interference::sample();
     for _ in 0..frames {
-        let frame = render_frame(ctx, scene, technique, targets, &mut timer)?;
+        let frame = render_frame(ctx, scene, technique, targets, timer)?;
         source = frame.timings.source;
         // Wall-clock mode: total GPU busy time is unknowable, so the whole frame counts.
         totals.push(match source {
@@ -599,6 +660,7 @@ fn time_frames(
         interference: before.zip(after).and_then(|(a, b)| {
             interference::Interference::between(a, b, interference::TICKS_PER_SECOND)
         }),
+        attempts: 1,
     };
     let passes = per_pass
         .into_iter()
@@ -685,8 +747,101 @@ mod tests {
             frames: 1,
             source: "timestamp".into(),
             interference: None,
+            attempts: 1,
         });
         run
+    }
+
+    /// `--retime` keeps the first attempt whose window was quiet or too short to judge, and
+    /// otherwise the one that lost the least CPU time.
+    #[test]
+    fn the_quietest_attempt_is_kept() {
+        use crate::interference::Interference;
+        let window = |lost: f64, cpu_seconds: f64| {
+            Some(Interference {
+                steal: lost,
+                other_processes: 0.0,
+                cpu_seconds,
+            })
+        };
+        let noisy = |lost: f64| window(lost, 4.0);
+        assert_eq!(quietest([noisy(0.3), window(0.05, 4.0)].into_iter()), 1);
+        assert_eq!(
+            quietest([noisy(0.3), noisy(0.12), noisy(0.2)].into_iter()),
+            1
+        );
+        assert_eq!(quietest([noisy(0.2), noisy(0.4)].into_iter()), 0);
+        // Too short to judge, or not measured at all (no /proc/stat): as good as quiet.
+        assert_eq!(quietest([noisy(0.3), window(0.9, 0.1)].into_iter()), 1);
+        assert_eq!(quietest([noisy(0.3), None, noisy(0.01)].into_iter()), 1);
+        assert_eq!(quietest([None].into_iter()), 0);
+    }
+
+    /// A noisy window is timed again at most `retime` times, and timing stops at the first
+    /// quiet one.
+    #[test]
+    fn retiming_stops_at_a_quiet_window_or_the_limit() {
+        use crate::interference::Interference;
+        let lost = [0.3, 0.2, 0.01, 0.5];
+        let run = |retime: u32| {
+            let mut next = 0;
+            until_quiet::<usize, ()>(
+                retime,
+                || {
+                    next += 1;
+                    Ok(next - 1)
+                },
+                |&i| {
+                    Some(Interference {
+                        steal: lost[i],
+                        other_processes: 0.0,
+                        cpu_seconds: 4.0,
+                    })
+                },
+            )
+            .unwrap()
+        };
+        assert_eq!(
+            run(0),
+            (0, 1),
+            "no retiming: the first window, noisy or not"
+        );
+        assert_eq!(run(1), (1, 2), "the quieter of two noisy windows");
+        assert_eq!(run(2), (2, 3), "stops at the quiet third window");
+        assert_eq!(run(10), (2, 3), "and makes no more after it");
+        let failing = until_quiet::<u32, &str>(3, || Err("lost the device"), |_| None);
+        assert_eq!(failing, Err("lost the device"));
+    }
+
+    /// Files written before `--retime` read as one attempt and no retiming, and a run timed
+    /// once writes neither field, so such results.json files stay as they were.
+    #[test]
+    fn attempts_and_retime_default_for_older_files() {
+        let gpu: GpuMs = serde_json::from_str(
+            r#"{"median": 1.0, "min": 1.0, "max": 1.0, "frames": 3, "source": "timestamp"}"#,
+        )
+        .unwrap();
+        assert_eq!(gpu.attempts, 1);
+        let text = serde_json::to_string(&gpu).unwrap();
+        assert!(!text.contains("attempts"), "{text}");
+        let again = GpuMs { attempts: 3, ..gpu };
+        assert!(
+            serde_json::to_string(&again)
+                .unwrap()
+                .contains(r#""attempts":3"#)
+        );
+        let inputs: RunInputs =
+            serde_json::from_str(r#"{"scene_hash": "ab", "frames": 3, "warmup": 1}"#).unwrap();
+        assert_eq!(inputs.retime, 0);
+        assert!(!serde_json::to_string(&inputs).unwrap().contains("retime"));
+        let retimed = RunInputs {
+            retime: 2,
+            ..inputs.clone()
+        };
+        assert_ne!(
+            retimed, inputs,
+            "runs timed with retiming are not resumed for plain ones"
+        );
     }
 
     /// cost × unsorted and cost × floor are the run's time over the baseline's, never the

@@ -33,6 +33,7 @@ fn one_frame_at_32px(out: &Path, context: oit_gpu::ContextOptions) -> CompareOpt
         cache: oit_harness::ReferenceCache::Dir(out.join("cache")),
         reference_memory_budget: oit_reference::ReferenceOptions::DEFAULT_MEMORY_BUDGET,
         resume: false,
+        retime: 0,
         context,
     }
 }
@@ -71,6 +72,7 @@ fn compare_suite_writes_complete_results() {
         cache: oit_harness::ReferenceCache::Dir(cache.clone()),
         reference_memory_budget: oit_reference::ReferenceOptions::DEFAULT_MEMORY_BUDGET,
         resume: false,
+        retime: 0,
         context: Default::default(),
     };
     let runs_done = std::sync::atomic::AtomicUsize::new(0);

@@ -72,6 +72,7 @@ fn options(out: &Path, frames: u32) -> CompareOptions {
         cache: ReferenceCache::Off,
         reference_memory_budget: oit_reference::ReferenceOptions::DEFAULT_MEMORY_BUDGET,
         resume: false,
+        retime: 0,
         context: Default::default(),
     }
 }

@@ -289,6 +289,7 @@ fn compare_runs_every_technique_on_a_directory_with_a_glb() {
         cache: oit_harness::ReferenceCache::Dir(dir.join("cache")),
         reference_memory_budget: oit_reference::ReferenceOptions::DEFAULT_MEMORY_BUDGET,
         resume: false,
+        retime: 0,
         context: Default::default(),
     };
     let results = oit_harness::compare(&ctx, &scenes, &specs, &options, &|_| {}).unwrap();

@@ -57,6 +57,7 @@ fn ok_run(scene: &str, row: Row) -> Run {
         frames: 20,
         source: "timestamp".into(),
         interference: None,
+        attempts: 1,
     });
     run.cost_vs_unsorted = Some(cost);
     run.bytes_per_pixel = Some(bpp);
