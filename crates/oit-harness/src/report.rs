@@ -629,24 +629,31 @@ mod tests {
         assert!(table.contains("timing: over all timed frames"), "{table}");
     }
 
-    /// Runs timed again (`--retime`) are counted in the scene's timing line, beside the noise
-    /// caveat when the kept attempt was still noisy, on their own when it was quiet.
-    #[test]
-    fn retimed_runs_are_counted_where_people_look() {
-        use crate::interference::Interference;
-        use crate::results::GpuMs;
-        let timed = |steal: f64, attempts: u32| GpuMs {
+    /// One timed window of 1 ms frames that lost `steal` of the CPU over `cpu_seconds`.
+    fn timed_in_window(steal: f64, cpu_seconds: f64) -> crate::results::GpuMs {
+        crate::results::GpuMs {
             median: 1.0,
             min: 1.0,
             max: 1.0,
             frames: 3,
             source: "timestamp".into(),
-            interference: Some(Interference {
+            interference: Some(crate::interference::Interference {
                 steal,
                 other_processes: 0.0,
-                cpu_seconds: 4.0,
+                cpu_seconds,
             }),
+            attempts: 1,
+        }
+    }
+
+    /// Runs timed again (`--retime`) are counted in the scene's timing line, beside the noise
+    /// caveat when the kept attempt was still noisy, on their own when it was quiet.
+    #[test]
+    fn retimed_runs_are_counted_where_people_look() {
+        use crate::results::GpuMs;
+        let timed = |steal: f64, attempts: u32| GpuMs {
             attempts,
+            ..timed_in_window(steal, 4.0)
         };
         let with = |steals: [(f64, u32); 2]| {
             let runs = ["t", "u"]
@@ -681,22 +688,8 @@ mod tests {
 
     #[test]
     fn short_runs_are_judged_together() {
-        use crate::interference::Interference;
-        use crate::results::GpuMs;
         // Four runs of 0.1 CPU-seconds each: none can be judged alone.
-        let timed = |steal: f64| GpuMs {
-            median: 1.0,
-            min: 1.0,
-            max: 1.0,
-            frames: 3,
-            source: "timestamp".into(),
-            interference: Some(Interference {
-                steal,
-                other_processes: 0.0,
-                cpu_seconds: 0.1,
-            }),
-            attempts: 1,
-        };
+        let timed = |steal: f64| timed_in_window(steal, 0.1);
         let runs = |steal: f64| -> Vec<Run> {
             ["t", "u", "v", "w"]
                 .iter()
