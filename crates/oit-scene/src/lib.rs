@@ -23,7 +23,8 @@ pub use error::{Problem, SceneError};
 pub use format::{DEFAULT_RESOLUTION, MAX_TRIANGLES};
 pub use gltf::{GLTF_BACKGROUND, MAX_TEXELS};
 pub use load::{
-    LoadOptions, is_gltf_path, load, load_dir, load_dir_with, load_with, parse, parse_gltf,
+    LoadOptions, is_gltf_path, load, load_dir, load_dir_with, load_with, load_with_inputs, parse,
+    parse_gltf, scene_files,
 };
 pub use scene::*;
 pub use texture::{MAX_TEXTURE_DIMENSION, MAX_UV, Texture, Wrap, srgb_to_linear};

@@ -42,15 +42,24 @@ pub fn load(path: &Path) -> Result<Scene> {
 
 /// [`load`] with options.
 pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene> {
+    Ok(load_with_inputs(path, options)?.0)
+}
+
+/// [`load_with`], and every file the loader read, `path` first: the glTF assets a JSON scene
+/// names, and every buffer and image of a glTF asset. Commands that write files refuse
+/// outputs that would land on any of them (an input is never overwritten).
+pub fn load_with_inputs(path: &Path, options: &LoadOptions) -> Result<(Scene, Vec<PathBuf>)> {
     if is_gltf_path(path) {
-        return crate::gltf::load_file(path, options);
+        return crate::gltf::load_file_with_inputs(path, options);
     }
     let file = path.display().to_string();
     let json = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
         file: file.clone(),
         source,
     })?;
-    parse(&json, &file)
+    let (scene, mut inputs) = parse_with_inputs(&json, &file)?;
+    inputs.insert(0, path.to_path_buf());
+    Ok((scene, inputs))
 }
 
 /// Parses a scene from JSON text. `origin` is the file name used in error messages; files an
@@ -59,13 +68,23 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene> {
 ///
 /// A UTF-8 byte order mark at the start is skipped (editors on Windows write one).
 pub fn parse(json: &str, origin: &str) -> Result<Scene> {
+    Ok(parse_with_inputs(json, origin)?.0)
+}
+
+/// [`parse`], and the files it read (glTF assets that objects name, their buffers and images).
+fn parse_with_inputs(json: &str, origin: &str) -> Result<(Scene, Vec<PathBuf>)> {
     let json = json.strip_prefix('\u{feff}').unwrap_or(json);
-    let cx = Ctx { file: origin, json };
+    let cx = Ctx {
+        file: origin,
+        json,
+        inputs: std::cell::RefCell::new(Vec::new()),
+    };
     let mut de = serde_json::Deserializer::from_str(json);
     let raw: RawScene = serde_path_to_error::deserialize(Strict(&mut de))
         .map_err(|e| cx.serde_error(&json_path("", e.path()), e.inner()))?;
     de.end().map_err(|e| cx.serde_error("(root)", &e))?;
-    cx.build(raw)
+    let scene = cx.build(raw)?;
+    Ok((scene, cx.inputs.into_inner()))
 }
 
 /// Loads a glTF 2.0 asset (glTF JSON or GLB) from memory, as [`load`] loads a `.gltf` or
@@ -84,6 +103,18 @@ pub fn load_dir(dir: &Path) -> Result<Vec<(PathBuf, Scene)>> {
 
 /// [`load_dir`] with `options` applied to every glTF file in it.
 pub fn load_dir_with(dir: &Path, options: &LoadOptions) -> Result<Vec<(PathBuf, Scene)>> {
+    scene_files(dir)?
+        .into_iter()
+        .map(|p| {
+            let scene = load_with(&p, options)?;
+            Ok((p, scene))
+        })
+        .collect()
+}
+
+/// The scene files of `dir` that [`load_dir`] loads: every `*.json`, `*.gltf` and `*.glb`
+/// file (not recursive), sorted by file name.
+pub fn scene_files(dir: &Path) -> Result<Vec<PathBuf>> {
     let io = |source| SceneError::Io {
         file: dir.display().to_string(),
         source,
@@ -97,13 +128,7 @@ pub fn load_dir_with(dir: &Path, options: &LoadOptions) -> Result<Vec<(PathBuf, 
         }
     }
     files.sort_by(|a, b| a.file_name().cmp(&b.file_name()));
-    files
-        .into_iter()
-        .map(|p| {
-            let scene = load_with(&p, options)?;
-            Ok((p, scene))
-        })
-        .collect()
+    Ok(files)
 }
 
 /// Renders a serde_path_to_error path as `objects[3].material.alpha`, prefixed by `prefix`.
@@ -170,9 +195,21 @@ fn backticked(s: &str) -> Option<(&str, &str)> {
 struct Ctx<'a> {
     file: &'a str,
     json: &'a str,
+    /// Files read besides the scene file (glTF assets, their buffers and images).
+    inputs: std::cell::RefCell<Vec<PathBuf>>,
 }
 
 impl Ctx<'_> {
+    /// Records files read for the scene, each once.
+    fn note_inputs(&self, paths: impl IntoIterator<Item = PathBuf>) {
+        let mut inputs = self.inputs.borrow_mut();
+        for path in paths {
+            if !inputs.contains(&path) {
+                inputs.push(path);
+            }
+        }
+    }
+
     fn err(&self, path: impl Into<String>, problem: Problem) -> SceneError {
         SceneError::Invalid {
             file: self.file.to_string(),
@@ -888,7 +925,9 @@ impl Ctx<'_> {
             Some(d) if !d.as_os_str().is_empty() && d.is_dir() => d.to_path_buf(),
             _ => PathBuf::from("."),
         };
-        let asset = Asset::open(&base.join(&r.file))?;
+        let asset_path = base.join(&r.file);
+        self.note_inputs([asset_path.clone()]);
+        let asset = Asset::open(&asset_path)?;
         let nodes = asset.nodes(r.scene, |count| {
             let index = r.scene.unwrap_or(0);
             self.err(format!("{p}.scene"), Problem::NoSuchItem { index, count })
@@ -912,6 +951,7 @@ impl Ctx<'_> {
         scene: &mut Scene,
     ) -> Result<()> {
         let materials = g.asset.add_materials(scene)?;
+        self.note_inputs(g.asset.files_read());
         let derived_path = if obj.instances.is_some() {
             format!("{p}.instances")
         } else {

@@ -79,6 +79,8 @@ pub(super) fn decode(
                         &format!(".{ext} file without mimeType"),
                     ));
                 }
+                // Noted before decoding: a file that fails to decode was still an input.
+                cx.note_read(base.join(&path));
             }
         }
     }

@@ -43,12 +43,23 @@ pub const GLTF_BACKGROUND: [f32; 3] = [0.18, 0.18, 0.18];
 /// Vertical field of view of the framing camera (used when the asset has no camera).
 const FRAMING_FOV_Y: f32 = 45.0;
 
-/// Error context: the file named in messages.
+/// Error context: the file named in messages, and the files read for it.
 pub(crate) struct Cx {
     file: String,
+    /// Every file read for the asset other than itself (buffers, images), in reading order:
+    /// outputs must never land on them.
+    read: std::cell::RefCell<Vec<PathBuf>>,
 }
 
 impl Cx {
+    /// Records a file read for the asset.
+    fn note_read(&self, path: PathBuf) {
+        let mut read = self.read.borrow_mut();
+        if !read.contains(&path) {
+            read.push(path);
+        }
+    }
+
     fn err(&self, path: impl Into<String>, problem: Problem) -> SceneError {
         SceneError::Invalid {
             file: self.file.clone(),
@@ -157,6 +168,12 @@ impl Placement<'_> {
 }
 
 impl Asset {
+    /// The files read for the asset so far besides the asset itself: external buffers, and
+    /// the images of materials already added.
+    pub(crate) fn files_read(&self) -> Vec<PathBuf> {
+        self.cx.read.borrow().clone()
+    }
+
     /// Reads, splits (GLB), parses, validates and loads the buffers of the asset at `path`.
     /// Errors name the file as `path` displays.
     pub(crate) fn open(path: &Path) -> Result<Asset> {
@@ -168,6 +185,7 @@ impl Asset {
     fn from_bytes(path: &Path, bytes: &[u8]) -> Result<Asset> {
         let cx = Cx {
             file: path.display().to_string(),
+            read: std::cell::RefCell::new(Vec::new()),
         };
         let is_glb = path
             .extension()
@@ -1101,8 +1119,14 @@ fn framing_camera(centre: Vec3, radius: f32, aspect: f32) -> Camera {
 /// Loads a `.gltf` / `.glb` file as a scene of its own: unlit, at [`DEFAULT_RESOLUTION`],
 /// background [`GLTF_BACKGROUND`], reverse-Z, with the asset's first camera in node order (or
 /// `options.camera`), else [`framing_camera`].
-pub(crate) fn load_file(path: &Path, options: &LoadOptions) -> Result<Scene> {
-    load_bytes(path, &read(path)?, options)
+/// With every file it read: the asset first, then its buffers and images.
+pub(crate) fn load_file_with_inputs(
+    path: &Path,
+    options: &LoadOptions,
+) -> Result<(Scene, Vec<PathBuf>)> {
+    let (scene, mut inputs) = load_bytes_with_inputs(path, &read(path)?, options)?;
+    inputs.insert(0, path.to_path_buf());
+    Ok((scene, inputs))
 }
 
 /// The bytes of the file at `path`.
@@ -1113,9 +1137,18 @@ fn read(path: &Path) -> Result<Vec<u8>> {
     })
 }
 
-/// [`load_file`] on bytes already read (`path` names the asset and is the base of relative
+/// [`load_file_with_inputs`] on bytes already read (`path` names the asset and is the base of relative
 /// URIs, but is not read).
 pub(crate) fn load_bytes(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<Scene> {
+    Ok(load_bytes_with_inputs(path, bytes, options)?.0)
+}
+
+/// [`load_bytes`], and the files it read besides `path` (buffers, images).
+fn load_bytes_with_inputs(
+    path: &Path,
+    bytes: &[u8],
+    options: &LoadOptions,
+) -> Result<(Scene, Vec<PathBuf>)> {
     let asset = Asset::from_bytes(path, bytes)?;
     let nodes = asset.nodes(None, |count| {
         asset
@@ -1186,5 +1219,6 @@ pub(crate) fn load_bytes(path: &Path, bytes: &[u8], options: &LoadOptions) -> Re
         "glTF 2.0 asset {} ({scene_text}), viewed from {camera_text}, unlit",
         asset.name
     );
-    Ok(scene)
+    let inputs = asset.files_read();
+    Ok((scene, inputs))
 }

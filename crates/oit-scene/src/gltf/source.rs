@@ -411,7 +411,9 @@ pub(super) fn read_uri(cx: &Cx, base: &Path, uri: &str, pointer: &str) -> Result
     }
     let relative = relative_path(uri).map_err(fail)?;
     let path = base.join(relative);
-    std::fs::read(&path).map_err(|e| fail(format!("{} ({e})", path.display())))
+    let bytes = std::fs::read(&path).map_err(|e| fail(format!("{} ({e})", path.display())))?;
+    cx.note_read(path);
+    Ok(bytes)
 }
 
 /// A relative URI as a path: percent-decoded, no scheme, not absolute.
