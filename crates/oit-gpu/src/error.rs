@@ -52,7 +52,19 @@ pub enum GpuError {
     /// A hand-built scene breaks a rule the loader enforces (the message says which).
     #[error("invalid scene: {0}")]
     InvalidScene(String),
+    /// The run's time budget ([`crate::GpuTimer::set_budget`]) ran out before a submission.
+    #[error("stopped after {}, the time budget of one run (oit compare --run-budget)", seconds_text(*seconds))]
+    OverBudget { seconds: f64 },
     /// Caller passed inconsistent arguments (e.g. targets of another size than the scene).
     #[error("{0}")]
     Mismatch(String),
+}
+
+/// Whole seconds from 10 s on, milliseconds below.
+fn seconds_text(seconds: f64) -> String {
+    if seconds >= 10.0 {
+        format!("{seconds:.0} s")
+    } else {
+        format!("{:.0} ms", seconds * 1e3)
+    }
 }

@@ -48,6 +48,14 @@ pub trait Technique: std::fmt::Debug {
     /// What the technique does with coloured transmittance ([`Scene::has_transmission`]) on
     /// an adapter with `caps` (e.g. dual-source blending).
     fn transmission(&self, caps: &Caps) -> TransmissionSupport;
+    /// Geometry passes one frame will make on a scene whose deepest pixel has
+    /// `depth_complexity` transparent layers, for techniques whose pass count grows with it
+    /// (depth peeling); `None` for the rest. The harness prices it before a run starts, so a
+    /// run that could never finish within its budget is not started.
+    fn planned_passes(&self, depth_complexity: u32) -> Option<u32> {
+        let _ = depth_complexity;
+        None
+    }
 }
 
 /// How a technique treats fragments whose transmittance is coloured (`t` per channel rather

@@ -138,6 +138,10 @@ pub struct GpuTimer {
     pending: Vec<String>,
     wall: Vec<PassTiming>,
     frame_start: Option<Instant>,
+    /// Past this moment every submission fails with [`GpuError::OverBudget`]: a run's time
+    /// budget, enforced between submissions (a runaway technique, such as thousands of peel
+    /// passes, stops at its next submission instead of running until killed).
+    deadline: Option<(Instant, f64)>,
 }
 
 impl GpuTimer {
@@ -158,6 +162,20 @@ impl GpuTimer {
             pending: Vec::new(),
             wall: Vec::new(),
             frame_start: None,
+            deadline: None,
+        }
+    }
+
+    /// Makes submissions fail with [`GpuError::OverBudget`] once `budget` has passed from now
+    /// (`None` lifts the limit).
+    pub fn set_budget(&mut self, budget: Option<std::time::Duration>) {
+        self.deadline = budget.map(|b| (Instant::now() + b, b.as_secs_f64()));
+    }
+
+    fn check_budget(&self) -> Result<(), GpuError> {
+        match self.deadline {
+            Some((at, seconds)) if Instant::now() >= at => Err(GpuError::OverBudget { seconds }),
+            _ => Ok(()),
         }
     }
 
@@ -215,6 +233,7 @@ impl GpuTimer {
 
     /// Submits a technique's work. In wall-clock mode this waits for completion.
     pub fn submit(&mut self, ctx: &Context, encoder: wgpu::CommandEncoder) -> Result<(), GpuError> {
+        self.check_budget()?;
         if self.queries.is_some() {
             ctx.queue.submit([encoder.finish()]);
             return Ok(());

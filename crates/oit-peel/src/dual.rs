@@ -858,6 +858,16 @@ impl Technique for DualPeel {
             + self.tail.as_ref().map_or(0, |t| t.accum.memory_bytes())
     }
 
+    /// Each pass peels the nearest and the farthest layer: half the depth complexity, and one
+    /// more that finds nothing left (a fixed budget stops there, plus its tail pass).
+    fn planned_passes(&self, depth_complexity: u32) -> Option<u32> {
+        let all = depth_complexity.div_ceil(2).saturating_add(1);
+        Some(match self.config.passes {
+            PassCount::Fixed(n) => n.min(all).saturating_add(u32::from(n < all)),
+            PassCount::Auto => all,
+        })
+    }
+
     fn transmission(&self, caps: &Caps) -> TransmissionSupport {
         if let Some(reason) = per_channel_unsupported(caps) {
             return TransmissionSupport::Approximate(reason);

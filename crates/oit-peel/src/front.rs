@@ -783,6 +783,16 @@ impl Technique for FrontPeel {
             + self.list_ledger.total()
     }
 
+    /// One pass per layer, and one more that finds nothing left (or, with a fixed budget
+    /// below the depth complexity, the detection pass that counts what was dropped).
+    fn planned_passes(&self, depth_complexity: u32) -> Option<u32> {
+        let all = depth_complexity.saturating_add(1);
+        Some(match self.config.layers {
+            PassCount::Fixed(n) => n.min(all).saturating_add(u32::from(n < all)),
+            PassCount::Auto => all,
+        })
+    }
+
     fn transmission(&self, caps: &Caps) -> TransmissionSupport {
         // Per channel: one under accumulator per colour channel (`Under::PerChannel`).
         match per_channel_unsupported(caps) {
