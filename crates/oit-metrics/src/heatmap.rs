@@ -133,6 +133,55 @@ pub fn heatmap_legend(width: u32, height: u32) -> Srgb8Image {
     }
 }
 
+/// Layer counts at or above this get the lightest colour of [`count_map`].
+pub const COUNT_MAX: u32 = 255;
+
+/// Position on the colour map of a layer count: `log2(1 + n) / 8`, so 0 is the darkest colour,
+/// 1, 3, 7, 15, 31, 63, 127 and 255 (or more) step up by an eighth each.
+fn count_to_t(count: u32) -> f64 {
+    (f64::from(count.min(COUNT_MAX)) + 1.0).log2() / (f64::from(COUNT_MAX) + 1.0).log2()
+}
+
+/// The colour of a per-pixel layer count (the reference's `layers`), on the same perceptual
+/// map as the error heat maps.
+pub fn count_color(count: u32) -> [u8; 3] {
+    let index = (count_to_t(count) * (TABLE_SIZE - 1) as f64).round() as usize;
+    table()[index.min(TABLE_SIZE - 1)]
+}
+
+/// A picture of per-pixel counts (row-major, `width` a row), e.g. the transparent layers the
+/// reference composited at each pixel; [`count_legend`] is its key.
+pub fn count_map(counts: &[u32], width: u32) -> Srgb8Image {
+    let width = width.max(1);
+    Srgb8Image {
+        width,
+        height: (counts.len() / width as usize) as u32,
+        pixels: counts.iter().map(|&n| count_color(n)).collect(),
+    }
+}
+
+/// A horizontal legend bar for [`count_map`]: column `x` shows the colour of the count
+/// `2^(8·x/(width−1)) − 1`, 0 at the left edge, 255 at the right.
+pub fn count_legend(width: u32, height: u32) -> Srgb8Image {
+    let row: Vec<[u8; 3]> = (0..width)
+        .map(|x| {
+            let t = if width > 1 {
+                f64::from(x) / f64::from(width - 1)
+            } else {
+                0.0
+            };
+            let index = (t * (TABLE_SIZE - 1) as f64).round() as usize;
+            table()[index.min(TABLE_SIZE - 1)]
+        })
+        .collect();
+    let pixels = (0..height).flat_map(|_| row.iter().copied()).collect();
+    Srgb8Image {
+        width,
+        height,
+        pixels,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -250,5 +299,25 @@ mod tests {
         assert_eq!(legend.get(0, 0), error_color(1e-4));
         assert_eq!(legend.get(128, 2), error_color(1e-2));
         assert_eq!(legend.get(256, 1), error_color(1.0));
+    }
+
+    /// More layers is lighter, every count from 0 to [`COUNT_MAX`], and counts above it are
+    /// the lightest colour; the legend's ends are the ends of the map.
+    #[test]
+    fn count_colours_rise_with_the_count() {
+        for n in 0..COUNT_MAX {
+            assert!(
+                luminance(count_color(n + 1)) >= luminance(count_color(n)),
+                "{n} layers"
+            );
+        }
+        assert!(luminance(count_color(8)) > luminance(count_color(1)));
+        assert_eq!(count_color(10_000), count_color(COUNT_MAX));
+        let legend = count_legend(64, 2);
+        assert_eq!(legend.get(0, 1), count_color(0));
+        assert_eq!(legend.get(63, 0), count_color(COUNT_MAX));
+        let map = count_map(&[0, 1, 2, 64, 300, 0], 3);
+        assert_eq!((map.width, map.height), (3, 2));
+        assert_eq!(map.get(1, 1), count_color(COUNT_MAX));
     }
 }

@@ -158,7 +158,9 @@ pub use flip::{
     DEFAULT_PPD, Exposures, HdrFlip, aces, flip_hdr, flip_ldr, hdr_exposures, luminance,
     mean as flip_map_mean, pixels_per_degree,
 };
-pub use heatmap::{error_color, heatmap, heatmap_legend};
+pub use heatmap::{
+    COUNT_MAX, count_color, count_legend, count_map, error_color, heatmap, heatmap_legend,
+};
 pub use io::{
     ChannelImage, ExrChannel, ExrLayer, read_exr_channel, read_exr_rgba, remove_stale_temporaries,
     write_atomic, write_atomic_bytes, write_exr, write_png_preview, write_png_srgb8,
