@@ -1,6 +1,7 @@
 //! `oit`: compare order-independent transparency techniques against an exact CPU reference.
 //!
-//! Exit codes: 0 on success; 1 with one line on stderr otherwise; 2 for usage errors (clap).
+//! Exit codes: 0 on success; 1 with one line on stderr otherwise; 2 for usage errors (clap);
+//! 130 when `compare` was interrupted (Ctrl-C) after writing what it finished.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -24,16 +25,23 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
-    /// List scenes with triangle counts and depth complexity (from the reference).
+    /// List scenes with what they test, triangle counts and depth complexity (from the reference).
     Scenes {
         /// A scene file (.json, .gltf, .glb) or a directory of them.
         #[arg(default_value = "scenes")]
         path: PathBuf,
+        /// Print JSON (one object per scene) instead of the table.
+        #[arg(long)]
+        json: bool,
         #[command(flatten)]
         load: LoadArgs,
     },
     /// List every technique with its parameters and defaults.
-    Techniques,
+    Techniques {
+        /// Print JSON (one object per technique) instead of text.
+        #[arg(long)]
+        json: bool,
+    },
     /// Render the exact CPU reference of a scene to a linear EXR (RGBA + `layers`) and a PNG preview.
     Reference {
         /// The scene file (.json, .gltf, .glb).
@@ -93,8 +101,9 @@ enum Command {
         /// Timed frames per run (at least 1).
         #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u32).range(1..))]
         frames: u32,
-        /// Untimed warm-up frames per run.
-        #[arg(long, default_value_t = 3)]
+        /// Untimed warm-up frames per run, after a first frame that is never timed (it builds
+        /// the technique's pipelines), 0 to 1000.
+        #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(0..=i64::from(oit_harness::MAX_WARMUP)))]
         warmup: u32,
         /// Where computed references are cached (keyed by scene content and resolution; each
         /// file checksummed). Default: $OIT_CACHE_DIR, else $XDG_CACHE_HOME/oit-lab/references,
@@ -104,8 +113,14 @@ enum Command {
         /// Compute every reference, read and write no cache.
         #[arg(long)]
         no_cache: bool,
+        /// Most MiB of references the cache folder keeps; the least recently used are removed
+        /// first, and a larger reference is not cached.
+        #[arg(long, value_name = "MIB", default_value_t = oit_harness::cache::DEFAULT_CAP >> 20)]
+        cache_cap: u64,
         /// Keep the runs of OUT/results.json made from identical inputs (scene content,
-        /// technique, resolution, frames, warm-up, adapter) and run only the rest.
+        /// technique, resolution, frames, warm-up, adapter, build of oit) and run only the
+        /// rest; its runs of techniques and scenes not named now are kept beside the new ones,
+        /// so one technique can be added to an existing comparison.
         #[arg(long)]
         resume: bool,
         /// Time a run's frames again, up to this many times, when over 10 % of the machine's
@@ -116,10 +131,16 @@ enum Command {
         /// Refuse comparisons of more runs (scenes × techniques) than this.
         #[arg(long, default_value_t = 2000)]
         max_runs: u64,
-        /// Memory the reference may hold for fragments, in MiB (default 2048); a scene that
-        /// needs more for one pixel fails naming that pixel.
-        #[arg(long, value_name = "MIB", default_value_t = 2048, value_parser = clap::value_parser!(u64).range(1..))]
+        /// Host memory one scene may take, in MiB: the images of one run (about 160 bytes a
+        /// pixel) and the reference's fragments (the rest). A scene that cannot fit fails
+        /// with what it needs, and the others run.
+        #[arg(long, value_name = "MIB", default_value_t = oit_harness::DEFAULT_MEMORY_BUDGET >> 20, value_parser = clap::value_parser!(u64).range(1..))]
         memory_budget: u64,
+        /// Seconds one run (all its frames) may take: a peeling technique whose pass count for
+        /// the scene's depth complexity would not fit is skipped before it starts, and any run
+        /// still going past it is stopped and reported as failed.
+        #[arg(long, value_name = "SECONDS", default_value_t = oit_harness::DEFAULT_RUN_BUDGET.as_secs(), value_parser = clap::value_parser!(u64).range(1..))]
+        run_budget: u64,
         /// Error axis of the plots and Pareto fronts.
         #[arg(long, default_value = "flip", value_parser = ["flip", "rmse"])]
         metric: String,
@@ -224,8 +245,17 @@ fn parse_resolution(s: &str) -> Result<Resolution, String> {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    if cli.command.opens_gpu()
+        && let Some(code) = runtime_dir::reexec_with_private_runtime_dir()
+    {
+        return code;
+    }
     match run(cli.command) {
         Ok(()) => ExitCode::SUCCESS,
+        Err(e) if e.is::<Interrupted>() => {
+            eprintln!("oit: {e}");
+            ExitCode::from(130)
+        }
         Err(e) => {
             eprintln!("oit: error: {}", one_line(&e));
             ExitCode::FAILURE
@@ -250,14 +280,37 @@ fn one_line(e: &anyhow::Error) -> String {
     line
 }
 
+impl Command {
+    /// Whether the command opens a GPU adapter (and with it Mesa's drivers).
+    fn opens_gpu(&self) -> bool {
+        matches!(self, Command::Render { .. } | Command::Compare { .. })
+    }
+}
+
+/// `compare` stopped by Ctrl-C after writing what it finished.
+#[derive(Debug)]
+struct Interrupted(String);
+
+impl std::fmt::Display for Interrupted {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for Interrupted {}
+
 fn run(command: Command) -> Result<()> {
     match command {
-        Command::Scenes { path, load } => {
+        Command::Scenes { path, json, load } => {
             load.check(std::slice::from_ref(&path))?;
-            scenes(&path, &load.options())
+            scenes(&path, json, &load.options())
         }
-        Command::Techniques => {
-            print!("{}", oit_harness::techniques_help());
+        Command::Techniques { json } => {
+            if json {
+                println!("{}", oit_harness::techniques_json());
+            } else {
+                print!("{}", oit_harness::techniques_help());
+            }
             Ok(())
         }
         Command::Reference {
@@ -303,10 +356,12 @@ fn run(command: Command) -> Result<()> {
             warmup,
             cache,
             no_cache,
+            cache_cap,
             resume,
             retime,
             max_runs,
             memory_budget,
+            run_budget,
             metric,
             load,
             gpu,
@@ -323,9 +378,12 @@ fn run(command: Command) -> Result<()> {
                 warmup,
                 out_dir: out,
                 cache,
-                reference_memory_budget: mib(memory_budget),
+                cache_cap: mib(cache_cap),
+                memory_budget: mib(memory_budget),
+                run_budget: Duration::from_secs(run_budget),
                 resume,
                 retime,
+                cancel: None,
                 context: gpu.options(),
             };
             compare(
@@ -339,6 +397,13 @@ fn run(command: Command) -> Result<()> {
         }
         Command::Report { dir, metric } => {
             let results = oit_harness::results::Results::read(&dir.join("results.json"))?;
+            if !results.complete {
+                eprintln!(
+                    "note: {} is incomplete (an interrupted comparison): `oit compare … --out {} --resume` finishes it",
+                    dir.join("results.json").display(),
+                    dir.display()
+                );
+            }
             let html = write_report(&dir, &results, parse_metric(&metric))?;
             println!("wrote {}", html.display());
             Ok(())
@@ -355,16 +420,18 @@ fn print_adapter(ctx: &oit_gpu::Context) {
     );
 }
 
+/// The scene at `path` (resolution applied) and every file read for it.
 fn load_scene(
     path: &Path,
     resolution: Option<Resolution>,
     load: &oit_scene::LoadOptions,
-) -> Result<Scene> {
-    let scene = oit_scene::load_with(path, load)?;
-    Ok(match resolution {
+) -> Result<(Scene, Vec<PathBuf>)> {
+    let (scene, inputs) = oit_scene::load_with_inputs(path, load)?;
+    let scene = match resolution {
         Some(r) => scene.with_resolution(r),
         None => scene,
-    })
+    };
+    Ok((scene, inputs))
 }
 
 /// The scenes of `paths`, or an error when there are none (an empty folder is a mistake).
@@ -387,11 +454,13 @@ fn load_some_scenes(
 }
 
 /// Where `reference` and `render` write: `output` or the default name, refused when it is not
-/// an `.exr` path or when it or its PNG preview would replace the scene file being read.
+/// an `.exr` path or when it or its PNG preview would replace any file the scene was read
+/// from (the scene file, a glTF asset, its buffers and textures). Temporaries an interrupted
+/// earlier run left in that folder are removed.
 fn output_paths(
     output: Option<PathBuf>,
     default_stem: &str,
-    scene: &Path,
+    inputs: &[PathBuf],
 ) -> Result<(PathBuf, PathBuf)> {
     let exr = output.unwrap_or_else(|| PathBuf::from(format!("{default_stem}.exr")));
     if !exr
@@ -404,18 +473,12 @@ fn output_paths(
         );
     }
     let png = exr.with_extension("png");
-    let same = |a: &Path, b: &Path| match (a.canonicalize(), b.canonicalize()) {
-        (Ok(a), Ok(b)) => a == b,
-        _ => false,
+    oit_harness::inputs::refuse_outputs_on_inputs(&[&exr, &png], inputs)?;
+    let dir = match exr.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
     };
-    for target in [&exr, &png] {
-        if same(target, scene) {
-            bail!(
-                "{}: would replace the scene being read; choose another output",
-                target.display()
-            );
-        }
-    }
+    oit_metrics::remove_stale_temporaries(dir);
     Ok((exr, png))
 }
 
@@ -433,30 +496,71 @@ fn progress_bar(len: u64, what: &str) -> ProgressBar {
     bar
 }
 
-fn scenes(path: &Path, load: &oit_scene::LoadOptions) -> Result<()> {
+/// What `oit scenes --json` prints for one scene.
+#[derive(Debug, serde::Serialize)]
+struct SceneListing {
+    scene: String,
+    file: String,
+    description: String,
+    resolution: [u32; 2],
+    triangles: u64,
+    transparent_triangles: u64,
+    draws: u64,
+    max_depth_complexity: u32,
+    mean_depth_complexity: f64,
+    credits: Vec<String>,
+    not_modelled: Vec<String>,
+}
+
+fn scenes(path: &Path, json: bool, load: &oit_scene::LoadOptions) -> Result<()> {
     let entries = load_some_scenes(&[path.to_path_buf()], load)?;
-    println!(
-        "{:<22} {:>9} {:>9} {:>9} {:>7} {:>9} {:>10}",
-        "scene", "size", "triangles", "transp.", "draws", "max depth", "mean depth"
-    );
+    let mut listings = Vec::new();
     for entry in &entries {
         let s = &entry.scene;
         let reference = oit_reference::try_render(s, &oit_reference::ReferenceOptions::default())
             .with_context(|| format!("reference of {}", entry.path.display()))?;
+        listings.push(SceneListing {
+            scene: s.name.clone(),
+            file: entry.path.display().to_string(),
+            description: s.description.clone(),
+            resolution: [s.resolution.width, s.resolution.height],
+            triangles: s.triangle_count() as u64,
+            transparent_triangles: s.transparent_triangle_count() as u64,
+            draws: s.draws.len() as u64,
+            max_depth_complexity: reference.stats.max_depth_complexity,
+            mean_depth_complexity: reference.stats.mean_depth_complexity,
+            credits: s.credits.clone(),
+            not_modelled: s.ignored.clone(),
+        });
+    }
+    if json {
+        println!("{}", serde_json::to_string_pretty(&listings)?);
+        return Ok(());
+    }
+    println!(
+        "{:<26} {:>9} {:>9} {:>9} {:>6} {:>9} {:>10}",
+        "scene", "size", "triangles", "transp.", "draws", "max depth", "mean depth"
+    );
+    for (entry, l) in entries.iter().zip(&listings) {
+        let s = &entry.scene;
         println!(
-            "{:<22} {:>9} {:>9} {:>9} {:>7} {:>9} {:>10.2}",
-            s.name,
+            "{:<26} {:>9} {:>9} {:>9} {:>6} {:>9} {:>10.2}",
+            oit_harness::report::printable(&l.scene),
             s.resolution.to_string(),
-            s.triangle_count(),
-            s.transparent_triangle_count(),
-            s.draws.len(),
-            reference.stats.max_depth_complexity,
-            reference.stats.mean_depth_complexity,
+            l.triangles,
+            l.transparent_triangles,
+            l.draws,
+            l.max_depth_complexity,
+            l.mean_depth_complexity,
         );
+        // What the scene tests, wrapped to the table's width.
+        for line in oit_harness::report::wrap(&oit_harness::report::printable(&l.description), 86) {
+            println!("    {line}");
+        }
         // Real content says where it came from and what of it is not modelled.
         if !(s.textures.is_empty() && s.credits.is_empty() && s.ignored.is_empty()) {
             for line in oit_harness::results::SceneJson::of(s, "").report_lines() {
-                println!("  {line}");
+                println!("    {}", oit_harness::report::printable(&line));
             }
         }
     }
@@ -475,9 +579,9 @@ fn reference(
     memory_budget: u64,
     load: &oit_scene::LoadOptions,
 ) -> Result<()> {
-    let scene = load_scene(scene_path, resolution, load)?;
+    let (scene, inputs) = load_scene(scene_path, resolution, load)?;
     let default = format!("{}-reference", oit_harness::file_stem(&scene.name));
-    let (output, png) = output_paths(output, &default, scene_path)?;
+    let (output, png) = output_paths(output, &default, &inputs)?;
     let bar = progress_bar(0, &format!("reference {}", scene.name));
     let tick = bar.clone();
     let progress: oit_reference::Progress =
@@ -539,16 +643,17 @@ fn render(
     load: &oit_scene::LoadOptions,
     gpu: &GpuArgs,
 ) -> Result<()> {
-    let scene = load_scene(scene_path, resolution, load)?;
-    let ctx = oit_harness::open_context(&gpu.options())?;
-    print_adapter(&ctx);
+    let (scene, inputs) = load_scene(scene_path, resolution, load)?;
     let spec = oit_harness::parse_spec(spec)?;
     let default = format!(
         "{}-{}",
         oit_harness::file_stem(&scene.name),
         oit_harness::file_stem(&spec.canonical())
     );
-    let (output, png) = output_paths(output, &default, scene_path)?;
+    // Refused before the GPU is opened: a bad output costs nothing.
+    let (output, png) = output_paths(output, &default, &inputs)?;
+    let ctx = oit_harness::open_context(&gpu.options())?;
+    print_adapter(&ctx);
     // One call with no steps to count: a spinner with the time so far (a deep peel can take
     // minutes on a CPU adapter).
     let spinner = ProgressBar::new_spinner();
@@ -588,7 +693,8 @@ fn parse_metric(name: &str) -> oit_report::Metric {
 }
 
 /// Everything a person reads after a comparison: results.md with the Pareto fronts, the plots
-/// (SVG and PNG) and the static HTML report. Returns the HTML file.
+/// (SVG and PNG) and the static HTML report, all on `metric`'s error axis. Returns the HTML
+/// file.
 fn write_report(
     dir: &Path,
     results: &oit_harness::results::Results,
@@ -597,8 +703,7 @@ fn write_report(
     let mut markdown = oit_harness::report::markdown(results);
     markdown.push_str(&oit_report::pareto_markdown(results, metric));
     oit_metrics::write_atomic_bytes(&dir.join("results.md"), markdown.as_bytes())?;
-    oit_report::write_plots(results, &dir.join("plots"), metric)?;
-    Ok(oit_report::write_html_report(dir)?)
+    Ok(oit_report::write_html_report(dir, metric)?)
 }
 
 fn compare(
@@ -609,30 +714,49 @@ fn compare(
     metric: oit_report::Metric,
     max_runs: u64,
 ) -> Result<()> {
-    let scenes = load_some_scenes(paths, load)?;
+    // One scene that does not load is reported as failed; the others run.
+    let (scenes, unloadable) = oit_harness::load_scenes_lenient(paths, load)?;
+    if scenes.is_empty() && unloadable.is_empty() {
+        bail!(
+            "no scene files (*.json, *.gltf, *.glb) found in {}",
+            paths
+                .iter()
+                .map(|p| p.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    for u in &unloadable {
+        eprintln!(
+            "warning: {}: not loaded, its runs are reported as failed: {}",
+            u.path.display(),
+            u.error
+        );
+    }
+    // The output folder is never a scene folder, nor holds a file a scene reads.
+    let scene_dirs: Vec<PathBuf> = paths.iter().filter(|p| p.is_dir()).cloned().collect();
+    let inputs: Vec<PathBuf> = (scenes.iter().flat_map(|e| e.inputs.iter().cloned()))
+        .chain(unloadable.iter().map(|u| u.path.clone()))
+        .collect();
+    oit_harness::inputs::refuse_out_dir_over_inputs(&options.out_dir, &scene_dirs, &inputs)?;
     // Specs are validated (and sweeps bounded) before the GPU is opened.
     let specs = oit_harness::resolve_specs(specs)?;
-    let runs = (scenes.len() as u64) * (specs.len() as u64);
+    let scene_count = scenes.len() + unloadable.len();
+    let runs = (scene_count as u64) * (specs.len() as u64);
     if runs > max_runs {
         bail!(
-            "{runs} runs ({} scenes × {} techniques) is more than --max-runs {max_runs}; raise it to run them all",
-            scenes.len(),
+            "{runs} runs ({scene_count} scenes × {} techniques) is more than --max-runs {max_runs}; raise it to run them all",
             specs.len()
         );
     }
     let ctx = oit_harness::open_context(&options.context)?;
     print_adapter(&ctx);
     eprintln!(
-        "{runs} runs ({} scenes × {} techniques), {} timed + {} warm-up frames each{}",
-        scenes.len(),
+        "{runs} runs ({scene_count} scenes × {} techniques), one untimed first frame, {} warm-up and {} timed frames each; at most {} s a run",
         specs.len(),
-        options.frames,
         options.warmup,
-        if options.resume {
-            "; finished runs of the earlier results are kept"
-        } else {
-            ""
-        }
+        options.frames,
+        options.run_budget.as_secs()
     );
     if options.retime > 0 {
         eprintln!(
@@ -641,19 +765,50 @@ fn compare(
             options.retime
         );
     }
-    let bar = progress_bar(runs, "compare");
-    let results = oit_harness::compare(&ctx, &scenes, &specs, options, &|event| match event {
-        oit_harness::Event::RunDone {
-            scene,
-            technique,
-            resumed,
-        } => {
-            let kept = if resumed { " (kept)" } else { "" };
-            bar.set_message(format!("{scene} {technique}{kept}"));
-            bar.inc(1);
+    // Ctrl-C stops after the run in progress (a second one ends the process at once).
+    let cancel = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let flag = cancel.clone();
+    let _ = ctrlc::set_handler(move || {
+        if flag.swap(true, std::sync::atomic::Ordering::SeqCst) {
+            std::process::exit(130);
         }
-        oit_harness::Event::Warning(line) => bar.println(format!("warning: {line}")),
-    })?;
+        eprintln!("\ninterrupted: stopping after the run in progress (Ctrl-C again to stop now)");
+    });
+    let options = oit_harness::CompareOptions {
+        cancel: Some(cancel),
+        ..options.clone()
+    };
+    let bar = progress_bar(runs, "compare");
+    // Warnings and notices reach stderr whether or not it is a terminal (logs, CI, cron): the
+    // bar only draws on a terminal, so they are printed around it, not through it.
+    let say = |line: String| bar.suspend(|| eprintln!("{line}"));
+    let results = oit_harness::compare_all(
+        &ctx,
+        &scenes,
+        &unloadable,
+        &specs,
+        &options,
+        &|event| match event {
+            oit_harness::Event::RunDone {
+                scene,
+                technique,
+                resumed,
+            } => {
+                let kept = if resumed { " (kept)" } else { "" };
+                bar.set_message(format!(
+                    "{} {technique}{kept}",
+                    oit_harness::report::printable(scene)
+                ));
+                bar.inc(1);
+            }
+            oit_harness::Event::Warning(line) => {
+                say(format!("warning: {}", oit_harness::report::printable(line)))
+            }
+            oit_harness::Event::Notice(line) => {
+                say(format!("note: {}", oit_harness::report::printable(line)))
+            }
+        },
+    )?;
     bar.finish_and_clear();
     print!("{}", oit_harness::report::terminal_table(&results));
     let html = write_report(&options.out_dir, &results, metric)?;
@@ -663,5 +818,94 @@ fn compare(
         options.out_dir.join("results.md").display(),
         html.display()
     );
+    if !results.complete {
+        return Err(Interrupted(format!(
+            "interrupted: {} runs are in {}; run the same command with --resume to finish the rest",
+            results.runs.len(),
+            options.out_dir.join("results.json").display()
+        ))
+        .into());
+    }
     Ok(())
+}
+
+/// Mesa's drivers print `error: XDG_RUNTIME_DIR is invalid or not set in the environment.`
+/// twice at every start when the variable is unset or names no private folder (a root shell,
+/// cron, CI). The workspace forbids `unsafe`, so `std::env::set_var` is out; instead `oit`
+/// runs itself once more with the variable naming a private folder of its own.
+mod runtime_dir {
+    use std::path::{Path, PathBuf};
+    use std::process::ExitCode;
+
+    /// Set in the re-executed process so it never re-executes again.
+    const MARK: &str = "OIT_RUNTIME_DIR_SET";
+
+    /// `Some(exit code)` when the command ran in a re-executed child; `None` to go on here
+    /// (the variable is fine, or no private folder could be made: Mesa's lines are harmless).
+    pub fn reexec_with_private_runtime_dir() -> Option<ExitCode> {
+        if std::env::var_os(MARK).is_some() {
+            return None;
+        }
+        if std::env::var_os("XDG_RUNTIME_DIR").is_some_and(|d| usable(Path::new(&d))) {
+            return None;
+        }
+        let dir = private_dir()?;
+        let exe = std::env::current_exe().ok()?;
+        // Ctrl-C goes to both processes: the child decides (compare stops after its run), this
+        // one waits for it instead of dying and leaving it behind.
+        let _ = ctrlc::set_handler(|| {});
+        let status = std::process::Command::new(exe)
+            .args(std::env::args_os().skip(1))
+            .env("XDG_RUNTIME_DIR", &dir)
+            .env(MARK, "1")
+            .status()
+            .ok()?;
+        Some(match status.code() {
+            Some(code) => ExitCode::from(code.clamp(0, 255) as u8),
+            // Killed by a signal (Ctrl-C reaches both processes): 128 + signal, as shells say.
+            None => ExitCode::from(130),
+        })
+    }
+
+    /// What Mesa accepts: a folder owned by this user, mode 0700.
+    fn usable(dir: &Path) -> bool {
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::MetadataExt;
+            std::fs::metadata(dir).is_ok_and(|m| {
+                m.is_dir()
+                    && m.mode() & 0o777 == 0o700
+                    && m.uid() == current_uid().unwrap_or(u32::MAX)
+            })
+        }
+        #[cfg(not(unix))]
+        {
+            dir.is_dir()
+        }
+    }
+
+    /// The owner of `/proc/self` (Linux) is this process's user.
+    fn current_uid() -> Option<u32> {
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::MetadataExt;
+            std::fs::metadata("/proc/self").ok().map(|m| m.uid())
+        }
+        #[cfg(not(unix))]
+        {
+            None
+        }
+    }
+
+    /// `$TMPDIR/oit-runtime-UID`, created with mode 0700 (or reused when it already is).
+    fn private_dir() -> Option<PathBuf> {
+        let dir = std::env::temp_dir().join(format!("oit-runtime-{}", current_uid()?));
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::{DirBuilderExt, PermissionsExt};
+            let _ = std::fs::DirBuilder::new().mode(0o700).create(&dir);
+            let _ = std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o700));
+        }
+        usable(&dir).then_some(dir)
+    }
 }

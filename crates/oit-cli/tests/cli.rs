@@ -156,11 +156,16 @@ fn scenes_lists_the_suite_with_depth_complexity() {
     assert_eq!(scenes, 1 + 21, "{text}");
     // A glTF scene carries its asset's credit and what of it is not modelled.
     assert!(
-        text.contains("  Credits: GlassVaseFlowers.glb: CC0"),
+        text.contains("    Credits: GlassVaseFlowers.glb: CC0"),
         "{text}"
     );
     assert!(
-        text.contains("  Not modelled: GlassVaseFlowers.glb: KHR_materials_transmission"),
+        text.contains("    Not modelled: GlassVaseFlowers.glb: KHR_materials_transmission"),
+        "{text}"
+    );
+    // What each scene tests is shown under it.
+    assert!(
+        text.contains("    Red (alpha 0.45) in front of green"),
         "{text}"
     );
 }
@@ -301,7 +306,7 @@ fn outputs_never_replace_inputs_special_files_or_leave_the_working_directory() {
     for (output, expect) in [
         ("scene.json", "must be an .exr"),
         ("x.png", "must be an .exr"),
-        ("scene.exr", "would replace the scene"),
+        ("scene.exr", "which the scene reads"),
     ] {
         // scene.exr's preview, scene.png, is not the scene; make the input the .png case.
         let out = run(&["reference", "scene.json", "-o", output]);
@@ -318,7 +323,7 @@ fn outputs_never_replace_inputs_special_files_or_leave_the_working_directory() {
     std::fs::copy(&scene, dir.join("view.png")).unwrap();
     let out = run(&["reference", "view.png", "-o", "view.exr"]);
     assert_eq!(out.status.code(), Some(1));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("would replace the scene"));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("which the scene reads"));
 
     let fifo = dir.join("pipe.exr");
     assert!(
@@ -501,5 +506,363 @@ fn a_reference_over_its_memory_budget_is_one_clear_line() {
     );
     assert!(!exr.exists());
     assert!(start.elapsed().as_secs() < 30, "{:?}", start.elapsed());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A glTF asset whose texture and buffer are files beside it (`base.png`, `model.bin`): one
+/// blended, textured quad. Returns the asset's path.
+fn textured_gltf(dir: &Path) -> PathBuf {
+    let mut bin: Vec<u8> = Vec::new();
+    for v in [
+        [-1.0f32, -1.0, 0.0],
+        [1.0, -1.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [-1.0, 1.0, 0.0],
+    ] {
+        bin.extend(v.iter().flat_map(|x| x.to_le_bytes()));
+    }
+    for uv in [[0.0f32, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]] {
+        bin.extend(uv.iter().flat_map(|x| x.to_le_bytes()));
+    }
+    for i in [0u16, 1, 2, 0, 2, 3] {
+        bin.extend(i.to_le_bytes());
+    }
+    std::fs::write(dir.join("model.bin"), &bin).unwrap();
+    let texture = oit_metrics::Srgb8Image {
+        width: 2,
+        height: 2,
+        pixels: vec![[255, 0, 0], [0, 255, 0], [0, 0, 255], [255, 255, 0]],
+    };
+    oit_metrics::write_png_srgb8(&dir.join("base.png"), &texture).unwrap();
+    let gltf = format!(
+        r#"{{"asset": {{"version": "2.0"}},
+        "buffers": [{{"uri": "model.bin", "byteLength": {}}}],
+        "bufferViews": [
+            {{"buffer": 0, "byteOffset": 0, "byteLength": 48}},
+            {{"buffer": 0, "byteOffset": 48, "byteLength": 32}},
+            {{"buffer": 0, "byteOffset": 80, "byteLength": 12}}],
+        "accessors": [
+            {{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-1, -1, 0], "max": [1, 1, 0]}},
+            {{"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC2"}},
+            {{"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}}],
+        "images": [{{"uri": "base.png"}}],
+        "textures": [{{"source": 0}}],
+        "materials": [{{"alphaMode": "BLEND",
+            "pbrMetallicRoughness": {{"baseColorFactor": [1, 1, 1, 0.5], "baseColorTexture": {{"index": 0}}}}}}],
+        "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0, "TEXCOORD_0": 1}}, "indices": 2, "material": 0}}]}}],
+        "nodes": [{{"mesh": 0}}],
+        "scenes": [{{"nodes": [0]}}]}}"#,
+        bin.len()
+    );
+    let path = dir.join("model.gltf");
+    std::fs::write(&path, gltf).unwrap();
+    path
+}
+
+/// Outputs never land on a file a scene reads: the texture of a glTF asset (its preview once
+/// replaced `base.png` with exit 0), the same through a JSON scene that names the asset, any
+/// spelling of the path, and `compare`'s output folder over or around the scene files. Each
+/// is refused before anything is written or the GPU is opened.
+#[test]
+fn outputs_never_land_on_files_a_scene_reads() {
+    let dir = temp_dir("inputs");
+    textured_gltf(&dir);
+    let wrapper = dir.join("wrapper.json");
+    std::fs::write(
+        &wrapper,
+        r#"{"name": "wrapped", "description": "", "resolution": [16, 16],
+        "camera": {"eye": [0, 0, 5], "target": [0, 0, 0], "up": [0, 1, 0], "fov_y": 45, "near": 0.1, "far": 100},
+        "background": [0, 0, 0],
+        "objects": [{"mesh": {"kind": "gltf", "file": "model.gltf"}}]}"#,
+    )
+    .unwrap();
+    let (_, inputs) = oit_scene::load_with_inputs(&wrapper, &Default::default()).unwrap();
+    let names: Vec<String> = inputs
+        .iter()
+        .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(
+        names,
+        ["wrapper.json", "model.gltf", "model.bin", "base.png"]
+    );
+    let texture = std::fs::read(dir.join("base.png")).unwrap();
+    let run = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_oit"))
+            .current_dir(&dir)
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    for args in [
+        &["reference", "model.gltf", "-o", "base.exr"][..],
+        &["reference", "wrapper.json", "-o", "base.exr"],
+        &["reference", "model.gltf", "-o", "sub/../base.exr"],
+        &["render", "model.gltf", "-t", "unsorted", "-o", "./base.exr"],
+    ] {
+        std::fs::create_dir_all(dir.join("sub")).unwrap();
+        let out = run(args);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {stderr}");
+        assert!(
+            stderr.contains("base.png") && stderr.contains("which the scene reads"),
+            "{args:?}: {stderr}"
+        );
+        assert!(
+            !stderr.contains("adapter:"),
+            "refused before the GPU: {stderr}"
+        );
+        assert!(!dir.join("base.exr").exists());
+    }
+    assert_eq!(std::fs::read(dir.join("base.png")).unwrap(), texture);
+    // Another name beside it is fine.
+    let out = run(&[
+        "reference",
+        "model.gltf",
+        "-o",
+        "model.exr",
+        "--resolution",
+        "16x16",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(dir.join("model.png").is_file());
+    // compare: never into the scene folder, nor into a folder holding a scene's files.
+    for (args, expect) in [
+        (&["compare", ".", "--out", "."][..], "is the scene folder"),
+        (&["compare", "model.gltf", "--out", "."], "holds"),
+        (&["compare", "wrapper.json", "--out", "."], "holds"),
+    ] {
+        let out = run(args);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {stderr}");
+        assert!(stderr.contains(expect), "{args:?}: {stderr}");
+        assert!(!dir.join("results.json").exists());
+    }
+    assert_eq!(std::fs::read(dir.join("base.png")).unwrap(), texture);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `oit techniques --json` and `oit scenes --json` are for scripts: they parse, and say what
+/// the text listings say.
+#[test]
+fn listings_are_machine_readable() {
+    let out = oit().args(["techniques", "--json"]).output().unwrap();
+    assert!(out.status.success());
+    let list: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
+    let registry = oit_harness::registry();
+    assert_eq!(list.len(), registry.len());
+    for (item, info) in list.iter().zip(&registry) {
+        assert_eq!(item["name"], info.name);
+        assert_eq!(item["default_spec"], info.default_spec().canonical());
+        assert_eq!(item["params"].as_array().unwrap().len(), info.params.len());
+    }
+    let out = oit()
+        .args(["scenes", "scenes/enderton.json", "--json"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let scenes: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(scenes.len(), 1);
+    assert_eq!(scenes[0]["scene"], "enderton");
+    assert_eq!(scenes[0]["max_depth_complexity"], 2);
+    assert!(
+        scenes[0]["description"]
+            .as_str()
+            .unwrap()
+            .starts_with("Red")
+    );
+}
+
+/// A results file of another schema is named as such (it said "missing field adapter"), and
+/// warm-up past 1000 frames is a usage error instead of a run that never ends.
+#[test]
+fn a_foreign_results_file_and_endless_warm_up_are_named() {
+    let dir = temp_dir("schema");
+    std::fs::write(dir.join("results.json"), r#"{"schema": "x"}"#).unwrap();
+    let out = oit().arg("report").arg(&dir).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("schema is `x`") && stderr.contains("oit-lab/results/v1"),
+        "{stderr}"
+    );
+    let out = oit()
+        .args(["compare", "scenes/enderton.json", "--warmup", "4294967295"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("4294967295"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A temporary left by an interrupted `reference` or `render` (a killed process's
+/// `.NAME.PID-N.tmp`) is removed by the next run writing into that folder.
+#[test]
+fn reference_removes_temporaries_an_interrupted_run_left() {
+    let dir = temp_dir("temporaries");
+    // PIDs stop at 2^22 on Linux: this writer is gone.
+    let stale = dir.join(".enderton.exr.999999999-0.tmp");
+    std::fs::write(&stale, b"half an EXR").unwrap();
+    let out = oit()
+        .args([
+            "reference",
+            "scenes/enderton.json",
+            "--resolution",
+            "8x8",
+            "-o",
+        ])
+        .arg(dir.join("enderton.exr"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(!stale.exists(), "the stale temporary was left");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Warnings (a cached reference that was not trusted, a cache that cannot be written) reach
+/// stderr when it is a pipe, as in CI logs and cron, not only on a terminal; Mesa's
+/// `XDG_RUNTIME_DIR` complaint does not.
+#[test]
+fn warnings_reach_logs_and_mesa_noise_does_not() {
+    if oit_gpu::testing::context_or_skip("cli warnings").is_none() {
+        return;
+    }
+    let dir = temp_dir("warnings");
+    let cache = dir.join("cache");
+    let compare = |cache: &Path| {
+        oit()
+            .env_remove("XDG_RUNTIME_DIR")
+            .args(["compare", "scenes/enderton.json", "--resolution", "16x16"])
+            .args(["--frames", "1", "--warmup", "0", "-t", "unsorted", "--out"])
+            .arg(dir.join("out"))
+            .arg("--cache")
+            .arg(cache)
+            .output()
+            .unwrap()
+    };
+    let out = compare(&cache);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(!stderr.contains("XDG_RUNTIME_DIR"), "{stderr}");
+    assert!(!stderr.contains("warning"), "{stderr}");
+    // Alter the cached file: recomputed, and said.
+    let file = std::fs::read_dir(&cache)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.extension().is_some_and(|e| e == "oitref"))
+        .unwrap();
+    let mut bytes = std::fs::read(&file).unwrap();
+    let middle = bytes.len() / 2;
+    bytes[middle] ^= 0x55;
+    std::fs::write(&file, bytes).unwrap();
+    let out = compare(&cache);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("warning: cached reference of enderton not trusted"),
+        "{stderr}"
+    );
+    // A cache folder that cannot exist (a file is in the way): said, and the run goes on.
+    let blocked = dir.join("blocked");
+    std::fs::write(&blocked, b"a file").unwrap();
+    let out = compare(&blocked.join("cache"));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("warning: reference of enderton not cached"),
+        "{stderr}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Ctrl-C (SIGINT to the process group, as a terminal sends it) stops `compare` after the run
+/// in progress: exit 130, a line saying how to resume, and results.json marked incomplete
+/// with what finished; `--resume` then completes it.
+#[test]
+fn ctrl_c_stops_compare_with_what_finished_and_resume_completes_it() {
+    use std::os::unix::process::CommandExt;
+    if oit_gpu::testing::context_or_skip("cli ctrl-c").is_none() {
+        return;
+    }
+    let dir = temp_dir("ctrlc");
+    let out_dir = dir.join("out");
+    let args = |c: &mut Command| {
+        c.args([
+            "compare",
+            "scenes",
+            "--resolution",
+            "16x16",
+            "--frames",
+            "1",
+        ])
+        .args([
+            "--warmup",
+            "0",
+            "-t",
+            "unsorted",
+            "-t",
+            "sorted-object",
+            "--no-cache",
+        ])
+        .arg("--out")
+        .arg(&out_dir);
+    };
+    let mut command = oit();
+    args(&mut command);
+    let child = command
+        .process_group(0)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let results = out_dir.join("results.json");
+    let start = std::time::Instant::now();
+    while !std::fs::read_to_string(&results).is_ok_and(|t| t.contains("\"technique\"")) {
+        assert!(start.elapsed().as_secs() < 300, "no run finished");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let group = format!("-{}", child.id());
+    assert!(
+        Command::new("kill")
+            .args(["-INT", "--", &group])
+            .status()
+            .unwrap()
+            .success()
+    );
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(130), "{stderr}");
+    assert!(stderr.contains("--resume"), "{stderr}");
+    let partial: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&results).unwrap()).unwrap();
+    assert_eq!(partial["complete"], false);
+    let done = partial["runs"].as_array().unwrap().len();
+    assert!((1..42).contains(&done), "{done} runs");
+    let mut command = oit();
+    args(&mut command);
+    let out = command.arg("--resume").output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let full: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&results).unwrap()).unwrap();
+    assert!(
+        full.get("complete").is_none(),
+        "complete files omit the flag"
+    );
+    assert_eq!(full["runs"].as_array().unwrap().len(), 42);
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -7,6 +7,11 @@
 //! counts u32, precision-tie flags u8 (0 or 1), and last a checksum u64 (FNV-1a of every byte
 //! before it). Written atomically. A file whose checksum, inputs or layout do not match is never
 //! trusted: it is recomputed with a one-line warning ([`CacheOutcome::Recomputed`]).
+//!
+//! The folder is capped ([`DEFAULT_CAP`], `oit compare --cache-cap`): after a reference is
+//! stored, the least recently used `*.oitref` files are removed until the folder's references
+//! fit, and a reference larger than the cap is not stored (the comparison says so). A hit
+//! marks its file as recently used.
 
 use std::path::{Path, PathBuf};
 
@@ -16,6 +21,13 @@ use oit_scene::{LinearImage, Scene};
 use crate::HarnessError;
 
 const MAGIC: &[u8; 8] = b"OITREF03";
+
+/// The cache folder's default cap: 1 GiB of reference files (a 1024² reference takes 29 MiB,
+/// an 8192² one 1.9 GB and is not cached unless the cap is raised).
+pub const DEFAULT_CAP: u64 = 1 << 30;
+
+/// File extension of cached references; only these are counted and evicted.
+const EXTENSION: &str = "oitref";
 
 /// The default cache directory: `$OIT_CACHE_DIR`, else `$XDG_CACHE_HOME/oit-lab/references`,
 /// else `$HOME/.cache/oit-lab/references`, else `.oit-cache` in the working directory.
@@ -56,6 +68,8 @@ pub enum CacheOutcome {
     /// Computed, but the cache could not store it (`why`, e.g. an unwritable folder): the
     /// comparison goes on without the cache.
     NotStored { why: String },
+    /// Computed, and larger than the cache's cap (`bytes` against `cap`): not stored.
+    TooLarge { bytes: u64, cap: u64 },
 }
 
 impl CacheOutcome {
@@ -68,6 +82,11 @@ impl CacheOutcome {
             )),
             CacheOutcome::NotStored { why } => Some(format!(
                 "reference of {scene} not cached ({why}): continuing without the cache"
+            )),
+            CacheOutcome::TooLarge { bytes, cap } => Some(format!(
+                "reference of {scene} not cached: {} MiB is more than the cache's cap of {} MiB (--cache-cap)",
+                bytes.div_ceil(1 << 20),
+                cap >> 20
             )),
         }
     }
@@ -84,35 +103,91 @@ pub fn inputs_hash(scene: &Scene) -> u64 {
     crate::fnv1a64(&bytes)
 }
 
-/// The cached reference, or a freshly computed one (then stored). `compute` runs only when no
-/// trustworthy file exists. A cache that cannot be written never fails the comparison.
+/// The cached reference, or a freshly computed one (then stored, within `cap` bytes for the
+/// whole folder). `compute` runs only when no trustworthy file exists. A cache that cannot be
+/// written never fails the comparison.
 pub fn reference(
     dir: &Path,
     scene: &Scene,
+    cap: u64,
     compute: impl FnOnce() -> Result<Reference, HarnessError>,
 ) -> Result<(Reference, CacheOutcome), HarnessError> {
     let path = key_path(dir, scene);
     let distrust = match std::fs::read(&path) {
         Ok(bytes) => match decode(&bytes, scene) {
-            Ok(reference) => return Ok((reference, CacheOutcome::Hit)),
+            Ok(reference) => {
+                touch(&path);
+                return Ok((reference, CacheOutcome::Hit));
+            }
             Err(why) => Some(why),
         },
         Err(_) => None,
     };
     let reference = compute()?;
+    let bytes = encode(&reference, scene);
+    if bytes.len() as u64 > cap {
+        // An untrusted file of this key would be found again: remove it.
+        let _ = std::fs::remove_file(&path);
+        let outcome = CacheOutcome::TooLarge {
+            bytes: bytes.len() as u64,
+            cap,
+        };
+        return Ok((reference, outcome));
+    }
     let stored = std::fs::create_dir_all(dir)
         .map_err(|e| format!("cannot create {}: {e}", dir.display()))
         .and_then(|()| {
             oit_metrics::remove_stale_temporaries(dir);
-            oit_metrics::write_atomic_bytes(&path, &encode(&reference, scene))
-                .map_err(|e| e.to_string())
+            oit_metrics::write_atomic_bytes(&path, &bytes).map_err(|e| e.to_string())
         });
+    if stored.is_ok() {
+        evict(dir, cap, &path);
+    }
     let outcome = match (stored, distrust) {
         (Err(why), _) => CacheOutcome::NotStored { why },
         (Ok(()), Some(why)) => CacheOutcome::Recomputed { why },
         (Ok(()), None) => CacheOutcome::Computed,
     };
     Ok((reference, outcome))
+}
+
+/// Marks a cached file as just used (its modification time), so eviction keeps it longest.
+fn touch(path: &Path) {
+    if let Ok(file) = std::fs::OpenOptions::new().append(true).open(path) {
+        let _ = file.set_modified(std::time::SystemTime::now());
+    }
+}
+
+/// Removes the least recently used references of `dir` until the rest fit in `cap` bytes;
+/// `keep` (the one just stored) is never removed. Returns how many were removed.
+pub fn evict(dir: &Path, cap: u64, keep: &Path) -> usize {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return 0;
+    };
+    let mut files: Vec<(std::time::SystemTime, u64, PathBuf)> = entries
+        .flatten()
+        .filter(|e| e.path().extension().is_some_and(|x| x == EXTENSION))
+        .filter_map(|e| {
+            let meta = e.metadata().ok().filter(std::fs::Metadata::is_file)?;
+            Some((meta.modified().ok()?, meta.len(), e.path()))
+        })
+        .collect();
+    let mut total: u64 = files.iter().map(|f| f.1).sum();
+    files.sort_by_key(|f| f.0);
+    let mut removed = 0;
+    for (_, len, path) in files {
+        if total <= cap {
+            break;
+        }
+        if path == keep {
+            continue;
+        }
+        if std::fs::remove_file(&path).is_ok() {
+            total -= len;
+            removed += 1;
+        }
+    }
+    removed
 }
 
 fn encode(r: &Reference, scene: &Scene) -> Vec<u8> {
@@ -245,12 +320,13 @@ mod tests {
         let scene = oit_scene::parse(SCENE, "cache-test.json").unwrap();
         let dir = std::env::temp_dir().join(format!("oit-cache-unit-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
-        let (first, outcome) = reference(&dir, &scene, || {
+        let (first, outcome) = reference(&dir, &scene, DEFAULT_CAP, || {
             Ok(oit_reference::render(&scene, &Default::default()))
         })
         .unwrap();
         assert_eq!(outcome, CacheOutcome::Computed);
-        let (second, outcome) = reference(&dir, &scene, || panic!("must not recompute")).unwrap();
+        let (second, outcome) =
+            reference(&dir, &scene, DEFAULT_CAP, || panic!("must not recompute")).unwrap();
         assert_eq!(outcome, CacheOutcome::Hit);
         assert_eq!(first, second);
         // A changed scene (different content hash) is a different entry.
@@ -267,13 +343,13 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("oit-cache-altered-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         let good = oit_reference::render(&scene, &Default::default());
-        reference(&dir, &scene, || Ok(good.clone())).unwrap();
+        reference(&dir, &scene, DEFAULT_CAP, || Ok(good.clone())).unwrap();
         let path = key_path(&dir, &scene);
         let mut bytes = std::fs::read(&path).unwrap();
         let pixel = bytes.len() - 8 - 16 * 8 * 13 - 100;
         bytes[pixel] ^= 0x40;
         std::fs::write(&path, &bytes).unwrap();
-        let (r, outcome) = reference(&dir, &scene, || Ok(good.clone())).unwrap();
+        let (r, outcome) = reference(&dir, &scene, DEFAULT_CAP, || Ok(good.clone())).unwrap();
         assert_eq!(r, good);
         let CacheOutcome::Recomputed { why } = &outcome else {
             panic!("altered file trusted: {outcome:?}");
@@ -285,13 +361,16 @@ mod tests {
                 .unwrap()
                 .contains("cache-test")
         );
-        let (_, outcome) = reference(&dir, &scene, || panic!("replaced file is good")).unwrap();
+        let (_, outcome) = reference(&dir, &scene, DEFAULT_CAP, || {
+            panic!("replaced file is good")
+        })
+        .unwrap();
         assert_eq!(outcome, CacheOutcome::Hit);
         // Another scene's file under this scene's name fails the inputs check.
         let other = scene.with_reversed_draw_order();
         let r_other = oit_reference::render(&other, &Default::default());
         std::fs::write(&path, encode(&r_other, &other)).unwrap();
-        let (_, outcome) = reference(&dir, &scene, || Ok(good.clone())).unwrap();
+        let (_, outcome) = reference(&dir, &scene, DEFAULT_CAP, || Ok(good.clone())).unwrap();
         assert!(
             matches!(&outcome, CacheOutcome::Recomputed { why } if why.contains("other inputs")),
             "{outcome:?}"
@@ -306,7 +385,8 @@ mod tests {
         let file = std::env::temp_dir().join(format!("oit-cache-blocked-{}", std::process::id()));
         std::fs::write(&file, b"a file where the folder should be").unwrap();
         let good = oit_reference::render(&scene, &Default::default());
-        let (r, outcome) = reference(&file.join("sub"), &scene, || Ok(good.clone())).unwrap();
+        let (r, outcome) =
+            reference(&file.join("sub"), &scene, DEFAULT_CAP, || Ok(good.clone())).unwrap();
         assert_eq!(r, good);
         assert!(
             matches!(&outcome, CacheOutcome::NotStored { .. }),
@@ -319,5 +399,61 @@ mod tests {
                 .contains("without the cache")
         );
         let _ = std::fs::remove_file(&file);
+    }
+
+    /// The folder never holds more than its cap: the least recently used references go first
+    /// (a hit counts as a use), the one just stored stays, and a reference larger than the
+    /// cap is not stored at all, with a warning that says so.
+    #[test]
+    fn the_cache_stays_within_its_cap_least_recently_used_first() {
+        let dir = std::env::temp_dir().join(format!("oit-cache-cap-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let base = oit_scene::parse(SCENE, "cache-test.json").unwrap();
+        let sized = |w: u32| {
+            base.with_resolution(oit_scene::Resolution {
+                width: w,
+                height: 8,
+            })
+        };
+        let (a, b, c) = (sized(16), sized(17), sized(18));
+        let size =
+            |s: &Scene| encode(&oit_reference::render(s, &Default::default()), s).len() as u64;
+        // Room for two of the three.
+        let cap = size(&a) + size(&b) + size(&c) - 1;
+        let render = |s: &Scene| Ok(oit_reference::render(s, &Default::default()));
+        let at =
+            |secs: u64| std::time::SystemTime::UNIX_EPOCH + std::time::Duration::from_secs(secs);
+        let age = |s: &Scene, secs: u64| {
+            let f = std::fs::OpenOptions::new()
+                .append(true)
+                .open(key_path(&dir, s))
+                .unwrap();
+            f.set_modified(at(secs)).unwrap();
+        };
+        reference(&dir, &a, cap, || render(&a)).unwrap();
+        age(&a, 1000);
+        reference(&dir, &b, cap, || render(&b)).unwrap();
+        age(&b, 2000);
+        // A hit on `a` makes `b` the least recently used.
+        let (_, outcome) = reference(&dir, &a, cap, || panic!("cached")).unwrap();
+        assert_eq!(outcome, CacheOutcome::Hit);
+        reference(&dir, &c, cap, || render(&c)).unwrap();
+        assert!(key_path(&dir, &a).is_file() && key_path(&dir, &c).is_file());
+        assert!(!key_path(&dir, &b).exists(), "the least recently used goes");
+        let held: u64 = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().metadata().unwrap().len())
+            .sum();
+        assert!(held <= cap, "{held} > {cap}");
+        // Larger than the whole cap: computed, not stored, said.
+        let small = size(&a) - 1;
+        let (_, outcome) = reference(&dir, &b, small, || render(&b)).unwrap();
+        assert!(
+            matches!(outcome, CacheOutcome::TooLarge { .. }),
+            "{outcome:?}"
+        );
+        assert!(outcome.warning("b").unwrap().contains("--cache-cap"));
+        assert!(!key_path(&dir, &b).exists());
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -6,6 +6,7 @@
 
 pub mod cache;
 pub mod goldens;
+pub mod inputs;
 pub mod interference;
 pub mod report;
 pub mod results;
@@ -17,8 +18,9 @@ use oit_gpu::{Context, ContextOptions, TechniqueInfo, TechniqueSpec};
 use oit_scene::{Resolution, Scene};
 
 pub use run::{
-    APPROXIMATE_TRANSMISSION, CompareOptions, Event, LOCK_FILE, ReferenceCache, RenderedFrame,
-    compare, render_once,
+    APPROXIMATE_TRANSMISSION, CompareOptions, DEFAULT_MEMORY_BUDGET, DEFAULT_RUN_BUDGET, Event,
+    LAYERS_PNG, LOCK_FILE, MAX_WARMUP, MemoryPlan, RUN_BYTES_PER_PIXEL, ReferenceCache,
+    RenderedFrame, compare, compare_all, render_once, time_technique,
 };
 
 /// Errors of the harness. Each names the file it concerns.
@@ -191,16 +193,89 @@ pub fn techniques_help() -> String {
     out
 }
 
+/// `oit techniques --json`: every technique with its parameters as JSON, for scripts. An
+/// integer parameter has `min` and `max` (and the words it also takes); a word parameter its
+/// `values`.
+pub fn techniques_json() -> String {
+    let list: Vec<serde_json::Value> = registry()
+        .iter()
+        .map(|info| {
+            let params: Vec<serde_json::Value> = info
+                .params
+                .iter()
+                .map(|p| {
+                    let mut param = serde_json::json!({
+                        "key": p.key,
+                        "default": p.default,
+                        "description": p.description,
+                    });
+                    match p.allowed {
+                        oit_gpu::Allowed::Values(values) => {
+                            param["values"] = serde_json::json!(values);
+                        }
+                        oit_gpu::Allowed::Integer { min, max, words } => {
+                            param["min"] = serde_json::json!(min);
+                            param["max"] = serde_json::json!(max);
+                            param["values"] = serde_json::json!(words);
+                        }
+                    }
+                    param
+                })
+                .collect();
+            serde_json::json!({
+                "name": info.name,
+                "description": info.description,
+                "default_spec": info.default_spec().canonical(),
+                "params": params,
+            })
+        })
+        .collect();
+    serde_json::to_string_pretty(&list).expect("JSON values serialize")
+}
+
 /// Opens the GPU and prints nothing: callers print the adapter.
 pub fn open_context(options: &ContextOptions) -> Result<Context, HarnessError> {
     Ok(Context::new(options)?)
 }
 
-/// A loaded scene and the file it came from.
+/// A loaded scene, the file it came from and every file read for it.
 #[derive(Debug, Clone)]
 pub struct SceneEntry {
     pub path: PathBuf,
     pub scene: Scene,
+    /// Every file the loader read, `path` first (glTF assets, buffers, images): outputs
+    /// never land on them ([`inputs`]).
+    pub inputs: Vec<PathBuf>,
+}
+
+impl SceneEntry {
+    /// An entry for a scene built in memory, as if read from `path` (and nothing else).
+    pub fn new(path: impl Into<PathBuf>, scene: Scene) -> Self {
+        let path = path.into();
+        SceneEntry {
+            inputs: vec![path.clone()],
+            path,
+            scene,
+        }
+    }
+
+    /// Loads one scene file.
+    pub fn load(path: &Path, options: &oit_scene::LoadOptions) -> Result<Self, HarnessError> {
+        let (scene, inputs) = oit_scene::load_with_inputs(path, options)?;
+        Ok(SceneEntry {
+            path: path.to_path_buf(),
+            scene,
+            inputs,
+        })
+    }
+}
+
+/// A scene file of a comparison that could not be loaded: its runs are reported as failed
+/// with `error`, and the other scenes still run.
+#[derive(Debug, Clone)]
+pub struct Unloadable {
+    pub path: PathBuf,
+    pub error: String,
 }
 
 /// Loads scene files and directories of scene files (`*.json`, `*.gltf`, `*.glb`, sorted by
@@ -209,7 +284,8 @@ pub fn load_scenes(paths: &[PathBuf]) -> Result<Vec<SceneEntry>, HarnessError> {
     load_scenes_with(paths, &oit_scene::LoadOptions::default())
 }
 
-/// [`load_scenes`] with `options` (e.g. which glTF camera) applied to every glTF file.
+/// [`load_scenes`] with `options` (e.g. which glTF camera) applied to every glTF file. Stops
+/// at the first scene that does not load.
 pub fn load_scenes_with(
     paths: &[PathBuf],
     options: &oit_scene::LoadOptions,
@@ -217,17 +293,47 @@ pub fn load_scenes_with(
     let mut out = Vec::new();
     for path in paths {
         if path.is_dir() {
-            for (path, scene) in oit_scene::load_dir_with(path, options)? {
-                out.push(SceneEntry { path, scene });
+            for file in oit_scene::scene_files(path)? {
+                out.push(SceneEntry::load(&file, options)?);
             }
         } else {
-            out.push(SceneEntry {
-                path: path.clone(),
-                scene: oit_scene::load_with(path, options)?,
-            });
+            out.push(SceneEntry::load(path, options)?);
         }
     }
     Ok(out)
+}
+
+/// Like [`load_scenes_with`], but a scene file that fails to load is returned as
+/// [`Unloadable`] instead of ending the load: one bad scene never ends a comparison. A path
+/// that does not exist, or a folder that cannot be listed, is still an error (a typo on the
+/// command line, not a bad scene).
+pub fn load_scenes_lenient(
+    paths: &[PathBuf],
+    options: &oit_scene::LoadOptions,
+) -> Result<(Vec<SceneEntry>, Vec<Unloadable>), HarnessError> {
+    let mut files = Vec::new();
+    for path in paths {
+        if path.is_dir() {
+            files.extend(oit_scene::scene_files(path)?);
+        } else if path.exists() {
+            files.push(path.clone());
+        } else {
+            // Loading names the file and the OS error.
+            SceneEntry::load(path, options)?;
+        }
+    }
+    let mut entries = Vec::new();
+    let mut unloadable = Vec::new();
+    for file in files {
+        match SceneEntry::load(&file, options) {
+            Ok(entry) => entries.push(entry),
+            Err(e) => unloadable.push(Unloadable {
+                error: e.to_string(),
+                path: file,
+            }),
+        }
+    }
+    Ok((entries, unloadable))
 }
 
 /// Applies an optional resolution override.
@@ -297,6 +403,21 @@ pub fn fnv1a64(bytes: &[u8]) -> u64 {
     bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| {
         (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
     })
+}
+
+/// FNV-1a over 8-byte words (a byte-wise tail): the same stable hash idea as [`fnv1a64`] at
+/// a word a step, for hashing executables of tens of megabytes.
+pub fn fnv1a64_wide(bytes: &[u8]) -> u64 {
+    let mut h = 0xcbf2_9ce4_8422_2325u64;
+    let mut words = bytes.chunks_exact(8);
+    for w in &mut words {
+        h = (h ^ u64::from_le_bytes(w.try_into().expect("8 bytes")))
+            .wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    for &b in words.remainder() {
+        h = (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    h
 }
 
 /// Writes a reference as a linear EXR: layer `reference` (RGBA) plus single channels `layers`

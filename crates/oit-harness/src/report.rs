@@ -5,23 +5,138 @@ use std::fmt::Write as _;
 use crate::interference::Interference;
 use crate::results::{Results, Run, RunStatus};
 
+/// What the columns of every table mean, once, for the top of results.md and report.html.
+pub const COLUMNS: &[(&str, &str)] = &[
+    (
+        "GPU ms",
+        "median GPU time of the timed frames (GPU timestamps; `wall` where the adapter has none); † timed while over 10 % of the machine's CPU time went elsewhere",
+    ),
+    (
+        "cost × unsorted",
+        "GPU ms over `unsorted`'s on the same scene in the same comparison",
+    ),
+    (
+        "cost × floor",
+        "GPU ms over the scene's floor: one pass blending every transparent fragment once with vertex colour only, after the same opaque pass. A reference pass, measured like a run, not a bound: below 1 (‡) a technique's frame took less than the floor's median frame, which happens within the floor's own frame-to-frame spread on small scenes and when a technique tests depth before shading (fewer fragments shaded)",
+    ),
+    (
+        "bytes/px",
+        "GPU memory the technique allocates beyond the shared targets and scene, per pixel",
+    ),
+    (
+        "RMSE",
+        "root mean square error against the exact CPU reference, linear RGB",
+    ),
+    (
+        "max error",
+        "largest absolute error of any channel of any pixel",
+    ),
+    (
+        "FLIP",
+        "mean ꟻLIP of the Reinhard-tone-mapped images; HDR marks HDR-FLIP (exposure-bracketed, ACES) on scenes whose reference exceeds 1. 0 is identical, 1 the largest difference",
+    ),
+    (
+        "order dep.",
+        "largest difference between the technique's image with the draws in order and with everything submitted in reverse (the draw list, and the triangles inside each draw). 0 only where reversing changed nothing",
+    ),
+    (
+        "inexact",
+        "what the technique itself reports it cut or approximated (dropped layers, approximated tails, approximate transmission)",
+    ),
+];
+
+/// `text` safe to print in a terminal or a table: control characters (which could move the
+/// cursor, clear the screen or break a row) are shown as `\u{…}` escapes.
+pub fn printable(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for c in text.chars() {
+        if c.is_control() {
+            out.push_str(&c.escape_unicode().to_string());
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
+/// [`printable`] for a markdown table cell: `|` escaped so it cannot end the cell.
+pub fn md_cell(text: &str) -> String {
+    printable(text).replace('|', "\\|")
+}
+
+/// Words of `text` in lines of at most `width` characters (a longer word gets a line alone).
+pub fn wrap(text: &str, width: usize) -> Vec<String> {
+    let mut lines = Vec::new();
+    let mut line = String::new();
+    for word in text.split_whitespace() {
+        if !line.is_empty() && line.chars().count() + 1 + word.chars().count() > width {
+            lines.push(std::mem::take(&mut line));
+        }
+        if !line.is_empty() {
+            line.push(' ');
+        }
+        line.push_str(word);
+    }
+    if !line.is_empty() {
+        lines.push(line);
+    }
+    lines
+}
+
+/// A technique's canonical spec without the parameters at their defaults (`linked-list`
+/// rather than `linked-list:node=f32,nodes-per-pixel=16,sort-max=16,tail=average`): the label
+/// of the terminal table, where every other parameter still shows.
+pub fn short_spec(canonical: &str) -> String {
+    let Ok(spec) = crate::parse_spec(canonical) else {
+        return canonical.to_owned();
+    };
+    let registry = crate::registry();
+    let Some(info) = registry.iter().find(|i| i.name == spec.name) else {
+        return canonical.to_owned();
+    };
+    let defaults = info.default_spec();
+    let kept: Vec<String> = spec
+        .params
+        .iter()
+        .filter(|(k, v)| defaults.params.get(*k) != Some(*v))
+        .map(|(k, v)| format!("{k}={v}"))
+        .collect();
+    if kept.is_empty() {
+        spec.name
+    } else {
+        format!("{}:{}", spec.name, kept.join(","))
+    }
+}
+
 /// One row per run, grouped by scene, in run order.
 pub fn markdown(results: &Results) -> String {
     let mut out = String::new();
     let a = &results.adapter;
     let _ = writeln!(out, "# oit-lab results\n");
+    if !results.complete {
+        let _ = writeln!(
+            out,
+            "**Incomplete:** the comparison was interrupted; `oit compare … --resume` with the same output folder finishes it.\n"
+        );
+    }
     let _ = writeln!(
         out,
-        "Adapter: **{}** ({}, {}, {}). GPU ms are medians over the timed frames; \
-         cost × unsorted is relative to `unsorted` on the same scene in this run, cost × floor \
-         to the scene's floor (one blended pass over its transparent draws with vertex colour \
-         only: the least any technique can spend); errors are against the exact CPU reference \
-         on linear RGB; FLIP is the mean ꟻLIP of the Reinhard-tone-mapped images (unquantised \
-         floats), and HDR-FLIP (marked HDR: exposure-bracketed, ACES, as NVIDIA's tool) on \
-         scenes whose reference exceeds 1; order dep. is the largest difference between draw \
-         order and reversed draw order.\n",
-        a.name, a.backend, a.device_type, a.driver
+        "Adapter: **{}** ({}, {}, {}){}. Errors are against the exact CPU reference.\n",
+        md_cell(&a.name),
+        md_cell(&a.backend),
+        md_cell(&a.device_type),
+        md_cell(&a.driver),
+        results
+            .tool
+            .as_ref()
+            .map(|t| format!("; {} {} (build {})", t.name, t.version, t.build))
+            .unwrap_or_default()
     );
+    let _ = writeln!(out, "Columns:\n");
+    for (name, meaning) in COLUMNS {
+        let _ = writeln!(out, "- **{name}**: {meaning}.");
+    }
+    let _ = writeln!(out);
     if let Some(caveat) = overall_timing_caveat(results) {
         let _ = writeln!(out, "**Timing:** {caveat}.\n");
     }
@@ -38,17 +153,20 @@ pub fn markdown(results: &Results) -> String {
     ));
     for (scene, runs) in by_scene(results) {
         let res = runs[0].resolution;
-        let _ = writeln!(out, "## {scene} ({}x{})\n", res[0], res[1]);
+        let _ = writeln!(out, "## {} ({}x{})\n", md_cell(&scene), res[0], res[1]);
         if let Some(s) = results.scenes.iter().find(|s| s.scene == scene) {
+            if !s.description.is_empty() {
+                let _ = writeln!(out, "{}\n", md_cell(&s.description));
+            }
             for line in s.report_lines() {
-                let _ = writeln!(out, "{line}.\n");
+                let _ = writeln!(out, "{}.\n", md_cell(&line));
             }
         }
         if let Some(f) = results.floors.iter().find(|f| f.scene == scene) {
             let _ = writeln!(
                 out,
-                "Floor (opaque pass + one vertex-colour blended pass): {:.3} GPU ms.\n",
-                f.gpu_ms.median
+                "Floor (opaque pass + one vertex-colour blended pass): {:.3} GPU ms (frames {:.3}–{:.3}).\n",
+                f.gpu_ms.median, f.gpu_ms.min, f.gpu_ms.max
             );
         }
         for caveat in scene_caveats(&runs) {
@@ -57,13 +175,16 @@ pub fn markdown(results: &Results) -> String {
         if let Some(caveat) = timing_caveat(results, &scene, &runs) {
             let _ = writeln!(out, "Timing: {caveat}.\n");
         }
+        if let Some(note) = below_floor_note(results, &scene, &runs) {
+            let _ = writeln!(out, "‡ {note}.\n");
+        }
         let _ = writeln!(
             out,
             "| technique | GPU ms | cost × unsorted | cost × floor | bytes/px | RMSE | max error | FLIP | order dep. | inexact |"
         );
         let _ = writeln!(out, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---|");
         for r in runs {
-            let cells = row_cells(r);
+            let cells: Vec<String> = row_cells(r).iter().map(|c| md_cell(c)).collect();
             let _ = writeln!(out, "| {} |", cells.join(" | "));
         }
         let _ = writeln!(out);
@@ -71,43 +192,136 @@ pub fn markdown(results: &Results) -> String {
     out
 }
 
-/// Fixed-width table for the terminal.
+/// The line under a scene whose runs cost less than its floor (marked ‡), with the floor's
+/// own frame spread for scale; `None` when no run did.
+pub fn below_floor_note(results: &Results, scene: &str, runs: &[&Run]) -> Option<String> {
+    let below = runs
+        .iter()
+        .filter(|r| r.cost_vs_floor.is_some_and(|c| c < 1.0))
+        .count();
+    if below == 0 {
+        return None;
+    }
+    let floor = results.floors.iter().find(|f| f.scene == scene)?;
+    let g = &floor.gpu_ms;
+    Some(format!(
+        "{below} of {} runs cost less than the floor's median frame ({:.3} ms; its own frames took {:.3}–{:.3} ms, {:.2}–{:.2} × its median): the floor is a measured reference pass, not a bound",
+        runs.len(),
+        g.median,
+        g.min,
+        g.max,
+        if g.median > 0.0 {
+            g.min / g.median
+        } else {
+            0.0
+        },
+        if g.median > 0.0 {
+            g.max / g.median
+        } else {
+            0.0
+        },
+    ))
+}
+
+/// Widest line [`terminal_table`] writes.
+pub const TERMINAL_WIDTH: usize = 100;
+
+/// Longest technique label in the terminal table; a longer one is cut (`…`) and given whole
+/// in the row's note.
+const LABEL_MAX: usize = 30;
+
+/// Fixed-width table for the terminal: techniques by their non-default parameters, numbers
+/// right-aligned, and everything long (skip reasons, what was inexact) as numbered notes
+/// under the table, wrapped to [`TERMINAL_WIDTH`].
 pub fn terminal_table(results: &Results) -> String {
     const HEAD: [&str; 10] = [
         "technique",
         "GPU ms",
-        "× unsorted",
-        "× floor",
+        "×unsort",
+        "×floor",
         "B/px",
         "RMSE",
         "max err",
         "FLIP",
-        "order dep.",
-        "inexact",
+        "order",
+        "note",
     ];
     let mut out = String::new();
-    if let Some(caveat) = overall_timing_caveat(results) {
-        let _ = writeln!(out, "\ntiming: {caveat}");
+    if !results.complete {
+        let _ = writeln!(
+            out,
+            "\nincomplete: the comparison was interrupted; --resume finishes it"
+        );
     }
+    if let Some(caveat) = overall_timing_caveat(results) {
+        for line in wrap(&format!("timing: {caveat}"), TERMINAL_WIDTH) {
+            let _ = writeln!(out, "{line}");
+        }
+    }
+    let say = |out: &mut String, text: &str| {
+        for (i, line) in wrap(&printable(text), TERMINAL_WIDTH - 4)
+            .iter()
+            .enumerate()
+        {
+            let indent = if i == 0 { "  " } else { "    " };
+            let _ = writeln!(out, "{indent}{line}");
+        }
+    };
     for (scene, runs) in by_scene(results) {
-        let rows: Vec<Vec<String>> = runs.iter().map(|r| row_cells(r)).collect();
+        let mut notes: Vec<String> = Vec::new();
+        let rows: Vec<Vec<String>> = runs
+            .iter()
+            .map(|r| {
+                let mut cells = row_cells(r);
+                let label = short_spec(&r.technique);
+                let mut note_parts = Vec::new();
+                cells[0] = if label.chars().count() > LABEL_MAX {
+                    note_parts.push(label.clone());
+                    let cut: String = label.chars().take(LABEL_MAX - 1).collect();
+                    format!("{cut}…")
+                } else {
+                    label
+                };
+                let note = if r.status != RunStatus::Ok {
+                    let text = std::mem::take(&mut cells[1]);
+                    cells.iter_mut().skip(2).for_each(String::clear);
+                    cells[1] = text.split(':').next().unwrap_or_default().to_owned();
+                    Some(text)
+                } else {
+                    let text = std::mem::take(&mut cells[9]);
+                    (!text.is_empty()).then_some(text)
+                };
+                note_parts.extend(note);
+                if !note_parts.is_empty() {
+                    notes.push(note_parts.join(": "));
+                    cells[9] = format!("[{}]", notes.len());
+                }
+                cells
+            })
+            .collect();
         let mut widths: Vec<usize> = HEAD.iter().map(|h| h.chars().count()).collect();
         for row in &rows {
             for (w, cell) in widths.iter_mut().zip(row) {
                 *w = (*w).max(cell.chars().count());
             }
         }
-        let _ = writeln!(out, "\n{scene}");
+        let _ = writeln!(out, "\n{}", printable(&scene));
         if let Some(s) = results.scenes.iter().find(|s| s.scene == scene) {
+            if !s.description.is_empty() {
+                say(&mut out, &s.description);
+            }
             for line in s.report_lines() {
-                let _ = writeln!(out, "  {line}");
+                say(&mut out, &line);
             }
         }
         for caveat in scene_caveats(&runs) {
-            let _ = writeln!(out, "  reference: {caveat}");
+            say(&mut out, &format!("reference: {caveat}"));
         }
         if let Some(caveat) = timing_caveat(results, &scene, &runs) {
-            let _ = writeln!(out, "  timing: {caveat}");
+            say(&mut out, &format!("timing: {caveat}"));
+        }
+        if let Some(note) = below_floor_note(results, &scene, &runs) {
+            say(&mut out, &format!("‡ {note}"));
         }
         let line = |cells: &[String]| {
             cells
@@ -124,12 +338,17 @@ pub fn terminal_table(results: &Results) -> String {
                     }
                 })
                 .collect::<Vec<_>>()
-                .join("  ")
+                .join(" ")
+                .trim_end()
+                .to_owned()
         };
         let head: Vec<String> = HEAD.iter().map(|s| s.to_string()).collect();
         let _ = writeln!(out, "  {}", line(&head));
         for row in &rows {
             let _ = writeln!(out, "  {}", line(row));
+        }
+        for (i, note) in notes.iter().enumerate() {
+            say(&mut out, &format!("[{}] {note}", i + 1));
         }
     }
     out
@@ -336,7 +555,7 @@ pub fn matrix_markdown(
                 }
             })
             .collect();
-        let _ = writeln!(out, "| {scene} | {} |", cells.join(" | "));
+        let _ = writeln!(out, "| {} | {} |", md_cell(&scene), cells.join(" | "));
     }
     let means: Vec<String> = sums
         .iter()
@@ -432,6 +651,10 @@ fn row_cells(r: &Run) -> Vec<String> {
         })
         .unwrap_or_default();
     let ratio = |c: Option<f64>| c.map(|c| format!("{c:.2}")).unwrap_or_else(|| "–".into());
+    let floor_ratio = |c: Option<f64>| match c {
+        Some(c) if c < 1.0 => format!("{c:.2}‡"),
+        other => ratio(other),
+    };
     let bpp = r
         .bytes_per_pixel
         .map(|b| format!("{b:.1}"))
@@ -445,7 +668,7 @@ fn row_cells(r: &Run) -> Vec<String> {
         r.technique.clone(),
         gpu,
         ratio(r.cost_vs_unsorted),
-        ratio(r.cost_vs_floor),
+        floor_ratio(r.cost_vs_floor),
         bpp,
         rmse,
         max,
@@ -514,6 +737,8 @@ mod tests {
     fn results_of(runs: Vec<Run>, floors: Vec<crate::results::FloorJson>) -> Results {
         Results {
             schema: crate::results::SCHEMA.into(),
+            tool: None,
+            complete: true,
             adapter: AdapterJson {
                 name: "a".into(),
                 backend: "b".into(),
@@ -702,7 +927,13 @@ mod tests {
         };
         let busy = results_of(runs(0.3), Vec::new());
         let text = markdown(&busy);
-        assert!(!text.contains('†'), "{text}");
+        assert!(
+            !text
+                .lines()
+                .filter(|l| l.starts_with("| "))
+                .any(|l| l.contains('†')),
+            "{text}"
+        );
         assert!(
             text.contains(
                 "Timing: the timed frames of this scene, each run too short to judge alone, \
@@ -741,5 +972,104 @@ mod tests {
         assert_eq!(sci(3.14159e-4), "3.1e-4");
         assert_eq!(sci(0.25), "0.2500");
         assert_eq!(sci(12345.0), "1.2e4");
+    }
+
+    /// The terminal table of every technique at its defaults stays within
+    /// [`TERMINAL_WIDTH`] columns, whatever the reasons and notes say: labels drop default
+    /// parameters, long text goes to numbered notes under the table, wrapped.
+    #[test]
+    fn the_terminal_table_fits_a_terminal() {
+        let mut runs: Vec<Run> = crate::resolve_specs(&[])
+            .unwrap()
+            .iter()
+            .map(|s| {
+                let mut r = run("a-scene-with-a-long-name", &s.canonical(), 12.5, 3e-4, 0.25);
+                r.bytes_per_pixel = Some(1234.5);
+                r.inexact =
+                    vec!["dropped layers on 123456 px; tail approximated on 654321 px".into()];
+                r
+            })
+            .collect();
+        runs.push(Run::not_rendered(
+            "a-scene-with-a-long-name",
+            "f.json",
+            "linked-list:node=f16,nodes-per-pixel=64,sort-max=128,tail=drop",
+            [4, 4],
+            RunStatus::Skipped,
+            "unsupported here because this adapter has no storage buffers in the fragment stage, which the lists need ".repeat(3),
+        ));
+        let mut results = results_of(runs, Vec::new());
+        results.scenes.push(crate::results::SceneJson {
+            scene: "a-scene-with-a-long-name".into(),
+            scene_file: "f.json".into(),
+            description: "A description long enough to need wrapping on any terminal, since scene descriptions say what breaks and why in a sentence or three.".repeat(2),
+            triangles: 2,
+            scene_bytes: 1,
+            texture_bytes: 0,
+            credits: Vec::new(),
+            ignored: Vec::new(),
+        });
+        let table = terminal_table(&results);
+        for line in table.lines() {
+            assert!(
+                line.chars().count() <= TERMINAL_WIDTH,
+                "{} columns: {line}",
+                line.chars().count()
+            );
+        }
+        assert!(
+            table.contains("  linked-list "),
+            "default parameters dropped: {table}"
+        );
+        assert!(
+            table.contains("[16] linked-list:node=f16,nodes-per-pixel=64,sort-max=128,tail=drop: skipped: unsupported here"),
+            "{table}"
+        );
+    }
+
+    #[test]
+    fn short_specs_drop_only_default_parameters() {
+        assert_eq!(
+            short_spec("linked-list:node=f32,nodes-per-pixel=16,sort-max=16,tail=average"),
+            "linked-list"
+        );
+        assert_eq!(
+            short_spec("dual-peel:depth=auto,encoding=window,passes=3,reverse-z=on,tail=wboit"),
+            "dual-peel:passes=3,tail=wboit"
+        );
+        assert_eq!(short_spec("not-a-technique:x=1"), "not-a-technique:x=1");
+    }
+
+    /// A cost below the floor is marked and explained beside the floor's own spread, never
+    /// left as an unexplained "impossible" number.
+    #[test]
+    fn costs_below_the_floor_are_marked_and_explained() {
+        let mut cheap = run("s", "unsorted", 1.0, 1e-4, 0.0);
+        cheap.cost_vs_floor = Some(0.8);
+        let dear = run("s", "front-peel", 10.0, 1e-4, 0.0);
+        let floor = crate::results::FloorJson {
+            scene: "s".into(),
+            resolution: [4, 4],
+            gpu_ms: crate::results::GpuMs {
+                median: 1.0,
+                min: 0.6,
+                max: 1.9,
+                frames: 20,
+                source: "timestamp".into(),
+                interference: None,
+                attempts: 1,
+            },
+            passes: Vec::new(),
+        };
+        let results = results_of(vec![cheap, dear], vec![floor]);
+        let md = markdown(&results);
+        assert!(md.contains("| 0.80‡ |"), "{md}");
+        assert!(
+            md.contains("‡ 1 of 2 runs cost less than the floor's median frame (1.000 ms; its own frames took 0.600–1.900 ms, 0.60–1.90 × its median)"),
+            "{md}"
+        );
+        assert!(terminal_table(&results).contains("0.80‡"));
+        let none = results_of(vec![run("s", "front-peel", 10.0, 1e-4, 0.0)], Vec::new());
+        assert!(!markdown(&none).contains("‡ "));
     }
 }

@@ -10,6 +10,13 @@ pub const SCHEMA: &str = "oit-lab/results/v1";
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Results {
     pub schema: String,
+    /// The build of oit that wrote the file (absent in older files).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tool: Option<ToolJson>,
+    /// False while a comparison is running and when it was interrupted: then some requested
+    /// runs are missing (`oit compare --resume` finishes them). Absent (true) in older files.
+    #[serde(default = "yes", skip_serializing_if = "is_true")]
+    pub complete: bool,
     pub adapter: AdapterJson,
     pub runs: Vec<Run>,
     /// Per scene, the floor: one blended pass over its transparent draws with the cheapest
@@ -21,11 +28,57 @@ pub struct Results {
     pub scenes: Vec<SceneJson>,
 }
 
+fn yes() -> bool {
+    true
+}
+
+fn is_true(b: &bool) -> bool {
+    *b
+}
+
+/// Which build of oit made a results file: `--resume` reuses only runs of the same build, so a
+/// code change never leaves stale numbers beside new ones.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ToolJson {
+    pub name: String,
+    /// The crate version (`CARGO_PKG_VERSION`).
+    pub version: String,
+    /// [`ToolJson::build_id`]: changes with any change to the code or its build.
+    pub build: String,
+}
+
+impl ToolJson {
+    pub fn current() -> Self {
+        ToolJson {
+            name: "oit-lab".to_owned(),
+            version: env!("CARGO_PKG_VERSION").to_owned(),
+            build: Self::build_id(),
+        }
+    }
+
+    /// A hash (FNV-1a, 64 bit, hex) of the running executable's bytes: the same for one
+    /// binary wherever it runs, different after any rebuild that changed code. Computed once
+    /// per process; `unknown` where the executable cannot be read.
+    pub fn build_id() -> String {
+        static ID: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+        ID.get_or_init(|| {
+            std::env::current_exe().and_then(std::fs::read).map_or_else(
+                |_| "unknown".to_owned(),
+                |bytes| format!("{:016x}", crate::fnv1a64_wide(&bytes)),
+            )
+        })
+        .clone()
+    }
+}
+
 /// What one scene brought to the run.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SceneJson {
     pub scene: String,
     pub scene_file: String,
+    /// What the scene tests, from its file (absent in older files).
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub description: String,
     pub triangles: u64,
     /// GPU bytes of the uploaded scene that every technique shares (vertices, material table,
     /// textures); a run's `memory_bytes` is the technique's own on top of it.
@@ -46,6 +99,7 @@ impl SceneJson {
         SceneJson {
             scene: scene.name.clone(),
             scene_file: scene_file.to_owned(),
+            description: scene.description.clone(),
             triangles: scene.triangle_count() as u64,
             scene_bytes: bytes.total(),
             texture_bytes: if scene.textures.is_empty() {
@@ -251,6 +305,10 @@ pub struct RunInputs {
     /// `--retime`: how many times a noisy window may be timed again (0 in older files).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub retime: u32,
+    /// [`ToolJson::build_id`] of the build that made the run (empty in older files: such runs
+    /// are never reused).
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub build: String,
 }
 
 fn is_zero(n: &u32) -> bool {
@@ -345,22 +403,38 @@ impl Run {
 }
 
 impl Results {
+    /// Reads a results file. The schema is checked before anything else, so a file of
+    /// another kind is named as such rather than by its first missing field.
     pub fn read(path: &Path) -> Result<Results, crate::HarnessError> {
+        let invalid = |message: String| crate::HarnessError::Invalid {
+            path: path.to_path_buf(),
+            message,
+        };
         let text = std::fs::read_to_string(path).map_err(|e| crate::HarnessError::io(path, e))?;
-        let results: Results =
-            serde_json::from_str(&text).map_err(|e| crate::HarnessError::Invalid {
-                path: path.to_path_buf(),
-                message: e.to_string(),
-            })?;
-        if results.schema != SCHEMA {
-            return Err(crate::HarnessError::Invalid {
-                path: path.to_path_buf(),
-                message: format!(
+        let value: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
+            invalid(format!(
+                "not JSON ({e}); a results file has schema `{SCHEMA}`"
+            ))
+        })?;
+        match value.get("schema") {
+            Some(serde_json::Value::String(s)) if s == SCHEMA => {}
+            Some(serde_json::Value::String(s)) => {
+                return Err(invalid(format!(
                     "schema is `{}`; this build reads `{SCHEMA}`",
-                    results.schema
-                ),
-            });
+                    crate::report::printable(s)
+                )));
+            }
+            Some(_) => {
+                return Err(invalid(format!(
+                    "`schema` is not a string; this build reads `{SCHEMA}`"
+                )));
+            }
+            None => {
+                return Err(invalid(format!(
+                    "no `schema` field: not an oit-lab results file (schema `{SCHEMA}`)"
+                )));
+            }
         }
-        Ok(results)
+        serde_json::from_value(value).map_err(|e| invalid(e.to_string()))
     }
 }

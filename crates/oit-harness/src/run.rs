@@ -1,7 +1,11 @@
-//! The comparison loop: for each scene, the reference (cached), then for each technique
-//! warm-up frames, timed frames, readback, metrics, the reversed-order render, and reports.
+//! The comparison loop: for each scene, the reference (cached) and the floor, then for each
+//! technique a first untimed frame, warm-up frames, timed frames, readback, metrics, the
+//! reversed-order render, and reports.
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
+use std::time::Duration;
 
 use oit_gpu::{
     ColorFormat, Context, ContextOptions, GpuScene, GpuTimer, Targets, Technique, TechniqueSpec,
@@ -11,9 +15,11 @@ use oit_scene::{LinearImage, Resolution, Scene};
 
 use crate::results::{
     AdapterJson, FloorJson, GpuMs, Outputs, PassMs, Results, Run, RunInputs, RunStatus, SCHEMA,
-    SceneJson, Stats,
+    SceneJson, Stats, ToolJson,
 };
-use crate::{HarnessError, SceneEntry, at_resolution, file_stem, interference, registry};
+use crate::{
+    HarnessError, SceneEntry, Unloadable, at_resolution, file_stem, interference, registry,
+};
 
 /// Where `compare` keeps computed references.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -33,21 +39,41 @@ pub struct CompareOptions {
     pub resolution: Option<Resolution>,
     /// Timed frames per run (median, min and max are reported); at least 1.
     pub frames: u32,
-    /// Untimed frames first: pipelines compile and caches fill on the first frame.
+    /// Untimed frames after the first (which is never timed: pipelines are built in it); at
+    /// most [`MAX_WARMUP`].
     pub warmup: u32,
     pub out_dir: PathBuf,
     pub cache: ReferenceCache,
-    /// Bytes the reference may hold for fragments (`oit_reference::ReferenceOptions`).
-    pub reference_memory_budget: u64,
+    /// Bytes of reference files the cache folder may hold; the least recently used go first,
+    /// and a reference larger than this is not cached ([`crate::cache`]).
+    pub cache_cap: u64,
+    /// Host memory one scene may take, in bytes: the images of one run
+    /// ([`RUN_BYTES_PER_PIXEL`] a pixel) and the reference's fragments (the rest). A scene
+    /// that cannot fit fails before anything is computed, and the comparison goes on.
+    pub memory_budget: u64,
+    /// Wall-clock time one run may take (all its frames): a technique's own pass estimate
+    /// over it is skipped before it starts, a first frame that shows the run would go past
+    /// it stops the run, and any submission past it fails.
+    pub run_budget: Duration,
     /// Reuse the runs of `out_dir/results.json` made from identical inputs (see
-    /// [`crate::results::RunInputs`]) instead of running them again.
+    /// [`crate::results::RunInputs`]) instead of running them again, and keep its runs of
+    /// other techniques and scenes.
     pub resume: bool,
     /// Times a run's frames again, up to this many times, while they were taken with more than
     /// [`NOTABLE`](crate::interference::NOTABLE) of the machine's CPU time going elsewhere
     /// (a judgeable window only); the quietest attempt is kept and says how many were made.
     pub retime: u32,
+    /// Set it (from a Ctrl-C handler, say) to stop after the run in progress: what finished
+    /// is written, and the results say they are incomplete.
+    pub cancel: Option<Arc<AtomicBool>>,
     pub context: ContextOptions,
 }
+
+/// Default of [`CompareOptions::run_budget`].
+pub const DEFAULT_RUN_BUDGET: Duration = Duration::from_secs(300);
+
+/// Default of [`CompareOptions::memory_budget`]: 4 GiB.
+pub const DEFAULT_MEMORY_BUDGET: u64 = 4 << 30;
 
 impl Default for CompareOptions {
     fn default() -> Self {
@@ -57,9 +83,12 @@ impl Default for CompareOptions {
             warmup: 3,
             out_dir: PathBuf::from("out"),
             cache: ReferenceCache::Default,
-            reference_memory_budget: oit_reference::ReferenceOptions::DEFAULT_MEMORY_BUDGET,
+            cache_cap: crate::cache::DEFAULT_CAP,
+            memory_budget: DEFAULT_MEMORY_BUDGET,
+            run_budget: DEFAULT_RUN_BUDGET,
             resume: false,
             retime: 0,
+            cancel: None,
             context: ContextOptions::default(),
         }
     }
@@ -74,8 +103,11 @@ pub enum Event<'a> {
         technique: &'a str,
         resumed: bool,
     },
-    /// One line people must see (e.g. a cached reference that was not trusted).
+    /// One line people must see because something went wrong or was not trusted (e.g. a
+    /// cached reference recomputed, a scene that failed).
     Warning(&'a str),
+    /// One line that says what the comparison did with earlier results.
+    Notice(&'a str),
 }
 
 /// One rendered image and what it cost.
@@ -113,13 +145,28 @@ pub fn render_once(
 }
 
 /// Runs every technique on every scene; writes `results.json`, `results.md` and per-run EXR
-/// and PNG files under `options.out_dir`, and nothing outside it. `results.json` and
-/// `results.md` are rewritten (atomically) after every run, so an interrupted comparison keeps
-/// what it finished and `--resume` can continue it. Two comparisons never share an output
-/// folder (a lock file), and no two scenes or techniques share an output file.
+/// and PNG files under `options.out_dir`, and nothing outside it but the reference cache.
+/// `results.json` and `results.md` are rewritten (atomically) after every run, so an
+/// interrupted comparison keeps what it finished and `--resume` can continue it. Two
+/// comparisons never share an output folder (a lock file), and no two scenes or techniques
+/// share an output file.
 pub fn compare(
     ctx: &Context,
     scenes: &[SceneEntry],
+    specs: &[TechniqueSpec],
+    options: &CompareOptions,
+    on_event: &dyn Fn(Event<'_>),
+) -> Result<Results, HarnessError> {
+    compare_all(ctx, scenes, &[], specs, options, on_event)
+}
+
+/// [`compare`], with the scene files that failed to load: each gets a failed run per
+/// technique with the loader's message, and the other scenes run as usual. A scene whose
+/// reference or upload fails is reported the same way: one bad scene never ends a comparison.
+pub fn compare_all(
+    ctx: &Context,
+    scenes: &[SceneEntry],
+    unloadable: &[Unloadable],
     specs: &[TechniqueSpec],
     options: &CompareOptions,
     on_event: &dyn Fn(Event<'_>),
@@ -129,19 +176,32 @@ pub fn compare(
             "frames must be at least 1 (the timed frames of every run)".into(),
         ));
     }
+    if options.warmup > MAX_WARMUP {
+        return Err(HarnessError::Options(format!(
+            "warmup {} is more than {MAX_WARMUP} frames per run",
+            options.warmup
+        )));
+    }
     check_unique_outputs(scenes, specs)?;
     let out = &options.out_dir;
     std::fs::create_dir_all(out).map_err(|e| HarnessError::io(out, e))?;
     let _lock = OutputLock::acquire(out)?;
     oit_metrics::remove_stale_temporaries(out);
     // Read before anything is written: results.json is rewritten after every run.
-    let earlier = if options.resume {
-        earlier_results(out, ctx)?
-    } else {
-        None
-    };
-    let (earlier_runs, earlier_floors) =
-        earlier.map_or((Vec::new(), Vec::new()), |e| (e.runs, e.floors));
+    let earlier = earlier_results(out, ctx, options.resume)?;
+    if let (Some(e), false) = (&earlier, options.resume) {
+        on_event(Event::Notice(&format!(
+            "{} holds the results of an earlier comparison ({} runs): replaced (--resume keeps them)",
+            out.display(),
+            e.runs.len()
+        )));
+    }
+    let earlier = earlier.filter(|_| options.resume);
+    let (mut earlier_runs, earlier_floors, earlier_scenes) = earlier.map_or_else(
+        || (Vec::new(), Vec::new(), Vec::new()),
+        |e| (e.runs, e.floors, e.scenes),
+    );
+    let mut resume = ResumeCount::default();
     let cache_dir = match &options.cache {
         ReferenceCache::Default => Some(crate::cache::default_dir()),
         ReferenceCache::Dir(d) => Some(d.clone()),
@@ -149,123 +209,413 @@ pub fn compare(
     };
     let mut results = Results {
         schema: SCHEMA.to_owned(),
+        tool: Some(ToolJson::current()),
+        complete: false,
         adapter: AdapterJson::of(ctx),
         runs: Vec::new(),
         floors: Vec::new(),
         scenes: Vec::new(),
     };
+    let build = ToolJson::build_id();
+    let cancelled = || {
+        options
+            .cancel
+            .as_ref()
+            .is_some_and(|c| c.load(std::sync::atomic::Ordering::Relaxed))
+    };
     for entry in scenes {
+        if cancelled() {
+            break;
+        }
         let scene = at_resolution(&entry.scene, options.resolution);
         let scene_file = entry.path.display().to_string();
-        results.scenes.push(SceneJson::of(&scene, &scene_file));
-        let compute = || {
-            Ok(oit_reference::try_render(
-                &scene,
-                &oit_reference::ReferenceOptions {
-                    memory_budget: options.reference_memory_budget,
-                    ..Default::default()
-                },
-            )?)
-        };
-        let reference = match &cache_dir {
-            Some(dir) => {
-                let (reference, outcome) = crate::cache::reference(dir, &scene, compute)?;
-                if let Some(warning) = outcome.warning(&scene.name) {
-                    on_event(Event::Warning(&warning));
-                }
-                reference
-            }
-            None => compute()?,
-        };
-        let scene_dir = out.join(file_stem(&scene.name));
-        std::fs::create_dir_all(&scene_dir).map_err(|e| HarnessError::io(&scene_dir, e))?;
-        oit_metrics::remove_stale_temporaries(&scene_dir);
-        // The reference once per scene, for reports that show it beside every render.
-        crate::write_reference_exr(&scene_dir.join("reference.exr"), &reference)?;
-        oit_metrics::write_png_preview(&scene_dir.join("reference.png"), &reference.image)?;
-        let forward = GpuScene::upload(ctx, &scene)?;
-        let reversed = GpuScene::upload(ctx, &scene.with_reversed_draw_order())?;
-        let targets = Targets::new(ctx, scene.resolution, ColorFormat::Rgba16Float)?;
         let inputs = RunInputs {
             scene_hash: format!("{:016x}", scene.content_hash()),
             frames: options.frames,
             warmup: options.warmup,
             retime: options.retime,
+            build: build.clone(),
         };
+        // Earlier runs of this scene: reused for requested techniques when made from the same
+        // inputs, kept beside them for techniques not requested now.
+        let (mine, others): (Vec<Run>, Vec<Run>) = std::mem::take(&mut earlier_runs)
+            .into_iter()
+            .partition(|r| r.scene == scene.name && r.resolution == res(&scene));
+        earlier_runs = others;
+        let (reusable_runs, stale): (Vec<Run>, Vec<Run>) = mine
+            .into_iter()
+            .partition(|r| reusable(r, &scene, &r.technique, &inputs, out));
+        resume.dropped += stale.len();
         let first_run = results.runs.len();
-        let mut all_resumed = true;
-        for spec in specs {
-            let canonical = spec.canonical();
-            let resumed = earlier_runs
-                .iter()
-                .find(|r| reusable(r, &scene, &canonical, &inputs, out))
-                .cloned();
-            let run = match resumed {
-                Some(mut run) => {
-                    run.resumed = true;
-                    run.scene_file.clone_from(&scene_file);
-                    run
-                }
-                None => {
-                    all_resumed = false;
-                    let mut run = run_one(
-                        ctx,
-                        &scene,
-                        &scene_file,
-                        &forward,
-                        &reversed,
-                        &targets,
-                        spec,
-                        &reference,
-                        options,
-                        out,
-                    )
-                    .unwrap_or_else(|e| {
-                        Run::not_rendered(
-                            &scene.name,
-                            &scene_file,
-                            &canonical,
-                            res(&scene),
-                            RunStatus::Failed,
-                            e.to_string(),
-                        )
-                    });
-                    run.inputs = Some(inputs.clone());
-                    run
-                }
-            };
-            let was_resumed = run.resumed;
-            results.runs.push(run);
-            write_outputs(out, &results)?;
-            on_event(Event::RunDone {
-                scene: &scene.name,
-                technique: &canonical,
-                resumed: was_resumed,
-            });
-        }
+        results.scenes.push(SceneJson::of(&scene, &scene_file));
         let earlier_floor = earlier_floors
             .iter()
             .find(|f| f.scene == scene.name && f.resolution == res(&scene));
-        match earlier_floor.filter(|_| all_resumed) {
-            // Every run came from the earlier comparison: its ratios and floor stand together.
-            Some(floor) => results.floors.push(floor.clone()),
-            None => {
-                fill_costs(&mut results.runs[first_run..], || {
-                    // `unsorted` was not requested: time it anyway, so every cost has its baseline.
-                    let spec = TechniqueSpec::parse("unsorted", &registry()).ok()?;
-                    let mut t = build(&spec).ok()?;
-                    time_frames(ctx, &forward, t.as_mut(), &targets, options)
-                        .ok()
-                        .map(|(ms, _, _)| ms.median)
-                });
-                let floor = time_floor(ctx, &scene, &forward, &targets, options)?;
-                fill_floor_costs(&mut results.runs[first_run..], floor.gpu_ms.median);
-                results.floors.push(floor);
+        let scene_done = run_scene(
+            ctx,
+            &scene,
+            &scene_file,
+            specs,
+            &reusable_runs,
+            earlier_floor,
+            &inputs,
+            cache_dir.as_deref(),
+            options,
+            &mut results,
+            &mut resume,
+            &cancelled,
+            on_event,
+        );
+        if let Err(e) = scene_done {
+            if matches!(e, HarnessError::Io { .. }) && is_under(&e, out) {
+                // The output folder itself failed: nothing more can be written.
+                return Err(e);
             }
+            // Every requested run of the scene that did not finish fails with the scene's
+            // error; the comparison goes on with the next scene.
+            let message = format!("scene {} ({scene_file}): {e}", scene.name);
+            on_event(Event::Warning(&message));
+            for spec in specs {
+                let canonical = spec.canonical();
+                if results.runs[first_run..]
+                    .iter()
+                    .any(|r| r.technique == canonical)
+                {
+                    continue;
+                }
+                let mut run = Run::not_rendered(
+                    &scene.name,
+                    &scene_file,
+                    &canonical,
+                    res(&scene),
+                    RunStatus::Failed,
+                    message.clone(),
+                );
+                run.inputs = Some(inputs.clone());
+                results.runs.push(run);
+                on_event(Event::RunDone {
+                    scene: &scene.name,
+                    technique: &canonical,
+                    resumed: false,
+                });
+            }
+            write_outputs(out, &results)?;
+            continue;
         }
+        // Techniques of the earlier comparison that were not requested now stay beside these
+        // runs: a comparison grows one technique at a time.
+        let requested: Vec<String> = specs.iter().map(TechniqueSpec::canonical).collect();
+        for mut run in reusable_runs
+            .into_iter()
+            .filter(|r| !requested.contains(&r.technique))
+        {
+            run.resumed = true;
+            run.scene_file.clone_from(&scene_file);
+            resume.kept_unrequested += 1;
+            results.runs.push(run);
+        }
+        if let Some(floor) = results.floors.iter().find(|f| f.scene == scene.name) {
+            let floor_ms = floor.gpu_ms.median;
+            fill_floor_costs(&mut results.runs[first_run..], floor_ms);
+        }
+        fill_costs(&mut results.runs[first_run..], || None);
         write_outputs(out, &results)?;
     }
+    let done = !cancelled();
+    for u in unloadable.iter().filter(|_| done) {
+        let name = u.path.file_stem().map_or_else(
+            || u.path.display().to_string(),
+            |s| s.to_string_lossy().into_owned(),
+        );
+        let file = u.path.display().to_string();
+        let message = format!("could not load {file}: {}", u.error);
+        for spec in specs {
+            let canonical = spec.canonical();
+            results.runs.push(Run::not_rendered(
+                &name,
+                &file,
+                &canonical,
+                [0, 0],
+                RunStatus::Failed,
+                message.clone(),
+            ));
+            on_event(Event::RunDone {
+                scene: &name,
+                technique: &canonical,
+                resumed: false,
+            });
+        }
+    }
+    if done && options.resume {
+        // Scenes of the earlier comparison that were not part of this one stay, when the same
+        // build made them.
+        for run in std::mem::take(&mut earlier_runs) {
+            if run.inputs.as_ref().is_some_and(|i| i.build == build) {
+                if !results.scenes.iter().any(|s| s.scene == run.scene)
+                    && let Some(s) = earlier_scenes.iter().find(|s| s.scene == run.scene)
+                {
+                    results.scenes.push(s.clone());
+                }
+                if !results.floors.iter().any(|f| f.scene == run.scene)
+                    && let Some(f) = earlier_floors.iter().find(|f| f.scene == run.scene)
+                {
+                    results.floors.push(f.clone());
+                }
+                resume.kept_other_scenes += 1;
+                results.runs.push(Run {
+                    resumed: true,
+                    ..run
+                });
+            } else {
+                resume.dropped += 1;
+            }
+        }
+    }
+    if options.resume
+        && let Some(line) = resume.describe()
+    {
+        on_event(Event::Notice(&line));
+    }
+    results.complete = done;
+    write_outputs(out, &results)?;
     Ok(results)
+}
+
+/// Most untimed warm-up frames a run may ask for: beyond this a run never ends in practice.
+pub const MAX_WARMUP: u32 = 1000;
+
+/// What `--resume` did, for the line that says so.
+#[derive(Debug, Default)]
+struct ResumeCount {
+    /// Requested runs taken from the earlier comparison.
+    reused: usize,
+    /// Earlier runs of techniques not requested now, kept beside the new ones.
+    kept_unrequested: usize,
+    /// Earlier runs of scenes not in this comparison, kept.
+    kept_other_scenes: usize,
+    /// Earlier runs made by another build or from other inputs: not kept.
+    dropped: usize,
+    /// Requested runs made now.
+    made: usize,
+}
+
+impl ResumeCount {
+    fn describe(&self) -> Option<String> {
+        let mut parts = vec![
+            format!("{} runs made now", self.made),
+            format!("{} taken from the earlier results", self.reused),
+        ];
+        if self.kept_unrequested > 0 {
+            parts.push(format!(
+                "{} of techniques not requested now kept beside them",
+                self.kept_unrequested
+            ));
+        }
+        if self.kept_other_scenes > 0 {
+            parts.push(format!("{} of other scenes kept", self.kept_other_scenes));
+        }
+        if self.dropped > 0 {
+            parts.push(format!(
+                "{} earlier runs dropped (made by another build of oit, from other inputs, or failed)",
+                self.dropped
+            ));
+        }
+        Some(format!("--resume: {}", parts.join("; ")))
+    }
+}
+
+/// Whether `e` concerns a path inside `out`.
+fn is_under(e: &HarnessError, out: &Path) -> bool {
+    match e {
+        HarnessError::Io { path, .. } => path.starts_with(out),
+        _ => false,
+    }
+}
+
+/// One scene of a comparison: its reference (cached), its floor (timed first, so every run
+/// finished has its cost ratios even if the comparison is interrupted), then each technique,
+/// with `results.json` written after every run.
+#[allow(clippy::too_many_arguments)] // the comparison's state, passed down once per scene
+fn run_scene(
+    ctx: &Context,
+    scene: &Scene,
+    scene_file: &str,
+    specs: &[TechniqueSpec],
+    earlier: &[Run],
+    earlier_floor: Option<&FloorJson>,
+    inputs: &RunInputs,
+    cache_dir: Option<&Path>,
+    options: &CompareOptions,
+    results: &mut Results,
+    resume: &mut ResumeCount,
+    cancelled: &dyn Fn() -> bool,
+    on_event: &dyn Fn(Event<'_>),
+) -> Result<(), HarnessError> {
+    let out = &options.out_dir;
+    let memory = MemoryPlan::of(scene, options.memory_budget)?;
+    let compute = || {
+        Ok(oit_reference::try_render(
+            scene,
+            &oit_reference::ReferenceOptions {
+                memory_budget: memory.reference_bytes,
+                ..Default::default()
+            },
+        )?)
+    };
+    let reference = match cache_dir {
+        Some(dir) => {
+            let (reference, outcome) =
+                crate::cache::reference(dir, scene, options.cache_cap, compute)?;
+            if let Some(warning) = outcome.warning(&scene.name) {
+                on_event(Event::Warning(&warning));
+            }
+            reference
+        }
+        None => compute()?,
+    };
+    let scene_dir = out.join(file_stem(&scene.name));
+    std::fs::create_dir_all(&scene_dir).map_err(|e| HarnessError::io(&scene_dir, e))?;
+    oit_metrics::remove_stale_temporaries(&scene_dir);
+    // The reference once per scene, for reports that show it beside every render, and its
+    // per-pixel layer count as a picture.
+    crate::write_reference_exr(&scene_dir.join("reference.exr"), &reference)?;
+    oit_metrics::write_png_preview(&scene_dir.join("reference.png"), &reference.image)?;
+    oit_metrics::write_png_srgb8(
+        &scene_dir.join(LAYERS_PNG),
+        &oit_metrics::count_map(&reference.layers, scene.resolution.width),
+    )?;
+    let forward = GpuScene::upload(ctx, scene)?;
+    let reversed = GpuScene::upload(ctx, &scene.with_reversed_order())?;
+    let targets = Targets::new(ctx, scene.resolution, ColorFormat::Rgba16Float)?;
+    let first_run = results.runs.len();
+
+    let reused: Vec<&Run> = specs
+        .iter()
+        .filter_map(|spec| {
+            let canonical = spec.canonical();
+            earlier.iter().find(|r| r.technique == canonical)
+        })
+        .collect();
+    let all_reused = reused.len() == specs.len();
+    // The floor first: timed before any run, it gives each finished run its ratio at once.
+    match earlier_floor.filter(|_| all_reused) {
+        // Every run comes from the earlier comparison: its ratios and floor stand together.
+        Some(floor) => results.floors.push(floor.clone()),
+        None => {
+            let floor = time_floor(ctx, scene, &forward, &targets, options)?;
+            results.floors.push(floor);
+        }
+    }
+    let floor_ms = results
+        .floors
+        .last()
+        .map(|f| f.gpu_ms.median)
+        .unwrap_or(0.0);
+    // `unsorted` is every cost's baseline: timed now when it is not among the runs.
+    let unsorted_requested = specs.iter().any(|s| s.canonical() == "unsorted");
+    let mut baseline_ms = None;
+    if !unsorted_requested && !all_reused {
+        let spec = TechniqueSpec::parse("unsorted", &registry())?;
+        let mut t = build(&spec)?;
+        baseline_ms = Some(
+            time_unbudgeted(ctx, &forward, t.as_mut(), &targets, options)?
+                .0
+                .median,
+        );
+    }
+    for spec in specs {
+        if cancelled() {
+            break;
+        }
+        let canonical = spec.canonical();
+        let run = match earlier.iter().find(|r| r.technique == canonical) {
+            Some(run) => {
+                resume.reused += 1;
+                let mut run = run.clone();
+                run.resumed = true;
+                run.scene_file = scene_file.to_owned();
+                run
+            }
+            None => {
+                resume.made += 1;
+                let mut run = run_one(
+                    ctx, scene, scene_file, &forward, &reversed, &targets, spec, &reference,
+                    options, out, floor_ms,
+                )
+                .unwrap_or_else(|e| {
+                    Run::not_rendered(
+                        &scene.name,
+                        scene_file,
+                        &canonical,
+                        res(scene),
+                        RunStatus::Failed,
+                        e.to_string(),
+                    )
+                });
+                run.inputs = Some(inputs.clone());
+                run
+            }
+        };
+        let was_resumed = run.resumed;
+        results.runs.push(run);
+        let runs = &mut results.runs[first_run..];
+        fill_floor_costs(runs, floor_ms);
+        fill_costs(runs, || baseline_ms);
+        write_outputs(out, results)?;
+        on_event(Event::RunDone {
+            scene: &scene.name,
+            technique: &canonical,
+            resumed: was_resumed,
+        });
+    }
+    Ok(())
+}
+
+/// The per-pixel layer count of a scene's reference as a picture, beside `reference.png`.
+pub const LAYERS_PNG: &str = "layers.png";
+
+/// How a scene's memory budget is shared: the images of one run (render, reference, reversed
+/// render, differences, FLIP's working images) first, the reference's fragments get the rest.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MemoryPlan {
+    /// Host bytes of one run's images at the scene's resolution.
+    pub image_bytes: u64,
+    /// What the reference may hold for fragments.
+    pub reference_bytes: u64,
+}
+
+/// Host bytes per pixel that one run holds besides the reference's fragments: reference
+/// (RGBA f32 and four counts), render and reversed render read back (RGBA f32), the difference
+/// and its heat map, and FLIP's working images. Measured as the peak resident memory of
+/// `oit compare -t unsorted` at 2048² minus that at 256², per pixel, and rounded up.
+pub const RUN_BYTES_PER_PIXEL: u64 = 160;
+
+/// The least the reference keeps for fragments whatever the images take (a scene whose
+/// fragments arrive in depth order needs almost nothing).
+const MIN_REFERENCE_BYTES: u64 = 1 << 20;
+
+impl MemoryPlan {
+    /// The plan for `scene` under `budget` bytes, or an error naming what it would need.
+    pub fn of(scene: &Scene, budget: u64) -> Result<MemoryPlan, HarnessError> {
+        let pixels = scene.resolution.pixel_count() as u64;
+        let image_bytes = pixels.saturating_mul(RUN_BYTES_PER_PIXEL);
+        let needed = image_bytes.saturating_add(MIN_REFERENCE_BYTES);
+        if needed > budget {
+            let mib = |b: u64| b.div_ceil(1 << 20);
+            return Err(HarnessError::Options(format!(
+                "{} at {} needs about {} MiB for the images of one run ({RUN_BYTES_PER_PIXEL} bytes a pixel) and {} MiB for the reference's fragments, more than --memory-budget {} MiB; raise it or lower --resolution",
+                scene.name,
+                scene.resolution,
+                mib(image_bytes),
+                mib(MIN_REFERENCE_BYTES),
+                mib(budget)
+            )));
+        }
+        Ok(MemoryPlan {
+            image_bytes,
+            reference_bytes: budget - image_bytes,
+        })
+    }
 }
 
 /// Refuses scenes or techniques whose outputs would land on the same files: one scene's
@@ -376,16 +726,31 @@ fn process_runs(pid: u32) -> bool {
     pid != std::process::id() && proc_dir.join(pid.to_string()).exists()
 }
 
-/// The earlier comparison in `out` whose runs `--resume` may reuse: none when there is no
-/// results.json; an error when it exists but cannot be read or comes from another adapter.
-fn earlier_results(out: &Path, ctx: &Context) -> Result<Option<Results>, HarnessError> {
+/// The earlier comparison in `out`: none when there is no results.json; an error when there
+/// is one that is not an oit-lab results file (it is not ours to replace), or, with
+/// `resume`, one made on another adapter (timings of two adapters do not mix).
+fn earlier_results(
+    out: &Path,
+    ctx: &Context,
+    resume: bool,
+) -> Result<Option<Results>, HarnessError> {
     let path = out.join("results.json");
     if !path.exists() {
         return Ok(None);
     }
-    let earlier = Results::read(&path)?;
+    let earlier = Results::read(&path).map_err(|e| HarnessError::Invalid {
+        path: path.clone(),
+        message: format!(
+            "{}: not results this build of oit can read, so not replaced; move it away or choose another --out",
+            match e {
+                HarnessError::Invalid { message, .. } => message,
+                HarnessError::Io { source, .. } => source.to_string(),
+                other => other.to_string(),
+            }
+        ),
+    })?;
     let adapter = AdapterJson::of(ctx);
-    if earlier.adapter != adapter {
+    if resume && earlier.adapter != adapter {
         return Err(HarnessError::Invalid {
             path,
             message: format!(
@@ -397,8 +762,9 @@ fn earlier_results(out: &Path, ctx: &Context) -> Result<Option<Results>, Harness
     Ok(Some(earlier))
 }
 
-/// An earlier run stands for this one: same scene content, technique, resolution, frames and
-/// warm-up, it finished (a failed run is tried again) and its files are all there.
+/// An earlier run stands for this one: same scene content, technique, resolution, frames,
+/// warm-up and build of oit, it finished (a failed run is tried again) and its files are all
+/// there.
 fn reusable(run: &Run, scene: &Scene, canonical: &str, inputs: &RunInputs, out: &Path) -> bool {
     run.scene == scene.name
         && run.technique == canonical
@@ -424,7 +790,7 @@ fn time_floor(
     options: &CompareOptions,
 ) -> Result<FloorJson, HarnessError> {
     let mut floor = oit_gpu::Floor::new();
-    let (gpu_ms, passes, _) = time_frames(ctx, forward, &mut floor, targets, options)?;
+    let (gpu_ms, passes, _) = time_unbudgeted(ctx, forward, &mut floor, targets, options)?;
     Ok(FloorJson {
         scene: scene.name.clone(),
         resolution: res(scene),
@@ -459,6 +825,7 @@ fn run_one(
     reference: &oit_reference::Reference,
     options: &CompareOptions,
     out: &Path,
+    floor_ms: f64,
 ) -> Result<Run, HarnessError> {
     let canonical = spec.canonical();
     let mut technique = build(spec)?;
@@ -472,11 +839,34 @@ fn run_one(
             unsupported.reason,
         ));
     }
+    // Known before anything is built: a technique whose passes grow with the depth
+    // complexity says how many it will make, and the floor says what one pass costs here.
+    if let Some(estimate) = PassEstimate::of(
+        technique.as_ref(),
+        reference.stats.max_depth_complexity,
+        floor_ms,
+        options,
+    ) && estimate.over_budget(options.run_budget)
+    {
+        return Ok(Run::not_rendered(
+            &scene.name,
+            scene_file,
+            &canonical,
+            res(scene),
+            RunStatus::Skipped,
+            estimate.describe(options.run_budget),
+        ));
+    }
+    let deadline = std::time::Instant::now() + options.run_budget;
     let (gpu_ms, passes, frame) = time_frames(ctx, forward, technique.as_mut(), targets, options)?;
     let image = read_color(ctx, targets)?;
 
-    // The same technique with the draw order reversed: any difference is order dependence.
+    // The same technique with the draws, and the triangles within each draw, submitted in
+    // reverse: any difference is order dependence.
     let mut timer = GpuTimer::wall_clock();
+    timer.set_budget(Some(
+        deadline.saturating_duration_since(std::time::Instant::now()),
+    ));
     render_frame(ctx, reversed, technique.as_mut(), targets, &mut timer)?;
     let reversed_image = read_color(ctx, targets)?;
     let order_dependence = max_rgb_difference(&image, &reversed_image);
@@ -556,9 +946,14 @@ fn inexact(
 /// (`Technique::transmission`).
 pub const APPROXIMATE_TRANSMISSION: &str = "approximate transmission";
 
-/// Warm-up then timed frames. Returns total GPU ms (median/min/max), per-pass medians, and the
-/// last frame's stats with `cpu_ms` replaced by its median over the timed frames. With
-/// `options.retime`, frames timed in a noisy window are timed again ([`quietest`]).
+/// One untimed first frame (pipelines and shaders are created, caches fill: never timed, at
+/// any `--warmup`), the warm-up frames, then the timed frames. Returns total GPU ms
+/// (median/min/max), per-pass medians, and the last frame's stats with `cpu_ms` replaced by
+/// its median over the timed frames. With `options.retime`, frames timed in a noisy window are
+/// timed again ([`quietest`]).
+///
+/// The whole run stays within `options.run_budget`: every submission after it has passed
+/// fails, and a run whose first frame shows that its frames would not fit stops before them.
 fn time_frames(
     ctx: &Context,
     scene: &GpuScene,
@@ -567,16 +962,143 @@ fn time_frames(
     options: &CompareOptions,
 ) -> Result<(GpuMs, Vec<PassMs>, oit_gpu::RenderStats), HarnessError> {
     let mut timer = GpuTimer::new(ctx);
+    timer.set_budget(Some(options.run_budget));
+    let started = std::time::Instant::now();
+    render_frame(ctx, scene, technique, targets, &mut timer)?;
+    let first = started.elapsed();
+    time_after_first_frame(
+        ctx,
+        scene,
+        technique,
+        targets,
+        options,
+        &mut timer,
+        Some(first),
+    )
+}
+
+/// [`time_frames`] for the scene's own measurements (the floor, a baseline timed for the
+/// ratios): one pass each, so never over a budget that a technique could keep.
+fn time_unbudgeted(
+    ctx: &Context,
+    scene: &GpuScene,
+    technique: &mut dyn Technique,
+    targets: &Targets,
+    options: &CompareOptions,
+) -> Result<(GpuMs, Vec<PassMs>, oit_gpu::RenderStats), HarnessError> {
+    let mut timer = GpuTimer::new(ctx);
+    render_frame(ctx, scene, technique, targets, &mut timer)?;
+    time_after_first_frame(ctx, scene, technique, targets, options, &mut timer, None)
+}
+
+/// Warm-up and timed frames after the untimed first one; with `first` (its duration), first
+/// checks that the rest can fit the run's budget.
+fn time_after_first_frame(
+    ctx: &Context,
+    scene: &GpuScene,
+    technique: &mut dyn Technique,
+    targets: &Targets,
+    options: &CompareOptions,
+    timer: &mut GpuTimer,
+    first: Option<std::time::Duration>,
+) -> Result<(GpuMs, Vec<PassMs>, oit_gpu::RenderStats), HarnessError> {
+    if let Some(first) = first {
+        check_frames_fit(first, options)?;
+    }
     for _ in 0..options.warmup {
-        render_frame(ctx, scene, technique, targets, &mut timer)?;
+        render_frame(ctx, scene, technique, targets, timer)?;
     }
     let ((mut gpu, passes, stats), made) = until_quiet(
         options.retime,
-        || time_window(ctx, scene, technique, targets, options.frames, &mut timer),
+        || time_window(ctx, scene, technique, targets, options.frames, timer),
         |attempt| attempt.0.interference,
     )?;
     gpu.attempts = made;
     Ok((gpu, passes, stats))
+}
+
+/// Whether the frames after a first frame that took `first` can fit the run's budget.
+fn check_frames_fit(
+    first: std::time::Duration,
+    options: &CompareOptions,
+) -> Result<(), HarnessError> {
+    // The first frame includes building; later ones cost at most as much (a bound, so a slow
+    // build may refuse a run that would have fit: the message says how to allow it).
+    let frames_left =
+        u64::from(options.warmup) + u64::from(options.frames) * (1 + u64::from(options.retime)) + 1;
+    let estimate = first.as_secs_f64() * frames_left as f64;
+    let left = options.run_budget.saturating_sub(first).as_secs_f64();
+    if estimate > left {
+        return Err(HarnessError::Options(format!(
+            "the first frame took {:.1} s, so {frames_left} more frames (warm-up, timed, re-timed and the reversed-order frame) could take {estimate:.0} s, past --run-budget {} s; raise it or lower --frames",
+            first.as_secs_f64(),
+            options.run_budget.as_secs()
+        )));
+    }
+    Ok(())
+}
+
+/// Times `technique` on `scene` the way `compare` times every run (first frame untimed, then
+/// warm-up and timed frames, within `options.run_budget`): median/min/max GPU ms, per-pass
+/// medians and the last frame's stats.
+pub fn time_technique(
+    ctx: &Context,
+    scene: &GpuScene,
+    technique: &mut dyn Technique,
+    targets: &Targets,
+    options: &CompareOptions,
+) -> Result<(GpuMs, Vec<PassMs>, oit_gpu::RenderStats), HarnessError> {
+    time_frames(ctx, scene, technique, targets, options)
+}
+
+/// A technique's own count of the geometry passes it will make on a scene
+/// ([`Technique::planned_passes`]), priced at the floor's pass.
+#[derive(Debug, Clone, Copy)]
+struct PassEstimate {
+    passes: u32,
+    depth_complexity: u32,
+    floor_ms: f64,
+    frames: u64,
+}
+
+impl PassEstimate {
+    fn of(
+        technique: &dyn Technique,
+        depth_complexity: u32,
+        floor_ms: f64,
+        options: &CompareOptions,
+    ) -> Option<Self> {
+        let passes = technique.planned_passes(depth_complexity)?;
+        Some(PassEstimate {
+            passes,
+            depth_complexity,
+            floor_ms,
+            frames: 2
+                + u64::from(options.warmup)
+                + u64::from(options.frames) * (1 + u64::from(options.retime)),
+        })
+    }
+
+    /// Seconds the run's frames would take at one floor pass per geometry pass.
+    fn seconds(&self) -> f64 {
+        f64::from(self.passes) * self.floor_ms * 1e-3 * self.frames as f64
+    }
+
+    fn over_budget(&self, budget: std::time::Duration) -> bool {
+        self.seconds() > budget.as_secs_f64()
+    }
+
+    fn describe(&self, budget: std::time::Duration) -> String {
+        format!(
+            "estimated {:.0} s: {} geometry passes a frame for depth complexity {} × {} frames, each pass at least the floor's {:.2} ms; over --run-budget {} s (raise it, or bound the passes)",
+            self.seconds(),
+            self.passes,
+            self.depth_complexity,
+            self.frames,
+            self.floor_ms,
+            budget.as_secs()
+        )
+    }
 }
 
 /// Makes `attempt`s until one's window is not noisy or `retime` more were made after the

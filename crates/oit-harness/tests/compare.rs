@@ -31,10 +31,8 @@ fn one_frame_at_32px(out: &Path, context: oit_gpu::ContextOptions) -> CompareOpt
         warmup: 0,
         out_dir: out.to_path_buf(),
         cache: oit_harness::ReferenceCache::Dir(out.join("cache")),
-        reference_memory_budget: oit_reference::ReferenceOptions::DEFAULT_MEMORY_BUDGET,
-        resume: false,
-        retime: 0,
         context,
+        ..CompareOptions::default()
     }
 }
 
@@ -70,10 +68,7 @@ fn compare_suite_writes_complete_results() {
         warmup: 1,
         out_dir: out.clone(),
         cache: oit_harness::ReferenceCache::Dir(cache.clone()),
-        reference_memory_budget: oit_reference::ReferenceOptions::DEFAULT_MEMORY_BUDGET,
-        resume: false,
-        retime: 0,
-        context: Default::default(),
+        ..CompareOptions::default()
     };
     let runs_done = std::sync::atomic::AtomicUsize::new(0);
     let results = compare(&ctx, &scenes, &specs, &options, &|event| {
@@ -198,19 +193,26 @@ fn compare_suite_writes_complete_results() {
     // A second comparison finds every reference in the cache.
     let cached = std::fs::read_dir(&cache).unwrap().count();
     assert_eq!(cached, scenes.len(), "one cached reference per scene");
-    let before: Vec<_> = std::fs::read_dir(&cache)
-        .unwrap()
-        .map(|e| e.unwrap().metadata().unwrap().modified().unwrap())
-        .collect();
+    // A rewrite is atomic (a new file renamed over the old): it changes the inode. A hit only
+    // marks the file as used (its modification time, for the cache's eviction order).
+    let inodes = || -> Vec<(std::ffi::OsString, u64)> {
+        use std::os::unix::fs::MetadataExt;
+        let mut v: Vec<_> = std::fs::read_dir(&cache)
+            .unwrap()
+            .map(|e| {
+                let e = e.unwrap();
+                (e.file_name(), e.metadata().unwrap().ino())
+            })
+            .collect();
+        v.sort();
+        v
+    };
+    let before = inodes();
     let one = resolve_specs(&["sorted-object".to_string()]).unwrap();
     let again = compare(&ctx, &scenes[..2], &one, &options, &|_| {}).unwrap();
     assert_eq!(again.runs.len(), 2);
     // Only `unsorted` baseline timing is extra; no reference was recomputed.
-    let after: Vec<_> = std::fs::read_dir(&cache)
-        .unwrap()
-        .map(|e| e.unwrap().metadata().unwrap().modified().unwrap())
-        .collect();
-    assert_eq!(before, after, "cache files were rewritten");
+    assert_eq!(before, inodes(), "cache files were rewritten");
     // The baseline was measured even though `unsorted` was not requested.
     assert!(again.runs.iter().all(|r| r.cost_vs_unsorted.is_some()));
 

@@ -287,10 +287,7 @@ fn compare_runs_every_technique_on_a_directory_with_a_glb() {
         warmup: 0,
         out_dir: dir.join("out"),
         cache: oit_harness::ReferenceCache::Dir(dir.join("cache")),
-        reference_memory_budget: oit_reference::ReferenceOptions::DEFAULT_MEMORY_BUDGET,
-        resume: false,
-        retime: 0,
-        context: Default::default(),
+        ..oit_harness::CompareOptions::default()
     };
     let results = oit_harness::compare(&ctx, &scenes, &specs, &options, &|_| {}).unwrap();
     assert_eq!(results.runs.len(), 2 * specs.len());

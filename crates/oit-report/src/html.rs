@@ -13,8 +13,9 @@ use crate::{ReportError, pareto_members, write_plots};
 /// The page's file name inside the results directory.
 pub const REPORT_FILE: &str = "report.html";
 
-/// Reads `dir/results.json`, writes the plots (FLIP and RMSE) under `dir/plots/` and the page
-/// `dir/report.html`; returns the page's path.
+/// Reads `dir/results.json`, writes the plots (on `metric` and on the other error axis) and
+/// the legends under `dir/plots/` and the page `dir/report.html`; returns the page's path.
+/// The page's Pareto fronts, bold rows, summary and first plots are on `metric`.
 ///
 /// Images the page would show but that are missing on disk (a scene's `reference.png`, a
 /// run's PNGs) are replaced by a note rather than a broken image.
@@ -22,29 +23,112 @@ pub const REPORT_FILE: &str = "report.html";
 /// The page carries a small inline script that, on load, writes into `<body>` whether every
 /// image decoded (`data-images-ok="loaded/total"`) and any script or resource errors
 /// (`data-errors`), so a headless browser's DOM dump is enough to check that the page renders.
-pub fn write_html_report(dir: &Path) -> Result<PathBuf, ReportError> {
+/// A second script sorts tables by a clicked column, flips a render with its reference and
+/// zooms the images of one run together.
+pub fn write_html_report(dir: &Path, metric: Metric) -> Result<PathBuf, ReportError> {
     let results = Results::read(&dir.join("results.json"))?;
     let plots_dir = dir.join("plots");
     write_plots(&results, &plots_dir, Metric::Flip)?;
     write_plots(&results, &plots_dir, Metric::Rmse)?;
-    let page = html(&results, dir);
+    oit_metrics::write_png_srgb8(
+        &plots_dir.join(ERROR_LEGEND),
+        &oit_metrics::heatmap_legend(LEGEND_PX, 14),
+    )?;
+    oit_metrics::write_png_srgb8(
+        &plots_dir.join(LAYERS_LEGEND),
+        &oit_metrics::count_legend(LEGEND_PX, 14),
+    )?;
+    let page = html(&results, dir, metric);
     let path = dir.join(REPORT_FILE);
     oit_metrics::write_atomic_bytes(&path, page.as_bytes())?;
     Ok(path)
 }
 
-const STYLE: &str = "body{font-family:sans-serif;margin:1.5em;color:#222}\
+/// The heat maps' legend bar, under `plots/`.
+pub const ERROR_LEGEND: &str = "legend-error.png";
+/// The layer maps' legend bar, under `plots/`.
+pub const LAYERS_LEGEND: &str = "legend-layers.png";
+/// Width of both legend bars in pixels.
+const LEGEND_PX: u32 = 256;
+
+const STYLE: &str = "body{font-family:sans-serif;margin:1.5em;color:#222;max-width:1400px}\
 table{border-collapse:collapse;margin:1em 0;font-size:90%}\
 th,td{border:1px solid #ccc;padding:.25em .5em;text-align:right}\
+th{background:#f4f4f4;cursor:pointer;user-select:none}\
+th[aria-sort=ascending]::after{content:' \\25B2'}th[aria-sort=descending]::after{content:' \\25BC'}\
 th:first-child,td:first-child{text-align:left;font-family:monospace}\
 tr.front td:first-child{font-weight:bold}\
-td.note{text-align:left;color:#a33}\
+td.note,td.text{text-align:left;color:#a33}td.text{color:#222;font-family:sans-serif}\
+.banner{background:#fee;border:1px solid #c66;padding:.5em}\
+.description{font-size:105%;max-width:60em}\
+dl.columns dt{font-weight:bold;float:left;clear:left;width:9em}dl.columns dd{margin-left:10em;margin-bottom:.3em;max-width:60em}\
+.legend{display:inline-block;margin:.5em 2em .5em 0;vertical-align:top}\
+.legend img{display:block;width:256px;height:14px;border:1px solid #999}\
+.ticks{display:flex;justify-content:space-between;width:258px;font-size:75%;color:#555}\
 .plots img{max-width:48%;border:1px solid #ddd;margin-right:1%}\
-.triple{display:flex;gap:.5em;align-items:flex-start;margin:.5em 0 1.5em}\
+.triple{display:flex;gap:.5em;align-items:flex-start;margin:.5em 0 1.5em;flex-wrap:wrap}\
 .triple figure{margin:0}\
-.triple img{width:256px;image-rendering:pixelated;border:1px solid #ddd}\
+.pane{max-width:520px;max-height:520px;overflow:auto;border:1px solid #ddd}\
+.pane img{width:256px;image-rendering:pixelated;display:block}\
+.stack img.b{display:none}.stack.flipped img.a{display:none}.stack.flipped img.b{display:block}\
+.controls{font-size:85%;margin:.2em 0}\
 .missing{width:256px;height:64px;border:1px dashed #aaa;color:#777;font-size:85%;padding:.5em;box-sizing:border-box}\
 figcaption{font-size:85%;color:#555}";
+
+/// Sorting, flipping and zooming (no libraries, nothing fetched).
+const UI_SCRIPT: &str = r#"(function () {
+  function key(cell) {
+    var t = cell.textContent.trim();
+    var n = parseFloat(t.replace(/[^0-9eE.+\-]/g, ' ').trim().split(' ')[0]);
+    return isNaN(n) || /^(–|-)$/.test(t) ? null : n;
+  }
+  function sortBy(table, col, th) {
+    var body = table.tBodies[0];
+    var rows = Array.prototype.slice.call(body.rows);
+    var dir = th.getAttribute('aria-sort') === 'ascending' ? -1 : 1;
+    Array.prototype.forEach.call(table.tHead.rows[0].cells, function (c) { c.removeAttribute('aria-sort'); });
+    th.setAttribute('aria-sort', dir === 1 ? 'ascending' : 'descending');
+    rows.sort(function (a, b) {
+      var x = a.cells[col], y = b.cells[col];
+      if (!x || !y) { return 0; }
+      var kx = key(x), ky = key(y);
+      if (kx === null && ky === null) { return dir * x.textContent.localeCompare(y.textContent); }
+      if (kx === null) { return 1; }
+      if (ky === null) { return -1; }
+      return dir * (kx - ky);
+    });
+    rows.forEach(function (r) { body.appendChild(r); });
+  }
+  document.addEventListener('DOMContentLoaded', function () {
+    Array.prototype.forEach.call(document.querySelectorAll('table.sortable'), function (table) {
+      Array.prototype.forEach.call(table.tHead.rows[0].cells, function (th, col) {
+        th.title = 'sort by ' + th.textContent;
+        th.addEventListener('click', function () { sortBy(table, col, th); });
+      });
+    });
+    Array.prototype.forEach.call(document.querySelectorAll('.viewer'), function (v) {
+      var stack = v.querySelector('.stack');
+      var flip = v.querySelector('button.flip');
+      var label = v.querySelector('.showing');
+      function toggle() {
+        if (!stack) { return; }
+        stack.classList.toggle('flipped');
+        if (label) { label.textContent = stack.classList.contains('flipped') ? 'reference' : 'render'; }
+      }
+      if (flip) { flip.addEventListener('click', toggle); }
+      if (stack) { stack.addEventListener('click', toggle); }
+      var zoom = v.querySelector('select.zoom');
+      if (zoom) {
+        zoom.addEventListener('change', function () {
+          var z = parseFloat(zoom.value);
+          Array.prototype.forEach.call(v.querySelectorAll('.pane img'), function (img) {
+            img.style.width = (z * 256) + 'px';
+          });
+        });
+      }
+    });
+  });
+})();"#;
 
 /// Records, in `<body>` attributes, whether every image decoded and which errors happened.
 const CHECK_SCRIPT: &str = r#"(function () {
@@ -120,58 +204,266 @@ fn image(dir: &Path, rel: &str, alt: &str) -> String {
     }
 }
 
-fn html(results: &Results, dir: &Path) -> String {
-    let members = pareto_members(results, Metric::Flip);
+/// What a column of the per-scene table means (its `title`), from the harness's glossary.
+fn column_title(name: &str) -> String {
+    oit_harness::report::COLUMNS
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map_or_else(String::new, |(_, meaning)| esc(meaning))
+}
+
+fn html(results: &Results, dir: &Path, metric: Metric) -> String {
+    let members = pareto_members(results, metric);
     let a = &results.adapter;
     let mut out = String::new();
     let _ = write!(
         out,
         "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\
          <title>oit-lab report</title>\n<style>{STYLE}</style>\n<script>{CHECK_SCRIPT}</script>\n\
-         </head>\n<body>\n<h1>oit-lab report</h1>\n"
+         <script>{UI_SCRIPT}</script>\n</head>\n<body>\n<h1>oit-lab report</h1>\n"
     );
+    if !results.complete {
+        out.push_str(
+            "<p class=\"banner\">Incomplete: the comparison was interrupted. Run the same \
+             <code>oit compare</code> with <code>--resume</code> and this output folder to \
+             finish it.</p>\n",
+        );
+    }
     let _ = writeln!(
         out,
-        "<p>Adapter: <b>{}</b> ({}, {}, {}). GPU ms are medians over the timed frames (min–max \
-         beside them); cost is relative to <code>unsorted</code> on the same scene; errors are \
-         against the exact CPU reference on linear RGB. <b>Bold</b> techniques are on the scene's \
-         Pareto front of cost against mean FLIP (no other run is both cheaper and more accurate).</p>",
+        "<p>Adapter: <b>{}</b> ({}, {}, {}){}. Errors are against the exact CPU reference on \
+         linear RGB. The error axis of the fronts, the bold rows and the first plots is \
+         <b>{}</b>.</p>",
         esc(&a.name),
         esc(&a.backend),
         esc(&a.device_type),
-        esc(&a.driver)
+        esc(&a.driver),
+        results.tool.as_ref().map_or_else(String::new, |t| format!(
+            "; {} {} (build {})",
+            esc(&t.name),
+            esc(&t.version),
+            esc(&t.build)
+        )),
+        metric.name()
     );
     if let Some(caveat) = oit_harness::report::overall_timing_caveat(results) {
         let _ = writeln!(out, "<p class=\"caveat\">Timing: {}.</p>", esc(&caveat));
     }
     let scenes = runs_by_scene(results);
-    out.push_str("<nav><ul>\n");
+    how_to_read(&mut out, metric);
+    summary(&mut out, results, &scenes, &members, metric);
+    out.push_str("<nav><h2>Scenes</h2><ul>\n");
     for (scene, _) in &scenes {
+        let about = results.scenes.iter().find(|s| s.scene == *scene);
         let _ = writeln!(
             out,
-            "<li><a href=\"#{}\">{}</a></li>",
+            "<li><a href=\"#{}\">{}</a>{}</li>",
             esc(&oit_harness::file_stem(scene)),
-            esc(scene)
+            esc(scene),
+            about
+                .map(|s| first_sentence(&s.description))
+                .filter(|d| !d.is_empty())
+                .map_or_else(String::new, |d| format!(": {}", esc(&d)))
         );
     }
     out.push_str("</ul></nav>\n");
     for (scene, runs) in &scenes {
         let about = results.scenes.iter().find(|s| s.scene == *scene);
         let timing = oit_harness::report::timing_caveat(results, scene, runs);
-        scene_section(&mut out, dir, scene, about, timing, runs, &members);
+        let floor_note = oit_harness::report::below_floor_note(results, scene, runs);
+        scene_section(
+            &mut out,
+            dir,
+            scene,
+            about,
+            [timing, floor_note],
+            runs,
+            &members,
+            metric,
+        );
     }
     out.push_str("</body>\n</html>\n");
     out
 }
 
+/// The first sentence of a description (up to the first `. ` or `: `), for the scene list.
+fn first_sentence(text: &str) -> String {
+    let end = [". ", ": "]
+        .iter()
+        .filter_map(|p| text.find(p))
+        .min()
+        .unwrap_or(text.len());
+    text[..end].trim_end_matches('.').to_owned()
+}
+
+/// The page's key: what fronts, columns, heat maps and layer maps mean.
+fn how_to_read(out: &mut String, metric: Metric) {
+    let _ = writeln!(
+        out,
+        "<section id=\"how-to-read\">\n<h2>How to read this report</h2>\n\
+         <p>A technique is on a scene's <b>Pareto front</b> (bold, and listed under the scene) \
+         when no other run of that scene is both cheaper (GPU time relative to \
+         <code>unsorted</code>) and more accurate ({}): the configurations worth choosing \
+         between. Every table sorts by the column you click.</p>\n<dl class=\"columns\">",
+        metric.name()
+    );
+    let extra: [(&str, &str); 4] = [
+        (
+            "min–max",
+            "the fastest and slowest timed frame, how many were timed, and the timing source",
+        ),
+        (
+            "PSNR dB",
+            "peak signal-to-noise ratio against the reference (peak 1), from the RMSE",
+        ),
+        (
+            "relMSE",
+            "mean of squared error over the squared reference value (plus 0.01), the render-noise measure of path-tracing papers",
+        ),
+        (
+            "SSIM",
+            "structural similarity of the tone-mapped luminance, 1 is identical",
+        ),
+    ];
+    for (name, meaning) in oit_harness::report::COLUMNS.iter().chain(&extra) {
+        let _ = writeln!(out, "<dt>{}</dt><dd>{}.</dd>", esc(name), esc(meaning));
+    }
+    out.push_str("</dl>\n");
+    let ticks = |labels: &[&str]| {
+        labels
+            .iter()
+            .map(|l| format!("<span>{l}</span>"))
+            .collect::<String>()
+    };
+    let _ = writeln!(
+        out,
+        "<div class=\"legend\"><b>Difference (heat map)</b>: per pixel, the largest absolute \
+         error of R, G or B against the reference, log scale; darker is closer, cyan is NaN or \
+         infinite.<img src=\"plots/{ERROR_LEGEND}\" alt=\"heat-map colours from error 1e-4 to 1\">\
+         <div class=\"ticks\">{}</div></div>",
+        ticks(&["≤1e-4", "1e-3", "1e-2", "0.1", "≥1"])
+    );
+    let _ = writeln!(
+        out,
+        "<div class=\"legend\"><b>Layers (the reference)</b>: per pixel, how many transparent \
+         fragments the exact reference composited, log scale.<img src=\"plots/{LAYERS_LEGEND}\" \
+         alt=\"layer-map colours from 0 to 255 layers\"><div class=\"ticks\">{}</div></div>",
+        ticks(&["0", "3", "15", "63", "≥255"])
+    );
+    out.push_str(
+        "<p>Each run shows its render (click it, or <i>flip</i>, to see the reference in the \
+         same place), its difference and the zoom for both.</p>\n</section>\n",
+    );
+}
+
+/// The answer before the detail: one row per technique over every scene it ran on, and the
+/// front of every scene.
+fn summary(
+    out: &mut String,
+    results: &Results,
+    scenes: &[(String, Vec<&Run>)],
+    members: &std::collections::BTreeSet<(String, String)>,
+    metric: Metric,
+) {
+    let mut techniques: Vec<(&str, Vec<&Run>)> = Vec::new();
+    for run in results.runs.iter().filter(|r| r.status == RunStatus::Ok) {
+        match techniques.iter_mut().find(|(t, _)| *t == run.technique) {
+            Some((_, runs)) => runs.push(run),
+            None => techniques.push((&run.technique, vec![run])),
+        }
+    }
+    let median = |mut v: Vec<f64>| -> String {
+        v.sort_by(f64::total_cmp);
+        match v.len() {
+            0 => "–".to_owned(),
+            n if n % 2 == 1 => format!("{:.2}", v[n / 2]),
+            n => format!("{:.2}", 0.5 * (v[n / 2 - 1] + v[n / 2])),
+        }
+    };
+    let _ = writeln!(
+        out,
+        "<section id=\"summary\">\n<h2>Summary over the suite</h2>\n<p>Per technique over the \
+         scenes it ran on: how often it is on a scene's front, the median of its per-scene cost \
+         ratios, its mean {}, the scenes it renders within max error 4e-3 of the reference \
+         (exact), its largest order dependence and the scenes where it reported itself \
+         inexact.</p>\n<table class=\"sortable\">\n<thead><tr><th>technique</th><th>scenes</th>\
+         <th>on the front of</th><th>median cost × unsorted</th><th>median cost × floor</th>\
+         <th>mean {}</th><th>exact scenes</th><th>max order dep.</th><th>inexact scenes</th>\
+         </tr></thead>\n<tbody>",
+        metric.name(),
+        metric.name()
+    );
+    for (technique, runs) in &techniques {
+        let errors: Vec<&oit_metrics::Errors> =
+            runs.iter().filter_map(|r| r.error.as_ref()).collect();
+        let mean = errors.iter().map(|e| metric.of(e)).sum::<f64>() / errors.len().max(1) as f64;
+        let exact = errors
+            .iter()
+            .filter(|e| e.max_abs <= 4e-3 && e.nonfinite == 0)
+            .count();
+        let fronts = runs
+            .iter()
+            .filter(|r| members.contains(&(r.scene.clone(), r.technique.clone())))
+            .count();
+        let order = runs
+            .iter()
+            .filter_map(|r| r.order_dependence)
+            .fold(0.0, f64::max);
+        let _ = writeln!(
+            out,
+            "<tr><td>{}</td><td>{}</td><td>{fronts}</td><td>{}</td><td>{}</td><td>{}</td>\
+             <td>{exact}</td><td>{}</td><td>{}</td></tr>",
+            esc(technique),
+            runs.len(),
+            median(runs.iter().filter_map(|r| r.cost_vs_unsorted).collect()),
+            median(runs.iter().filter_map(|r| r.cost_vs_floor).collect()),
+            oit_harness::report::sci(mean),
+            oit_harness::report::sci(order),
+            runs.iter().filter(|r| !r.inexact.is_empty()).count()
+        );
+    }
+    let _ = writeln!(
+        out,
+        "</tbody></table>\n<h3>Pareto front of each scene (cost against {})</h3>\n\
+         <table class=\"sortable\">\n<thead><tr><th>scene</th><th>on the front</th></tr></thead>\n<tbody>",
+        metric.name()
+    );
+    for (scene, runs) in scenes {
+        let front: Vec<String> = runs
+            .iter()
+            .filter(|r| members.contains(&(r.scene.clone(), r.technique.clone())))
+            .map(|r| {
+                format!(
+                    "<code>{}</code>",
+                    esc(&oit_harness::report::short_spec(&r.technique))
+                )
+            })
+            .collect();
+        let _ = writeln!(
+            out,
+            "<tr><td><a href=\"#{}\">{}</a></td><td class=\"text\">{}</td></tr>",
+            esc(&oit_harness::file_stem(scene)),
+            esc(scene),
+            if front.is_empty() {
+                "– (no run with a cost and an error)".to_owned()
+            } else {
+                front.join(", ")
+            }
+        );
+    }
+    out.push_str("</tbody></table>\n</section>\n");
+}
+
+#[allow(clippy::too_many_arguments)] // one section needs all of these
 fn scene_section(
     out: &mut String,
     dir: &Path,
     scene: &str,
     about: Option<&SceneJson>,
-    timing: Option<String>,
+    caveats: [Option<String>; 2],
     runs: &[&Run],
     members: &std::collections::BTreeSet<(String, String)>,
+    metric: Metric,
 ) {
     let stem = oit_harness::file_stem(scene);
     let res = runs[0].resolution;
@@ -183,16 +475,45 @@ fn scene_section(
         res[0],
         res[1]
     );
+    if let Some(d) = about
+        .map(|a| a.description.as_str())
+        .filter(|d| !d.is_empty())
+    {
+        let _ = writeln!(out, "<p class=\"description\">{}</p>", esc(d));
+    }
     for line in about.map(SceneJson::report_lines).unwrap_or_default() {
         let _ = writeln!(out, "<p class=\"about\">{}.</p>", esc(&line));
     }
     for caveat in oit_harness::report::scene_caveats(runs) {
         let _ = writeln!(out, "<p class=\"caveat\">Reference: {}.</p>", esc(&caveat));
     }
+    let [timing, floor_note] = caveats;
     if let Some(timing) = timing {
         let _ = writeln!(out, "<p class=\"caveat\">Timing: {}.</p>", esc(&timing));
     }
+    if let Some(note) = floor_note {
+        let _ = writeln!(out, "<p class=\"caveat\">‡ {}.</p>", esc(&note));
+    }
+    let front: Vec<String> = runs
+        .iter()
+        .filter(|r| members.contains(&(r.scene.clone(), r.technique.clone())))
+        .map(|r| format!("<b><code>{}</code></b>", esc(&r.technique)))
+        .collect();
+    let _ = writeln!(
+        out,
+        "<p class=\"front\">On the Pareto front of cost against {}: {}.</p>",
+        metric.name(),
+        if front.is_empty() {
+            "none (no run has both a cost and an error)".to_owned()
+        } else {
+            front.join(", ")
+        }
+    );
 
+    let other = match metric {
+        Metric::Flip => Metric::Rmse,
+        Metric::Rmse => Metric::Flip,
+    };
     out.push_str("<div class=\"plots\">\n");
     for kind in [PlotKind::CostError, PlotKind::BytesError] {
         let suffix = if kind == PlotKind::CostError {
@@ -200,33 +521,55 @@ fn scene_section(
         } else {
             "bytes"
         };
-        let flip = format!("plots/{stem}-{}-{suffix}", Metric::Flip.key());
-        let rmse = format!("plots/{stem}-{}-{suffix}", Metric::Rmse.key());
+        let main = format!("plots/{stem}-{}-{suffix}", metric.key());
+        let alt = format!("plots/{stem}-{}-{suffix}", other.key());
         out.push_str(&image(
             dir,
-            &format!("{flip}.svg"),
-            &format!("{scene}: mean FLIP against {suffix}"),
+            &format!("{main}.svg"),
+            &format!("{scene}: {} against {suffix}", metric.name()),
         ));
         let _ = writeln!(
             out,
-            " <a href=\"{}\">PNG</a> · <a href=\"{}\">RMSE version</a>",
-            esc(&url(&format!("{flip}.png"))),
-            esc(&url(&format!("{rmse}.svg")))
+            " <a href=\"{}\">PNG</a> · <a href=\"{}\">{} version</a>",
+            esc(&url(&format!("{main}.png"))),
+            esc(&url(&format!("{alt}.svg"))),
+            other.name()
         );
     }
     out.push_str("</div>\n");
 
-    out.push_str(
-        "<table>\n<tr><th>technique</th><th>GPU ms median</th><th>min–max (frames, source)</th>\
-         <th>cost × unsorted</th><th>cost × floor</th><th>bytes/px</th><th>RMSE</th><th>PSNR dB</th><th>mean FLIP</th>\
-         <th>relMSE</th><th>SSIM</th><th>max error</th><th>order dep.</th><th>inexact</th></tr>\n",
-    );
+    let columns: [(&str, &str); 14] = [
+        ("technique", ""),
+        ("GPU ms", "GPU ms"),
+        ("min–max (frames, source)", ""),
+        ("cost × unsorted", "cost × unsorted"),
+        ("cost × floor", "cost × floor"),
+        ("bytes/px", "bytes/px"),
+        ("RMSE", "RMSE"),
+        ("PSNR dB", ""),
+        ("mean FLIP", "FLIP"),
+        ("relMSE", ""),
+        ("SSIM", ""),
+        ("max error", "max error"),
+        ("order dep.", "order dep."),
+        ("inexact", "inexact"),
+    ];
+    out.push_str("<table class=\"sortable\">\n<thead><tr>");
+    for (name, glossary) in columns {
+        let title = column_title(glossary);
+        if title.is_empty() {
+            let _ = write!(out, "<th>{name}</th>");
+        } else {
+            let _ = write!(out, "<th title=\"{title}\">{name}</th>");
+        }
+    }
+    out.push_str("</tr></thead>\n<tbody>\n");
     for run in runs {
-        let front = members.contains(&(run.scene.clone(), run.technique.clone()));
+        let on_front = members.contains(&(run.scene.clone(), run.technique.clone()));
         let _ = write!(
             out,
             "<tr{}><td>{}</td>",
-            if front { " class=\"front\"" } else { "" },
+            if on_front { " class=\"front\"" } else { "" },
             esc(&run.technique)
         );
         if run.status != RunStatus::Ok {
@@ -270,7 +613,11 @@ fn scene_section(
             "<td>{median}</td><td>{spread}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>\
              <td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"note\">{}</td></tr>",
             opt(run.cost_vs_unsorted, |v| format!("{v:.2}")),
-            opt(run.cost_vs_floor, |v| format!("{v:.2}")),
+            opt(run.cost_vs_floor, |v| if v < 1.0 {
+                format!("{v:.2}‡")
+            } else {
+                format!("{v:.2}")
+            }),
             opt(run.bytes_per_pixel, |v| format!("{v:.1}")),
             opt(e.map(|e| e.rmse), oit_harness::report::sci),
             opt(e.map(|e| e.psnr), |v| format!("{v:.1}")),
@@ -282,31 +629,68 @@ fn scene_section(
             esc(&run.inexact.join("; ")),
         );
     }
-    out.push_str("</table>\n");
+    out.push_str("</tbody></table>\n");
 
+    // The scene's reference and its layer count, once.
     let reference = format!("{stem}/reference.png");
+    let layers = format!("{stem}/{}", oit_harness::LAYERS_PNG);
+    out.push_str("<div class=\"triple\">\n");
+    for (rel, what) in [(&reference, "reference"), (&layers, "layers per pixel")] {
+        let _ = writeln!(
+            out,
+            "<figure><div class=\"pane\">{}</div><figcaption>{what}</figcaption></figure>",
+            image(dir, rel, &format!("{scene} {what}"))
+        );
+    }
+    out.push_str("</div>\n");
+
     for run in runs.iter().filter(|r| r.status == RunStatus::Ok) {
         let _ = writeln!(
             out,
-            "<h3><code>{}</code></h3>\n<div class=\"triple\">",
+            "<h3><code>{}</code></h3>\n<div class=\"viewer\">\n<div class=\"controls\">\
+             <button type=\"button\" class=\"flip\">flip render / reference</button> showing \
+             <span class=\"showing\">render</span> · zoom <select class=\"zoom\">\
+             <option value=\"1\">1×</option><option value=\"2\">2×</option>\
+             <option value=\"4\">4×</option><option value=\"8\">8×</option></select></div>\n\
+             <div class=\"triple\">",
             esc(&run.technique)
         );
         let (render, diff) = match &run.outputs {
             Some(o) => (o.render_png.clone(), o.diff_png.clone()),
             None => (String::new(), String::new()),
         };
-        for (rel, what) in [
-            (&render, "render"),
-            (&reference, "reference"),
-            (&diff, "difference"),
-        ] {
+        let flip_b = if dir.join(&reference).is_file() {
+            image(dir, &reference, &format!("{} reference", run.technique)).replacen(
+                "<img ",
+                "<img class=\"b\" ",
+                1,
+            )
+        } else {
+            String::new()
+        };
+        let _ = writeln!(
+            out,
+            "<figure><div class=\"pane stack\">{}{flip_b}</div><figcaption>render \
+             (click: reference)</figcaption></figure>",
+            image(dir, &render, &format!("{} render", run.technique)).replacen(
+                "<img ",
+                "<img class=\"a\" ",
+                1,
+            )
+        );
+        if flip_b.is_empty() {
             let _ = writeln!(
                 out,
-                "<figure>{}<figcaption>{what}</figcaption></figure>",
-                image(dir, rel, &format!("{} {what}", run.technique))
+                "<figure>{}<figcaption>reference</figcaption></figure>",
+                image(dir, &reference, &format!("{} reference", run.technique))
             );
         }
-        out.push_str("</div>\n");
+        let _ = writeln!(
+            out,
+            "<figure><div class=\"pane\">{}</div><figcaption>difference</figcaption></figure>",
+            image(dir, &diff, &format!("{} difference", run.technique))
+        );
+        out.push_str("</div>\n</div>\n");
     }
     out.push_str("</section>\n");
 }

@@ -17,8 +17,8 @@ use std::path::{Path, PathBuf};
 pub use html::{REPORT_FILE, write_html_report};
 pub use pareto::{pareto_front, pareto_markdown, pareto_members, scene_front};
 pub use plot::{
-    LEGEND_WIDTH, Metric, PLOT_SIZE, PlotData, PlotKind, PlotPoint, family, plot_data, render_png,
-    render_svg, style_colour, write_plots,
+    LEGEND_WIDTH, LegendEntry, Metric, PLOT_SIZE, PlotData, PlotKind, PlotPoint, family, log_ticks,
+    plot_data, render_png, render_svg, style_colour, write_plots,
 };
 
 /// Errors of report generation. Each names the file or plot it concerns.

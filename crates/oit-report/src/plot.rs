@@ -97,8 +97,11 @@ pub enum PlotKind {
 pub struct PlotPoint {
     pub technique: String,
     pub family: String,
-    /// Index of the marker style (shape and colour) in the results' family order.
+    /// Index of the marker colour: the family's place in the results' family order.
     pub style: usize,
+    /// Index of the marker shape: the configuration's place among its family's
+    /// configurations in the results, so two configurations of one technique never look alike.
+    pub shape: usize,
     pub x: f64,
     /// The true error.
     pub y: f64,
@@ -126,10 +129,59 @@ pub struct PlotData {
     pub zero_y: Option<f64>,
     /// Ok runs that could not be drawn, with the reason (e.g. no `cost_vs_unsorted`).
     pub omitted: Vec<(String, String)>,
-    /// Family names by style index, for the legend.
-    pub families: Vec<String>,
+    /// The legend: one entry per configuration drawn, in results order, labelled by the
+    /// parameters that tell it from its family's other configurations.
+    pub legend: Vec<LegendEntry>,
     /// File name without extension.
     pub stem: String,
+}
+
+/// One legend row: a marker of `style` (colour) and `shape`, and its label.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct LegendEntry {
+    pub label: String,
+    pub style: usize,
+    pub shape: usize,
+}
+
+/// Configurations in order of first appearance, each with its colour (family) and shape
+/// (place among its family's configurations) and a legend label: the family name, with the
+/// parameters that differ between the family's configurations when it has several.
+fn configuration_styles(results: &Results) -> Vec<(String, LegendEntry)> {
+    let families = family_order(results);
+    let mut configs: Vec<String> = Vec::new();
+    for run in &results.runs {
+        if !configs.contains(&run.technique) {
+            configs.push(run.technique.clone());
+        }
+    }
+    let refs: Vec<&str> = configs.iter().map(String::as_str).collect();
+    configs
+        .iter()
+        .map(|c| {
+            let f = family(c);
+            let siblings: Vec<&str> = refs.iter().copied().filter(|o| family(o) == f).collect();
+            let label = if siblings.len() < 2 {
+                f.to_owned()
+            } else {
+                let short = oit_harness::report::short_labels(&siblings);
+                let mine = &short[siblings.iter().position(|o| *o == c).unwrap_or(0)];
+                if mine == f || mine.starts_with(&format!("{f}:")) {
+                    mine.clone()
+                } else {
+                    format!("{f}:{mine}")
+                }
+            };
+            (
+                c.clone(),
+                LegendEntry {
+                    label,
+                    style: families.iter().position(|g| g == f).unwrap_or(0),
+                    shape: siblings.iter().position(|o| *o == c).unwrap_or(0),
+                },
+            )
+        })
+        .collect()
 }
 
 /// Technique family: the name before `:` (`dual-peel:passes=5` → `dual-peel`).
@@ -246,7 +298,7 @@ fn sweeps(points: &[PlotPoint]) -> Vec<Vec<usize>> {
 /// What every plot of every scene shows. Per scene: [`PlotKind::CostError`] then
 /// [`PlotKind::BytesError`].
 pub fn plot_data(results: &Results, metric: Metric) -> Vec<PlotData> {
-    let families = family_order(results);
+    let configs = configuration_styles(results);
     let mut out = Vec::new();
     for (scene, runs) in runs_by_scene(results) {
         let ok: Vec<&Run> = runs
@@ -278,10 +330,15 @@ pub fn plot_data(results: &Results, metric: Metric) -> Vec<PlotData> {
                         if x.is_finite() && y.is_finite() && y >= 0.0 && valid_x(kind, x) =>
                     {
                         let f = family(&run.technique);
+                        let entry = configs
+                            .iter()
+                            .find(|(c, _)| *c == run.technique)
+                            .map(|(_, e)| e.clone());
                         points.push(PlotPoint {
                             technique: run.technique.clone(),
                             family: f.to_owned(),
-                            style: families.iter().position(|g| g == f).unwrap_or(0),
+                            style: entry.as_ref().map_or(0, |e| e.style),
+                            shape: entry.as_ref().map_or(0, |e| e.shape),
                             x,
                             y,
                             y_drawn: y,
@@ -338,6 +395,14 @@ pub fn plot_data(results: &Results, metric: Metric) -> Vec<PlotData> {
                 ),
             };
             let sweeps = sweeps(&points);
+            let mut legend: Vec<LegendEntry> = Vec::new();
+            for p in &points {
+                if let Some((_, e)) = configs.iter().find(|(c, _)| *c == p.technique)
+                    && !legend.contains(e)
+                {
+                    legend.push(e.clone());
+                }
+            }
             out.push(PlotData {
                 scene: scene.clone(),
                 kind,
@@ -349,7 +414,7 @@ pub fn plot_data(results: &Results, metric: Metric) -> Vec<PlotData> {
                 front,
                 zero_y,
                 omitted,
-                families: families.clone(),
+                legend,
                 stem: format!(
                     "{}-{}-{suffix}",
                     oit_harness::file_stem(&scene),
@@ -449,12 +514,13 @@ pub fn style_colour(style: usize) -> (u8, u8, u8) {
     (c.0, c.1, c.2)
 }
 
-/// A data marker of style `style`: circle, square, triangle or diamond (with ten colours and
-/// four shapes the first twenty families all look different). Its own element, because
+/// A data marker: the family's colour (`style`) and the configuration's shape (`shape`):
+/// circle, square, triangle or diamond. Its own element, because
 /// plotters' boxed `DynElement` only works with `'static` backends.
 struct Marker<C> {
     at: C,
     style: usize,
+    shape: usize,
 }
 
 impl<'a, C> PointCollection<'a, C> for &'a Marker<C> {
@@ -477,7 +543,8 @@ impl<C, DB: DrawingBackend> Drawable<DB> for Marker<C> {
             return Ok(());
         };
         let colour = PALETTE[self.style % PALETTE.len()].filled();
-        match self.style % 4 {
+        // Families past the tenth colour start from another shape, so they differ too.
+        match (self.shape + self.style / PALETTE.len()) % 4 {
             0 => backend.draw_circle((x, y), R as u32, &colour, true),
             1 => backend.draw_rect(
                 (x - R + 1, y - R + 1),
@@ -521,8 +588,12 @@ fn draw<'a, DB: DrawingBackend + 'a>(
                 root,
                 &legend,
                 plot,
-                (x_lo..x_hi).log_scale(),
-                (y_lo..y_hi).log_scale(),
+                (x_lo..x_hi)
+                    .log_scale()
+                    .with_key_points(log_ticks(x_lo, x_hi)),
+                (y_lo..y_hi)
+                    .log_scale()
+                    .with_key_points(log_ticks(y_lo, y_hi)),
             )
         }
         PlotKind::BytesError => {
@@ -533,9 +604,66 @@ fn draw<'a, DB: DrawingBackend + 'a>(
                 &legend,
                 plot,
                 -0.02 * x_hi..x_hi,
-                (y_lo..y_hi).log_scale(),
+                (y_lo..y_hi)
+                    .log_scale()
+                    .with_key_points(log_ticks(y_lo, y_hi)),
             )
         }
+    }
+}
+
+/// Tick positions for a log axis over `[lo, hi]`: 1, 2 and 5 times each power of ten in it;
+/// only the powers when that would be more than 12 ticks (and every other power beyond 12
+/// decades); 1 to 9 times each power when fewer than 3 would show. A log axis left to plotters
+/// labels only powers of ten and shows no label at all on a range inside one decade.
+pub fn log_ticks(lo: f64, hi: f64) -> Vec<f64> {
+    if !(lo > 0.0 && hi > lo && hi.is_finite()) {
+        return Vec::new();
+    }
+    let ticks = |mantissas: &[f64], decade_step: i32| -> Vec<f64> {
+        let first = lo.log10().floor() as i32;
+        let last = hi.log10().ceil() as i32;
+        let mut out = Vec::new();
+        let mut e = first;
+        while e <= last {
+            for m in mantissas {
+                // Divided for negative powers, so 3e-1 is the double nearest 0.3.
+                let v = if e >= 0 {
+                    m * 10f64.powi(e)
+                } else {
+                    m / 10f64.powi(-e)
+                };
+                if v >= lo * (1.0 - 1e-12) && v <= hi * (1.0 + 1e-12) {
+                    out.push(v);
+                }
+            }
+            e += decade_step;
+        }
+        out
+    };
+    let fine = ticks(&[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0], 1);
+    let medium = ticks(&[1.0, 2.0, 5.0], 1);
+    if fine.len() < 2 {
+        // Narrower than one step of 1..9: three ticks, two significant digits each.
+        return (0..3)
+            .map(|i| {
+                let v = lo * (hi / lo).powf(f64::from(i) / 2.0);
+                let scale = 10f64.powi(v.log10().floor() as i32 - 1);
+                (v / scale).round() * scale
+            })
+            .collect();
+    }
+    if medium.len() < 3 {
+        return fine;
+    }
+    if medium.len() <= 12 {
+        return medium;
+    }
+    let coarse = ticks(&[1.0], 1);
+    if coarse.len() <= 12 {
+        coarse
+    } else {
+        ticks(&[1.0], 2)
     }
 }
 
@@ -628,28 +756,23 @@ where
             .map_err(err)?;
     }
 
-    // Markers, one series per family so the legend has one entry per family.
-    let mut styles: Vec<usize> = plot.points.iter().map(|p| p.style).collect();
-    styles.sort_unstable();
-    styles.dedup();
-    let styles_drawn = styles.clone();
-    for style in styles {
-        let name = plot.families.get(style).cloned().unwrap_or_default();
+    // Markers, one series per configuration so each has its own legend entry.
+    for entry in &plot.legend {
+        let (style, shape) = (entry.style, entry.shape);
         chart
             .draw_series(
                 plot.points
                     .iter()
-                    .filter(|p| p.style == style)
+                    .filter(|p| p.style == style && p.shape == shape)
                     .map(|p| Marker {
                         at: (p.x, p.y_drawn),
                         style,
+                        shape,
                     }),
             )
-            .map_err(err)?
-            .label(name)
-            .legend(move |at| Marker { at, style });
+            .map_err(err)?;
     }
-    draw_legend(legend, plot, &styles_drawn, grey).map_err(err)?;
+    draw_legend(legend, plot, grey).map_err(err)?;
     if let Some(z) = plot.zero_y {
         root.draw(&Text::new(
             format!("error 0 (exact) is drawn at {}", short_number(z)),
@@ -662,17 +785,20 @@ where
     Ok(())
 }
 
-/// The legend in its own area: the Pareto front's line, then a marker and the family name per
-/// style drawn, one row each from the top.
+/// The legend in its own area: the Pareto front's line, then a marker and the label of each
+/// configuration drawn, one row each from the top (rows shrink when there are many).
 fn draw_legend<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     plot: &PlotData,
-    styles: &[usize],
     front: RGBColor,
 ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
-    const ROW: i32 = 18;
     const TOP: i32 = 50;
-    let font = (FONT_FAMILY, 13).into_font();
+    let rows = plot.legend.len() as i32 + 1;
+    let room = PLOT_SIZE.1 as i32 - TOP - 20;
+    let row_height = (room / rows.max(1)).clamp(9, 18);
+    #[allow(non_snake_case)]
+    let ROW = row_height;
+    let font = (FONT_FAMILY, (row_height - 5).clamp(8, 13)).into_font();
     let text = |row: i32, label: &str| {
         Text::new(label.to_owned(), (30, TOP + row * ROW - 7), font.clone())
     };
@@ -681,13 +807,13 @@ fn draw_legend<DB: DrawingBackend>(
         front.mix(0.5).stroke_width(3),
     ))?;
     area.draw(&text(0, "Pareto front"))?;
-    for (row, &style) in (1..).zip(styles) {
-        let name = plot.families.get(style).map_or("", String::as_str);
+    for (row, entry) in (1..).zip(&plot.legend) {
         area.draw(&Marker {
             at: (14, TOP + row * ROW),
-            style,
+            style: entry.style,
+            shape: entry.shape,
         })?;
-        area.draw(&text(row, name))?;
+        area.draw(&text(row, &entry.label))?;
     }
     Ok(())
 }
@@ -721,6 +847,7 @@ mod tests {
             technique: technique.into(),
             family: family(technique).into(),
             style: 0,
+            shape: 0,
             x: 1.0,
             y: 1.0,
             y_drawn: 1.0,
@@ -765,5 +892,18 @@ mod tests {
         assert_eq!(short_number(0.0125), "0.0125");
         assert_eq!(short_number(1e-5), "1e-5");
         assert_eq!(short_number(300.0), "300");
+    }
+
+    /// Every log axis gets labelled ticks, also inside one decade (where plotters alone
+    /// labels nothing) and over many decades (thinned).
+    #[test]
+    fn log_axes_always_have_ticks() {
+        assert_eq!(log_ticks(0.5, 2.0), vec![0.5, 1.0, 2.0]);
+        assert_eq!(log_ticks(0.25, 0.45), vec![0.3, 0.4]);
+        assert_eq!(log_ticks(0.9, 30.0), vec![1.0, 2.0, 5.0, 10.0, 20.0]);
+        let wide = log_ticks(1e-7, 1e9);
+        assert!(wide.len() <= 12 && wide.len() >= 6, "{wide:?}");
+        assert_eq!(log_ticks(1.2, 1.3).len(), 3);
+        assert!(log_ticks(0.0, 1.0).is_empty());
     }
 }

@@ -108,6 +108,8 @@ fn results() -> Results {
     runs[0].inexact = vec!["dropped layers on 3 px".into()];
     Results {
         schema: SCHEMA.into(),
+        tool: None,
+        complete: true,
         adapter: AdapterJson {
             name: "test adapter".into(),
             backend: "vulkan".into(),
@@ -119,6 +121,7 @@ fn results() -> Results {
         scenes: vec![SceneJson {
             scene: "beta".into(),
             scene_file: "scenes/beta.json".into(),
+            description: "Beta quads that cross: no order of objects is right.".into(),
             triangles: 12,
             scene_bytes: 3 << 20,
             texture_bytes: 2 << 20,
@@ -180,6 +183,7 @@ fn results_dir(name: &str) -> TempDir {
         }
     }
     write_png(&dir.0.join("alpha/reference.png"), [200, 100, 60]);
+    write_png(&dir.0.join("alpha/layers.png"), [20, 10, 60]);
     dir
 }
 
@@ -208,18 +212,15 @@ fn every_plot_has_one_point_per_ok_run_and_labelled_axes() {
 
             let svg = render_svg(plot).unwrap();
             // Families appear in run order: unsorted, sorted-object, sorted-triangle,
-            // stochastic, dual-peel. Each family's colour: its points plus one legend marker.
+            // stochastic, dual-peel. Each family's colour: its points plus one legend marker
+            // per configuration of the family.
             let mut drawn = 0;
             for (style, hex) in PALETTE_HEX.iter().enumerate() {
                 let n = plot.points.iter().filter(|p| p.style == style).count();
+                let configs = plot.legend.iter().filter(|e| e.style == style).count();
                 let in_svg = markers_of_colour(&svg, hex);
-                assert_eq!(
-                    in_svg,
-                    if n > 0 { n + 1 } else { 0 },
-                    "{} style {style}",
-                    plot.stem
-                );
-                drawn += in_svg.saturating_sub(1);
+                assert_eq!(in_svg, n + configs, "{} style {style}", plot.stem);
+                drawn += in_svg - configs;
             }
             assert_eq!(drawn, expected, "{}", plot.stem);
 
@@ -299,7 +300,8 @@ fn the_legend_is_beside_the_points_not_over_them() {
                 }
                 let xs = marker_xs(&svg, hex);
                 let (legend, data): (Vec<f64>, Vec<f64>) = xs.iter().partition(|&&x| x >= strip);
-                assert_eq!(legend.len(), 1, "{} style {style}: {xs:?}", plot.stem);
+                let configs = plot.legend.iter().filter(|e| e.style == style).count();
+                assert_eq!(legend.len(), configs, "{} style {style}: {xs:?}", plot.stem);
                 assert_eq!(data.len(), n, "{} style {style}: {xs:?}", plot.stem);
             }
         }
@@ -411,12 +413,12 @@ fn write_plots_writes_svg_and_png_per_plot() {
 #[test]
 fn missing_or_foreign_results_are_errors_naming_the_file() {
     let dir = TempDir::new("bad");
-    let err = oit_report::write_html_report(&dir.0)
+    let err = oit_report::write_html_report(&dir.0, Metric::Flip)
         .unwrap_err()
         .to_string();
     assert!(err.contains("results.json"), "{err}");
     std::fs::write(dir.0.join("results.json"), r#"{"schema":"other/v9","adapter":{"name":"","backend":"","device_type":"","driver":""},"runs":[]}"#).unwrap();
-    let err = oit_report::write_html_report(&dir.0)
+    let err = oit_report::write_html_report(&dir.0, Metric::Flip)
         .unwrap_err()
         .to_string();
     assert!(
@@ -425,21 +427,22 @@ fn missing_or_foreign_results_are_errors_naming_the_file() {
     );
 }
 
-/// Images the page shows: 2 plots per scene, render + reference + diff per ok alpha run,
-/// render + diff per ok beta run (beta has no reference.png: a note instead).
-const EXPECTED_IMAGES: usize = 2 * 2 + 3 * ALPHA.len() + 2 * BETA.len();
+/// Images the page shows: the two legends, 2 plots per scene, alpha's reference and layer map
+/// once, render + reference (to flip to) + diff per ok alpha run, render + diff per ok beta run
+/// (beta has no reference.png or layers.png: notes instead).
+const EXPECTED_IMAGES: usize = 2 + 2 * 2 + 2 + 3 * ALPHA.len() + 2 * BETA.len();
 
 #[test]
 fn report_page_lists_every_run_and_notes_missing_images() {
     let dir = results_dir("page");
-    let page = oit_report::write_html_report(&dir.0).unwrap();
+    let page = oit_report::write_html_report(&dir.0, Metric::Flip).unwrap();
     assert_eq!(page, dir.0.join("report.html"));
     let html = std::fs::read_to_string(&page).unwrap();
     assert_eq!(html.matches("<img ").count(), EXPECTED_IMAGES);
     assert_eq!(
         html.matches("reference not found (beta/reference.png)")
             .count(),
-        BETA.len()
+        BETA.len() + 1
     );
     assert!(html.contains("skipped: no &lt;float32&gt; blending"));
     assert!(html.contains("failed: device lost"));
@@ -527,7 +530,7 @@ fn body_attribute<'d>(dom: &'d str, name: &str) -> Option<&'d str> {
 #[test]
 fn report_renders_in_headless_chromium() {
     let dir = results_dir("chromium");
-    let page = oit_report::write_html_report(&dir.0).unwrap();
+    let page = oit_report::write_html_report(&dir.0, Metric::Flip).unwrap();
     let profile = dir.0.join("chromium-profile");
     let Some(dom) = dump_dom(&page, &profile) else {
         return;
@@ -569,7 +572,9 @@ fn section<'h>(html: &'h str, id: &str) -> &'h str {
 #[test]
 fn scene_facts_are_shown_in_their_own_section_only() {
     let dir = results_dir("facts");
-    let html = std::fs::read_to_string(oit_report::write_html_report(&dir.0).unwrap()).unwrap();
+    let html =
+        std::fs::read_to_string(oit_report::write_html_report(&dir.0, Metric::Flip).unwrap())
+            .unwrap();
     let (alpha, beta) = (section(&html, "alpha"), section(&html, "beta"));
     assert!(
         beta.contains("<p class=\"about\">Scene: 12 triangles"),
@@ -585,7 +590,9 @@ fn scene_facts_are_shown_in_their_own_section_only() {
 #[test]
 fn each_section_shows_the_cost_plot_before_the_bytes_plot() {
     let dir = results_dir("plot-order");
-    let html = std::fs::read_to_string(oit_report::write_html_report(&dir.0).unwrap()).unwrap();
+    let html =
+        std::fs::read_to_string(oit_report::write_html_report(&dir.0, Metric::Flip).unwrap())
+            .unwrap();
     for scene in ["alpha", "beta"] {
         let s = section(&html, scene);
         let at = |needle: String| {
@@ -610,4 +617,111 @@ fn each_section_shows_the_cost_plot_before_the_bytes_plot() {
         ];
         assert!(order.is_sorted(), "{scene}: {order:?}");
     }
+}
+
+/// Two configurations of one technique never share a marker or a legend name: each gets its
+/// family's colour, its own shape and a label naming the parameters that tell it apart.
+#[test]
+fn every_configuration_has_its_own_marker_and_legend_name() {
+    let plots = plot_data(&results(), Metric::Flip);
+    let alpha = &plots[0];
+    let labels: Vec<&str> = alpha.legend.iter().map(|e| e.label.as_str()).collect();
+    assert_eq!(
+        labels,
+        [
+            "unsorted",
+            "sorted-object",
+            "sorted-triangle",
+            "stochastic:spp=1",
+            "stochastic:spp=16",
+            "stochastic:spp=4",
+            "dual-peel:passes=2",
+            "dual-peel:passes=4"
+        ]
+    );
+    let mut looks: Vec<(usize, usize)> = alpha.legend.iter().map(|e| (e.style, e.shape)).collect();
+    looks.sort_unstable();
+    looks.dedup();
+    assert_eq!(looks.len(), alpha.legend.len(), "{:?}", alpha.legend);
+    let svg = render_svg(alpha).unwrap();
+    for label in labels {
+        assert!(svg.contains(label), "legend lacks {label}");
+    }
+}
+
+/// The page follows `--metric`: with RMSE its fronts (bold rows, the line under each scene,
+/// the summary) are the RMSE fronts and its first plots the RMSE ones.
+#[test]
+fn the_report_follows_the_metric() {
+    let dir = results_dir("metric");
+    let results = results();
+    for metric in [Metric::Flip, Metric::Rmse] {
+        let html = std::fs::read_to_string(oit_report::write_html_report(&dir.0, metric).unwrap())
+            .unwrap();
+        let members = pareto_members(&results, metric);
+        assert_eq!(html.matches("<tr class=\"front\">").count(), members.len());
+        let alpha = section(&html, "alpha");
+        assert!(
+            alpha.contains(&format!(
+                "On the Pareto front of cost against {}",
+                metric.name()
+            )),
+            "{alpha}"
+        );
+        let first_plot = alpha.find("<img src=\"plots/").unwrap();
+        assert!(
+            alpha[first_plot..].starts_with(&format!(
+                "<img src=\"plots/alpha-{}-cost.svg\"",
+                metric.key()
+            )),
+            "{metric:?}"
+        );
+        let passes2 = alpha.contains("<b><code>dual-peel:passes=2,tail=drop</code></b>");
+        assert_eq!(
+            passes2,
+            metric == Metric::Flip,
+            "passes=2 is on the FLIP front only"
+        );
+    }
+}
+
+/// What a reader asks of the page is on it: what each column means, what the heat-map and
+/// layer colours mean (with their legends), the suite summary with every scene's front, what
+/// each scene tests, tables that sort, and a render that flips to its reference and zooms.
+#[test]
+fn the_report_explains_itself() {
+    let dir = results_dir("explains");
+    let html =
+        std::fs::read_to_string(oit_report::write_html_report(&dir.0, Metric::Flip).unwrap())
+            .unwrap();
+    for (name, _) in oit_harness::report::COLUMNS {
+        assert!(
+            html.contains(&format!("<dt>{name}</dt>")),
+            "no meaning for {name}"
+        );
+    }
+    for legend in ["plots/legend-error.png", "plots/legend-layers.png"] {
+        assert!(html.contains(&format!("<img src=\"{legend}\"")), "{legend}");
+        assert!(dir.0.join(legend).is_file(), "{legend}");
+    }
+    assert!(html.contains("<section id=\"summary\">"));
+    assert!(html.contains("<th>on the front of</th>"));
+    // The front of every scene, in the summary.
+    assert!(html.contains("<code>stochastic:spp=4</code>"), "{html}");
+    let beta = section(&html, "beta");
+    assert!(
+        beta.contains(
+            "<p class=\"description\">Beta quads that cross: no order of objects is right.</p>"
+        ),
+        "{beta}"
+    );
+    assert!(html.contains("<li><a href=\"#beta\">beta</a>: Beta quads that cross</li>"));
+    assert_eq!(html.matches("<table class=\"sortable\">").count(), 2 + 2);
+    assert_eq!(
+        html.matches("<button type=\"button\" class=\"flip\">")
+            .count(),
+        ALPHA.len() + BETA.len()
+    );
+    assert!(section(&html, "alpha").contains("<img class=\"b\" src=\"alpha/reference.png\""));
+    assert!(section(&html, "alpha").contains("src=\"alpha/layers.png\""));
 }
