@@ -227,3 +227,227 @@ fn a_flipped_bit_in_a_loaded_golden_is_reported() {
     assert_eq!(goldens::bit_mismatches(&changed, &written), Ok(Vec::new()));
     let _ = std::fs::remove_dir_all(&out);
 }
+
+/// What a bundled scene's description promises a technique does on it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Claim {
+    /// Within max error 4e-3 of the reference (the summary's "exact").
+    Exact,
+    /// Over max error 1e-2: the scene breaks it.
+    Breaks,
+}
+
+/// Every bundled scene's description, as claims about techniques at their defaults. Checked
+/// against the committed baseline, which `technique_errors_match_baseline` holds to what this
+/// code measures: a scene that stops testing what it says (as `concave-self` did, where one
+/// unlit colour per object made every order right) fails here, and so does a new scene
+/// without claims.
+const CLAIMS: &[(&str, &[(&str, Claim)])] = {
+    use Claim::{Breaks, Exact};
+    &[
+        (
+            "alpha-099-stack",
+            &[
+                ("unsorted", Breaks),
+                ("sorted-object", Exact),
+                ("weighted-average", Breaks),
+                ("wboit", Breaks),
+            ],
+        ),
+        (
+            "alpha-extremes",
+            &[
+                ("sorted-object", Exact),
+                ("front-peel", Exact),
+                ("wboit", Breaks),
+                ("weighted-average", Breaks),
+            ],
+        ),
+        (
+            "concave-self",
+            &[
+                ("unsorted", Breaks),
+                ("sorted-object", Breaks),
+                ("cull-split", Breaks),
+                ("sorted-triangle", Exact),
+                ("front-peel", Exact),
+            ],
+        ),
+        (
+            "coplanar",
+            &[
+                ("sorted-object", Exact),
+                ("sorted-triangle", Exact),
+                ("front-peel", Breaks),
+                ("dual-peel", Breaks),
+            ],
+        ),
+        (
+            "depth-range",
+            &[
+                ("sorted-object", Exact),
+                ("front-peel", Exact),
+                ("dual-peel", Exact),
+                ("unsorted", Breaks),
+            ],
+        ),
+        (
+            "enderton",
+            &[
+                ("unsorted", Breaks),
+                ("sorted-object", Exact),
+                ("weighted-average", Breaks),
+            ],
+        ),
+        (
+            "faint-haze",
+            &[("front-peel", Exact), ("sorted-object", Breaks)],
+        ),
+        (
+            "foliage-cards",
+            &[
+                ("sorted-object", Exact),
+                ("front-peel", Exact),
+                ("linked-list", Exact),
+            ],
+        ),
+        (
+            "gltf-alpha-blend-modes",
+            &[
+                ("front-peel", Exact),
+                ("sorted-object", Breaks),
+                ("sorted-triangle", Breaks),
+            ],
+        ),
+        (
+            "gltf-glass-vase",
+            &[("front-peel", Exact), ("unsorted", Exact)],
+        ),
+        (
+            "hdr-emissive",
+            &[("wboit", Breaks), ("weighted-average", Breaks)],
+        ),
+        (
+            "intersecting-quads",
+            &[
+                ("front-peel", Exact),
+                ("sorted-object", Breaks),
+                ("sorted-triangle", Breaks),
+            ],
+        ),
+        (
+            "many-layers-64",
+            &[
+                ("front-peel", Exact),
+                ("dual-peel", Breaks),
+                ("k-buffer", Breaks),
+                ("linked-list", Breaks),
+            ],
+        ),
+        (
+            "opaque-interleaved",
+            &[
+                ("front-peel", Exact),
+                ("sorted-object", Exact),
+                ("unsorted", Breaks),
+            ],
+        ),
+        (
+            "particles",
+            &[
+                ("front-peel", Exact),
+                ("unsorted", Breaks),
+                ("k-buffer", Breaks),
+            ],
+        ),
+        (
+            "quad-through-sphere",
+            &[
+                ("front-peel", Exact),
+                ("sorted-object", Breaks),
+                ("sorted-triangle", Breaks),
+            ],
+        ),
+        (
+            "sorted-quads",
+            &[("sorted-object", Exact), ("unsorted", Breaks)],
+        ),
+        (
+            "transmission-complementary",
+            &[
+                ("front-peel", Exact),
+                ("sorted-object", Exact),
+                ("weighted-average", Breaks),
+                ("mboit", Breaks),
+                ("opaque-copy", Breaks),
+            ],
+        ),
+        (
+            "transmission-gltf",
+            &[
+                ("front-peel", Exact),
+                ("sorted-object", Exact),
+                ("opaque-copy", Breaks),
+            ],
+        ),
+        (
+            "transmission-over-blended",
+            &[
+                ("sorted-object", Exact),
+                ("front-peel", Exact),
+                ("opaque-copy", Breaks),
+            ],
+        ),
+        (
+            "transmission-stack-32",
+            &[
+                ("front-peel", Exact),
+                ("sorted-object", Exact),
+                ("weighted-average", Breaks),
+                ("mboit", Breaks),
+                ("opaque-copy", Breaks),
+            ],
+        ),
+    ]
+};
+
+#[test]
+fn bundled_scenes_test_what_their_descriptions_say() {
+    let baseline = baseline();
+    let mut failures = Vec::new();
+    for scene in &baseline.scenes {
+        let Some((_, claims)) = CLAIMS.iter().find(|(s, _)| *s == scene.name) else {
+            failures.push(format!(
+                "{}: no claims; say what it breaks in CLAIMS",
+                scene.name
+            ));
+            continue;
+        };
+        for &(technique, claim) in *claims {
+            let run = baseline
+                .runs
+                .iter()
+                .find(|r| {
+                    r.scene == scene.name
+                        && (r.technique == technique
+                            || r.technique.starts_with(&format!("{technique}:")))
+                })
+                .unwrap_or_else(|| panic!("{}: no baseline run of {technique}", scene.name));
+            let Some(error) = &run.error else {
+                failures.push(format!("{} {technique}: not rendered", scene.name));
+                continue;
+            };
+            let holds = match claim {
+                Claim::Exact => error.max_abs <= 4e-3,
+                Claim::Breaks => error.max_abs > 1e-2,
+            };
+            if !holds {
+                failures.push(format!(
+                    "{} {technique}: claimed {claim:?}, max error {:.2e}",
+                    scene.name, error.max_abs
+                ));
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
