@@ -209,7 +209,7 @@ fn column_title(name: &str) -> String {
     oit_harness::report::COLUMNS
         .iter()
         .find(|(n, _)| *n == name)
-        .map_or_else(String::new, |(_, meaning)| esc(meaning))
+        .map_or_else(String::new, |(_, meaning)| esc(&meaning.replace('`', "")))
 }
 
 fn html(results: &Results, dir: &Path, metric: Metric) -> String {
@@ -286,14 +286,37 @@ fn html(results: &Results, dir: &Path, metric: Metric) -> String {
     out
 }
 
-/// The first sentence of a description (up to the first `. ` or `: `), for the scene list.
+/// The first sentence of a description: up to the first `. ` or `: ` outside parentheses, for
+/// the scene list.
 fn first_sentence(text: &str) -> String {
-    let end = [". ", ": "]
-        .iter()
-        .filter_map(|p| text.find(p))
-        .min()
-        .unwrap_or(text.len());
+    let mut depth = 0i32;
+    let mut end = text.len();
+    let bytes = text.as_bytes();
+    for (i, &b) in bytes.iter().enumerate() {
+        match b {
+            b'(' => depth += 1,
+            b')' => depth -= 1,
+            b'.' | b':' if depth <= 0 && bytes.get(i + 1) == Some(&b' ') => {
+                end = i;
+                break;
+            }
+            _ => {}
+        }
+    }
     text[..end].trim_end_matches('.').to_owned()
+}
+
+/// Escaped `text` with its markdown code spans (`` `x` ``) as `<code>`.
+fn esc_code(text: &str) -> String {
+    let mut out = String::new();
+    for (i, part) in esc(text).split('`').enumerate() {
+        if i % 2 == 1 {
+            let _ = write!(out, "<code>{part}</code>");
+        } else {
+            out.push_str(part);
+        }
+    }
+    out
 }
 
 /// The page's key: what fronts, columns, heat maps and layer maps mean.
@@ -326,7 +349,7 @@ fn how_to_read(out: &mut String, metric: Metric) {
         ),
     ];
     for (name, meaning) in oit_harness::report::COLUMNS.iter().chain(&extra) {
-        let _ = writeln!(out, "<dt>{}</dt><dd>{}.</dd>", esc(name), esc(meaning));
+        let _ = writeln!(out, "<dt>{}</dt><dd>{}.</dd>", esc(name), esc_code(meaning));
     }
     out.push_str("</dl>\n");
     let ticks = |labels: &[&str]| {
@@ -706,6 +729,19 @@ mod tests {
             url("scene/dual-peel_passes-5.png"),
             "scene/dual-peel_passes-5.png"
         );
+    }
+
+    #[test]
+    fn first_sentences_stop_outside_parentheses() {
+        assert_eq!(
+            first_sentence(
+                "Quads at alpha 1 (red), a quad (kept: discard is α < c) and more. Then"
+            ),
+            "Quads at alpha 1 (red), a quad (kept: discard is α < c) and more"
+        );
+        assert_eq!(first_sentence("Red over green: exact."), "Red over green");
+        assert_eq!(first_sentence("No stop"), "No stop");
+        assert_eq!(esc_code("a `b` <c>"), "a <code>b</code> &lt;c&gt;");
     }
 
     #[test]
