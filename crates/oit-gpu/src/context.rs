@@ -482,22 +482,16 @@ impl Context {
         self.shader_with(name, source, &[])
     }
 
-    /// [`Context::shader`] with a technique's own modules: `#include "NAME"` resolves to the
-    /// source paired with `NAME` in `modules` first, then to the shared modules.
+    /// [`Context::shader`] with a technique's own WGSL: `#include "NAME"` resolves in
+    /// `libraries` first (the technique crate's `SHADERS`), then in the shared modules
+    /// ([`crate::shaders::resolve`]).
     pub fn shader_with(
         &self,
         name: &str,
         source: &str,
-        modules: &[(&str, &str)],
+        libraries: &[&[(&str, &str)]],
     ) -> Result<wgpu::ShaderModule, GpuError> {
-        let resolve = |n: &str| {
-            modules
-                .iter()
-                .find(|(m, _)| *m == n)
-                .map(|(_, s)| *s)
-                .or_else(|| crate::shaders::shared_module(n))
-                .map(str::to_owned)
-        };
+        let resolve = |n: &str| crate::shaders::resolve(n, libraries).map(str::to_owned);
         let include_error = |e: crate::shaders::IncludeError| GpuError::Shader {
             shader: name.to_owned(),
             message: e.to_string(),

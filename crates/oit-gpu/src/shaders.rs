@@ -1,53 +1,95 @@
-//! WGSL sources and the tiny include mechanism.
+//! WGSL sources and the one include mechanism.
 //!
-//! Every WGSL file lives in the top-level `shaders/` directory: one file per pass plus shared
-//! modules. A pass pulls a shared module in with a line of exactly this form:
+//! Every crate keeps its WGSL beside its code, in its own `shaders/` folder, and embeds every
+//! file of it in a [`Library`] (`SHADERS`, name → source): this crate's [`SHADERS`] holds the
+//! modules every scene pass shares (common.wgsl, the scene pass interface scene_io/) and the
+//! passes of the GPU spine; each technique crate's `SHADERS` holds its own. A pass pulls a
+//! module in with a line of exactly this form:
 //!
 //! ```text
 //! #include "common.wgsl"
 //! ```
 //!
-//! [`compose`] replaces each such line with the module's text (recursively; a module included
-//! twice is inserted once, so diamonds are harmless, and a cycle is an error). WGSL has no `#`,
-//! so an unprocessed file fails to parse instead of silently missing code. The crates resolve
-//! names with [`shared_module`] (sources embedded with `include_str!`); the naga validation test
-//! resolves them from the files on disk and checks both agree.
+//! [`compose_with`] replaces each such line with the module's text, looked up by [`resolve`]
+//! in the given libraries and then in this crate's (recursively; a module included twice is
+//! inserted once, so diamonds are harmless, and a cycle is an error). WGSL has no `#`, so an
+//! unprocessed file fails to parse instead of silently missing code. [`Context::shader_with`]
+//! and the validation test resolve the same way; the test also checks that every library
+//! holds exactly the files of its folder.
+//!
+//! [`Context::shader_with`]: crate::Context::shader_with
 
 use std::collections::HashSet;
 
-/// The shared modules, by file name, embedded at build time.
-pub const SHARED_MODULES: &[(&str, &str)] = &[
-    ("common.wgsl", include_str!("../../../shaders/common.wgsl")),
-    (
-        SCENE_IO_VERTEX,
-        include_str!("../../../shaders/scene_io/vertex.wgsl"),
-    ),
-];
+/// A crate's WGSL files, by file name relative to its `shaders/` folder, embedded at build time.
+pub type Library = &'static [(&'static str, &'static str)];
+
+/// This crate's `shaders/` folder, for tests that hold [`SHADERS`] against the files.
+pub const SHADER_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/shaders");
 
 /// The scene pass interface common.wgsl includes: the material read per vertex, passed flat.
 pub const SCENE_IO_VERTEX: &str = "scene_io/vertex.wgsl";
 /// The same interface with the material read per draw from a uniform, which [`compose_per_draw`]
 /// puts in place of [`SCENE_IO_VERTEX`] for textured materials.
-pub const SCENE_IO_DRAW: &str = include_str!("../../../shaders/scene_io/draw.wgsl");
+pub const SCENE_IO_DRAW: &str = include_str!("../shaders/scene_io/draw.wgsl");
 /// [`SCENE_IO_DRAW`] without texture coordinates, for untextured materials.
-pub const SCENE_IO_DRAW_UNTEXTURED: &str =
-    include_str!("../../../shaders/scene_io/draw_untextured.wgsl");
+pub const SCENE_IO_DRAW_UNTEXTURED: &str = include_str!("../shaders/scene_io/draw_untextured.wgsl");
+/// The module every scene pass includes.
+pub const COMMON: &str = include_str!("../shaders/common.wgsl");
 
-/// Pass files that live in this crate.
-pub const OPAQUE: &str = include_str!("../../../shaders/opaque.wgsl");
+/// Pass files of this crate.
+pub const OPAQUE: &str = include_str!("../shaders/opaque.wgsl");
 /// Premultiplied OVER blending (`fs_blend`) and a discard-honouring depth-only entry
 /// (`fs_depth_only`), shared by the blended baselines.
-pub const BLEND: &str = include_str!("../../../shaders/blend.wgsl");
-pub const COUNT_FRAGMENTS: &str = include_str!("../../../shaders/count_fragments.wgsl");
+pub const BLEND: &str = include_str!("../shaders/blend.wgsl");
+pub const COUNT_FRAGMENTS: &str = include_str!("../shaders/count_fragments.wgsl");
 /// The floor pass: vertex colour, premultiplied OVER ([`crate::Floor`]).
-pub const FLOOR: &str = include_str!("../../../shaders/floor.wgsl");
+pub const FLOOR: &str = include_str!("../shaders/floor.wgsl");
 
-/// A shared module's source by file name.
-pub fn shared_module(name: &str) -> Option<&'static str> {
-    SHARED_MODULES
+/// Every WGSL file of this crate.
+pub const SHADERS: Library = &[
+    ("common.wgsl", COMMON),
+    (
+        SCENE_IO_VERTEX,
+        include_str!("../shaders/scene_io/vertex.wgsl"),
+    ),
+    ("scene_io/draw.wgsl", SCENE_IO_DRAW),
+    ("scene_io/draw_untextured.wgsl", SCENE_IO_DRAW_UNTEXTURED),
+    ("opaque.wgsl", OPAQUE),
+    ("blend.wgsl", BLEND),
+    ("count_fragments.wgsl", COUNT_FRAGMENTS),
+    ("floor.wgsl", FLOOR),
+];
+
+/// The source `#include "NAME"` means: `name` in the first of `libraries` that has it (a
+/// crate's [`Library`], or a few sources it specialised at run time), else in this crate's
+/// [`SHADERS`]. The one lookup every include goes through.
+pub fn resolve<'a>(name: &str, libraries: &[&'a [(&'a str, &'a str)]]) -> Option<&'a str> {
+    libraries
         .iter()
+        .copied()
+        .chain(std::iter::once(SHADERS))
+        .flat_map(|l| l.iter())
         .find(|(n, _)| *n == name)
         .map(|(_, s)| *s)
+}
+
+/// [`compose`] with includes looked up by [`resolve`] in `libraries`.
+pub fn compose_with(source: &str, libraries: &[&[(&str, &str)]]) -> Result<String, IncludeError> {
+    compose(source, &|n| resolve(n, libraries).map(str::to_owned))
+}
+
+/// [`compose_per_draw`] with includes looked up by [`resolve`] in `libraries`.
+pub fn compose_per_draw_with(
+    source: &str,
+    libraries: &[&[(&str, &str)]],
+    textured: bool,
+) -> Option<Result<String, IncludeError>> {
+    compose_per_draw(
+        source,
+        &|n| resolve(n, libraries).map(str::to_owned),
+        textured,
+    )
 }
 
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -108,7 +150,7 @@ fn expand(
         let text = resolve(name).ok_or_else(|| IncludeError::Unknown {
             line: i + 1,
             name: name.to_owned(),
-            available: SHARED_MODULES
+            available: SHADERS
                 .iter()
                 .map(|(n, _)| *n)
                 .collect::<Vec<_>>()
@@ -149,11 +191,6 @@ pub fn compose_per_draw(
     };
     let code = compose(source, &swapped);
     used.get().then_some(code)
-}
-
-/// [`compose`] against the embedded [`SHARED_MODULES`].
-pub fn compose_shared(source: &str) -> Result<String, IncludeError> {
-    compose(source, &|n| shared_module(n).map(str::to_owned))
 }
 
 #[cfg(test)]

@@ -489,7 +489,7 @@ fn shader_with_resolves_technique_modules() {
     ctx.shader_with(
         "probe.wgsl",
         source,
-        &[("mine.wgsl", "const MINE: f32 = 0.5;")],
+        &[&[("mine.wgsl", "const MINE: f32 = 0.5;")]],
     )
     .expect("composed and created");
     let e = ctx.shader("probe.wgsl", source).unwrap_err().to_string();

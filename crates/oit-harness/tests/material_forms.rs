@@ -1,5 +1,5 @@
-//! Scene draws read their material per vertex (flat varyings, shaders/scene_io/vertex.wgsl) or
-//! per draw (a uniform, shaders/scene_io/draw.wgsl), whichever costs less for the size of their
+//! Scene draws read their material per vertex (flat varyings, crates/oit-gpu/shaders/scene_io/vertex.wgsl) or
+//! per draw (a uniform, crates/oit-gpu/shaders/scene_io/draw.wgsl), whichever costs less for the size of their
 //! triangles (`GpuScene::reads_material_per_draw`). Which one is used must never show: every
 //! technique draws the same bits with either form.
 

@@ -2,7 +2,7 @@
 //!
 //! Hardware filtering cannot be mirrored on the CPU (fixed-point weights of
 //! implementation-defined precision, implicit level-of-detail selection), so every pass samples
-//! with [`Texture::sample`]'s twin in shaders/common.wgsl (`sample_texture`): bilinear on level 0
+//! with [`Texture::sample`]'s twin in crates/oit-gpu/shaders/common.wgsl (`sample_texture`): bilinear on level 0
 //! from `textureLoad`-style integer fetches, computed in f32 in the same order, with the glTF
 //! sampler's wrap modes applied to integer texel coordinates. The two stay line-comparable.
 
@@ -19,7 +19,7 @@ pub enum Wrap {
 }
 
 impl Wrap {
-    /// The code the shader receives (two bits; see `wrap_texel` in shaders/common.wgsl).
+    /// The code the shader receives (two bits; see `wrap_texel` in crates/oit-gpu/shaders/common.wgsl).
     pub fn code(self) -> u32 {
         match self {
             Wrap::Repeat => 0,
@@ -28,7 +28,7 @@ impl Wrap {
         }
     }
 
-    /// `i` brought into `0..size` (size > 0). Mirrors `wrap_texel` in shaders/common.wgsl.
+    /// `i` brought into `0..size` (size > 0). Mirrors `wrap_texel` in crates/oit-gpu/shaders/common.wgsl.
     #[inline(always)]
     pub fn apply(self, i: i32, size: i32) -> i32 {
         // Inside the texture every mode leaves `i` as it is; only the rest pays for the
@@ -100,7 +100,7 @@ impl Texture {
     }
 
     /// Bilinear sample of level 0 at `uv` (texel centres at (i + 0.5) / size), in f32 in the
-    /// order of `sample_texture` in shaders/common.wgsl: `a + (b − a)·f` along u, then along v.
+    /// order of `sample_texture` in crates/oit-gpu/shaders/common.wgsl: `a + (b − a)·f` along u, then along v.
     #[inline]
     pub fn sample(&self, uv: [f32; 2]) -> [f32; 4] {
         let x = uv[0] * self.width as f32 - 0.5;

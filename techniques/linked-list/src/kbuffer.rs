@@ -1,0 +1,640 @@
+//! The `k-buffer` technique (NVIDIA's "Loop64"): the K nearest fragments of each pixel kept in
+//! one geometry pass by a chain of 64-bit `atomicMax`, the fragment pushed out of a full pixel
+//! blended into tail targets; a full-screen resolve composites the K slots and the tail. The
+//! slot format and the resolve are twinned here for tests.
+
+use crate::config::TailRule;
+use crate::frame::Counters;
+use crate::node::{Fragment, pack_opacity, pack_rgb9e5, unpack_opacity, unpack_rgb9e5};
+use oit_gpu::wgpu;
+use oit_gpu::{
+    Caps, Context, FullscreenDesc, GpuError, GpuScene, GpuTimer, MemoryLedger, PREMULTIPLIED_OVER,
+    RenderStats, ScenePipelineDesc, ScenePipelines, SpecError, Targets, Technique, TechniqueSpec,
+    TransmissionSupport, Unsupported, bind, blend, fullscreen_pipeline, pass,
+};
+use oit_scene::Resolution;
+
+/// shaders/kbuffer64.wgsl.
+pub const KBUFFER64_WGSL: &str = include_str!("../shaders/kbuffer64.wgsl");
+/// The root module on scenes with coloured transmission: includes kbuffer64.wgsl and adds the
+/// two-chain insert and the dual-source resolve.
+pub const KBUFFER64_TRANSMIT_WGSL: &str = include_str!("../shaders/kbuffer64_transmit.wgsl");
+
+/// Largest `k`: slots are a per-pixel array the insertion walks.
+pub const MAX_K: u64 = 32;
+
+const TAIL_SUM_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+const TAIL_T_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R16Float;
+/// Σ a and Π(1 − a) per channel on scenes with coloured transmission.
+const TAIL_RGB_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+
+/// `k-buffer:k=N,tail=average|drop`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct KBufferConfig {
+    pub k: u32,
+    pub tail: TailRule,
+}
+
+impl Default for KBufferConfig {
+    /// NVIDIA's default of 8 layers.
+    fn default() -> Self {
+        KBufferConfig {
+            k: 8,
+            tail: TailRule::Average,
+        }
+    }
+}
+
+impl KBufferConfig {
+    pub fn from_spec(spec: &TechniqueSpec) -> Result<Self, SpecError> {
+        spec.expect_name("k-buffer")?;
+        Ok(KBufferConfig {
+            k: spec.integer("k", 1, MAX_K)? as u32,
+            tail: spec.word("tail", TailRule::NAMES, TailRule::parse)?,
+        })
+    }
+
+    pub fn spec(&self) -> TechniqueSpec {
+        TechniqueSpec {
+            name: "k-buffer".to_owned(),
+            params: [
+                ("k".to_owned(), self.k.to_string()),
+                ("tail".to_owned(), self.tail.name().to_owned()),
+            ]
+            .into_iter()
+            .collect(),
+        }
+    }
+
+    /// Slots (8 B each) and the two tail targets (Rgba16Float + R16Float); `transmit` (scenes
+    /// with coloured transmission): a second chain of k opacity slots and three Rgba16Float
+    /// tail targets.
+    pub fn bytes_per_pixel(&self, transmit: bool) -> u64 {
+        if transmit {
+            u64::from(self.k) * 16 + 24
+        } else {
+            u64::from(self.k) * 8 + 10
+        }
+    }
+}
+
+/// A slot (`to_slot` of kbuffer64.wgsl): larger is nearer, 0 is empty.
+pub fn to_slot(color: [f32; 3], alpha: f32, z: f32, reverse_z: bool) -> u64 {
+    let d = if reverse_z { z } else { 1.0 - z };
+    let a8 = (alpha.clamp(0.0, 1.0) * 255.0 + 0.5) as u32;
+    let hi = (d.to_bits() & 0xFFFF_FF00) | a8;
+    (u64::from(hi) << 32) | u64::from(pack_rgb9e5(color))
+}
+
+pub fn from_slot(s: u64) -> Fragment {
+    Fragment {
+        color: unpack_rgb9e5(s as u32),
+        opacity: [((s >> 32) as u32 & 255) as f32 / 255.0; 3],
+    }
+}
+
+/// A fragment's colour and opacity slots on scenes with coloured transmission
+/// (`fs_insert_transmit` of kbuffer64_transmit.wgsl): both share the high word, nearness as
+/// [`to_slot`] with a hash of the two low words in place of α.
+pub fn to_transmit_slots(color: [f32; 3], opacity: [f32; 3], z: f32, reverse_z: bool) -> [u64; 2] {
+    let d = if reverse_z { z } else { 1.0 - z };
+    let color_word = pack_rgb9e5(color);
+    let opacity_word = pack_opacity(opacity);
+    let h = (color_word.wrapping_mul(0x9E37_79B1) ^ opacity_word.wrapping_mul(0x85EB_CA77)) >> 24;
+    let high = u64::from((d.to_bits() & 0xFFFF_FF00) | h) << 32;
+    [high | u64::from(color_word), high | u64::from(opacity_word)]
+}
+
+/// What a pair of transmit slots decodes to.
+pub fn from_transmit_slots(s: [u64; 2]) -> Fragment {
+    Fragment {
+        color: unpack_rgb9e5(s[0] as u32),
+        opacity: unpack_opacity(s[1] as u32),
+    }
+}
+
+/// [`resolve`] on scenes with coloured transmission: per channel, the tail with exact coverage
+/// `1 − Π(1 − a)` and the a-weighted mean colour per channel. Colour and transmittance.
+pub fn resolve_transmit(slots: &[[u64; 2]], k: usize, tail: TailRule) -> ([f32; 3], [f32; 3]) {
+    let mut sorted = slots.to_vec();
+    sorted.sort_unstable_by(|a, b| b[0].cmp(&a[0]));
+    let (kept, rest) = sorted.split_at(k.min(sorted.len()));
+    let mut c = [0.0f32; 3];
+    let mut t = [1.0f32; 3];
+    for s in kept {
+        let f = from_transmit_slots(*s);
+        c = [0, 1, 2].map(|i| c[i] + t[i] * f.color[i]);
+        t = [0, 1, 2].map(|i| t[i] * (1.0 - f.opacity[i]));
+    }
+    if tail == TailRule::Average && !rest.is_empty() {
+        let (sum, a_sum, tail_t) =
+            rest.iter()
+                .fold(([0.0f32; 3], [0.0f32; 3], [1.0f32; 3]), |acc, s| {
+                    let f = from_transmit_slots(*s);
+                    (
+                        [0, 1, 2].map(|i| acc.0[i] + f.color[i]),
+                        [0, 1, 2].map(|i| acc.1[i] + f.opacity[i]),
+                        [0, 1, 2].map(|i| acc.2[i] * (1.0 - f.opacity[i])),
+                    )
+                });
+        for i in 0..3 {
+            if a_sum[i] > 0.0 {
+                c[i] += t[i] * sum[i] * ((1.0 - tail_t[i]) / a_sum[i]);
+            }
+        }
+        t = [0, 1, 2].map(|i| t[i] * tail_t[i]);
+    }
+    (c, t)
+}
+
+/// The k-buffer's result for one pixel's slots (any order): the `k` nearest composited front to
+/// back, the rest as the averaged tail (or dropped). Premultiplied colour and transmittance.
+pub fn resolve(slots: &[u64], k: usize, tail: TailRule) -> ([f32; 3], f32) {
+    let mut sorted = slots.to_vec();
+    sorted.sort_unstable_by(|a, b| b.cmp(a));
+    let (kept, rest) = sorted.split_at(k.min(sorted.len()));
+    let mut c = [0.0f32; 3];
+    let mut t = 1.0f32;
+    for s in kept {
+        let f = from_slot(*s);
+        c = [0, 1, 2].map(|i| c[i] + t * f.color[i]);
+        t *= 1.0 - f.opacity[0];
+    }
+    if tail == TailRule::Average && !rest.is_empty() {
+        let (sum, alpha_sum, tail_t) = rest.iter().fold(([0.0f32; 3], 0.0f32, 1.0f32), |acc, s| {
+            let f = from_slot(*s);
+            (
+                [0, 1, 2].map(|i| acc.0[i] + f.color[i]),
+                acc.1 + f.opacity[0],
+                acc.2 * (1.0 - f.opacity[0]),
+            )
+        });
+        if alpha_sum > 0.0 {
+            c = [0, 1, 2].map(|i| c[i] + t * sum[i] * ((1.0 - tail_t) / alpha_sum));
+            t *= tail_t;
+        }
+    }
+    (c, t)
+}
+
+/// The k-buffer on 64-bit atomics.
+#[derive(Debug)]
+pub struct KBuffer {
+    config: KBufferConfig,
+    gpu: Option<Resources>,
+    ledger: MemoryLedger,
+}
+
+#[derive(Debug)]
+struct Resources {
+    /// Resolution, final colour format, coloured-transmission path.
+    key: (Resolution, wgpu::TextureFormat, bool),
+    params: wgpu::Buffer,
+    slots: wgpu::Buffer,
+    counters: Counters,
+    tail_sum: wgpu::TextureView,
+    tail_t: wgpu::TextureView,
+    /// Σ a per channel (coloured-transmission path only).
+    tail_opacity: Option<wgpu::TextureView>,
+    insert_layout: wgpu::BindGroupLayout,
+    resolve_layout: wgpu::BindGroupLayout,
+    insert: ScenePipelines,
+    resolve: wgpu::RenderPipeline,
+}
+
+impl KBuffer {
+    pub fn new(config: KBufferConfig) -> Self {
+        KBuffer {
+            config,
+            gpu: None,
+            ledger: MemoryLedger::new(),
+        }
+    }
+
+    /// Refuses a spec that does not describe a k-buffer configuration.
+    pub fn from_spec(spec: &TechniqueSpec) -> Result<Self, SpecError> {
+        Ok(Self::new(KBufferConfig::from_spec(spec)?))
+    }
+
+    pub fn config(&self) -> KBufferConfig {
+        self.config
+    }
+
+    /// Bytes of the slot buffer at `resolution` (`transmit`: two chains), or why the adapter
+    /// cannot hold it.
+    pub fn slot_bytes(
+        &self,
+        caps: &Caps,
+        resolution: Resolution,
+        transmit: bool,
+    ) -> Result<u64, GpuError> {
+        let pixels = u64::from(resolution.width) * u64::from(resolution.height);
+        let chains = if transmit { 2 } else { 1 };
+        let bytes = pixels * u64::from(self.config.k) * 8 * chains;
+        let limit = caps
+            .max_storage_buffer_binding_size
+            .min(caps.max_buffer_size);
+        if bytes > limit {
+            return Err(GpuError::TooLarge {
+                what: format!(
+                    "the k-buffer slots (k={} × {chains} chain(s) × {pixels} px × 8 B)",
+                    self.config.k
+                ),
+                needed: bytes,
+                limit,
+            });
+        }
+        Ok(bytes)
+    }
+
+    fn resources(
+        &mut self,
+        ctx: &Context,
+        targets: &Targets,
+        transmit: bool,
+    ) -> Result<(), GpuError> {
+        let key = (targets.resolution, targets.color_format, transmit);
+        if self.gpu.as_ref().is_some_and(|g| g.key == key) {
+            return Ok(());
+        }
+        self.gpu = None;
+        self.ledger.clear();
+        let slot_bytes = self.slot_bytes(&ctx.caps, targets.resolution, transmit)?;
+        let device = &ctx.device;
+        let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
+        let mut buffer = |label: &str, size: u64, usage: wgpu::BufferUsages| {
+            self.ledger.create_buffer(
+                device,
+                &wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size,
+                    usage,
+                    mapped_at_creation: false,
+                },
+            )
+        };
+        let params = buffer(
+            "k-buffer params",
+            16,
+            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        );
+        let slots = buffer("k-buffer slots", slot_bytes, storage);
+        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
+        let tail_sum = self
+            .ledger
+            .create_texture_2d(
+                device,
+                "k-buffer tail sums",
+                targets.resolution,
+                TAIL_SUM_FORMAT,
+                usage,
+                1,
+            )
+            .create_view(&Default::default());
+        let tail_t_format = if transmit {
+            TAIL_RGB_FORMAT
+        } else {
+            TAIL_T_FORMAT
+        };
+        let tail_t = self
+            .ledger
+            .create_texture_2d(
+                device,
+                "k-buffer tail transmittance",
+                targets.resolution,
+                tail_t_format,
+                usage,
+                1,
+            )
+            .create_view(&Default::default());
+        let tail_opacity = transmit.then(|| {
+            self.ledger
+                .create_texture_2d(
+                    device,
+                    "k-buffer tail opacity sums",
+                    targets.resolution,
+                    TAIL_RGB_FORMAT,
+                    usage,
+                    1,
+                )
+                .create_view(&Default::default())
+        });
+        let fragment = wgpu::ShaderStages::FRAGMENT;
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("k-buffer"),
+            entries: &[
+                bind::uniform(0, fragment),
+                bind::storage(1, fragment, false),
+                bind::storage(2, fragment, false),
+                bind::float_texture(3, fragment),
+            ],
+        });
+        let mut resolve_entries = vec![
+            bind::uniform(0, fragment),
+            bind::storage(1, fragment, false),
+            bind::storage(2, fragment, false),
+            bind::float_texture(4, fragment),
+            bind::float_texture(5, fragment),
+        ];
+        if transmit {
+            resolve_entries.push(bind::float_texture(6, fragment));
+        }
+        let resolve_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("k-buffer resolve"),
+            entries: &resolve_entries,
+        });
+        let node = crate::list::node_source(crate::list::NODE_WGSL, transmit);
+        let module = if transmit {
+            ctx.shader_with(
+                "kbuffer64_transmit.wgsl",
+                KBUFFER64_TRANSMIT_WGSL,
+                &[&[("linked_list_node.wgsl", &node)], crate::SHADERS],
+            )?
+        } else {
+            ctx.shader_with(
+                "kbuffer64.wgsl",
+                KBUFFER64_WGSL,
+                &[&[("linked_list_node.wgsl", &node)], crate::SHADERS],
+            )?
+        };
+        let insert_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("k-buffer insert"),
+            bind_group_layouts: &[Some(ctx.scene_layout()), Some(&layout)],
+            immediate_size: 0,
+        });
+        let target = |format, blend| {
+            Some(wgpu::ColorTargetState {
+                format,
+                blend: Some(blend),
+                write_mask: wgpu::ColorWrites::ALL,
+            })
+        };
+        // Σ(C, α) and Π(1 − α); per channel: Σ(C, count), Σ a and Π(1 − a).
+        let tail_targets = if transmit {
+            vec![
+                target(TAIL_SUM_FORMAT, blend::ADDITIVE),
+                target(TAIL_RGB_FORMAT, blend::ADDITIVE),
+                target(TAIL_RGB_FORMAT, blend::MULTIPLY_ONE_MINUS_SRC),
+            ]
+        } else {
+            vec![
+                target(TAIL_SUM_FORMAT, blend::ADDITIVE),
+                target(TAIL_T_FORMAT, blend::MULTIPLY_ONE_MINUS_SRC),
+            ]
+        };
+        let insert = ScenePipelines::with_layout(
+            ctx,
+            &ScenePipelineDesc {
+                targets: &tail_targets,
+                ..ScenePipelineDesc::new(
+                    "k-buffer insert",
+                    &module,
+                    if transmit {
+                        "fs_insert_transmit"
+                    } else {
+                        "fs_insert"
+                    },
+                )
+            },
+            &insert_layout,
+        );
+        let resolve_pipeline_layout =
+            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("k-buffer resolve"),
+                bind_group_layouts: &[Some(ctx.scene_layout()), Some(&resolve_layout)],
+                immediate_size: 0,
+            });
+        let over = [Some(wgpu::ColorTargetState {
+            format: targets.color_format,
+            blend: Some(if transmit {
+                crate::list::PER_CHANNEL_OVER
+            } else {
+                PREMULTIPLIED_OVER
+            }),
+            write_mask: wgpu::ColorWrites::ALL,
+        })];
+        let resolve = fullscreen_pipeline(
+            ctx,
+            &FullscreenDesc {
+                label: "k-buffer resolve",
+                layout: &resolve_pipeline_layout,
+                module: &module,
+                fragment_entry: if transmit {
+                    "fs_resolve_transmit"
+                } else {
+                    "fs_resolve"
+                },
+                targets: &over,
+                depth: None,
+                multisample: Default::default(),
+            },
+        );
+        let counters = Counters::new(ctx, &mut self.ledger, "k-buffer");
+        self.gpu = Some(Resources {
+            key,
+            params,
+            slots,
+            counters,
+            tail_sum,
+            tail_t,
+            tail_opacity,
+            insert_layout: layout,
+            resolve_layout,
+            insert,
+            resolve,
+        });
+        Ok(())
+    }
+}
+
+impl Technique for KBuffer {
+    fn spec(&self) -> TechniqueSpec {
+        self.config.spec()
+    }
+
+    fn check(&self, caps: &Caps) -> Result<(), Unsupported> {
+        if !caps.int64_atomics {
+            return Err(Unsupported::new(format!(
+                "the k-buffer reads the value of 64-bit atomicMax (SHADER_INT64 and SHADER_INT64_ATOMIC_ALL_OPS: Vulkan and DX12 only); this {} adapter has none",
+                caps.backend.to_str()
+            )));
+        }
+        if caps.max_storage_buffers_per_shader_stage < 2 {
+            return Err(Unsupported::new(format!(
+                "the k-buffer needs 2 storage buffers in the fragment stage; the adapter allows {}",
+                caps.max_storage_buffers_per_shader_stage
+            )));
+        }
+        Ok(())
+    }
+
+    fn render(
+        &mut self,
+        ctx: &Context,
+        scene: &GpuScene,
+        targets: &Targets,
+        timer: &mut GpuTimer,
+    ) -> Result<RenderStats, GpuError> {
+        self.resources(
+            ctx,
+            targets,
+            crate::list::per_channel(&scene.scene, &ctx.caps),
+        )?;
+        let r = self.gpu.as_ref().expect("resources built above");
+        let words: [u32; 4] = [
+            targets.resolution.width,
+            self.config.k,
+            u32::from(scene.scene.camera.reverse_z),
+            u32::from(self.config.tail == TailRule::Average),
+        ];
+        ctx.queue
+            .write_buffer(&r.params, 0, bytemuck::cast_slice(&words));
+        let entry = |binding, resource| wgpu::BindGroupEntry { binding, resource };
+        let insert_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("k-buffer insert"),
+            layout: &r.insert_layout,
+            entries: &[
+                entry(0, r.params.as_entire_binding()),
+                entry(1, r.slots.as_entire_binding()),
+                entry(2, r.counters.buffer.as_entire_binding()),
+                entry(3, wgpu::BindingResource::TextureView(&targets.depth_view)),
+            ],
+        });
+        let mut resolve_entries = vec![
+            entry(0, r.params.as_entire_binding()),
+            entry(1, r.slots.as_entire_binding()),
+            entry(2, r.counters.buffer.as_entire_binding()),
+            entry(4, wgpu::BindingResource::TextureView(&r.tail_sum)),
+            entry(5, wgpu::BindingResource::TextureView(&r.tail_t)),
+        ];
+        if let Some(view) = &r.tail_opacity {
+            resolve_entries.push(entry(6, wgpu::BindingResource::TextureView(view)));
+        }
+        let resolve_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("k-buffer resolve"),
+            layout: &r.resolve_layout,
+            entries: &resolve_entries,
+        });
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        encoder.clear_buffer(&r.slots, 0, None);
+        r.counters.clear(&mut encoder);
+        {
+            let ts = timer.pass("k-buffer insert");
+            let mut attachments = vec![pass::color(
+                &r.tail_sum,
+                wgpu::LoadOp::Clear(pass::splat(0.0)),
+            )];
+            if let Some(view) = &r.tail_opacity {
+                attachments.push(pass::color(view, wgpu::LoadOp::Clear(pass::splat(0.0))));
+            }
+            attachments.push(pass::color(
+                &r.tail_t,
+                wgpu::LoadOp::Clear(pass::splat(1.0)),
+            ));
+            let mut p = pass::begin(
+                &mut encoder,
+                "k-buffer insert",
+                &attachments,
+                None,
+                ts.writes(),
+            );
+            scene.bind(&mut p);
+            p.set_bind_group(1, &insert_group, &[]);
+            for i in scene.transparent_draws() {
+                scene.draw(&mut p, &r.insert, i);
+            }
+        }
+        let c = r.counters.resolve_and_read(
+            ctx,
+            encoder,
+            timer,
+            scene,
+            targets,
+            &r.resolve,
+            &resolve_group,
+        )?;
+        Ok(RenderStats {
+            geometry_passes: 1,
+            pixels_with_dropped_layers: u64::from(c[0]),
+            pixels_with_approximated_layers: u64::from(c[1]),
+            ..Default::default()
+        })
+    }
+
+    fn memory_bytes(&self) -> u64 {
+        self.ledger.total()
+    }
+
+    fn transmission(&self, caps: &Caps) -> TransmissionSupport {
+        if !caps.dual_source_blending {
+            return TransmissionSupport::Approximate(
+                "composites 1 − mean(t) as scalar α, exact for grey filters only (the per-channel resolve dst = C + T ⊙ dst needs dual-source blending, which the adapter lacks)",
+            );
+        }
+        // A second chain of opacity slots (unorm10 per channel) sorted like the colour slots;
+        // the averaged tail stays an approximation, per channel, and is reported per pixel.
+        TransmissionSupport::Exact
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #[test]
+        fn slots_order_by_nearness_to_2_pow_minus_15(
+            z1 in 1e-6f32..1.0, z2 in 1e-6f32..1.0, reverse in any::<bool>(), a in 0.0f32..=1.0
+        ) {
+            let s1 = to_slot([0.5; 3], a, z1, reverse);
+            let s2 = to_slot([0.5; 3], 0.25, z2, reverse);
+            let (d1, d2) = if reverse { (z1, z2) } else { (1.0 - z1, 1.0 - z2) };
+            // Nearness truncated to 15 mantissa bits: distinct beyond 2^-15 relative.
+            if d1 > d2 * (1.0 + 2f32.powi(-14)) {
+                prop_assert!(s1 > s2);
+            }
+            prop_assert!(s1 > 0 && s2 > 0);
+            let f = from_slot(s1);
+            prop_assert!((f.opacity[0] - a).abs() <= 0.5 / 255.0 + 1e-7);
+        }
+    }
+
+    #[test]
+    fn resolve_keeps_the_k_nearest_and_averages_the_rest() {
+        let near = to_slot([0.5, 0.0, 0.0], 0.5, 0.8, true);
+        let mid = to_slot([0.0, 0.25, 0.0], 0.25, 0.5, true);
+        let far = to_slot([0.0, 0.0, 0.75], 0.75, 0.2, true);
+        let (c, t) = resolve(&[far, near, mid], 3, TailRule::Average);
+        assert_eq!(resolve(&[mid, far, near], 3, TailRule::Drop), (c, t));
+        let a = |s| from_slot(s).opacity[0];
+        assert_eq!(t, (1.0 - a(near)) * (1.0 - a(mid)) * (1.0 - a(far)));
+        let (c1, t1) = resolve(&[far, near, mid], 1, TailRule::Average);
+        assert!(
+            (t1 - t).abs() < 1e-7,
+            "the averaged tail keeps the exact coverage"
+        );
+        assert!(c1[1] > 0.0 && c1[2] > 0.0, "{c1:?}");
+        let (c2, t2) = resolve(&[far, near, mid], 1, TailRule::Drop);
+        assert_eq!((c2[1], c2[2], t2), (0.0, 0.0, 1.0 - a(near)));
+        assert_eq!(c2[0], from_slot(near).color[0]);
+    }
+
+    proptest! {
+        /// Both chains sort a fragment's slots alike: they share the high word, and the hash in
+        /// it orders fragments at equal nearness by content, not by draw order.
+        #[test]
+        fn transmit_slots_of_two_fragments_sort_alike_in_both_chains(
+            z1 in 0.0f32..1.0, z2 in 0.0f32..1.0, c in 0.0f32..4.0, a in 0.0f32..=1.0,
+        ) {
+            let p = to_transmit_slots([c, 0.5, 0.25], [a, 1.0 - a, 0.5], z1, true);
+            let q = to_transmit_slots([0.5, c, 0.0], [0.25, a, a], z2, true);
+            prop_assert_eq!(p[0] >> 32, p[1] >> 32);
+            if p[0] >> 32 != q[0] >> 32 {
+                prop_assert_eq!(p[0] < q[0], p[1] < q[1]);
+            }
+            let f = from_transmit_slots(p);
+            prop_assert!((f.opacity[1] - (1.0 - a)).abs() <= 0.5 / 1023.0 + 1e-6);
+        }
+    }
+}

@@ -1,0 +1,158 @@
+//! oit-linked-list: stored-fragment OIT, the method engines use today (Bevy's OIT, NVIDIA's
+//! vk_order_independent_transparency).
+//!
+//! `linked-list` (Yang et al. 2010): one geometry pass appends every transparent fragment in
+//! front of the opaque surface to its pixel's list, nodes allocated from a fixed pool by one
+//! atomic counter; a full-screen resolve keeps the `sort_max` nearest fragments of each pixel
+//! sorted (insertion sort; ties ordered by the stored colour, so the result is independent of
+//! the order fragments arrived in), composites them front to back, and composites the fragments
+//! behind them by the tail rule. With a pool and window that hold every fragment it is exact.
+//! Fragments lost to a full pool and pixels whose tail was dropped or averaged are counted per
+//! pixel and reported (`pixels_with_dropped_layers`, `pixels_with_approximated_layers`).
+//! On scenes with coloured transmission (and dual-source blending) nodes store rgb opacity
+//! `1 − t`, one word more, and the resolve composites per channel.
+//!
+//! `k-buffer` (NVIDIA's "Loop64"): no pool — each pixel keeps its `k` nearest fragments, sorted,
+//! in `k` u64 slots updated by a chain of 64-bit `atomicMax` in one geometry pass; the fragment
+//! a full pixel pushes out goes to two tail targets by hardware blending (Σ(C, α) and Π(1 − α)),
+//! which the resolve composites behind the slots with the same averaged-tail rule (or drops).
+
+mod config;
+mod frame;
+pub mod kbuffer;
+mod list;
+pub mod node;
+
+pub use config::{LinkedListConfig, MAX_NODES_PER_PIXEL, MAX_SORT, TailRule};
+pub use kbuffer::{KBuffer, KBufferConfig, MAX_K};
+pub use list::{FrameCounts, LinkedList, NODE_WGSL, WGSL};
+pub use node::NodeFormat;
+
+/// Every WGSL file of this crate (`shaders/`), by file name: what its passes' `#include`s
+/// resolve in first (`oit_gpu::shaders::resolve`), and what the shader test holds against the
+/// folder.
+pub const SHADERS: oit_gpu::shaders::Library = &[
+    ("kbuffer64.wgsl", kbuffer::KBUFFER64_WGSL),
+    ("kbuffer64_transmit.wgsl", kbuffer::KBUFFER64_TRANSMIT_WGSL),
+    ("linked_list.wgsl", list::WGSL),
+    ("linked_list_node.wgsl", list::NODE_WGSL),
+    ("linked_list_transmit.wgsl", list::TRANSMIT_WGSL),
+];
+
+/// This crate's `shaders/` folder.
+pub const SHADER_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/shaders");
+
+use oit_gpu::{Allowed, ParamInfo, TechniqueInfo};
+
+/// The registry entries of this crate.
+pub fn techniques() -> Vec<TechniqueInfo> {
+    vec![
+        TechniqueInfo {
+            name: "linked-list",
+            description: "per-pixel linked lists (Yang et al. 2010): every fragment stored from a node pool, the sort_max nearest sorted per pixel, the rest by the tail rule; exact when pool and window hold every fragment",
+            params: vec![
+                ParamInfo {
+                    key: "nodes-per-pixel",
+                    description: "node pool size as an average per pixel (Bevy's fragments_per_pixel_average); fragments past a full pool are lost and counted",
+                    default: "16",
+                    allowed: Allowed::Integer {
+                        min: 1,
+                        max: MAX_NODES_PER_PIXEL,
+                        words: &[],
+                    },
+                },
+                ParamInfo {
+                    key: "sort-max",
+                    description: "fragments kept sorted per pixel in the resolve; those behind go to the tail rule",
+                    default: "16",
+                    allowed: Allowed::Integer {
+                        min: 1,
+                        max: MAX_SORT,
+                        words: &[],
+                    },
+                },
+                ParamInfo {
+                    key: "node",
+                    description: "f32: 16 B nodes (f32 depth, binary16 colour and alpha); packed: 12 B nodes (Bevy: unorm24 depth, unorm8 alpha, rgb9e5 colour)",
+                    default: "f32",
+                    allowed: Allowed::Values(NodeFormat::NAMES),
+                },
+                ParamInfo {
+                    key: "tail",
+                    description: "fragments behind the sort window: average (one layer with coverage 1 - prod(1 - alpha) and the alpha-weighted mean colour) or drop",
+                    default: "average",
+                    allowed: Allowed::Values(TailRule::NAMES),
+                },
+            ],
+            build: |spec| Ok(Box::new(LinkedList::from_spec(spec)?)),
+        },
+        TechniqueInfo {
+            name: "k-buffer",
+            description: "k-buffer on 64-bit atomics (NVIDIA's Loop64): the k nearest fragments per pixel kept sorted in one geometry pass by an atomicMax chain on (depth, packed colour) keys, the fragments pushed out averaged into one layer or dropped; needs SHADER_INT64_ATOMIC_ALL_OPS (Vulkan, DX12)",
+            params: vec![
+                ParamInfo {
+                    key: "k",
+                    description: "fragments kept per pixel (8 B each)",
+                    default: "8",
+                    allowed: Allowed::Integer {
+                        min: 1,
+                        max: MAX_K,
+                        words: &[],
+                    },
+                },
+                ParamInfo {
+                    key: "tail",
+                    description: "fragments pushed out of the k slots: average (one layer with coverage 1 - prod(1 - alpha) and the alpha-weighted mean colour) or drop",
+                    default: "average",
+                    allowed: Allowed::Values(TailRule::NAMES),
+                },
+            ],
+            build: |spec| Ok(Box::new(KBuffer::from_spec(spec)?)),
+        },
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use oit_gpu::{SpecError, TechniqueSpec};
+
+    #[test]
+    fn registry_is_valid_canonical_and_refuses_hand_built_bad_specs() {
+        let registry = techniques();
+        for info in &registry {
+            info.validate().unwrap();
+        }
+        let t = TechniqueSpec::build("linked-list", &registry).unwrap();
+        assert_eq!(
+            t.spec().to_string(),
+            "linked-list:node=f32,nodes-per-pixel=16,sort-max=16,tail=average"
+        );
+        let t = TechniqueSpec::build("k-buffer:k=16,tail=drop", &registry).unwrap();
+        assert_eq!(t.spec().to_string(), "k-buffer:k=16,tail=drop");
+        for bad in [
+            "linked-list:sort-max=0",
+            "linked-list:sort-max=129",
+            "linked-list:nodes-per-pixel=1025",
+            "linked-list:node=f16",
+            "k-buffer:k=0",
+            "k-buffer:k=33",
+            "k-buffer:tail=sort",
+        ] {
+            let e = TechniqueSpec::parse(bad, &registry).unwrap_err();
+            assert!(e.to_string().contains("allowed"), "{bad}: {e}");
+        }
+        let mut spec = TechniqueSpec::parse("k-buffer", &registry).unwrap();
+        spec.params.insert("k".into(), "many".into());
+        assert!(matches!(
+            KBuffer::from_spec(&spec),
+            Err(SpecError::BadValue { .. })
+        ));
+        spec.name = "linked-list".into();
+        assert!(LinkedList::from_spec(&spec).is_err());
+        assert!(matches!(
+            KBufferConfig::from_spec(&spec),
+            Err(SpecError::WrongTechnique { .. })
+        ));
+    }
+}

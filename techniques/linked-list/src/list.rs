@@ -1,0 +1,418 @@
+//! The `linked-list` technique: insert pass, resolve pass, per-pixel accounting.
+
+use crate::config::{LinkedListConfig, TailRule};
+use crate::frame::Counters;
+use crate::node::NodeFormat;
+use oit_gpu::wgpu;
+use oit_gpu::{
+    Caps, Context, FullscreenDesc, GpuError, GpuScene, GpuTimer, MemoryLedger, PREMULTIPLIED_OVER,
+    RenderStats, ScenePipelineDesc, ScenePipelines, SpecError, Targets, Technique, TechniqueSpec,
+    TransmissionSupport, Unsupported, bind, fullscreen_pipeline, pass,
+};
+use oit_scene::Resolution;
+
+/// shaders/linked_list.wgsl and its node module.
+pub const WGSL: &str = include_str!("../shaders/linked_list.wgsl");
+pub const NODE_WGSL: &str = include_str!("../shaders/linked_list_node.wgsl");
+/// The root module on scenes with coloured transmission: includes linked_list.wgsl and adds the
+/// dual-source resolve.
+pub const TRANSMIT_WGSL: &str = include_str!("../shaders/linked_list_transmit.wgsl");
+
+/// The lines of the shaders the crate rewrites per configuration (checked by a test).
+pub(crate) const SORT_MAX_LINE: &str = "const SORT_MAX: u32 = 16u;";
+pub(crate) const PACKED_LINE: &str = "override PACKED: bool = false;";
+pub(crate) const TRANSMIT_LINE: &str = "override TRANSMIT: bool = false;";
+
+/// `dst = src0 + src1 ⊙ dst` per channel (src1 = the stack's rgb transmittance); alpha as
+/// premultiplied OVER. Needs dual-source blending, hence one target.
+pub(crate) const PER_CHANNEL_OVER: wgpu::BlendState = wgpu::BlendState {
+    color: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::One,
+        dst_factor: wgpu::BlendFactor::Src1,
+        operation: wgpu::BlendOperation::Add,
+    },
+    alpha: PREMULTIPLIED_OVER.alpha,
+};
+
+/// The node module for `transmit` nodes (rgb opacity) or scalar ones: the flag becomes a
+/// constant, so the scalar pipelines compile to the code they always had.
+pub(crate) fn node_source(node: &str, transmit: bool) -> String {
+    node.replace(
+        TRANSMIT_LINE,
+        &format!("const TRANSMIT: bool = {transmit};"),
+    )
+}
+
+/// The shader sources for `config`: the sort window size, the node format and whether nodes
+/// store rgb opacity (`transmit`) are constants.
+pub fn shader_sources(config: &LinkedListConfig, transmit: bool) -> (String, String) {
+    let list = WGSL.replace(
+        SORT_MAX_LINE,
+        &format!("const SORT_MAX: u32 = {}u;", config.sort_max),
+    );
+    let node = NODE_WGSL.replace(
+        PACKED_LINE,
+        &format!(
+            "const PACKED: bool = {};",
+            config.node == NodeFormat::Packed
+        ),
+    );
+    (list, node_source(&node, transmit))
+}
+
+/// Whether a scene takes the per-channel path: coloured transmission on an adapter with
+/// dual-source blending. Every other scene keeps the scalar nodes and resolve.
+pub(crate) fn per_channel(scene: &oit_scene::Scene, caps: &Caps) -> bool {
+    scene.has_coloured_transmission() && caps.dual_source_blending
+}
+
+/// Per-pixel linked lists with a bounded sort window.
+#[derive(Debug)]
+pub struct LinkedList {
+    config: LinkedListConfig,
+    gpu: Option<Resources>,
+    ledger: MemoryLedger,
+    last: FrameCounts,
+}
+
+/// What the last frame's resolve counted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct FrameCounts {
+    /// Nodes the insert pass asked for (more than the pool when fragments were lost).
+    pub fragments: u64,
+    /// Pixels that lost fragments to a full pool, or dropped their tail (`tail=drop`).
+    pub pixels_dropped: u64,
+    /// Pixels whose fragments behind the window were averaged (`tail=average`).
+    pub pixels_tail_averaged: u64,
+}
+
+#[derive(Debug)]
+struct Resources {
+    /// Resolution, final colour format, rgb-opacity nodes.
+    key: (Resolution, wgpu::TextureFormat, bool),
+    capacity: u32,
+    params: wgpu::Buffer,
+    heads: wgpu::Buffer,
+    lost: wgpu::Buffer,
+    nodes: wgpu::Buffer,
+    counters: Counters,
+    layout: wgpu::BindGroupLayout,
+    insert: ScenePipelines,
+    resolve: wgpu::RenderPipeline,
+}
+
+impl LinkedList {
+    pub fn new(config: LinkedListConfig) -> Self {
+        LinkedList {
+            config,
+            gpu: None,
+            ledger: MemoryLedger::new(),
+            last: FrameCounts::default(),
+        }
+    }
+
+    /// Refuses a spec that does not describe a linked-list configuration.
+    pub fn from_spec(spec: &TechniqueSpec) -> Result<Self, SpecError> {
+        Ok(Self::new(LinkedListConfig::from_spec(spec)?))
+    }
+
+    pub fn config(&self) -> LinkedListConfig {
+        self.config
+    }
+
+    /// The counts of the last rendered frame.
+    pub fn last_counts(&self) -> FrameCounts {
+        self.last
+    }
+
+    /// Node pool size at `resolution` (`transmit`: rgb-opacity nodes), or why the adapter
+    /// cannot hold it.
+    pub fn pool(
+        &self,
+        caps: &Caps,
+        resolution: Resolution,
+        transmit: bool,
+    ) -> Result<(u32, u64), GpuError> {
+        let pixels = u64::from(resolution.width) * u64::from(resolution.height);
+        let capacity = pixels * u64::from(self.config.nodes_per_pixel);
+        let node_bytes = self.config.node.bytes(transmit);
+        let bytes = capacity * node_bytes;
+        let limit = caps
+            .max_storage_buffer_binding_size
+            .min(caps.max_buffer_size);
+        if bytes > limit || capacity > u64::from(u32::MAX) {
+            return Err(GpuError::TooLarge {
+                what: format!(
+                    "the node pool ({} nodes-per-pixel × {pixels} px × {} B)",
+                    self.config.nodes_per_pixel, node_bytes
+                ),
+                needed: bytes,
+                limit,
+            });
+        }
+        Ok((capacity as u32, bytes))
+    }
+
+    fn resources(
+        &mut self,
+        ctx: &Context,
+        targets: &Targets,
+        transmit: bool,
+    ) -> Result<(), GpuError> {
+        let key = (targets.resolution, targets.color_format, transmit);
+        if self.gpu.as_ref().is_some_and(|g| g.key == key) {
+            return Ok(());
+        }
+        self.gpu = None;
+        self.ledger.clear();
+        let (capacity, pool_bytes) = self.pool(&ctx.caps, targets.resolution, transmit)?;
+        let pixels = u64::from(targets.resolution.width) * u64::from(targets.resolution.height);
+        let device = &ctx.device;
+        let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
+        let mut buffer = |label: &str, size: u64, usage: wgpu::BufferUsages| {
+            self.ledger.create_buffer(
+                device,
+                &wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size,
+                    usage,
+                    mapped_at_creation: false,
+                },
+            )
+        };
+        let params = buffer(
+            "linked-list params",
+            16,
+            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        );
+        let heads = buffer("linked-list heads", pixels * 4, storage);
+        let lost = buffer("linked-list lost fragments", pixels * 4, storage);
+        let nodes = buffer("linked-list node pool", pool_bytes, storage);
+        let fragment = wgpu::ShaderStages::FRAGMENT;
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("linked-list"),
+            entries: &[
+                bind::uniform(0, fragment),
+                bind::storage(1, fragment, false),
+                bind::storage(2, fragment, false),
+                bind::storage(3, fragment, false),
+                bind::storage(4, fragment, false),
+                bind::float_texture(5, fragment),
+            ],
+        });
+        let (list_src, node_src) = shader_sources(&self.config, transmit);
+        let module = if transmit {
+            ctx.shader_with(
+                "linked_list_transmit.wgsl",
+                TRANSMIT_WGSL,
+                &[
+                    &[
+                        ("linked_list.wgsl", &list_src),
+                        ("linked_list_node.wgsl", &node_src),
+                    ],
+                    crate::SHADERS,
+                ],
+            )?
+        } else {
+            ctx.shader_with(
+                "linked_list.wgsl",
+                &list_src,
+                &[&[("linked_list_node.wgsl", &node_src)], crate::SHADERS],
+            )?
+        };
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("linked-list"),
+            bind_group_layouts: &[Some(ctx.scene_layout()), Some(&layout)],
+            immediate_size: 0,
+        });
+        // The pass needs an attachment; nothing is written to it (the lists are the output).
+        let untouched = [Some(wgpu::ColorTargetState {
+            format: targets.color_format,
+            blend: None,
+            write_mask: wgpu::ColorWrites::empty(),
+        })];
+        let insert = ScenePipelines::with_layout(
+            ctx,
+            &ScenePipelineDesc {
+                targets: &untouched,
+                ..ScenePipelineDesc::new("linked-list insert", &module, "fs_insert")
+            },
+            &pipeline_layout,
+        );
+        let over = [Some(wgpu::ColorTargetState {
+            format: targets.color_format,
+            blend: Some(if transmit {
+                PER_CHANNEL_OVER
+            } else {
+                PREMULTIPLIED_OVER
+            }),
+            write_mask: wgpu::ColorWrites::ALL,
+        })];
+        let resolve = fullscreen_pipeline(
+            ctx,
+            &FullscreenDesc {
+                label: "linked-list resolve",
+                layout: &pipeline_layout,
+                module: &module,
+                fragment_entry: if transmit {
+                    "fs_resolve_transmit"
+                } else {
+                    "fs_resolve"
+                },
+                targets: &over,
+                depth: None,
+                multisample: Default::default(),
+            },
+        );
+        let counters = Counters::new(ctx, &mut self.ledger, "linked-list");
+        self.gpu = Some(Resources {
+            key,
+            capacity,
+            params,
+            heads,
+            lost,
+            nodes,
+            counters,
+            layout,
+            insert,
+            resolve,
+        });
+        Ok(())
+    }
+}
+
+impl Technique for LinkedList {
+    fn spec(&self) -> TechniqueSpec {
+        self.config.spec()
+    }
+
+    fn check(&self, caps: &Caps) -> Result<(), Unsupported> {
+        if caps.max_storage_buffers_per_shader_stage < 4 {
+            return Err(Unsupported::new(format!(
+                "linked lists need 4 storage buffers in the fragment stage; the adapter allows {}",
+                caps.max_storage_buffers_per_shader_stage
+            )));
+        }
+        Ok(())
+    }
+
+    fn render(
+        &mut self,
+        ctx: &Context,
+        scene: &GpuScene,
+        targets: &Targets,
+        timer: &mut GpuTimer,
+    ) -> Result<RenderStats, GpuError> {
+        self.resources(ctx, targets, per_channel(&scene.scene, &ctx.caps))?;
+        let r = self.gpu.as_ref().expect("resources built above");
+        let words: [u32; 4] = [
+            targets.resolution.width,
+            r.capacity,
+            u32::from(scene.scene.camera.reverse_z),
+            u32::from(self.config.tail == TailRule::Average),
+        ];
+        ctx.queue
+            .write_buffer(&r.params, 0, bytemuck::cast_slice(&words));
+        let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("linked-list"),
+            layout: &r.layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: r.params.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: r.heads.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: r.nodes.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: r.counters.buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: r.lost.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 5,
+                    resource: wgpu::BindingResource::TextureView(&targets.depth_view),
+                },
+            ],
+        });
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        encoder.clear_buffer(&r.heads, 0, None);
+        encoder.clear_buffer(&r.lost, 0, None);
+        r.counters.clear(&mut encoder);
+        {
+            let ts = timer.pass("linked-list insert");
+            let mut p = pass::begin(
+                &mut encoder,
+                "linked-list insert",
+                &[pass::color(&targets.color_view, wgpu::LoadOp::Load)],
+                None,
+                ts.writes(),
+            );
+            scene.bind(&mut p);
+            p.set_bind_group(1, &group, &[]);
+            for i in scene.transparent_draws() {
+                scene.draw(&mut p, &r.insert, i);
+            }
+        }
+        let c = r
+            .counters
+            .resolve_and_read(ctx, encoder, timer, scene, targets, &r.resolve, &group)?;
+        self.last = FrameCounts {
+            fragments: u64::from(c[0]),
+            pixels_dropped: u64::from(c[1]),
+            pixels_tail_averaged: u64::from(c[2]),
+        };
+        Ok(RenderStats {
+            geometry_passes: 1,
+            pixels_with_dropped_layers: self.last.pixels_dropped,
+            pixels_with_approximated_layers: self.last.pixels_tail_averaged,
+            ..Default::default()
+        })
+    }
+
+    fn memory_bytes(&self) -> u64 {
+        self.ledger.total()
+    }
+
+    fn transmission(&self, caps: &Caps) -> TransmissionSupport {
+        if !caps.dual_source_blending {
+            return TransmissionSupport::Approximate(
+                "composites 1 − mean(t) as scalar α, exact for grey filters only (the per-channel resolve dst = C + T ⊙ dst needs dual-source blending, which the adapter lacks)",
+            );
+        }
+        // Nodes store rgb opacity: binary16 (f32 nodes) or unorm10 (packed), as they store α.
+        // An averaged tail stays an approximation, per channel, and is reported per pixel.
+        TransmissionSupport::Exact
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rewritten_lines_exist_in_the_shaders() {
+        assert_eq!(WGSL.matches(SORT_MAX_LINE).count(), 1);
+        assert_eq!(NODE_WGSL.matches(PACKED_LINE).count(), 1);
+        assert_eq!(NODE_WGSL.matches(TRANSMIT_LINE).count(), 1);
+        let config = LinkedListConfig {
+            sort_max: 37,
+            node: NodeFormat::Packed,
+            ..Default::default()
+        };
+        let (list, node) = shader_sources(&config, true);
+        assert!(list.contains("const SORT_MAX: u32 = 37u;") && !list.contains(SORT_MAX_LINE));
+        assert!(node.contains("const PACKED: bool = true;"));
+        assert!(node.contains("const TRANSMIT: bool = true;"));
+        let (_, scalar) = shader_sources(&config, false);
+        assert!(scalar.contains("const TRANSMIT: bool = false;"));
+    }
+}

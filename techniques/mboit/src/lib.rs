@@ -1,0 +1,129 @@
+//! oit-mboit: moment-based order-independent transparency (Münstermann, Kerzner, Kolb, Peters,
+//! HPG/i3D 2018).
+//!
+//! Absorbance A = −ln(1 − α) adds, so pass 1 sums it and its moments of the (log-warped)
+//! fragment depth additively; pass 2 reconstructs, per fragment, a bound on the absorbance in
+//! front of it from those moments and accumulates (C·T, α·T); the composite normalises the
+//! colour and gives it the exact total coverage 1 − exp(−ΣA).
+//!
+//! - `mboit:moments=power4|power6|power8|trig2|trig3|trig4,storage=f32|f16` (defaults
+//!   `power6`, `f32`; see [`Config::DEFAULT`]).
+//! - [`math`]: the CPU twin of the reconstruction (`transmittance_at`), line-comparable with
+//!   shaders/mboit_math.wgsl.
+
+pub mod math;
+mod technique;
+
+pub use math::{MomentKind, Resolve, Storage, transmittance_at};
+pub use technique::{
+    ACCUM_WGSL, COMPOSITE_WGSL, Config, MATH_WGSL, Mboit, params_words, transparent_depth_interval,
+};
+
+/// Every WGSL file of this crate (`shaders/`), by file name: what its passes' `#include`s
+/// resolve in first (`oit_gpu::shaders::resolve`), and what the shader test holds against the
+/// folder.
+pub const SHADERS: oit_gpu::shaders::Library = &[
+    ("mboit_accum.wgsl", technique::ACCUM_WGSL),
+    ("mboit_composite.wgsl", technique::COMPOSITE_WGSL),
+    ("mboit_math.wgsl", technique::MATH_WGSL),
+];
+
+/// This crate's `shaders/` folder.
+pub const SHADER_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/shaders");
+
+use oit_gpu::{Allowed, ParamInfo, TechniqueInfo};
+
+/// The registry entries of this crate.
+pub fn techniques() -> Vec<TechniqueInfo> {
+    vec![TechniqueInfo {
+        name: "mboit",
+        description: "moment-based OIT (Münstermann et al. 2018): moments of absorbance over log-warped depth, a reconstructed transmittance per fragment, two geometry passes and a composite",
+        params: vec![
+            ParamInfo {
+                key: "moments",
+                description: "power4/6/8: 4, 6 or 8 power moments (Hankel bounds, 2-4 roots); trig2/3/4: 2, 3 or 4 trigonometric moments (Toeplitz bounds, wrapping zone 0.1 pi)",
+                default: "power6",
+                allowed: Allowed::Values(MomentKind::NAMES),
+            },
+            ParamInfo {
+                key: "storage",
+                description: "f32: 32-bit float moments (needs FLOAT32_BLENDABLE); f16: 16-bit float moments with the paper's 16-bit biases, still additive blending (no pixel sync)",
+                default: "f32",
+                allowed: Allowed::Values(Storage::NAMES),
+            },
+        ],
+        build: |spec| Ok(Box::new(Mboit::from_spec(spec)?)),
+    }]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use oit_gpu::TechniqueSpec;
+
+    #[test]
+    fn registry_is_valid_and_canonical() {
+        let registry = techniques();
+        for info in &registry {
+            info.validate().unwrap();
+        }
+        let t = TechniqueSpec::build("mboit", &registry).unwrap();
+        assert_eq!(t.spec().to_string(), "mboit:moments=power6,storage=f32");
+        let t = TechniqueSpec::build("mboit:storage=f16,moments=trig3", &registry).unwrap();
+        assert_eq!(t.spec().to_string(), "mboit:moments=trig3,storage=f16");
+        let defaults = TechniqueSpec::parse("mboit", &registry).unwrap();
+        assert_eq!(Config::from_spec(&defaults), Ok(Config::DEFAULT));
+        // Hand-built specs with a missing or unknown value, or another name, are refused.
+        let mut bad = defaults.clone();
+        bad.params.insert("moments".into(), "power5".into());
+        let e = Config::from_spec(&bad).unwrap_err();
+        assert!(
+            e.to_string().contains("moments") && e.to_string().contains("trig4"),
+            "{e}"
+        );
+        bad.params.remove("moments");
+        assert!((registry[0].build)(&bad).is_err());
+        let mut bad = defaults.clone();
+        bad.params.insert("storage".into(), "f64".into());
+        assert!(Config::from_spec(&bad).is_err());
+        let mut bad = defaults.clone();
+        bad.name = "wboit".into();
+        assert!(Config::from_spec(&bad).is_err());
+        let e = TechniqueSpec::parse("mboit:moments=power10", &registry).unwrap_err();
+        assert!(e.to_string().contains("power8"), "{e}");
+        for (i, k) in MomentKind::ALL.iter().enumerate() {
+            assert_eq!(k.index() as usize, i);
+            assert_eq!(MomentKind::parse(k.name()), Some(*k));
+        }
+    }
+
+    /// Bytes per pixel of every configuration: b0, the moments and the (C·T, α·T)
+    /// accumulator; pass 1's attachment bytes per sample as WebGPU counts them.
+    #[test]
+    fn bytes_per_pixel_per_configuration() {
+        let expected = [
+            (MomentKind::Power4, 36, 20),
+            (MomentKind::Power6, 44, 28),
+            (MomentKind::Power8, 52, 36),
+            (MomentKind::Trig2, 36, 20),
+            (MomentKind::Trig3, 44, 28),
+            (MomentKind::Trig4, 52, 36),
+        ];
+        for (moments, bytes, pass1) in expected {
+            let c = Config {
+                moments,
+                storage: Storage::F32,
+            };
+            assert_eq!(c.bytes_per_pixel(), bytes, "{moments:?}");
+            assert_eq!(c.pass1_bytes_per_sample(), pass1, "{moments:?}");
+            let h = Config {
+                moments,
+                storage: Storage::F16,
+            };
+            assert_eq!(h.bytes_per_pixel(), bytes / 2, "{moments:?}");
+            assert_eq!(h.pass1_bytes_per_sample(), pass1 / 2, "{moments:?}");
+            // b0 plus the moments, as the paper counts them.
+            assert_eq!(4 * (1 + moments.floats() as u64), bytes - 16);
+        }
+    }
+}

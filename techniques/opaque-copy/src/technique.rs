@@ -1,0 +1,230 @@
+//! The `opaque-copy` technique: pipelines, the colour copy and the two passes.
+
+use oit_gpu::wgpu;
+use oit_gpu::{
+    Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, PREMULTIPLIED_OVER, RenderStats,
+    ScenePipelineDesc, ScenePipelines, SpecError, Targets, Technique, TechniqueSpec,
+    TransmissionSupport, Unsupported, bind, depth_test, pass,
+};
+
+/// The pass file (includes common.wgsl).
+pub(crate) const SHADER: &str = include_str!("../shaders/opaque_copy.wgsl");
+
+/// GPU objects for one (colour format, resolution, reverse-Z) combination.
+#[derive(Debug)]
+struct Resources {
+    key: (wgpu::TextureFormat, oit_scene::Resolution, bool),
+    /// The opaque pass's colour, copied before the transmissive surfaces draw.
+    copy: wgpu::Texture,
+    copy_group: wgpu::BindGroup,
+    /// Writes `C + t ⊙ copy`, depth test strictly nearer with depth writes.
+    transmissive: ScenePipelines,
+    /// OVER blending, depth test strictly nearer, no depth writes.
+    blend: ScenePipelines,
+}
+
+/// Babylon's transmission technique; see the crate documentation.
+#[derive(Debug, Default)]
+pub struct OpaqueCopy {
+    resources: Option<Resources>,
+    ledger: MemoryLedger,
+}
+
+impl OpaqueCopy {
+    pub const NAME: &'static str = "opaque-copy";
+
+    /// Refuses a spec of another name, or with a parameter (it has none).
+    pub fn from_spec(spec: &TechniqueSpec) -> Result<Self, SpecError> {
+        if spec.name != Self::NAME {
+            return Err(SpecError::WrongTechnique {
+                spec: spec.to_string(),
+                expected: Self::NAME.to_owned(),
+            });
+        }
+        if let Some(key) = spec.params.keys().next() {
+            return Err(SpecError::UnknownKey {
+                spec: spec.to_string(),
+                name: spec.name.clone(),
+                key: key.clone(),
+                keys: "(none)".to_owned(),
+            });
+        }
+        Ok(Self::default())
+    }
+
+    fn resources(
+        &mut self,
+        ctx: &Context,
+        scene: &GpuScene,
+        targets: &Targets,
+    ) -> Result<(), GpuError> {
+        let key = (
+            targets.color_format,
+            targets.resolution,
+            scene.scene.camera.reverse_z,
+        );
+        if self.resources.as_ref().is_some_and(|r| r.key == key) {
+            return Ok(());
+        }
+        let device = &ctx.device;
+        self.ledger.clear();
+        let copy = self.ledger.create_texture_2d(
+            device,
+            "opaque colour copy",
+            targets.resolution,
+            targets.color_format,
+            wgpu::TextureUsages::COPY_DST | wgpu::TextureUsages::TEXTURE_BINDING,
+            1,
+        );
+        let fs = wgpu::ShaderStages::FRAGMENT;
+        let group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("opaque copy"),
+            entries: &[bind::float_texture(0, fs)],
+        });
+        let view = copy.create_view(&Default::default());
+        let copy_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("opaque copy"),
+            layout: &group_layout,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::TextureView(&view),
+            }],
+        });
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("opaque-copy transmissive"),
+            bind_group_layouts: &[Some(ctx.scene_layout()), Some(&group_layout)],
+            immediate_size: 0,
+        });
+        let nearer = scene.depth_nearer();
+        let module = ctx.shader_with("opaque_copy.wgsl", SHADER, &[crate::SHADERS])?;
+        let transmissive = ScenePipelines::with_layout(
+            ctx,
+            &ScenePipelineDesc {
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: targets.color_format,
+                    blend: None,
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+                depth: Some(depth_test(nearer, true)),
+                ..ScenePipelineDesc::new("opaque-copy transmissive", &module, "fs_transmissive")
+            },
+            &layout,
+        );
+        let blend_module =
+            ctx.shader_with("blend.wgsl", oit_gpu::shaders::BLEND, &[crate::SHADERS])?;
+        let blend = ScenePipelines::new(
+            ctx,
+            &ScenePipelineDesc {
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: targets.color_format,
+                    blend: Some(PREMULTIPLIED_OVER),
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+                depth: Some(depth_test(nearer, false)),
+                ..ScenePipelineDesc::new("opaque-copy blend", &blend_module, "fs_blend")
+            },
+        );
+        self.resources = Some(Resources {
+            key,
+            copy,
+            copy_group,
+            transmissive,
+            blend,
+        });
+        Ok(())
+    }
+}
+
+impl Technique for OpaqueCopy {
+    fn spec(&self) -> TechniqueSpec {
+        TechniqueSpec {
+            name: Self::NAME.to_owned(),
+            params: Default::default(),
+        }
+    }
+
+    fn check(&self, caps: &Caps) -> Result<(), Unsupported> {
+        caps.require_scene_materials()?;
+        Ok(())
+    }
+
+    fn render(
+        &mut self,
+        ctx: &Context,
+        scene: &GpuScene,
+        targets: &Targets,
+        timer: &mut GpuTimer,
+    ) -> Result<RenderStats, GpuError> {
+        self.resources(ctx, scene, targets)?;
+        let r = self.resources.as_ref().expect("resources built above");
+        let s = &scene.scene;
+        let cpu = std::time::Instant::now();
+        let transmissive: Vec<usize> = (0..s.draws.len())
+            .filter(|&i| s.material_of(&s.draws[i]).is_transmissive())
+            .collect();
+        let blended: Vec<usize> = s
+            .babylon_object_order()
+            .into_iter()
+            .filter(|&i| !s.material_of(&s.draws[i]).is_transmissive())
+            .collect();
+        let cpu_ms = cpu.elapsed().as_secs_f64() * 1e3;
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        encoder.copy_texture_to_texture(
+            targets.color.as_image_copy(),
+            r.copy.as_image_copy(),
+            r.copy.size(),
+        );
+        let depth = || {
+            pass::depth(
+                &targets.depth_view,
+                wgpu::LoadOp::Load,
+                wgpu::StoreOp::Store,
+            )
+        };
+        {
+            let ts = timer.pass("transmissive over the opaque copy");
+            let mut p = pass::begin(
+                &mut encoder,
+                "opaque-copy transmissive",
+                &[pass::color(&targets.color_view, wgpu::LoadOp::Load)],
+                depth(),
+                ts.writes(),
+            );
+            scene.bind(&mut p);
+            p.set_bind_group(1, &r.copy_group, &[]);
+            for &i in &transmissive {
+                scene.draw(&mut p, &r.transmissive, i);
+            }
+        }
+        {
+            let ts = timer.pass("blend");
+            let mut p = pass::begin(
+                &mut encoder,
+                "opaque-copy blend",
+                &[pass::color(&targets.color_view, wgpu::LoadOp::Load)],
+                depth(),
+                ts.writes(),
+            );
+            scene.bind(&mut p);
+            for &i in &blended {
+                scene.draw(&mut p, &r.blend, i);
+            }
+        }
+        timer.submit(ctx, encoder)?;
+        Ok(RenderStats {
+            geometry_passes: 2,
+            cpu_ms,
+            ..Default::default()
+        })
+    }
+
+    fn memory_bytes(&self) -> u64 {
+        self.ledger.total()
+    }
+
+    fn transmission(&self, _caps: &Caps) -> TransmissionSupport {
+        TransmissionSupport::Approximate(
+            "exact for the nearest transmissive surface over opaque content and for transparent surfaces in front of it; what is transparent or transmissive behind it is missing from the copy",
+        )
+    }
+}

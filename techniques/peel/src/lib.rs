@@ -1,0 +1,129 @@
+//! oit-peel: depth peeling, the exact GPU transparency techniques of this testbed.
+//!
+//! - `front-peel` (Everitt 2001): one layer per geometry pass, nearest first, under-blended into
+//!   a front accumulator; `layers=auto` stops one pass after the last layer (the detection pass).
+//! - `dual-peel` (Bavoil & Myers 2008): each pass peels the nearest and the farthest remaining
+//!   layer, using a MAX-blended (−min, max) key range in `Rg32Float` or `Rg16Float`. Beyond
+//!   Babylon.js: the range test runs before any shading, the init pass computes only coverage,
+//!   `passes=auto` stops exactly after ⌈L/2⌉ passes without a CPU round trip per pass, the
+//!   middle layers left after the last pass can be composited with weighted blending
+//!   (`tail=wboit`), and the stored key can use another depth encoding than window depth.
+//!
+//! Termination is GPU-driven: every transparent draw is an indirect draw, and a one-workgroup
+//! compute pass after each peel pass copies "this pass left something for the next" (an atomic
+//! flag a shader of the pass sets) into the instance count of the next pass's draws. A frame
+//! records as many passes as the previous frame needed and reads the counters back once at the
+//! end (for the stats); only when that budget was too small does it record more.
+//!
+//! No pass count is fixed: `auto` peels until nothing is left. The per-pass counters and pass
+//! indices grow with the frame; the only bound is the adapter's ([`max_pass_slots`]: buffer
+//! size over the dynamic-offset alignment, or the storage binding size), which an explicit
+//! `layers=N` / `passes=N` beyond it is reported against by `check`.
+//!
+//! See README.md for the measurements (lavapipe) and the depth-range encoding table.
+
+mod config;
+mod dual;
+mod encoding;
+mod front;
+mod gpu;
+
+pub use config::{DepthFormat, DualPeelConfig, FrontPeelConfig, PassCount, Tail};
+pub use dual::DualPeel;
+pub use encoding::{DepthEncoding, KeyParams, f16_round, half_uniform, peel_key};
+pub use front::FrontPeel;
+pub use gpu::{
+    COUNTER_HEADER_WORDS, COUNTER_WORDS_PER_PASS, Options, PeelReport, Termination, max_pass_slots,
+};
+
+/// Every WGSL file of this crate (`shaders/`), by file name: what its passes' `#include`s
+/// resolve in first (`oit_gpu::shaders::resolve`), and what the shader test holds against the
+/// folder.
+pub const SHADERS: oit_gpu::shaders::Library = &[
+    ("peel_common.wgsl", gpu::PEEL_COMMON),
+    ("peel_composite.wgsl", gpu::PEEL_COMPOSITE),
+    ("peel_counters.wgsl", gpu::PEEL_COUNTERS),
+    ("peel_dual.wgsl", gpu::PEEL_DUAL),
+    ("peel_front.wgsl", gpu::PEEL_FRONT),
+    ("peel_gate.wgsl", gpu::PEEL_GATE),
+    ("peel_tail.wgsl", gpu::PEEL_TAIL),
+    ("peel_transmit.wgsl", gpu::PEEL_TRANSMIT),
+];
+
+/// This crate's `shaders/` folder.
+pub const SHADER_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/shaders");
+
+use oit_gpu::{Allowed, Caps, ParamInfo, TechniqueInfo};
+
+/// Most `front-peel` layers on this adapter (`auto` and `layers=N`): one pass slot per layer.
+pub fn max_front_layers(caps: &Caps) -> u32 {
+    max_pass_slots(caps).0
+}
+
+/// Most `dual-peel` peel passes on this adapter (`auto` and `passes=N`): the init pass takes
+/// one pass slot, each peel pass one more.
+pub fn max_dual_passes(caps: &Caps) -> u32 {
+    max_pass_slots(caps).0.saturating_sub(1)
+}
+
+/// The registry entries of this crate.
+pub fn techniques() -> Vec<TechniqueInfo> {
+    vec![
+        TechniqueInfo {
+            name: "front-peel",
+            description: "front-to-back depth peeling (Everitt 2001): one layer per geometry pass, exact up to the layer budget; auto stops after the first empty pass",
+            params: vec![ParamInfo {
+                key: "layers",
+                description: "layers to peel (one geometry pass each), or auto: until a pass finds nothing (GPU-gated indirect draws). No fixed cap: per-layer counters and pass indices grow with the frame, bounded only by the adapter (8 counter bytes per layer within max_storage_buffer_binding_size, one pass-index slot per layer within max_buffer_size; lavapipe: 16777215 layers, set by its 128 MiB storage binding size); a larger N is reported as unsupported there",
+                default: "auto",
+                allowed: Allowed::Integer {
+                    min: 1,
+                    max: u32::MAX as u64,
+                    words: &["auto"],
+                },
+            }],
+            build: |spec| Ok(Box::new(FrontPeel::from_spec(spec)?)),
+        },
+        TechniqueInfo {
+            name: "dual-peel",
+            description: "dual depth peeling (Bavoil & Myers 2008): nearest and farthest layer per pass from a MAX-blended (-min, max) range; range test before shading, coverage-only init pass",
+            params: vec![
+                ParamInfo {
+                    key: "passes",
+                    description: "peel passes after the init pass (2 layers each; Babylon's default is 5), or auto: exactly ceil(L/2), GPU-gated. No fixed cap: per-pass counters and pass indices grow with the frame, bounded only by the adapter (8 counter bytes per pass within max_storage_buffer_binding_size, one pass-index slot per pass within max_buffer_size; lavapipe: 16777214 passes, set by its 128 MiB storage binding size); a larger N is reported as unsupported there",
+                    default: "5",
+                    allowed: Allowed::Integer {
+                        min: 1,
+                        max: u32::MAX as u64,
+                        words: &["auto"],
+                    },
+                },
+                ParamInfo {
+                    key: "depth",
+                    description: "range target format: rg32f needs blendable 32-bit float targets; auto picks rg32f where the adapter can blend it, else rg16f (keys rounded to f16)",
+                    default: "auto",
+                    allowed: Allowed::Values(DepthFormat::NAMES),
+                },
+                ParamInfo {
+                    key: "reverse-z",
+                    description: "stored key grows toward the viewer (independent of the scene's own depth buffer)",
+                    default: "on",
+                    allowed: Allowed::Values(&["on", "off"]),
+                },
+                ParamInfo {
+                    key: "tail",
+                    description: "layers left after the last pass: drop them, or composite them with weighted blended OIT",
+                    default: "drop",
+                    allowed: Allowed::Values(Tail::NAMES),
+                },
+                ParamInfo {
+                    key: "encoding",
+                    description: "stored key: window depth, or linear / logarithmic view distance over the scene's transparent depth interval",
+                    default: "window",
+                    allowed: Allowed::Values(DepthEncoding::NAMES),
+                },
+            ],
+            build: |spec| Ok(Box::new(DualPeel::from_spec(spec)?)),
+        },
+    ]
+}

@@ -1,0 +1,180 @@
+//! oit-stochastic: stochastic transparency, where α is a probability of survival.
+//!
+//! Both techniques write transparent fragments as opaque fragments with depth, so they are
+//! order independent by construction (up to exact depth ties, see below) and exact only in
+//! expectation:
+//!
+//! - `stochastic:pattern=white|blue|bayer4|…|bayer256|hashed,seed=object|primitive|none,spp=N`: a
+//!   fragment survives when its α exceeds the pattern's threshold at that pixel ([`pattern`]
+//!   builds the Bayer and void-and-cluster tables on the CPU). `spp=N` averages N frames,
+//!   each with its own pattern shift, in f32; the error falls as N grows, which is the
+//!   convergence axis the harness plots.
+//! - `a2c:samples=4|8`: MSAA with alpha-to-coverage; the driver's α → sample-mask table does
+//!   the dithering, the resolve averages the samples.
+//!
+//! Exact depth ties: with a strictly-nearer depth test, draws that could tie are issued in
+//! reverse draw order, so among coplanar survivors of different draws the later draw wins, as
+//! in the reference. Within one draw, the earlier triangle wins (the reference picks the later
+//! one). Groups of draws whose depth ranges cannot touch go nearest first ([`dither_order`]),
+//! so the depth test rejects what is behind before it is shaded.
+//!
+//! Premultiplied materials survive with probability α and show `C/α`; a premultiplied
+//! fragment with α = 0 (purely additive light) never survives and is lost, a limit of every
+//! stochastic method.
+
+mod a2c;
+mod config;
+mod gpu;
+pub mod pattern;
+mod stochastic;
+
+pub use a2c::AlphaToCoverage;
+pub use config::{A2cConfig, MAX_SPP, Pattern, Seed, StochasticConfig};
+pub use gpu::dither_order;
+pub use stochastic::{DITHER_WGSL, Stochastic, dither_words};
+
+/// Every WGSL file of this crate (`shaders/`), by file name: what its passes' `#include`s
+/// resolve in first (`oit_gpu::shaders::resolve`), and what the shader test holds against the
+/// folder.
+pub const SHADERS: oit_gpu::shaders::Library = &[
+    ("stochastic_a2c.wgsl", a2c::A2C_WGSL),
+    ("stochastic_accumulate.wgsl", stochastic::ACCUMULATE_WGSL),
+    ("stochastic_dither.wgsl", stochastic::DITHER_WGSL),
+    ("stochastic_seed.wgsl", gpu::SEED_WGSL),
+];
+
+/// This crate's `shaders/` folder.
+pub const SHADER_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/shaders");
+
+use oit_gpu::TechniqueInfo;
+
+/// The registry entries of this crate: `stochastic` and `a2c`.
+pub fn techniques() -> Vec<TechniqueInfo> {
+    vec![
+        TechniqueInfo {
+            name: "stochastic",
+            description: "dithered alpha test: fragments survive when alpha exceeds a white/blue-noise/Bayer/hashed threshold and are written opaque with depth; spp frames averaged",
+            params: config::stochastic_params(),
+            build: |s| Ok(Box::new(Stochastic::from_spec(s)?)),
+        },
+        TechniqueInfo {
+            name: "a2c",
+            description: "MSAA alpha-to-coverage: opaque writes with depth, alpha turned into a sample mask by the driver, samples resolved",
+            params: config::a2c_params(),
+            build: |s| Ok(Box::new(AlphaToCoverage::from_spec(s)?)),
+        },
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use oit_gpu::{SpecError, TechniqueSpec};
+
+    #[test]
+    fn registry_parses_and_round_trips() {
+        let reg = techniques();
+        for info in &reg {
+            info.validate().unwrap();
+        }
+        let s = TechniqueSpec::parse("stochastic", &reg).unwrap();
+        assert_eq!(s.to_string(), "stochastic:pattern=blue,seed=object,spp=1");
+        let t =
+            TechniqueSpec::build("stochastic:spp=16,pattern=hashed,seed=primitive", &reg).unwrap();
+        assert_eq!(
+            t.spec().to_string(),
+            "stochastic:pattern=hashed,seed=primitive,spp=16"
+        );
+        let t = TechniqueSpec::build("a2c", &reg).unwrap();
+        assert_eq!(t.spec().to_string(), "a2c:samples=4");
+        let e = TechniqueSpec::parse("stochastic:pattern=pink", &reg).unwrap_err();
+        assert!(
+            e.to_string().contains(
+                "white, blue, bayer4, bayer8, bayer16, bayer32, bayer64, bayer128, bayer256, hashed"
+            ),
+            "{e}"
+        );
+        let e = TechniqueSpec::parse("stochastic:spp=129", &reg).unwrap_err();
+        assert!(e.to_string().contains("1..=128"), "{e}");
+        let e = TechniqueSpec::parse("a2c:samples=2", &reg).unwrap_err();
+        assert!(e.to_string().contains("4, 8"), "{e}");
+        let c = StochasticConfig::from_spec(
+            &TechniqueSpec::parse("stochastic:pattern=bayer8,seed=none,spp=7", &reg).unwrap(),
+        )
+        .unwrap();
+        assert_eq!(
+            c,
+            StochasticConfig {
+                pattern: Pattern::Bayer8,
+                seed: Seed::None,
+                spp: 7
+            }
+        );
+        assert_eq!(StochasticConfig::from_spec(&c.spec()).unwrap(), c);
+    }
+
+    #[test]
+    fn tiles_are_powers_of_two() {
+        for p in Pattern::ALL {
+            if let Some(t) = p.tile() {
+                assert!(t.is_power_of_two(), "{}: tile {t}", p.name());
+                // The seed shifts the tile by 16 bits in x and 16 in y.
+                assert!(t <= 1 << 16, "{}: tile {t}", p.name());
+            }
+            assert_eq!(Pattern::NAMES.iter().filter(|&&n| n == p.name()).count(), 1);
+            if let Some(side) = p.bayer_side() {
+                assert_eq!(p.name(), format!("bayer{side}"));
+            }
+        }
+        assert_eq!(Pattern::ALL.len(), Pattern::NAMES.len());
+    }
+
+    #[test]
+    fn every_pattern_parses_and_sizes_its_table() {
+        let reg = techniques();
+        for p in Pattern::ALL {
+            let spec =
+                TechniqueSpec::parse(&format!("stochastic:pattern={}", p.name()), &reg).unwrap();
+            let c = StochasticConfig::from_spec(&spec).unwrap();
+            assert_eq!(c.pattern, p);
+            assert_eq!(
+                stochastic::table_len(p) as u64 * 4,
+                p.table_bytes(),
+                "{}",
+                p.name()
+            );
+        }
+        assert_eq!(Pattern::Bayer256.table_bytes(), 256 * 1024);
+    }
+
+    #[test]
+    fn hand_built_bad_specs_are_errors_not_panics() {
+        let mut spec = TechniqueSpec::parse("stochastic", &techniques()).unwrap();
+        spec.params.insert("spp".into(), "0".into());
+        let e = StochasticConfig::from_spec(&spec).unwrap_err();
+        assert!(
+            e.to_string().contains("spp") && e.to_string().contains("1..=128"),
+            "{e}"
+        );
+        // The technique is refused at construction, not built to fail later.
+        let e = Stochastic::from_spec(&spec).unwrap_err();
+        assert!(e.to_string().contains("spp"), "{e}");
+        spec.params.remove("seed");
+        spec.params.insert("spp".into(), "3".into());
+        let e = Stochastic::from_spec(&spec).unwrap_err();
+        assert!(
+            matches!(&e, SpecError::Missing { key, .. } if key == "seed"),
+            "{e}"
+        );
+        let wrong = TechniqueSpec {
+            name: "a2c".into(),
+            params: Default::default(),
+        };
+        assert!(matches!(
+            StochasticConfig::from_spec(&wrong),
+            Err(SpecError::WrongTechnique { .. })
+        ));
+        let e = A2cConfig::from_spec(&wrong).unwrap_err();
+        assert!(e.to_string().contains("samples"), "{e}");
+    }
+}

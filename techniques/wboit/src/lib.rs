@@ -1,0 +1,119 @@
+//! oit-wboit: weighted blended order-independent transparency (McGuire & Bavoil 2013) and the
+//! weighted average it improved on (Bavoil & Myers 2008).
+//!
+//! One geometry pass accumulates (premultiplied colour · w, α · w) additively and the revealage
+//! Π(1 − α) multiplicatively, depth-tested against the opaque depth without writing it; one
+//! full-screen pass composites `avg · (1 − T) + opaque · T` with guards that keep the output
+//! finite, and counts how often each guard fires ([`GuardCounts`]).
+//!
+//! - `wboit:weight=const|alpha|eq7|eq8|eq9|eq10|mcguire2015|range,accum=rgba16f|rgba32f,reveal=r8|r16f|r32f`
+//!   (formulas on [`Weight`]; defaults `range`, `rgba16f`, `r16f`, see [`Config::DEFAULT`]).
+//! - `weighted-average`: rgba16f (ΣC, Σα) and an r32f count n, `T = (1 − Σα/n)^n`.
+//! - [`tail`]: the WGSL, targets and composite that dual depth peeling's `tail=wboit` reuses.
+
+mod guards;
+pub mod range;
+pub mod tail;
+mod technique;
+
+pub use guards::{GUARD_SLOTS, GuardCounts};
+pub use range::RangeParams;
+pub use technique::{ACCUM_WGSL, Config, Wboit, Weight};
+
+/// Every WGSL file of this crate (`shaders/`), by file name: what its passes' `#include`s
+/// resolve in first (`oit_gpu::shaders::resolve`), and what the shader test holds against the
+/// folder.
+pub const SHADERS: oit_gpu::shaders::Library = &[
+    ("wboit_accum.wgsl", technique::ACCUM_WGSL),
+    ("wboit_composite.wgsl", tail::COMPOSITE_WGSL),
+    ("wboit_tail.wgsl", tail::WGSL),
+];
+
+/// This crate's `shaders/` folder.
+pub const SHADER_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/shaders");
+
+use oit_gpu::{Allowed, ParamInfo, TechniqueInfo};
+
+/// The registry entries of this crate.
+pub fn techniques() -> Vec<TechniqueInfo> {
+    vec![
+        TechniqueInfo {
+            name: "wboit",
+            description: "weighted blended OIT (McGuire & Bavoil 2013): one accumulation pass and a guarded full-screen composite",
+            params: vec![
+                ParamInfo {
+                    key: "weight",
+                    description: "depth weight: const (1), alpha, the paper's eq7-eq10, mcguire2015 (the 1e8 form), range (ours: estimated transmittance from the scene's transparent depth interval and mean absorbance, fp16-bounded)",
+                    default: "range",
+                    allowed: Allowed::Values(Weight::NAMES),
+                },
+                ParamInfo {
+                    key: "accum",
+                    description: "accumulation format (rgba32f needs FLOAT32_BLENDABLE)",
+                    default: "rgba16f",
+                    allowed: Allowed::Values(tail::AccumFormat::NAMES),
+                },
+                ParamInfo {
+                    key: "reveal",
+                    description: "revealage format (r8 loses alpha < 1/510; r32f needs FLOAT32_BLENDABLE)",
+                    default: "r16f",
+                    allowed: Allowed::Values(tail::RevealFormat::NAMES),
+                },
+            ],
+            build: |spec| Ok(Box::new(Wboit::new(Config::from_spec(spec)?))),
+        },
+        TechniqueInfo {
+            name: "weighted-average",
+            description: "weighted average (Bavoil & Myers 2008): (sum C, sum alpha) and a fragment count n, T = (1 - sum alpha / n)^n",
+            params: Vec::new(),
+            build: |spec| Ok(Box::new(Wboit::new(Config::from_spec(spec)?))),
+        },
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use oit_gpu::TechniqueSpec;
+
+    #[test]
+    fn registry_is_valid_and_canonical() {
+        let registry = techniques();
+        for info in &registry {
+            info.validate().unwrap();
+        }
+        let t = TechniqueSpec::build("wboit", &registry).unwrap();
+        assert_eq!(
+            t.spec().to_string(),
+            "wboit:accum=rgba16f,reveal=r16f,weight=range"
+        );
+        let t =
+            TechniqueSpec::build("wboit:weight=eq7,reveal=r8,accum=rgba32f", &registry).unwrap();
+        assert_eq!(
+            t.spec().to_string(),
+            "wboit:accum=rgba32f,reveal=r8,weight=eq7"
+        );
+        let defaults = TechniqueSpec::parse("wboit", &registry).unwrap();
+        assert_eq!(Config::from_spec(&defaults), Ok(Config::DEFAULT));
+        // A hand-built spec with a missing or unknown value is refused, not defaulted.
+        let mut bad = defaults.clone();
+        bad.params.insert("weight".into(), "eq11".into());
+        let e = Config::from_spec(&bad).unwrap_err();
+        assert!(
+            e.to_string().contains("weight") && e.to_string().contains("eq10"),
+            "{e}"
+        );
+        bad.params.remove("weight");
+        assert!((registry[0].build)(&bad).is_err());
+        bad.name = "front-peel".into();
+        assert!(Config::from_spec(&bad).is_err());
+        let t = TechniqueSpec::build("weighted-average", &registry).unwrap();
+        assert_eq!(t.spec().to_string(), "weighted-average");
+        let e = TechniqueSpec::parse("wboit:weight=eq11", &registry).unwrap_err();
+        assert!(e.to_string().contains("eq10, mcguire2015, range"), "{e}");
+        for (i, w) in Weight::ALL.iter().enumerate() {
+            assert_eq!(w.index() as usize, i);
+            assert_eq!(Weight::parse(w.name()), Some(*w));
+        }
+    }
+}

@@ -1,0 +1,488 @@
+//! The `wboit` and `weighted-average` techniques: one accumulation pass over the transparent
+//! draws, then the shared guarded composite of [`crate::tail`].
+
+use crate::guards::GuardCounts;
+use crate::range::RangeParams;
+use crate::tail::{self, AccumFormat, AccumTargets, CompositeMode, RevealFormat};
+use oit_gpu::pass;
+use oit_gpu::wgpu;
+use oit_gpu::{
+    Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, RenderStats, ScenePipelineDesc,
+    ScenePipelines, SpecError, Targets, Technique, TechniqueSpec, TransmissionSupport, Unsupported,
+    depth_test,
+};
+
+/// The accumulation pass (shaders/wboit_accum.wgsl; includes common.wgsl and the tail).
+pub const ACCUM_WGSL: &str = include_str!("../shaders/wboit_accum.wgsl");
+
+/// The weight functions. z is the positive view distance, d the conventional window depth
+/// (0 at near, 1 at far; `1 − window z` under reverse-Z), α the fragment's coverage.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Weight {
+    /// w = 1: Eq. 5 of the paper without depth weights.
+    Const,
+    /// w = α (pygfx's default).
+    Alpha,
+    /// Eq. 7: α·clamp(10 / (1e-5 + (z/5)² + (z/200)⁶), 1e-2, 3e3).
+    Eq7,
+    /// Eq. 8: α·clamp(10 / (1e-5 + (z/10)³ + (z/200)⁶), 1e-2, 3e3).
+    Eq8,
+    /// Eq. 9: α·clamp(0.03 / (1e-5 + (z/200)⁴), 1e-2, 3e3).
+    Eq9,
+    /// Eq. 10: α·max(1e-2, 3e3·(1 − d)³).
+    Eq10,
+    /// McGuire 2015: a = 8·min(1, α) + 0.01, b = 1 − 0.95·d, w = clamp(a³·1e8·b³, 1e-2, 3e2).
+    McGuire2015,
+    /// Ours: an estimate of the transmittance in front of the fragment, w = 256·2^(−fall·t),
+    /// t = position of z in the scene's transparent depth interval (0 near end, 1 far end),
+    /// fall = the scene's mean absorbance in bits in front of the farthest fragment where
+    /// fragments overlap, at most 21 and at most what keeps α·w of the scene's faintest layer a
+    /// normal fp16 number ([`RangeParams`], [`crate::range::fall_cap`]). No α factor (the
+    /// transmittance is the exact weight). At most 256: with colour sums in units of the
+    /// scene's colour scale, 255 layers of α = 1 still fit in fp16.
+    Range,
+}
+
+impl Weight {
+    pub const ALL: [Weight; 8] = [
+        Weight::Const,
+        Weight::Alpha,
+        Weight::Eq7,
+        Weight::Eq8,
+        Weight::Eq9,
+        Weight::Eq10,
+        Weight::McGuire2015,
+        Weight::Range,
+    ];
+    pub const NAMES: &'static [&'static str] = &[
+        "const",
+        "alpha",
+        "eq7",
+        "eq8",
+        "eq9",
+        "eq10",
+        "mcguire2015",
+        "range",
+    ];
+
+    pub fn name(self) -> &'static str {
+        Self::NAMES[self.index() as usize]
+    }
+
+    /// The `weight` switch value in the shader.
+    pub fn index(self) -> u32 {
+        Self::ALL.iter().position(|&w| w == self).unwrap_or(0) as u32
+    }
+
+    pub fn parse(s: &str) -> Option<Self> {
+        Self::NAMES
+            .iter()
+            .position(|&n| n == s)
+            .map(|i| Self::ALL[i])
+    }
+
+    /// CPU twin of the shader's `weight` (for tests and documentation tables).
+    pub fn eval(self, z: f32, d: f32, alpha: f32, range: &RangeParams) -> f32 {
+        let cube = |x: f32| x * x * x;
+        match self {
+            Weight::Const => 1.0,
+            Weight::Alpha => alpha,
+            Weight::Eq7 => {
+                let s = z / 200.0;
+                alpha * (10.0 / (1e-5 + (z / 5.0).powi(2) + cube(s) * cube(s))).clamp(1e-2, 3e3)
+            }
+            Weight::Eq8 => {
+                let s = z / 200.0;
+                alpha * (10.0 / (1e-5 + cube(z / 10.0) + cube(s) * cube(s))).clamp(1e-2, 3e3)
+            }
+            Weight::Eq9 => alpha * (0.03 / (1e-5 + (z / 200.0).powi(4))).clamp(1e-2, 3e3),
+            Weight::Eq10 => alpha * (3e3 * cube(1.0 - d)).max(1e-2),
+            Weight::McGuire2015 => {
+                let a = alpha.min(1.0) * 8.0 + 0.01;
+                let b = 1.0 - 0.95 * d;
+                (cube(a) * 1e8 * cube(b)).clamp(1e-2, 3e2)
+            }
+            Weight::Range => range.weight(z),
+        }
+    }
+}
+
+/// A `wboit` or `weighted-average` configuration.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Config {
+    Weighted {
+        weight: Weight,
+        accum: AccumFormat,
+        reveal: RevealFormat,
+    },
+    /// Bavoil & Myers 2008: rgba16f (ΣC, Σα) and an r32f fragment count.
+    Average,
+}
+
+impl Config {
+    /// The defaults: `range` (bounded for fp16 on every depth range), `rgba16f` (blendable on
+    /// every adapter), `r16f` (keeps α = 1/512 layers that R8 drops).
+    pub const DEFAULT: Config = Config::Weighted {
+        weight: Weight::Range,
+        accum: tail::DEFAULT_ACCUM,
+        reveal: tail::DEFAULT_REVEAL,
+    };
+
+    pub fn spec(&self) -> TechniqueSpec {
+        match *self {
+            Config::Weighted {
+                weight,
+                accum,
+                reveal,
+            } => TechniqueSpec {
+                name: "wboit".to_owned(),
+                params: [
+                    ("accum", accum.name()),
+                    ("reveal", reveal.name()),
+                    ("weight", weight.name()),
+                ]
+                .into_iter()
+                .map(|(k, v)| (k.to_owned(), v.to_owned()))
+                .collect(),
+            },
+            Config::Average => TechniqueSpec {
+                name: "weighted-average".to_owned(),
+                params: Default::default(),
+            },
+        }
+    }
+
+    /// Refuses a spec that is neither `wboit` with every parameter nor `weighted-average`.
+    pub fn from_spec(spec: &TechniqueSpec) -> Result<Config, SpecError> {
+        if spec.name == "weighted-average" {
+            return Ok(Config::Average);
+        }
+        spec.expect_name("wboit")?;
+        Ok(Config::Weighted {
+            weight: spec.word("weight", Weight::NAMES, Weight::parse)?,
+            accum: spec.word("accum", AccumFormat::NAMES, AccumFormat::parse)?,
+            reveal: spec.word("reveal", RevealFormat::NAMES, RevealFormat::parse)?,
+        })
+    }
+
+    /// Why this configuration cannot modulate a final colour of `color` per channel on
+    /// `caps` (McGuire & Mara's coloured transmission), if so.
+    pub fn modulation_unsupported(
+        &self,
+        caps: &Caps,
+        color: wgpu::TextureFormat,
+    ) -> Option<String> {
+        let (_, accum, reveal) = self.formats();
+        tail::modulation_unsupported(caps, accum, reveal, color)
+    }
+
+    fn formats(&self) -> (CompositeMode, AccumFormat, RevealFormat) {
+        match *self {
+            Config::Weighted { accum, reveal, .. } => (CompositeMode::Weighted, accum, reveal),
+            Config::Average => (
+                CompositeMode::Average,
+                AccumFormat::Rgba16f,
+                RevealFormat::R32f,
+            ),
+        }
+    }
+}
+
+/// The widest final colour format: whether the per-channel modulation target fits is judged
+/// for it, so one configuration composites the same way on every final target.
+const WIDEST_COLOR: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+
+#[derive(Debug)]
+struct Pipelines {
+    reverse_z: bool,
+    /// The final colour format when the pass also modulates it per channel (coloured
+    /// transmission), else `None`.
+    modulated: Option<wgpu::TextureFormat>,
+    scene: ScenePipelines,
+}
+
+/// Weighted blended OIT or the weighted average.
+#[derive(Debug)]
+pub struct Wboit {
+    config: Config,
+    accum: Option<AccumTargets>,
+    pipelines: Option<Pipelines>,
+    params: Option<(wgpu::Buffer, wgpu::BindGroupLayout, wgpu::BindGroup)>,
+    /// `range` inputs of the last scene (by `GpuScene::id`): computed once per scene.
+    range: Option<(u64, RangeParams)>,
+    ledger: MemoryLedger,
+}
+
+impl Wboit {
+    pub fn new(config: Config) -> Self {
+        Wboit {
+            config,
+            accum: None,
+            pipelines: None,
+            params: None,
+            range: None,
+            ledger: MemoryLedger::new(),
+        }
+    }
+
+    pub fn config(&self) -> Config {
+        self.config
+    }
+
+    /// The guard counts of the last rendered frame (waits for the GPU). `None` before the
+    /// first frame.
+    pub fn last_guard_counts(&self, ctx: &Context) -> Result<Option<GuardCounts>, GpuError> {
+        self.accum.as_ref().map(|a| a.guard_counts(ctx)).transpose()
+    }
+
+    /// The accumulation targets (after the first frame), e.g. to read them back in tests.
+    pub fn accum_targets(&self) -> Option<&AccumTargets> {
+        self.accum.as_ref()
+    }
+
+    /// The `range` weight's inputs for `scene` (cached per uploaded scene).
+    fn range(&mut self, scene: &GpuScene) -> RangeParams {
+        match self.range {
+            Some((id, r)) if id == scene.id => r,
+            _ => {
+                let r = RangeParams::of(&scene.scene);
+                self.range = Some((scene.id, r));
+                r
+            }
+        }
+    }
+
+    /// `modulated`: the final colour format when the pass modulates it per channel.
+    fn ensure(
+        &mut self,
+        ctx: &Context,
+        scene: &GpuScene,
+        modulated: Option<wgpu::TextureFormat>,
+    ) -> Result<(), GpuError> {
+        let (mode, accum, reveal) = self.config.formats();
+        let res = scene.scene.resolution;
+        if self.accum.as_ref().is_none_or(|a| a.resolution != res) {
+            self.accum = Some(AccumTargets::with_formats(ctx, res, mode, accum, reveal)?);
+        }
+        if self.params.is_none() {
+            let buffer = self.ledger.create_buffer(
+                &ctx.device,
+                &wgpu::BufferDescriptor {
+                    label: Some("wboit weight params"),
+                    size: 48,
+                    usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                },
+            );
+            let layout = ctx
+                .device
+                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                    label: Some("wboit weight params"),
+                    entries: &[oit_gpu::bind::uniform(0, wgpu::ShaderStages::FRAGMENT)],
+                });
+            let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("wboit weight params"),
+                layout: &layout,
+                entries: &[wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: buffer.as_entire_binding(),
+                }],
+            });
+            self.params = Some((buffer, layout, group));
+        }
+        let reverse_z = scene.scene.camera.reverse_z;
+        if self
+            .pipelines
+            .as_ref()
+            .is_none_or(|p| p.reverse_z != reverse_z || p.modulated != modulated)
+        {
+            let accum = self
+                .accum
+                .as_ref()
+                .expect("accumulation targets built above");
+            let (_, layout, _) = self.params.as_ref().expect("params built above");
+            let module = ctx.shader_with("wboit_accum.wgsl", ACCUM_WGSL, &[crate::SHADERS])?;
+            let pipeline_layout =
+                ctx.device
+                    .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                        label: Some("wboit accumulate"),
+                        bind_group_layouts: &[Some(ctx.scene_layout()), Some(layout)],
+                        immediate_size: 0,
+                    });
+            let entry = match (self.config, modulated) {
+                (Config::Weighted { .. }, None) => "fs_wboit",
+                (Config::Average, None) => "fs_average",
+                (Config::Weighted { .. }, Some(_)) => "fs_wboit_coloured",
+                (Config::Average, Some(_)) => "fs_average_coloured",
+            };
+            let targets: Vec<_> = match modulated {
+                None => accum.color_targets().to_vec(),
+                Some(color) => accum.modulating_color_targets(color).to_vec(),
+            };
+            // The shared vertex stage of common.wgsl, depth tested strictly nearer than the
+            // opaque depth, no depth writes.
+            let pipelines = ScenePipelines::with_layout(
+                ctx,
+                &ScenePipelineDesc {
+                    targets: &targets,
+                    depth: Some(depth_test(scene.depth_nearer(), false)),
+                    ..ScenePipelineDesc::new("wboit accumulate", &module, entry)
+                },
+                &pipeline_layout,
+            );
+            self.pipelines = Some(Pipelines {
+                reverse_z,
+                modulated,
+                scene: pipelines,
+            });
+        }
+        Ok(())
+    }
+}
+
+impl Technique for Wboit {
+    fn spec(&self) -> TechniqueSpec {
+        self.config.spec()
+    }
+
+    fn check(&self, caps: &Caps) -> Result<(), Unsupported> {
+        let (_, accum, reveal) = self.config.formats();
+        tail::check_formats(caps, accum, reveal)
+    }
+
+    fn render(
+        &mut self,
+        ctx: &Context,
+        scene: &GpuScene,
+        targets: &Targets,
+        timer: &mut GpuTimer,
+    ) -> Result<RenderStats, GpuError> {
+        // Coloured transmission: the final colour is a third target, multiplied per channel
+        // (decided for the widest final target, as `transmission` reports it).
+        let modulated = (scene.scene.has_coloured_transmission()
+            && self
+                .config
+                .modulation_unsupported(&ctx.caps, WIDEST_COLOR)
+                .is_none())
+        .then_some(targets.color_format);
+        self.ensure(ctx, scene, modulated)?;
+        let s = &scene.scene;
+        let (a, b, ortho) = s.camera.view_depth_terms();
+        let range = self.range(scene);
+        // The weighted average accumulates unweighted colour, unscaled.
+        let (weight, color_scale) = match self.config {
+            Config::Weighted { weight, .. } => (weight.index(), range.color_scale),
+            Config::Average => (Weight::Const.index(), 1.0),
+        };
+        let words: [u32; 12] = [
+            weight,
+            u32::from(s.camera.reverse_z),
+            u32::from(ortho),
+            range.fall.to_bits(),
+            a.to_bits(),
+            b.to_bits(),
+            range.z_near.to_bits(),
+            range.z_far.to_bits(),
+            color_scale.to_bits(),
+            0,
+            0,
+            0,
+        ];
+        let (params, _, group) = self.params.as_ref().expect("params built in ensure");
+        ctx.queue
+            .write_buffer(params, 0, bytemuck::cast_slice(&words));
+        let accum = self.accum.as_mut().expect("targets built in ensure");
+        accum.set_color_scale(color_scale);
+        accum.set_background_modulated(modulated.is_some());
+        let accum = &*accum;
+        let pipelines = self.pipelines.as_ref().expect("pipelines built in ensure");
+        let ts = timer.pass("wboit accumulate");
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        {
+            let mut attachments = accum.attachments(true).to_vec();
+            if modulated.is_some() {
+                attachments.push(pass::color(&targets.color_view, wgpu::LoadOp::Load));
+            }
+            let mut pass = pass::begin(
+                &mut encoder,
+                "wboit accumulate",
+                &attachments,
+                pass::depth(
+                    &targets.depth_view,
+                    wgpu::LoadOp::Load,
+                    wgpu::StoreOp::Store,
+                ),
+                ts.writes(),
+            );
+            scene.bind(&mut pass);
+            pass.set_bind_group(1, group, &[]);
+            for i in scene.transparent_draws() {
+                scene.draw(&mut pass, &pipelines.scene, i);
+            }
+        }
+        timer.submit(ctx, encoder)?;
+        tail::composite(ctx, targets, accum, timer)?;
+        Ok(RenderStats {
+            geometry_passes: 1,
+            ..Default::default()
+        })
+    }
+
+    fn memory_bytes(&self) -> u64 {
+        self.ledger.total() + self.accum.as_ref().map_or(0, AccumTargets::memory_bytes)
+    }
+
+    fn transmission(&self, caps: &Caps) -> TransmissionSupport {
+        match self.config.modulation_unsupported(caps, WIDEST_COLOR) {
+            None => TransmissionSupport::Approximate(
+                "McGuire & Mara 2015: what lies behind is multiplied by the exact per-channel product of the layers' transmittances (a third, modulated target); the layers' own radiance is the weighted average under the scalar coverage 1 − mean(t)",
+            ),
+            Some(_) => TransmissionSupport::Approximate(
+                "composites 1 − mean(t) as scalar α, exact for grey filters only (McGuire & Mara's per-channel modulation target does not fit this adapter's colour attachments with these formats)",
+            ),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The clamp crossings of the paper's weights as tabulated in the anchors (computed there
+    /// independently): eq7 caps below z = 0.29 and floors above 158, eq8 1.49 and 100, eq9
+    /// floors above 263; the 1e8 form sits at its 3e2 cap for α = 0.1 at every depth.
+    #[test]
+    fn paper_weights_cross_their_clamps_where_tabulated() {
+        let r = RangeParams {
+            z_near: 1.0,
+            z_far: 2.0,
+            fall: 1.0,
+            color_scale: 1.0,
+        };
+        let w = |weight: Weight, z: f32| weight.eval(z, 0.5, 1.0, &r);
+        assert_eq!(w(Weight::Eq7, 0.28), 3e3);
+        assert!(w(Weight::Eq7, 0.30) < 3e3);
+        assert!(w(Weight::Eq7, 157.0) > 1e-2);
+        assert_eq!(w(Weight::Eq7, 159.0), 1e-2);
+        assert_eq!(w(Weight::Eq8, 1.48), 3e3);
+        assert!(w(Weight::Eq8, 1.50) < 3e3);
+        assert!(w(Weight::Eq8, 99.0) > 1e-2);
+        assert_eq!(w(Weight::Eq8, 101.0), 1e-2);
+        assert!(w(Weight::Eq9, 262.0) > 1e-2);
+        assert_eq!(w(Weight::Eq9, 264.0), 1e-2);
+        for d in [0.0, 0.5, 0.99, 1.0] {
+            assert_eq!(Weight::McGuire2015.eval(1.0, d, 0.1, &r), 3e2, "d = {d}");
+        }
+        // Eq. 10 on window depth: 3e3 at the near plane, the 1e-2 floor at the far plane.
+        assert_eq!(Weight::Eq10.eval(1.0, 0.0, 1.0, &r), 3e3);
+        assert_eq!(Weight::Eq10.eval(1.0, 1.0, 1.0, &r), 1e-2);
+        assert_eq!(Weight::Const.eval(7.0, 0.3, 0.2, &r), 1.0);
+        assert_eq!(Weight::Alpha.eval(7.0, 0.3, 0.2, &r), 0.2);
+        assert_eq!(Weight::Range.eval(2.0, 0.3, 1.0, &r), 128.0);
+        assert_eq!(
+            Weight::Range.eval(1.0, 0.3, 0.2, &r),
+            256.0,
+            "no alpha factor"
+        );
+    }
+}
