@@ -559,7 +559,7 @@ fn scenes(path: &Path, json: bool, load: &oit_scene::LoadOptions) -> Result<()> 
         }
         // Real content says where it came from and what of it is not modelled.
         if !(s.textures.is_empty() && s.credits.is_empty() && s.ignored.is_empty()) {
-            for line in oit_harness::results::SceneJson::of(s, "").report_lines() {
+            for line in oit_harness::results::scene_json(s, "").report_lines() {
                 println!("    {}", oit_harness::report::printable(&line));
             }
         }
@@ -703,7 +703,11 @@ fn write_report(
     let mut markdown = oit_harness::report::markdown(results);
     markdown.push_str(&oit_report::pareto_markdown(results, metric));
     oit_metrics::write_atomic_bytes(&dir.join("results.md"), markdown.as_bytes())?;
-    Ok(oit_report::write_html_report(dir, metric)?)
+    Ok(oit_report::write_html_report(
+        dir,
+        metric,
+        &oit_harness::report::short_spec,
+    )?)
 }
 
 fn compare(

@@ -27,7 +27,7 @@ fn main() -> Result<()> {
     let ctx = oit_harness::open_context(&Default::default()).context(
         "the baseline needs a GPU adapter (on a machine without one: install mesa-vulkan-drivers)",
     )?;
-    let adapter = oit_harness::results::AdapterJson::of(&ctx);
+    let adapter = oit_harness::results::adapter_json(&ctx);
     println!(
         "goldens: {} scenes at {}x{} on {} ({}, {})",
         scenes.len(),

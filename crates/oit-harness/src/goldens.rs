@@ -383,7 +383,7 @@ pub fn generate(
         schema: SCHEMA.to_owned(),
         reference_output_version: oit_reference::OUTPUT_VERSION,
         resolution: [RESOLUTION.width, RESOLUTION.height],
-        adapter: AdapterJson::of(ctx),
+        adapter: crate::results::adapter_json(ctx),
         target_format: "rgba16float".to_owned(),
         scenes: Vec::new(),
         runs: Vec::new(),

@@ -7,10 +7,14 @@
 pub mod cache;
 pub mod goldens;
 pub mod inputs;
-pub mod interference;
 pub mod report;
 pub mod results;
 mod run;
+
+pub use oit_results::interference;
+pub use oit_results::{
+    LAYERS_PNG, MAX_STEM_CHARS, RESERVED_STEMS, file_stem, fnv1a64, fnv1a64_wide,
+};
 
 use std::path::{Path, PathBuf};
 
@@ -19,8 +23,8 @@ use oit_scene::{Resolution, Scene};
 
 pub use run::{
     APPROXIMATE_TRANSMISSION, CompareOptions, DEFAULT_MEMORY_BUDGET, DEFAULT_RUN_BUDGET, Event,
-    LAYERS_PNG, LOCK_FILE, MAX_WARMUP, MemoryPlan, RUN_BYTES_PER_PIXEL, ReferenceCache,
-    RenderedFrame, compare, compare_all, render_once, time_technique,
+    LOCK_FILE, MAX_WARMUP, MemoryPlan, RUN_BYTES_PER_PIXEL, ReferenceCache, RenderedFrame, compare,
+    compare_all, render_once, time_technique,
 };
 
 /// Errors of the harness. Each names the file it concerns.
@@ -47,6 +51,8 @@ pub enum HarnessError {
     Metrics(#[from] oit_metrics::MetricsError),
     #[error(transparent)]
     Reference(#[from] oit_reference::ReferenceError),
+    #[error(transparent)]
+    Results(#[from] oit_results::ResultsError),
 }
 
 impl HarnessError {
@@ -344,82 +350,6 @@ pub fn at_resolution(scene: &Scene, resolution: Option<Resolution>) -> Scene {
     }
 }
 
-/// A file-name-safe stem for a scene name or canonical technique string:
-/// `dual-peel:passes=5,tail=wboit` → `dual-peel_passes-5_tail-wboit`.
-///
-/// A scene's name is data, not a path: the stem has no separators, never starts with `.` (so
-/// never `.` or `..`), is never empty, never one of the names `compare` writes itself
-/// ([`RESERVED_STEMS`]) or a Windows device name, and has at most [`MAX_STEM_CHARS`] characters
-/// (longer text keeps its start and gains a hash of the whole, so distinct texts stay distinct).
-pub fn file_stem(text: &str) -> String {
-    let mut stem: String = text
-        .chars()
-        .map(|c| match c {
-            ':' | ',' => '_',
-            '=' => '-',
-            c if c.is_ascii_alphanumeric() || c == '-' || c == '_' || c == '.' => c,
-            _ => '_',
-        })
-        .collect();
-    if stem.starts_with('.') {
-        stem.replace_range(..1, "_");
-    }
-    if stem.is_empty() {
-        stem.push_str("unnamed");
-    }
-    let lower = stem.to_ascii_lowercase();
-    let device = lower.split('.').next().unwrap_or_default();
-    let windows_device = matches!(device, "con" | "prn" | "aux" | "nul")
-        || ((device.starts_with("com") || device.starts_with("lpt"))
-            && device.len() == 4
-            && device.as_bytes()[3].is_ascii_digit());
-    if RESERVED_STEMS.contains(&lower.as_str()) || windows_device {
-        stem.push('_');
-    }
-    if stem.chars().count() > MAX_STEM_CHARS {
-        let keep: String = stem.chars().take(MAX_STEM_CHARS - 17).collect();
-        stem = format!("{keep}-{:016x}", fnv1a64(text.as_bytes()));
-    }
-    stem
-}
-
-/// Names `compare` writes in its output folder: no scene or technique stem may take them.
-pub const RESERVED_STEMS: &[&str] = &[
-    "results.json",
-    "results.md",
-    "report.html",
-    "plots",
-    "cache",
-    "reference.exr",
-    "reference.png",
-    "lock",
-];
-
-/// Longest stem [`file_stem`] returns (file systems allow 255 bytes; suffixes need room).
-pub const MAX_STEM_CHARS: usize = 120;
-
-/// FNV-1a, 64 bit: a stable hash for names and checksums (the same on every platform and build).
-pub fn fnv1a64(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| {
-        (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
-    })
-}
-
-/// FNV-1a over 8-byte words (a byte-wise tail): the same stable hash idea as [`fnv1a64`] at
-/// a word a step, for hashing executables of tens of megabytes.
-pub fn fnv1a64_wide(bytes: &[u8]) -> u64 {
-    let mut h = 0xcbf2_9ce4_8422_2325u64;
-    let mut words = bytes.chunks_exact(8);
-    for w in &mut words {
-        h = (h ^ u64::from_le_bytes(w.try_into().expect("8 bytes")))
-            .wrapping_mul(0x0000_0100_0000_01b3);
-    }
-    for &b in words.remainder() {
-        h = (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3);
-    }
-    h
-}
-
 /// Writes a reference as a linear EXR: layer `reference` (RGBA) plus single channels `layers`
 /// (transparent fragments composited per pixel) and `fragments` (all rasterized fragments).
 pub fn write_reference_exr(
@@ -441,46 +371,6 @@ pub fn write_reference_exr(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn file_stems_are_safe_and_readable() {
-        assert_eq!(
-            file_stem("dual-peel:passes=5,tail=wboit"),
-            "dual-peel_passes-5_tail-wboit"
-        );
-        assert_eq!(file_stem("a/b c"), "a_b_c");
-    }
-
-    /// Names that are paths, hidden files, empty, reserved or device names never become one.
-    #[test]
-    fn scene_names_never_become_paths_or_reserved_names() {
-        for (name, stem) in [
-            ("/tmp/x", "_tmp_x"),
-            ("..", "_."),
-            (".", "_"),
-            ("../../etc/passwd", "_._.._etc_passwd"),
-            (".hidden", "_hidden"),
-            ("", "unnamed"),
-            ("results.json", "results.json_"),
-            ("PLOTS", "PLOTS_"),
-            ("nul", "nul_"),
-            ("com1.txt", "com1.txt_"),
-            ("c:\\windows", "c__windows"),
-        ] {
-            assert_eq!(file_stem(name), stem, "{name:?}");
-        }
-        for name in ["a", "x/../..", "..", "/", "\u{0}", "résumé", "\n"] {
-            let stem = file_stem(name);
-            assert!(
-                !stem.contains(['/', '\\', '\0']) && !stem.starts_with('.') && !stem.is_empty(),
-                "{name:?} → {stem:?}"
-            );
-        }
-        let long_a = "a".repeat(300);
-        let long_b = format!("{}b", "a".repeat(299));
-        assert_eq!(file_stem(&long_a).chars().count(), MAX_STEM_CHARS);
-        assert_ne!(file_stem(&long_a), file_stem(&long_b));
-    }
 
     #[test]
     fn default_specs_cover_the_registry_with_unsorted_first() {

@@ -14,8 +14,7 @@ use oit_gpu::{
 use oit_scene::{LinearImage, Resolution, Scene};
 
 use crate::results::{
-    AdapterJson, FloorJson, GpuMs, Outputs, PassMs, Results, Run, RunInputs, RunStatus, SCHEMA,
-    SceneJson, Stats, ToolJson,
+    FloorJson, GpuMs, Outputs, PassMs, Results, Run, RunInputs, RunStatus, SCHEMA, Stats, ToolJson,
 };
 use crate::{
     HarnessError, SceneEntry, Unloadable, at_resolution, file_stem, interference, registry,
@@ -211,7 +210,7 @@ pub fn compare_all(
         schema: SCHEMA.to_owned(),
         tool: Some(ToolJson::current()),
         complete: false,
-        adapter: AdapterJson::of(ctx),
+        adapter: crate::results::adapter_json(ctx),
         runs: Vec::new(),
         floors: Vec::new(),
         scenes: Vec::new(),
@@ -247,7 +246,9 @@ pub fn compare_all(
             .partition(|r| reusable(r, &scene, &r.technique, &inputs, out));
         resume.dropped += stale.len();
         let first_run = results.runs.len();
-        results.scenes.push(SceneJson::of(&scene, &scene_file));
+        results
+            .scenes
+            .push(crate::results::scene_json(&scene, &scene_file));
         let earlier_floor = earlier_floors
             .iter()
             .find(|f| f.scene == scene.name && f.resolution == res(&scene));
@@ -481,7 +482,7 @@ fn run_scene(
     crate::write_reference_exr(&scene_dir.join("reference.exr"), &reference)?;
     oit_metrics::write_png_preview(&scene_dir.join("reference.png"), &reference.image)?;
     oit_metrics::write_png_srgb8(
-        &scene_dir.join(LAYERS_PNG),
+        &scene_dir.join(crate::LAYERS_PNG),
         &oit_metrics::count_map(&reference.layers, scene.resolution.width),
     )?;
     let forward = GpuScene::upload(ctx, scene)?;
@@ -570,9 +571,6 @@ fn run_scene(
     }
     Ok(())
 }
-
-/// The per-pixel layer count of a scene's reference as a picture, beside `reference.png`.
-pub const LAYERS_PNG: &str = "layers.png";
 
 /// How a scene's memory budget is shared: the images of one run (render, reference, reversed
 /// render, differences, FLIP's working images) first, the reference's fragments get the rest.
@@ -743,13 +741,12 @@ fn earlier_results(
         message: format!(
             "{}: not results this build of oit can read, so not replaced; move it away or choose another --out",
             match e {
-                HarnessError::Invalid { message, .. } => message,
-                HarnessError::Io { source, .. } => source.to_string(),
-                other => other.to_string(),
+                oit_results::ResultsError::Invalid { message, .. } => message,
+                oit_results::ResultsError::Io { source, .. } => source.to_string(),
             }
         ),
     })?;
-    let adapter = AdapterJson::of(ctx);
+    let adapter = crate::results::adapter_json(ctx);
     if resume && earlier.adapter != adapter {
         return Err(HarnessError::Invalid {
             path,

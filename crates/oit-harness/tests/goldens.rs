@@ -7,7 +7,6 @@
 use std::path::{Path, PathBuf};
 
 use oit_harness::goldens::{self, Golden};
-use oit_harness::results::AdapterJson;
 
 fn root() -> PathBuf {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
@@ -111,7 +110,7 @@ fn technique_errors_match_baseline() {
         return;
     };
     let baseline = baseline();
-    let adapter = AdapterJson::of(&ctx);
+    let adapter = oit_harness::results::adapter_json(&ctx);
     if let Some(why) = goldens::adapter_mismatch(&baseline.adapter, &adapter) {
         eprintln!(
             "skipped {NAME}: the baseline errors were recorded on {} ({}, {}) and are only \

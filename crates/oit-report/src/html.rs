@@ -5,7 +5,7 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use oit_harness::results::{Results, Run, RunStatus, SceneJson};
+use oit_results::{Results, Run, RunStatus, SceneJson};
 
 use crate::plot::{Metric, PlotKind, runs_by_scene};
 use crate::{ReportError, pareto_members, write_plots};
@@ -15,7 +15,8 @@ pub const REPORT_FILE: &str = "report.html";
 
 /// Reads `dir/results.json`, writes the plots (on `metric` and on the other error axis) and
 /// the legends under `dir/plots/` and the page `dir/report.html`; returns the page's path.
-/// The page's Pareto fronts, bold rows, summary and first plots are on `metric`.
+/// The page's Pareto fronts, bold rows, summary and first plots are on `metric`; `label` names
+/// a technique in the summary's fronts (the harness drops parameters at their defaults).
 ///
 /// Images the page would show but that are missing on disk (a scene's `reference.png`, a
 /// run's PNGs) are replaced by a note rather than a broken image.
@@ -25,7 +26,11 @@ pub const REPORT_FILE: &str = "report.html";
 /// (`data-errors`), so a headless browser's DOM dump is enough to check that the page renders.
 /// A second script sorts tables by a clicked column, flips a render with its reference and
 /// zooms the images of one run together.
-pub fn write_html_report(dir: &Path, metric: Metric) -> Result<PathBuf, ReportError> {
+pub fn write_html_report(
+    dir: &Path,
+    metric: Metric,
+    label: &dyn Fn(&str) -> String,
+) -> Result<PathBuf, ReportError> {
     let results = Results::read(&dir.join("results.json"))?;
     let plots_dir = dir.join("plots");
     write_plots(&results, &plots_dir, Metric::Flip)?;
@@ -38,7 +43,7 @@ pub fn write_html_report(dir: &Path, metric: Metric) -> Result<PathBuf, ReportEr
         &plots_dir.join(LAYERS_LEGEND),
         &oit_metrics::count_legend(LEGEND_PX, 14),
     )?;
-    let page = html(&results, dir, metric);
+    let page = html(&results, dir, metric, label);
     let path = dir.join(REPORT_FILE);
     oit_metrics::write_atomic_bytes(&path, page.as_bytes())?;
     Ok(path)
@@ -206,13 +211,13 @@ fn image(dir: &Path, rel: &str, alt: &str) -> String {
 
 /// What a column of the per-scene table means (its `title`), from the harness's glossary.
 fn column_title(name: &str) -> String {
-    oit_harness::report::COLUMNS
+    oit_results::report::COLUMNS
         .iter()
         .find(|(n, _)| *n == name)
         .map_or_else(String::new, |(_, meaning)| esc(&meaning.replace('`', "")))
 }
 
-fn html(results: &Results, dir: &Path, metric: Metric) -> String {
+fn html(results: &Results, dir: &Path, metric: Metric, label: &dyn Fn(&str) -> String) -> String {
     let members = pareto_members(results, metric);
     let a = &results.adapter;
     let mut out = String::new();
@@ -246,19 +251,19 @@ fn html(results: &Results, dir: &Path, metric: Metric) -> String {
         )),
         metric.name()
     );
-    if let Some(caveat) = oit_harness::report::overall_timing_caveat(results) {
+    if let Some(caveat) = oit_results::report::overall_timing_caveat(results) {
         let _ = writeln!(out, "<p class=\"caveat\">Timing: {}.</p>", esc(&caveat));
     }
     let scenes = runs_by_scene(results);
     how_to_read(&mut out, metric);
-    summary(&mut out, results, &scenes, &members, metric);
+    summary(&mut out, results, &scenes, &members, metric, label);
     out.push_str("<nav><h2>Scenes</h2><ul>\n");
     for (scene, _) in &scenes {
         let about = results.scenes.iter().find(|s| s.scene == *scene);
         let _ = writeln!(
             out,
             "<li><a href=\"#{}\">{}</a>{}</li>",
-            esc(&oit_harness::file_stem(scene)),
+            esc(&oit_results::file_stem(scene)),
             esc(scene),
             about
                 .map(|s| first_sentence(&s.description))
@@ -269,8 +274,8 @@ fn html(results: &Results, dir: &Path, metric: Metric) -> String {
     out.push_str("</ul></nav>\n");
     for (scene, runs) in &scenes {
         let about = results.scenes.iter().find(|s| s.scene == *scene);
-        let timing = oit_harness::report::timing_caveat(results, scene, runs);
-        let floor_note = oit_harness::report::below_floor_note(results, scene, runs);
+        let timing = oit_results::report::timing_caveat(results, scene, runs);
+        let floor_note = oit_results::report::below_floor_note(results, scene, runs);
         scene_section(
             &mut out,
             dir,
@@ -348,7 +353,7 @@ fn how_to_read(out: &mut String, metric: Metric) {
             "structural similarity of the tone-mapped luminance, 1 is identical",
         ),
     ];
-    for (name, meaning) in oit_harness::report::COLUMNS.iter().chain(&extra) {
+    for (name, meaning) in oit_results::report::COLUMNS.iter().chain(&extra) {
         let _ = writeln!(out, "<dt>{}</dt><dd>{}.</dd>", esc(name), esc_code(meaning));
     }
     out.push_str("</dl>\n");
@@ -387,6 +392,7 @@ fn summary(
     scenes: &[(String, Vec<&Run>)],
     members: &std::collections::BTreeSet<(String, String)>,
     metric: Metric,
+    label: &dyn Fn(&str) -> String,
 ) {
     let mut techniques: Vec<(&str, Vec<&Run>)> = Vec::new();
     for run in results.runs.iter().filter(|r| r.status == RunStatus::Ok) {
@@ -440,8 +446,8 @@ fn summary(
             runs.len(),
             median(runs.iter().filter_map(|r| r.cost_vs_unsorted).collect()),
             median(runs.iter().filter_map(|r| r.cost_vs_floor).collect()),
-            oit_harness::report::sci(mean),
-            oit_harness::report::sci(order),
+            oit_results::report::sci(mean),
+            oit_results::report::sci(order),
             runs.iter().filter(|r| !r.inexact.is_empty()).count()
         );
     }
@@ -455,17 +461,12 @@ fn summary(
         let front: Vec<String> = runs
             .iter()
             .filter(|r| members.contains(&(r.scene.clone(), r.technique.clone())))
-            .map(|r| {
-                format!(
-                    "<code>{}</code>",
-                    esc(&oit_harness::report::short_spec(&r.technique))
-                )
-            })
+            .map(|r| format!("<code>{}</code>", esc(&label(&r.technique))))
             .collect();
         let _ = writeln!(
             out,
             "<tr><td><a href=\"#{}\">{}</a></td><td class=\"text\">{}</td></tr>",
-            esc(&oit_harness::file_stem(scene)),
+            esc(&oit_results::file_stem(scene)),
             esc(scene),
             if front.is_empty() {
                 "– (no run with a cost and an error)".to_owned()
@@ -488,7 +489,7 @@ fn scene_section(
     members: &std::collections::BTreeSet<(String, String)>,
     metric: Metric,
 ) {
-    let stem = oit_harness::file_stem(scene);
+    let stem = oit_results::file_stem(scene);
     let res = runs[0].resolution;
     let _ = writeln!(
         out,
@@ -507,7 +508,7 @@ fn scene_section(
     for line in about.map(SceneJson::report_lines).unwrap_or_default() {
         let _ = writeln!(out, "<p class=\"about\">{}.</p>", esc(&line));
     }
-    for caveat in oit_harness::report::scene_caveats(runs) {
+    for caveat in oit_results::report::scene_caveats(runs) {
         let _ = writeln!(out, "<p class=\"caveat\">Reference: {}.</p>", esc(&caveat));
     }
     let [timing, floor_note] = caveats;
@@ -642,13 +643,13 @@ fn scene_section(
                 format!("{v:.2}")
             }),
             opt(run.bytes_per_pixel, |v| format!("{v:.1}")),
-            opt(e.map(|e| e.rmse), oit_harness::report::sci),
+            opt(e.map(|e| e.rmse), oit_results::report::sci),
             opt(e.map(|e| e.psnr), |v| format!("{v:.1}")),
-            e.map_or_else(|| "–".to_owned(), oit_harness::report::flip_cell),
-            opt(e.map(|e| e.relmse), oit_harness::report::sci),
+            e.map_or_else(|| "–".to_owned(), oit_results::report::flip_cell),
+            opt(e.map(|e| e.relmse), oit_results::report::sci),
             opt(e.map(|e| e.ssim), |v| format!("{v:.4}")),
-            opt(e.map(|e| e.max_abs), oit_harness::report::sci),
-            opt(run.order_dependence, oit_harness::report::sci),
+            opt(e.map(|e| e.max_abs), oit_results::report::sci),
+            opt(run.order_dependence, oit_results::report::sci),
             esc(&run.inexact.join("; ")),
         );
     }
@@ -656,7 +657,7 @@ fn scene_section(
 
     // The scene's reference and its layer count, once.
     let reference = format!("{stem}/reference.png");
-    let layers = format!("{stem}/{}", oit_harness::LAYERS_PNG);
+    let layers = format!("{stem}/{}", oit_results::LAYERS_PNG);
     out.push_str("<div class=\"triple\">\n");
     for (rel, what) in [(&reference, "reference"), (&layers, "layers per pixel")] {
         let _ = writeln!(

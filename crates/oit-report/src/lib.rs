@@ -32,7 +32,7 @@ pub enum ReportError {
     },
     /// `results.json` could not be read or is not schema `oit-lab/results/v1`.
     #[error(transparent)]
-    Results(#[from] oit_harness::HarnessError),
+    Results(#[from] oit_results::ResultsError),
     /// plotters failed while drawing a plot (the message is plotters' own).
     #[error("plot {plot}: {message}")]
     Plot { plot: String, message: String },

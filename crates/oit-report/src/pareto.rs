@@ -4,7 +4,7 @@
 use std::collections::BTreeSet;
 use std::fmt::Write as _;
 
-use oit_harness::results::{Results, Run, RunStatus};
+use oit_results::{Results, Run, RunStatus};
 
 use crate::plot::Metric;
 

@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
-use oit_harness::results::{Results, Run, RunStatus};
+use oit_results::{Results, Run, RunStatus};
 use plotters::coord::Shift;
 use plotters::coord::ranged1d::{AsRangedCoord, Ranged, ValueFormatter};
 use plotters::element::{Drawable, PointCollection};
@@ -164,7 +164,7 @@ fn configuration_styles(results: &Results) -> Vec<(String, LegendEntry)> {
             let label = if siblings.len() < 2 {
                 f.to_owned()
             } else {
-                let short = oit_harness::report::short_labels(&siblings);
+                let short = oit_results::report::short_labels(&siblings);
                 let mine = &short[siblings.iter().position(|o| *o == c).unwrap_or(0)];
                 if mine == f || mine.starts_with(&format!("{f}:")) {
                     mine.clone()
@@ -417,7 +417,7 @@ pub fn plot_data(results: &Results, metric: Metric) -> Vec<PlotData> {
                 legend,
                 stem: format!(
                     "{}-{}-{suffix}",
-                    oit_harness::file_stem(&scene),
+                    oit_results::file_stem(&scene),
                     metric.key()
                 ),
                 points,

@@ -7,12 +7,10 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use oit_harness::results::{
-    AdapterJson, GpuMs, Outputs, Results, Run, RunStatus, SCHEMA, SceneJson,
-};
 use oit_report::{
     Metric, PlotKind, pareto_markdown, pareto_members, plot_data, render_png, render_svg,
 };
+use oit_results::{AdapterJson, GpuMs, Outputs, Results, Run, RunStatus, SCHEMA, SceneJson};
 
 /// (technique, cost × unsorted, mean FLIP, bytes/px, RMSE)
 type Row = (&'static str, f64, f64, f64, f64);
@@ -40,7 +38,7 @@ const BETA: [Row; 3] = [
 
 fn ok_run(scene: &str, row: Row) -> Run {
     let (technique, cost, flip, bpp, rmse) = row;
-    let stem = oit_harness::file_stem(technique);
+    let stem = oit_results::file_stem(technique);
     let mut run = Run::not_rendered(
         scene,
         &format!("scenes/{scene}.json"),
@@ -413,12 +411,12 @@ fn write_plots_writes_svg_and_png_per_plot() {
 #[test]
 fn missing_or_foreign_results_are_errors_naming_the_file() {
     let dir = TempDir::new("bad");
-    let err = oit_report::write_html_report(&dir.0, Metric::Flip)
+    let err = oit_report::write_html_report(&dir.0, Metric::Flip, &|t| t.to_owned())
         .unwrap_err()
         .to_string();
     assert!(err.contains("results.json"), "{err}");
     std::fs::write(dir.0.join("results.json"), r#"{"schema":"other/v9","adapter":{"name":"","backend":"","device_type":"","driver":""},"runs":[]}"#).unwrap();
-    let err = oit_report::write_html_report(&dir.0, Metric::Flip)
+    let err = oit_report::write_html_report(&dir.0, Metric::Flip, &|t| t.to_owned())
         .unwrap_err()
         .to_string();
     assert!(
@@ -435,7 +433,7 @@ const EXPECTED_IMAGES: usize = 2 + 2 * 2 + 2 + 3 * ALPHA.len() + 2 * BETA.len();
 #[test]
 fn report_page_lists_every_run_and_notes_missing_images() {
     let dir = results_dir("page");
-    let page = oit_report::write_html_report(&dir.0, Metric::Flip).unwrap();
+    let page = oit_report::write_html_report(&dir.0, Metric::Flip, &|t| t.to_owned()).unwrap();
     assert_eq!(page, dir.0.join("report.html"));
     let html = std::fs::read_to_string(&page).unwrap();
     assert_eq!(html.matches("<img ").count(), EXPECTED_IMAGES);
@@ -530,7 +528,7 @@ fn body_attribute<'d>(dom: &'d str, name: &str) -> Option<&'d str> {
 #[test]
 fn report_renders_in_headless_chromium() {
     let dir = results_dir("chromium");
-    let page = oit_report::write_html_report(&dir.0, Metric::Flip).unwrap();
+    let page = oit_report::write_html_report(&dir.0, Metric::Flip, &|t| t.to_owned()).unwrap();
     let profile = dir.0.join("chromium-profile");
     let Some(dom) = dump_dom(&page, &profile) else {
         return;
@@ -572,9 +570,10 @@ fn section<'h>(html: &'h str, id: &str) -> &'h str {
 #[test]
 fn scene_facts_are_shown_in_their_own_section_only() {
     let dir = results_dir("facts");
-    let html =
-        std::fs::read_to_string(oit_report::write_html_report(&dir.0, Metric::Flip).unwrap())
-            .unwrap();
+    let html = std::fs::read_to_string(
+        oit_report::write_html_report(&dir.0, Metric::Flip, &|t| t.to_owned()).unwrap(),
+    )
+    .unwrap();
     let (alpha, beta) = (section(&html, "alpha"), section(&html, "beta"));
     assert!(
         beta.contains("<p class=\"about\">Scene: 12 triangles"),
@@ -590,9 +589,10 @@ fn scene_facts_are_shown_in_their_own_section_only() {
 #[test]
 fn each_section_shows_the_cost_plot_before_the_bytes_plot() {
     let dir = results_dir("plot-order");
-    let html =
-        std::fs::read_to_string(oit_report::write_html_report(&dir.0, Metric::Flip).unwrap())
-            .unwrap();
+    let html = std::fs::read_to_string(
+        oit_report::write_html_report(&dir.0, Metric::Flip, &|t| t.to_owned()).unwrap(),
+    )
+    .unwrap();
     for scene in ["alpha", "beta"] {
         let s = section(&html, scene);
         let at = |needle: String| {
@@ -656,8 +656,10 @@ fn the_report_follows_the_metric() {
     let dir = results_dir("metric");
     let results = results();
     for metric in [Metric::Flip, Metric::Rmse] {
-        let html = std::fs::read_to_string(oit_report::write_html_report(&dir.0, metric).unwrap())
-            .unwrap();
+        let html = std::fs::read_to_string(
+            oit_report::write_html_report(&dir.0, metric, &|t| t.to_owned()).unwrap(),
+        )
+        .unwrap();
         let members = pareto_members(&results, metric);
         assert_eq!(html.matches("<tr class=\"front\">").count(), members.len());
         let alpha = section(&html, "alpha");
@@ -691,10 +693,11 @@ fn the_report_follows_the_metric() {
 #[test]
 fn the_report_explains_itself() {
     let dir = results_dir("explains");
-    let html =
-        std::fs::read_to_string(oit_report::write_html_report(&dir.0, Metric::Flip).unwrap())
-            .unwrap();
-    for (name, _) in oit_harness::report::COLUMNS {
+    let html = std::fs::read_to_string(
+        oit_report::write_html_report(&dir.0, Metric::Flip, &|t| t.to_owned()).unwrap(),
+    )
+    .unwrap();
+    for (name, _) in oit_results::report::COLUMNS {
         assert!(
             html.contains(&format!("<dt>{name}</dt>")),
             "no meaning for {name}"

@@ -1,0 +1,408 @@
+//! The `results.json` contract (schema `oit-lab/results/v1`, docs/results-schema.md). Fields may
+//! be added; none may change meaning without a new schema version.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+pub const SCHEMA: &str = "oit-lab/results/v1";
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Results {
+    pub schema: String,
+    /// The build of oit that wrote the file (absent in older files).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tool: Option<ToolJson>,
+    /// False while a comparison is running and when it was interrupted: then some requested
+    /// runs are missing (`oit compare --resume` finishes them). Absent (true) in older files.
+    #[serde(default = "yes", skip_serializing_if = "is_true")]
+    pub complete: bool,
+    pub adapter: AdapterJson,
+    pub runs: Vec<Run>,
+    /// Per scene, the floor: one blended pass over its transparent draws with the cheapest
+    /// fragment work (`oit_gpu::Floor`), timed like a run.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub floors: Vec<FloorJson>,
+    /// Per scene: its size on the GPU and where its content came from.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub scenes: Vec<SceneJson>,
+}
+
+fn yes() -> bool {
+    true
+}
+
+fn is_true(b: &bool) -> bool {
+    *b
+}
+
+/// Which build of oit made a results file: `--resume` reuses only runs of the same build, so a
+/// code change never leaves stale numbers beside new ones.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ToolJson {
+    pub name: String,
+    /// The crate version (`CARGO_PKG_VERSION`).
+    pub version: String,
+    /// [`ToolJson::build_id`]: changes with any change to the code or its build.
+    pub build: String,
+}
+
+impl ToolJson {
+    pub fn current() -> Self {
+        ToolJson {
+            name: "oit-lab".to_owned(),
+            version: env!("CARGO_PKG_VERSION").to_owned(),
+            build: Self::build_id(),
+        }
+    }
+
+    /// A hash (FNV-1a, 64 bit, hex) of the running executable's bytes: the same for one
+    /// binary wherever it runs, different after any rebuild that changed code. Computed once
+    /// per process; `unknown` where the executable cannot be read.
+    pub fn build_id() -> String {
+        static ID: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+        ID.get_or_init(|| {
+            std::env::current_exe().and_then(std::fs::read).map_or_else(
+                |_| "unknown".to_owned(),
+                |bytes| format!("{:016x}", crate::fnv1a64_wide(&bytes)),
+            )
+        })
+        .clone()
+    }
+}
+
+/// What one scene brought to the run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SceneJson {
+    pub scene: String,
+    pub scene_file: String,
+    /// What the scene tests, from its file (absent in older files).
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub description: String,
+    pub triangles: u64,
+    /// GPU bytes of the uploaded scene that every technique shares (vertices, material table,
+    /// textures); a run's `memory_bytes` is the technique's own on top of it.
+    pub scene_bytes: u64,
+    /// Of `scene_bytes`, the textures (RGBA f32 texels).
+    pub texture_bytes: u64,
+    /// Who made the content (glTF `asset.copyright`); reports show it with the scene.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub credits: Vec<String>,
+    /// What the loader read but does not model (e.g. glTF extensions), one line each.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub ignored: Vec<String>,
+}
+
+impl SceneJson {
+    /// The lines a report prints under the scene's heading.
+    pub fn report_lines(&self) -> Vec<String> {
+        let mib = |b: u64| b as f64 / (1024.0 * 1024.0);
+        let mut out = vec![if self.texture_bytes > 0 {
+            format!(
+                "Scene: {} triangles, {:.1} MiB on the GPU shared by every technique ({:.1} MiB of textures)",
+                self.triangles,
+                mib(self.scene_bytes),
+                mib(self.texture_bytes)
+            )
+        } else {
+            format!(
+                "Scene: {} triangles, {:.2} MiB on the GPU shared by every technique",
+                self.triangles,
+                mib(self.scene_bytes)
+            )
+        }];
+        out.extend((self.credits.iter()).map(|c| format!("Credits: {}", c.trim_end_matches('.'))));
+        out.extend(self.ignored.iter().map(|i| format!("Not modelled: {i}")));
+        out
+    }
+}
+
+/// The floor of one scene in this run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FloorJson {
+    pub scene: String,
+    pub resolution: [u32; 2],
+    /// The whole frame (opaque pass + floor pass), like every run's `gpu_ms`.
+    pub gpu_ms: GpuMs,
+    /// Per-pass medians (`opaque`, `floor`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub passes: Vec<PassMs>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AdapterJson {
+    pub name: String,
+    pub backend: String,
+    pub device_type: String,
+    pub driver: String,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RunStatus {
+    Ok,
+    Skipped,
+    Failed,
+}
+
+/// Median / min / max over the timed frames.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GpuMs {
+    pub median: f64,
+    pub min: f64,
+    pub max: f64,
+    pub frames: u32,
+    /// `timestamp` (GPU timestamp queries) or `wall-clock` (submit-and-wait; includes CPU work).
+    pub source: String,
+    /// The share of the machine's CPU time that was stolen or spent by other processes while
+    /// the frames were timed (Linux only; absent elsewhere and in older files).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub interference: Option<crate::interference::Interference>,
+    /// Windows of frames timed, this one the quietest (`oit compare --retime`); 1 unless the
+    /// first was noisy.
+    #[serde(default = "one_attempt", skip_serializing_if = "is_one_attempt")]
+    pub attempts: u32,
+}
+
+fn one_attempt() -> u32 {
+    1
+}
+
+fn is_one_attempt(attempts: &u32) -> bool {
+    *attempts == 1
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PassMs {
+    pub name: String,
+    pub median_ms: f64,
+}
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Stats {
+    pub geometry_passes: u32,
+    pub layers_peeled: u64,
+    pub pixels_with_dropped_layers: u64,
+    /// Pixels where some layers were composited by an approximate tail rule (absent in
+    /// results written before the field existed).
+    #[serde(default)]
+    pub pixels_with_approximated_layers: u64,
+}
+
+/// Files written for one run, relative to the output directory.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Outputs {
+    pub exr: String,
+    pub render_png: String,
+    pub diff_png: String,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Run {
+    pub scene: String,
+    pub scene_file: String,
+    pub technique: String,
+    pub resolution: [u32; 2],
+    pub status: RunStatus,
+    /// Why a run was skipped or failed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reason: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gpu_ms: Option<GpuMs>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub passes: Vec<PassMs>,
+    /// CPU work per frame that the technique needs (e.g. sorting), median over timed frames.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cpu_ms: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub memory_bytes: Option<u64>,
+    /// `memory_bytes` divided by the pixel count.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bytes_per_pixel: Option<f64>,
+    /// Median GPU time divided by `unsorted`'s on the same scene in the same run.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cost_vs_unsorted: Option<f64>,
+    /// Median GPU time divided by the scene's floor (`floors`) in the same run: how far the
+    /// technique is from one blended pass with the cheapest fragment work.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cost_vs_floor: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub error: Option<oit_metrics::Errors>,
+    /// Largest per-channel absolute difference between the render in draw order and the render
+    /// with the draw order reversed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub order_dependence: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stats: Option<Stats>,
+    /// Why this run's image is not the technique's exact answer, one short phrase each (e.g.
+    /// `dropped layers on 1234 px`); empty when nothing was cut. Reports show it next to the
+    /// numbers, never only in `stats`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub inexact: Vec<String>,
+    /// Pixels of the scene's reference holding a fragment whose α is within
+    /// `oit_reference::CUTOFF_UNDECIDED_BOUND` of its cutoff: GPU interpolation rounding may
+    /// decide them either way, and this run's error figures include them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub undecided_pixels: Option<u64>,
+    /// Pixels of the scene's reference whose composite depends on two surfaces (or a surface
+    /// and the far plane) within `oit_reference::PRECISION_TIE_ULPS` f32 ulps of window depth:
+    /// rounding, not geometry, decides their order.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub precision_tie_pixels: Option<u64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub outputs: Option<Outputs>,
+    /// What the run was made from; `oit compare --resume` reuses a run only when these, the
+    /// technique, the resolution and the adapter are all the same (absent in older files: such
+    /// runs are never reused).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub inputs: Option<RunInputs>,
+    /// Taken from an earlier `oit compare` by `--resume` (its cost ratios were recomputed
+    /// against this comparison's floor and baseline when the scene had new runs).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub resumed: bool,
+}
+
+/// The inputs of a run beyond its scene name, technique and resolution.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct RunInputs {
+    /// `Scene::content_hash` of the scene as rendered (resolution applied), hex.
+    pub scene_hash: String,
+    pub frames: u32,
+    pub warmup: u32,
+    /// `--retime`: how many times a noisy window may be timed again (0 in older files).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub retime: u32,
+    /// [`ToolJson::build_id`] of the build that made the run (empty in older files: such runs
+    /// are never reused).
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub build: String,
+}
+
+fn is_zero(n: &u32) -> bool {
+    *n == 0
+}
+
+/// What in a scene's reference rounding decides, one short phrase each; empty when nothing:
+/// `undecided_pixels` hold a fragment on its cutoff's knife edge, `precision_tie_pixels` depend on
+/// a precision tie. Shown once per scene in every report, beside the runs whose errors include
+/// those pixels.
+pub fn caveats(undecided_pixels: u64, precision_tie_pixels: u64) -> Vec<String> {
+    let mut out = Vec::new();
+    if undecided_pixels > 0 {
+        out.push(format!(
+            "{undecided_pixels} px hold a fragment on its cutoff's knife edge (|α − cutoff| ≤ 2^-16, wider where textured α moves with a rounded uv): rounding keeps or discards it"
+        ));
+    }
+    if precision_tie_pixels > 0 {
+        out.push(format!(
+            "{precision_tie_pixels} px depend on a precision tie (window depths within {} ulps): rounding orders them",
+            oit_reference::PRECISION_TIE_ULPS
+        ));
+    }
+    out
+}
+
+impl Stats {
+    /// The `inexact` phrases these statistics imply.
+    pub fn inexact(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        if self.pixels_with_dropped_layers > 0 {
+            out.push(format!(
+                "dropped layers on {} px",
+                self.pixels_with_dropped_layers
+            ));
+        }
+        if self.pixels_with_approximated_layers > 0 {
+            out.push(format!(
+                "tail approximated on {} px",
+                self.pixels_with_approximated_layers
+            ));
+        }
+        out
+    }
+}
+
+impl Run {
+    /// [`caveats`] as recorded in this run.
+    pub fn reference_caveats(&self) -> Vec<String> {
+        caveats(
+            self.undecided_pixels.unwrap_or(0),
+            self.precision_tie_pixels.unwrap_or(0),
+        )
+    }
+
+    /// A run that did not render, with the reason.
+    pub fn not_rendered(
+        scene: &str,
+        scene_file: &str,
+        technique: &str,
+        resolution: [u32; 2],
+        status: RunStatus,
+        reason: String,
+    ) -> Self {
+        Run {
+            scene: scene.to_owned(),
+            scene_file: scene_file.to_owned(),
+            technique: technique.to_owned(),
+            resolution,
+            status,
+            reason: Some(reason),
+            gpu_ms: None,
+            passes: Vec::new(),
+            cpu_ms: None,
+            memory_bytes: None,
+            bytes_per_pixel: None,
+            cost_vs_unsorted: None,
+            cost_vs_floor: None,
+            error: None,
+            order_dependence: None,
+            stats: None,
+            inexact: Vec::new(),
+            undecided_pixels: None,
+            precision_tie_pixels: None,
+            outputs: None,
+            inputs: None,
+            resumed: false,
+        }
+    }
+}
+
+impl Results {
+    /// Reads a results file. The schema is checked before anything else, so a file of
+    /// another kind is named as such rather than by its first missing field.
+    pub fn read(path: &Path) -> Result<Results, crate::ResultsError> {
+        let invalid = |message: String| crate::ResultsError::Invalid {
+            path: path.to_path_buf(),
+            message,
+        };
+        let text = std::fs::read_to_string(path).map_err(|source| crate::ResultsError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let value: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
+            invalid(format!(
+                "not JSON ({e}); a results file has schema `{SCHEMA}`"
+            ))
+        })?;
+        match value.get("schema") {
+            Some(serde_json::Value::String(s)) if s == SCHEMA => {}
+            Some(serde_json::Value::String(s)) => {
+                return Err(invalid(format!(
+                    "schema is `{}`; this build reads `{SCHEMA}`",
+                    crate::report::printable(s)
+                )));
+            }
+            Some(_) => {
+                return Err(invalid(format!(
+                    "`schema` is not a string; this build reads `{SCHEMA}`"
+                )));
+            }
+            None => {
+                return Err(invalid(format!(
+                    "no `schema` field: not an oit-lab results file (schema `{SCHEMA}`)"
+                )));
+            }
+        }
+        serde_json::from_value(value).map_err(|e| invalid(e.to_string()))
+    }
+}
