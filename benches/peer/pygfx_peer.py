@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Peer timing: draw an oit-lab scene with pygfx and time its transparency modes per frame.
 
-Input is the flattened scene that `cargo run --release -p oit-scene --example flatten` prints
+Input is the flattened scene that `cargo run --release -p oit-tools --bin flatten` prints
 (see README.md beside this file), so pygfx rasterizes exactly oit-lab's triangles, colours and
 camera. Each draw becomes one pygfx Mesh (per-vertex colours with the material's colour,
 intensity and alpha baked in, as `Material::shade` does), placed at its bounding-box centre so
@@ -100,7 +100,7 @@ def load_flat_scene(path):
             flat[key]  # noqa: B018 (presence check)
     except (OSError, ValueError, KeyError) as e:
         sys.exit(f"{path}: not a flattened oit-lab scene ({type(e).__name__}: {e}); "
-                 "make one with `cargo run --release -p oit-scene --example flatten -- SCENE.json`")
+                 "make one with `cargo run --release -p oit-tools --bin flatten -- SCENE.json`")
     return flat
 
 

@@ -18,7 +18,7 @@ export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-/tmp}
 [ -x "$OIT" ] || { echo "run.sh: no oit binary at $OIT (build it with cargo build --release -p oit-cli, or set OIT)" >&2; exit 1; }
 mkdir -p "$OUT"
 
-cargo run -q --release -p oit-scene --example flatten -- "$SCENE" --resolution "$RES" > "$OUT/flat.json"
+cargo run -q --release -p oit-tools --bin flatten -- "$SCENE" --resolution "$RES" > "$OUT/flat.json"
 for i in $(seq 1 "$ROUNDS"); do
     compare=()
     if [ "$i" -gt 1 ]; then

@@ -39,7 +39,7 @@ def load(path, shape):
 def main():
     out = tempfile.mkdtemp(prefix="flip-check-")
     subprocess.run(
-        ["cargo", "run", "--quiet", "--release", "-p", "oit-metrics", "--example", "flip_pairs", "--", out]
+        ["cargo", "run", "--quiet", "--release", "-p", "oit-tools", "--bin", "flip_pairs", "--", out]
         + sys.argv[1:],
         cwd=REPO,
         check=True,

@@ -12,14 +12,14 @@
 //! - `cargo xtask readme-tables`: copies every README table that follows a
 //!   `<!-- results-table: PATH#HEADING -->` marker from the results file it names.
 //! - `cargo xtask conformance [--scenes N]`: rasterization conformance on seeded random scenes
-//!   (oit-gpu's `conformance` example).
+//!   (the oit-tools `conformance` program).
 //! - `cargo xtask mutants [--package CRATE]... [--shard K/N]`: mutation testing with
 //!   cargo-mutants, in place, with a score per crate (long; not part of `ci`).
 //! - `cargo xtask goldens`: rewrites `reference/` (the 64×64 golden references of every bundled
-//!   scene and the baseline error table) with oit-harness's `goldens` example, in release.
+//!   scene and the baseline error table) with the oit-tools `goldens` program, in release.
 //! - `cargo xtask fuzz [--minutes M] [--inputs N] [--seed S] [--threads T] [--timeout SECONDS]`:
-//!   fuzzes the scene and glTF loaders (oit-scene's `fuzz` example, in release) and writes every
-//!   finding to `crates/oit-scene/fuzz-corpus/`, which the test suite replays.
+//!   fuzzes the scene and glTF loaders (the oit-fuzz `fuzz` program, in release) and writes every
+//!   finding to `fuzz/corpus/`, which the test suite replays.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
@@ -52,7 +52,7 @@ fn run() -> Result<()> {
         Some("fuzz") => fuzz(&args[1..]),
         Some("help") | Some("--help") | Some("-h") | None => {
             println!(
-                "usage: cargo xtask <task>\n\ntasks:\n  ci               cargo fmt --check, clippy -D warnings, cargo test --workspace\n  results [DIR] [--set NAME]...\n                   re-measure the published result sets (all, or the named: suite, peel-vs-stochastic, wboit-weights, transmission) with the release binary (default DIR: docs/results/<adapter>), then the README's marked tables\n  readme-tables    copy the README's marked tables from the results they name (no measuring)\n  conformance [--scenes N] [--first SEED]\n                   GPU fragment counts against the reference on N seeded random scenes (default 200)\n  goldens          rewrite reference/: golden references of scenes/ and the baseline errors on this adapter\n  fuzz [--minutes M] [--inputs N] [--seed S] [--threads T] [--timeout SECONDS]\n                   fuzz the scene and glTF loaders in release (default 1 minute); findings (panics, broken invariants, inputs running past the timeout) go to crates/oit-scene/fuzz-corpus/\n  mutants [--package CRATE]... [--shard K/N] [--timeout SECS]\n                   mutation testing (cargo-mutants, in place; not part of ci): score per crate"
+                "usage: cargo xtask <task>\n\ntasks:\n  ci               cargo fmt --check, clippy -D warnings, cargo test --workspace\n  results [DIR] [--set NAME]...\n                   re-measure the published result sets (all, or the named: suite, peel-vs-stochastic, wboit-weights, transmission) with the release binary (default DIR: docs/results/<adapter>), then the README's marked tables\n  readme-tables    copy the README's marked tables from the results they name (no measuring)\n  conformance [--scenes N] [--first SEED]\n                   GPU fragment counts against the reference on N seeded random scenes (default 200)\n  goldens          rewrite reference/: golden references of scenes/ and the baseline errors on this adapter\n  fuzz [--minutes M] [--inputs N] [--seed S] [--threads T] [--timeout SECONDS]\n                   fuzz the scene and glTF loaders in release (default 1 minute); findings (panics, broken invariants, inputs running past the timeout) go to fuzz/corpus/\n  mutants [--package CRATE]... [--shard K/N] [--timeout SECS]\n                   mutation testing (cargo-mutants, in place; not part of ci): score per crate"
             );
             Ok(())
         }
@@ -371,8 +371,8 @@ fn conformance(args: &[String]) -> Result<()> {
             "--release",
             "--quiet",
             "-p",
-            "oit-gpu",
-            "--example",
+            "oit-tools",
+            "--bin",
             "conformance",
             "--",
         ])
@@ -386,7 +386,7 @@ fn conformance(args: &[String]) -> Result<()> {
 }
 
 /// Regenerates `reference/` from `scenes/`, in the workspace root whatever the working directory.
-/// The example computes every image and number before it writes a file, so a failed scene or
+/// The program computes every image and number before it writes a file, so a failed scene or
 /// technique leaves reference/ as it was.
 fn goldens(args: &[String]) -> Result<()> {
     if let Some(extra) = args.first() {
@@ -406,8 +406,8 @@ fn goldens(args: &[String]) -> Result<()> {
             "--release",
             "--quiet",
             "-p",
-            "oit-harness",
-            "--example",
+            "oit-tools",
+            "--bin",
             "goldens",
             "--",
             "reference",
@@ -425,8 +425,8 @@ fn goldens(args: &[String]) -> Result<()> {
     Ok(())
 }
 
-/// Long fuzz runs: builds oit-scene's `fuzz` example in release and runs it from the workspace
-/// root, so findings land in the crash corpus the test suite replays. The example prints
+/// Long fuzz runs: builds the oit-fuzz `fuzz` program in release and runs it from the workspace
+/// root, so findings land in the crash corpus the test suite replays. The program prints
 /// inputs/s, the totals and each finding; its arguments are passed through.
 fn fuzz(args: &[String]) -> Result<()> {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_owned());
@@ -440,8 +440,8 @@ fn fuzz(args: &[String]) -> Result<()> {
             "--release",
             "--quiet",
             "-p",
-            "oit-scene",
-            "--example",
+            "oit-fuzz",
+            "--bin",
             "fuzz",
             "--",
         ])
@@ -451,7 +451,7 @@ fn fuzz(args: &[String]) -> Result<()> {
     match status.code() {
         Some(0) => Ok(()),
         Some(1) => bail!(
-            "the fuzzer found inputs that panic or break an invariant; they are in crates/oit-scene/fuzz-corpus/ (fix the loader, then commit them)"
+            "the fuzzer found inputs that panic or break an invariant; they are in fuzz/corpus/ (fix the loader, then commit them)"
         ),
         _ => bail!("fuzzing failed ({status})"),
     }

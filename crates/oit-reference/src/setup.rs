@@ -476,7 +476,7 @@ pub(crate) fn setup_triangle(
 /// interpolation rounding: *undecided* when `|α − cutoff| <= CUTOFF_UNDECIDED_BOUND`. The
 /// reference interpolates in f64 and rounds once; a GPU interpolates in f32 (lavapipe: up to
 /// 4.1e-6 from the exact value on attributes in [0, 1], worst of 532 614 values on 300 random
-/// scenes, `cargo run -p oit-gpu --example interpolation_error`), so it may discard what the
+/// scenes, `cargo run -p oit-tools --bin interpolation_error`), so it may discard what the
 /// reference keeps, or the reverse. 2^-16 ≈ 1.5e-5 is 3.7 times that worst case.
 pub const CUTOFF_UNDECIDED_BOUND: f32 = 1.0 / 65536.0;
 

@@ -4,12 +4,11 @@
 //! and glTF 2.0 assets (`.gltf`, `.glb`, also placeable as JSON objects of kind `gltf`),
 //! validate every value (errors name file, JSON path and what is allowed) and flatten the file
 //! into a [`Scene`]: procedural meshes generated, instancing expanded, transforms applied,
-//! billboards turned to the camera and lighting baked into vertex colours. [`fuzz`] fuzzes
-//! both loaders against their documented invariants.
+//! billboards turned to the camera and lighting baked into vertex colours. The oit-fuzz package
+//! (fuzz/) fuzzes both loaders against their documented invariants.
 
 mod error;
 mod format;
-pub mod fuzz;
 mod gltf;
 mod load;
 mod mesh;
@@ -26,5 +25,6 @@ pub use load::{
     LoadOptions, is_gltf_path, load, load_dir, load_dir_with, load_with, load_with_inputs, parse,
     parse_gltf, scene_files,
 };
+pub use rng::SplitMix64;
 pub use scene::*;
 pub use texture::{MAX_TEXTURE_DIMENSION, MAX_UV, Texture, Wrap, srgb_to_linear};

@@ -11,7 +11,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Duration;
 
-use oit_scene::fuzz::{self, Event, Fixtures, Options};
+use oit_fuzz::{self as fuzz, Event, Fixtures, Options};
 
 fn main() -> ExitCode {
     match run() {
@@ -33,7 +33,7 @@ fn run() -> Result<bool, String> {
         // Far above the slowest valid input (a few seconds near the triangle cap).
         timeout: Duration::from_secs(60),
     };
-    let mut corpus = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/fuzz-corpus"));
+    let mut corpus = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/corpus"));
     let mut args = std::env::args().skip(1);
     while let Some(flag) = args.next() {
         let mut value = || args.next().ok_or_else(|| format!("`{flag}` needs a value"));

@@ -5,7 +5,7 @@
 
 use serde_json::{Map, Value, json};
 
-use crate::rng::SplitMix64;
+use oit_scene::SplitMix64;
 
 /// The fuzzer's random source: the crate's SplitMix64, so a seed gives the same input in every
 /// version of the dependencies.

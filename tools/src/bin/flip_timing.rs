@@ -1,6 +1,6 @@
 //! Wall-clock time of `compare` (all metrics) and of LDR-/HDR-ꟻLIP alone on synthetic pairs.
 //!
-//! `cargo run --release -p oit-metrics --example flip_timing [SIZE...]` (default 256 1024).
+//! `cargo run --release -p oit-tools --bin flip_timing [SIZE...]` (default 256 1024).
 //! Each time is the best of several runs (`FLIP_TIMING_RUNS`, default 7 up to 512², else 3):
 //! the minimum is the least disturbed by other work on the machine.
 

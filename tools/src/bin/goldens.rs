@@ -1,5 +1,5 @@
 //! Regenerates the committed goldens: `cargo xtask goldens` runs
-//! `cargo run --release -p oit-harness --example goldens -- [OUT_DIR [SCENES_DIR]]`
+//! `cargo run --release -p oit-tools --bin goldens -- [OUT_DIR [SCENES_DIR]]`
 //! (defaults `reference` and `scenes`, relative to the working directory) on the default
 //! adapter, the one the golden test opens.
 

@@ -1,6 +1,6 @@
 //! Writes seeded random scenes (`oit_scene::random`) as ordinary scene files, for running the
 //! CLI or another tool on content nobody placed by hand:
-//! `cargo run -p oit-scene --example random_scene -- OUT_DIR FIRST_SEED COUNT`.
+//! `cargo run -p oit-tools --bin random_scene -- OUT_DIR FIRST_SEED COUNT`.
 
 use std::process::ExitCode;
 

@@ -2,9 +2,9 @@
 //! "Memory" section. Run it under `/usr/bin/time -v` for the peak resident set:
 //!
 //! ```text
-//! cargo build --release -p oit-reference --example budget
-//! /usr/bin/time -v target/release/examples/budget layers [COUNT] [SIZE] [--memory-budget BYTES]
-//! /usr/bin/time -v target/release/examples/budget particles [SIZE] [--memory-budget BYTES]
+//! cargo build --release -p oit-tools --bin budget
+//! /usr/bin/time -v target/release/budget layers [COUNT] [SIZE] [--memory-budget BYTES]
+//! /usr/bin/time -v target/release/budget particles [SIZE] [--memory-budget BYTES]
 //! ```
 //!
 //! `layers` builds COUNT (default 2 000 000) screen-filling blended quads, two triangles each,
@@ -97,8 +97,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Some("layers") => layers(number(1, 2_000_000)?, number(2, 32)?),
         Some("particles") => {
             let size = number(1, 2048)?;
-            let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-                .join("../../scenes/particles.json");
+            let path =
+                std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/particles.json");
             oit_scene::load(&path)?.with_resolution(Resolution {
                 width: size,
                 height: size,

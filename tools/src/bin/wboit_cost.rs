@@ -1,6 +1,6 @@
 //! GPU time of wboit configurations relative to plain draw-order OVER blending ("unsorted",
 //! `oit_gpu::DrawOrderBlend` with materials, so this crate does not depend on oit-sorted), and bytes
-//! per pixel: `cargo run -p oit-wboit --release --example wboit_cost -- [SIZE] [FRAMES]`.
+//! per pixel: `cargo run -p oit-tools --release --bin wboit_cost -- [SIZE] [FRAMES]`.
 //! Times are medians of the technique's passes (the shared opaque pass excluded), from
 //! timestamp queries where the adapter has them, else wall-clock.
 
@@ -90,7 +90,7 @@ fn main() -> Result<()> {
     }
     println!("{header}");
     println!("|---|---|{}", "---|".repeat(configs.len()));
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes");
     let mut ratios = vec![Vec::new(); configs.len()];
     for (_, scene) in oit_scene::load_dir(&dir)? {
         let scene = scene.with_resolution(res);

@@ -1,7 +1,7 @@
 //! Reference throughput and scaling, the numbers quoted in the README:
 //!
 //! ```text
-//! cargo run --release -p oit-reference --example reference_perf [SCENES_DIR]
+//! cargo run --release -p oit-tools --bin reference_perf [SCENES_DIR]
 //! ```
 //!
 //! Prints fragments per second on `many-layers-64` and `particles` at 1024×1024, time against
@@ -145,7 +145,7 @@ fn main() {
                     || !["--tile", "--only", "--each", "--size"].contains(&args[i - 1].as_str()))
         })
         .map(|(_, a)| PathBuf::from(a))
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes"));
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../scenes"));
     // --stored: every tile with stored, sorted lists (no in-order compositing).
     let stored = args.iter().any(|a| a == "--stored");
     let options = ReferenceOptions {

@@ -1,5 +1,5 @@
-//! Structure-aware fuzzing of the scene loader ([`crate::parse`]) and the glTF loader
-//! ([`crate::parse_gltf`]) on stable Rust, with no libFuzzer.
+//! Structure-aware fuzzing of the scene loader ([`oit_scene::parse`]) and the glTF loader
+//! ([`oit_scene::parse_gltf`]) on stable Rust, with no libFuzzer.
 //!
 //! Each input is made from a seed: a valid JSON scene or glTF asset (glTF JSON or GLB) is
 //! built from the format's structure (objects of every mesh kind, materials, cameras, lighting,
@@ -29,16 +29,16 @@ use std::time::{Duration, Instant};
 pub use check::rust_type_words;
 use generate::Rng;
 
-use crate::load::LoadOptions;
+use oit_scene::LoadOptions;
 
 /// Which loader an input is for (and its file extension in the corpus).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Format {
-    /// The JSON scene format, loaded with [`crate::parse`].
+    /// The JSON scene format, loaded with [`oit_scene::parse`].
     Scene,
-    /// glTF JSON, loaded with [`crate::parse_gltf`].
+    /// glTF JSON, loaded with [`oit_scene::parse_gltf`].
     Gltf,
-    /// A GLB container, loaded with [`crate::parse_gltf`].
+    /// A GLB container, loaded with [`oit_scene::parse_gltf`].
     Glb,
 }
 
@@ -298,8 +298,8 @@ pub fn check(input: &Input, fixtures: &Fixtures) -> Result<Outcome, Finding> {
     };
     CAPTURE.with(|c| *c.borrow_mut() = Some(None));
     let result = std::panic::catch_unwind(AssertUnwindSafe(|| match input.format {
-        Format::Scene => crate::parse(&String::from_utf8_lossy(&input.bytes), &origin),
-        Format::Gltf | Format::Glb => crate::parse_gltf(&input.bytes, &origin, &options),
+        Format::Scene => oit_scene::parse(&String::from_utf8_lossy(&input.bytes), &origin),
+        Format::Gltf | Format::Glb => oit_scene::parse_gltf(&input.bytes, &origin, &options),
     }));
     let panic = CAPTURE.with(|c| c.borrow_mut().take()).flatten();
     let violations = match result {

@@ -1,5 +1,5 @@
 //! Times the per-triangle back-to-front sort of `sorted-triangle` on N random triangles
-//! (default 1 000 000): `cargo run --release -p oit-sorted --example sort_triangles [N]`.
+//! (default 1 000 000): `cargo run --release -p oit-tools --bin sort_triangles [N]`.
 
 use glam::Vec3;
 use std::time::Instant;

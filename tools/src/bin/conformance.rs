@@ -1,7 +1,7 @@
 //! Rasterization conformance on seeded random scenes (`oit_scene::random`): the reference's
 //! per-pixel fragment counts against the GPU's (`count_fragments`), scene by scene.
 //!
-//! `cargo xtask conformance --scenes N` (or `cargo run --release -p oit-gpu --example
+//! `cargo xtask conformance --scenes N` (or `cargo run --release -p oit-tools --bin
 //! conformance -- --scenes N [--first SEED]`). Prints every scene with a differing pixel and a
 //! summary; exits 1 when any pixel differs. CI runs the first 200 seeds as a test
 //! (tests/gpu.rs); this runs as many as you like. A pixel may differ by up to its fragments in a

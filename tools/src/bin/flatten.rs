@@ -1,7 +1,7 @@
 //! Prints a scene file's flattened `Scene` as JSON, for tools outside Rust (benches/peer/).
 //!
 //! ```text
-//! cargo run --release -p oit-scene --example flatten -- scenes/many-layers-64.json \
+//! cargo run --release -p oit-tools --bin flatten -- scenes/many-layers-64.json \
 //!     --resolution 256x256 > flat.json
 //! ```
 //!

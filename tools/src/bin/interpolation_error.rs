@@ -5,7 +5,7 @@
 //! writes the interpolated vertex colour itself into an `Rgba32Float` target; the reference
 //! interpolates the same colour in f64 and rounds once. On pixels with exactly one fragment
 //! (no visibility decision involved) the difference is the GPU's interpolation error.
-//! `cargo run --release -p oit-gpu --example interpolation_error -- [--scenes N]`.
+//! `cargo run --release -p oit-tools --bin interpolation_error -- [--scenes N]`.
 
 use std::process::ExitCode;
 

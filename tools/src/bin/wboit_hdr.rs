@@ -1,5 +1,5 @@
 //! Per-pixel error budget of the default `wboit` on one scene (default `hdr-emissive`):
-//! `cargo run -p oit-wboit --release --example wboit_hdr -- [SCENE] [SIZE]`.
+//! `cargo run -p oit-tools --release --bin wboit_hdr -- [SCENE] [SIZE]`.
 //!
 //! Recovers every pixel's transparent fragments (premultiplied colour, α, view distance) from
 //! one CPU reference render per transparent draw, so it needs scenes where no draw covers a
@@ -198,7 +198,7 @@ fn main() -> Result<()> {
         width: size,
         height: size,
     };
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../../scenes/{name}.json"));
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../scenes/{name}.json"));
     let scene = oit_scene::load(&path)?.with_resolution(res);
     let reference = oit_reference::render(&scene, &Default::default());
     let lists = fragments(&scene)?;

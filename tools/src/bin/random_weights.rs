@@ -1,6 +1,6 @@
 //! The WBOIT weights on seeded random scenes (`oit_scene::random`), content none of the weights
 //! was designed or tuned on:
-//! `cargo run -p oit-wboit --release --example random_weights -- [SCENES] [SIZE] [FIRST_SEED]`
+//! `cargo run -p oit-tools --release --bin random_weights -- [SCENES] [SIZE] [FIRST_SEED]`
 //! (default 50 scenes at 128×128 from seed 0; `WBOIT_ONLY=eq10,range` limits the weights).
 //!
 //! Every weight renders with rgba16f + r16f; scenes without a transparent fragment in front of

@@ -2,7 +2,7 @@
 //! `unsorted`, bytes per pixel, the peel-test-before-shading and depth-only-init ablations, and
 //! what a CPU round trip per pass costs against GPU-gated termination.
 //!
-//! `cargo run -p oit-peel --example peel_bench -- [SCENE] [SIZE] [FRAMES]`
+//! `cargo run -p oit-tools --bin peel_bench -- [SCENE] [SIZE] [FRAMES]`
 //! (defaults: many-layers-64 128 7). After one warm-up frame each, the configurations render
 //! in interleaved rounds (one frame of each per round), so load from other processes on a
 //! shared machine hits them alike. Times are minima over the rounds (the least disturbed run of
@@ -125,7 +125,7 @@ fn main() -> anyhow::Result<()> {
     let name = args.first().map_or("many-layers-64", String::as_str);
     let size: u32 = args.get(1).map_or(Ok(128), |s| s.parse())?;
     let frames: usize = args.get(2).map_or(Ok(7), |s| s.parse())?;
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../../scenes/{name}.json"));
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../scenes/{name}.json"));
     let scene = oit_scene::load(&path)?.with_resolution(Resolution {
         width: size,
         height: size,

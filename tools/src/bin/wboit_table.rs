@@ -1,5 +1,5 @@
 //! Error table of every weight on every bundled scene against the CPU reference:
-//! `cargo run -p oit-wboit --release --example wboit_table -- [SIZE] [accum] [reveal]`
+//! `cargo run -p oit-tools --release --bin wboit_table -- [SIZE] [accum] [reveal]`
 //! (default 128 rgba16f r16f; `WBOIT_ONLY=eq10,range` limits the weights). Prints mean FLIP
 //! (HDR-FLIP on scenes whose reference exceeds 1, as `oit compare` reports) and RMSE per
 //! scene × weight, the suite means, guard counts and the order dependence (max |forward −
@@ -46,7 +46,7 @@ fn main() -> Result<()> {
         width: size,
         height: size,
     };
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes");
     let scenes = oit_scene::load_dir(&dir)?;
     let only: Vec<Weight> = std::env::var("WBOIT_ONLY")
         .map(|v| v.split(',').filter_map(Weight::parse).collect())

@@ -1,11 +1,11 @@
 //! Invariants: what every error and every accepted scene must satisfy, as the loader's
 //! documentation promises (docs/scene-format.md).
 
-use crate::error::SceneError;
-use crate::format::MAX_TRIANGLES;
-use crate::gltf::MAX_TEXELS;
-use crate::scene::{Projection, Resolution, Scene};
-use crate::texture::{MAX_TEXTURE_DIMENSION, MAX_UV};
+use oit_scene::MAX_TEXELS;
+use oit_scene::MAX_TRIANGLES;
+use oit_scene::SceneError;
+use oit_scene::{MAX_TEXTURE_DIMENSION, MAX_UV};
+use oit_scene::{Projection, Resolution, Scene};
 
 /// A broken invariant: a short fixed name (findings with the same one are the same defect)
 /// and the details.

@@ -1,7 +1,7 @@
 //! Writes test pairs and this crate's ꟻLIP results for `xtask/flip-check/check.py`, which runs
 //! NVIDIA's `flip-evaluator` on the same pixels and compares.
 //!
-//! `cargo run --release -p oit-metrics --example flip_pairs -- OUT_DIR [NAME=REF.exr,TEST.exr]...`
+//! `cargo run --release -p oit-tools --bin flip_pairs -- OUT_DIR [NAME=REF.exr,TEST.exr]...`
 //!
 //! The built-in pairs are synthetic (noise, flat fields with a 1e-4 offset, edges, HDR up to
 //! 1000); each `NAME=REF.exr,TEST.exr` argument adds a pair read from EXR files (RGB of the first

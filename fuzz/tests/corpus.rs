@@ -5,10 +5,10 @@
 use std::path::Path;
 use std::time::Duration;
 
-use oit_scene::fuzz::{self, Event, Fixtures, Format, Input, Options, Outcome};
+use oit_fuzz::{self as fuzz, Event, Fixtures, Format, Input, Options, Outcome};
 
 fn corpus() -> &'static Path {
-    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/fuzz-corpus"))
+    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/corpus"))
 }
 
 #[test]
@@ -100,7 +100,7 @@ fn a_bounded_run_finds_nothing() {
         .collect();
     assert!(
         findings.is_empty(),
-        "{}\n(show an input with `cargo run -p oit-scene --example fuzz -- --show SEED`)",
+        "{}\n(show an input with `cargo run -p oit-fuzz --bin fuzz -- --show SEED`)",
         findings.join("\n")
     );
     assert!(report.inputs >= 1000, "{report:?}");

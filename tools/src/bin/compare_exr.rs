@@ -1,6 +1,6 @@
 //! Prints every metric of `compare` for renders against a reference EXR, with the time taken.
 //!
-//! `cargo run --release -p oit-metrics --example compare_exr -- REFERENCE.exr RENDER.exr...`
+//! `cargo run --release -p oit-tools --bin compare_exr -- REFERENCE.exr RENDER.exr...`
 
 use std::path::Path;
 use std::time::Instant;

@@ -2,7 +2,7 @@
 //! 2 / L), front and dual peeling, first (cold) frame and warm frames, GPU time by pass kind,
 //! memory, and the error against the reference.
 //!
-//! `cargo run --release -p oit-peel --example deep_stack -- [LAYERS] [SIZE] [FRAMES]`
+//! `cargo run --release -p oit-tools --bin deep_stack -- [LAYERS] [SIZE] [FRAMES]`
 //! (defaults: 1000 8 3).
 
 use oit_gpu::{ColorFormat, Context, ContextOptions, GpuScene, GpuTimer, Targets, Technique};
