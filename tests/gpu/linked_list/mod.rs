@@ -1,0 +1,3 @@
+mod gpu;
+mod transmission;
+mod twins;

@@ -1,0 +1,9 @@
+mod common;
+mod deep;
+mod depth_range;
+mod gpu;
+mod pass_slots;
+mod shaders;
+mod spec;
+mod transmission;
+mod twins;

@@ -1,0 +1,3 @@
+mod render_groups;
+mod techniques;
+mod transmission;

@@ -1,0 +1,4 @@
+mod gpu;
+mod reuse;
+mod transmission;
+mod twins;

@@ -1,0 +1,5 @@
+mod gpu;
+mod guards;
+mod shaders;
+mod transmission;
+mod twins;

@@ -1,0 +1,1 @@
+//! oit-tests has no library code: its one test binary is `gpu/main.rs`.
