@@ -10,22 +10,60 @@ use std::process::Command;
 
 use anyhow::{Context, Result, bail};
 
-/// The crates whose score the project tracks (CONTRIBUTING.md): the instrument and the CPU
-/// side of every technique crate.
-pub const CRATES: &[&str] = &[
-    "oit-reference",
-    "oit-scene",
-    "oit-metrics",
-    "oit-harness",
-    "oit-report",
-    "oit-sorted",
-    "oit-peel",
-    "oit-wboit",
-    "oit-stochastic",
-    "oit-mboit",
-    "oit-linked-list",
-    "oit-opaque-copy",
-];
+/// The crates whose score the project tracks (docs/testing.md): every library of the workspace
+/// under `crates/` and `techniques/` — the instrument and every technique family — read from
+/// `cargo metadata`, so a new technique crate is included without an edit here. The CLI binary
+/// and the packages of tests, tools, the fuzzer, benches and xtask are not mutated.
+pub fn tracked_crates() -> Result<Vec<String>> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_owned());
+    let out = Command::new(&cargo)
+        .args(["metadata", "--no-deps", "--format-version", "1"])
+        .output()
+        .context("running cargo metadata")?;
+    if !out.status.success() {
+        bail!(
+            "cargo metadata failed: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    let meta: serde_json::Value =
+        serde_json::from_slice(&out.stdout).context("parsing cargo metadata")?;
+    Ok(library_crates(&meta))
+}
+
+/// The packages of `meta` (cargo metadata) with a library target whose manifest lives under
+/// `crates/` or `techniques/`, in the workspace's order.
+fn library_crates(meta: &serde_json::Value) -> Vec<String> {
+    let root = meta["workspace_root"].as_str().unwrap_or_default();
+    let mut names = Vec::new();
+    for package in meta["packages"].as_array().into_iter().flatten() {
+        let manifest = package["manifest_path"].as_str().unwrap_or_default();
+        let relative = manifest
+            .strip_prefix(root)
+            .unwrap_or(manifest)
+            .trim_start_matches('/');
+        let has_lib = package["targets"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .any(|t| {
+                t["kind"]
+                    .as_array()
+                    .is_some_and(|k| k.iter().any(|k| k == "lib"))
+            });
+        if has_lib
+            && (relative.starts_with("crates/") || relative.starts_with("techniques/"))
+            && let Some(name) = package["name"].as_str()
+        {
+            names.push(name.to_owned());
+        }
+    }
+    names
+}
+
+/// The package that holds the GPU integration tests of every crate: each mutant runs its
+/// crate's own tests and these.
+const INTEGRATION_TESTS: &str = "oit-tests";
 
 /// One crate's outcome counts (cargo-mutants' `outcomes.json`).
 #[derive(Debug, Default, Clone, Copy)]
@@ -66,7 +104,7 @@ pub fn mutants(args: &[String]) -> Result<()> {
         }
     }
     if crates.is_empty() {
-        crates = CRATES.iter().map(|s| s.to_string()).collect();
+        crates = tracked_crates()?;
     }
     // In place: a mutant lives in the source tree while its tests run, so the tree must be
     // clean before (and cargo-mutants restores every file after each mutant).
@@ -92,6 +130,8 @@ pub fn mutants(args: &[String]) -> Result<()> {
             .arg(name)
             .arg("--test-package")
             .arg(name)
+            .arg("--test-package")
+            .arg(INTEGRATION_TESTS)
             .args(["--shard", &shard, "--timeout", &timeout, "--output"])
             .arg(&out)
             .status()
@@ -133,4 +173,45 @@ fn read_score(path: &Path) -> Result<Score> {
         timeout: n("timeout"),
         unviable: n("unviable"),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Libraries under crates/ and techniques/ are tracked, in order; binaries-only packages and
+    /// packages elsewhere are not.
+    #[test]
+    fn tracked_crates_are_the_libraries_of_crates_and_techniques() {
+        let meta = serde_json::json!({
+            "workspace_root": "/w",
+            "packages": [
+                {"name": "oit-scene", "manifest_path": "/w/crates/oit-scene/Cargo.toml", "targets": [{"kind": ["lib"]}]},
+                {"name": "oit-cli", "manifest_path": "/w/crates/oit-cli/Cargo.toml", "targets": [{"kind": ["bin"]}]},
+                {"name": "oit-new", "manifest_path": "/w/techniques/new/Cargo.toml", "targets": [{"kind": ["lib"]}]},
+                {"name": "oit-tests", "manifest_path": "/w/tests/Cargo.toml", "targets": [{"kind": ["lib"]}, {"kind": ["test"]}]},
+                {"name": "xtask", "manifest_path": "/w/xtask/Cargo.toml", "targets": [{"kind": ["bin"]}]}
+            ]
+        });
+        assert_eq!(library_crates(&meta), ["oit-scene", "oit-new"]);
+    }
+
+    /// The real workspace: every technique family and the instrument's libraries.
+    #[test]
+    fn the_workspace_tracks_every_technique_crate() {
+        let crates = tracked_crates().unwrap();
+        for name in [
+            "oit-reference",
+            "oit-scene",
+            "oit-peel",
+            "oit-opaque-copy",
+            "oit-results",
+        ] {
+            assert!(crates.iter().any(|c| c == name), "{name} not in {crates:?}");
+        }
+        assert!(
+            !crates.iter().any(|c| c == "oit-cli" || c == "oit-tests"),
+            "{crates:?}"
+        );
+    }
 }

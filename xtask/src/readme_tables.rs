@@ -183,7 +183,7 @@ mod tests {
             .filter(|l| l.trim().starts_with(MARKER))
             .count();
         assert!(
-            markers >= 3,
+            markers >= 1,
             "README.md has {markers} results-table markers"
         );
         let spliced = splice(&readme, "README.md", &|p| read_under(root, p)).unwrap();

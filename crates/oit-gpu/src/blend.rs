@@ -1,5 +1,6 @@
 //! Blend states the techniques share. Each says what it computes, in the premultiplied
-//! convention of DESIGN.md (`src`/`dst` are the shader output and the target's contents).
+//! convention of the rendering model (`src`/`dst` are the shader output and the target's
+//! contents).
 
 /// Premultiplied OVER: `dst = src + (1 − src.a) · dst` on colour and alpha (draw-order
 /// blending, back to front).

@@ -3,7 +3,7 @@
 //! against it, valid on the adapter that recorded it.
 //!
 //! `cargo xtask goldens` writes them ([`generate`], then [`write`]); the test
-//! `crates/oit-harness/tests/goldens.rs` checks them ([`bit_mismatches`], [`check_run`]).
+//! `tests/gpu/harness/goldens.rs` checks them ([`bit_mismatches`], [`check_run`]).
 //! Everything is computed before anything is written, so a failed generation leaves the
 //! previous goldens untouched.
 
@@ -467,7 +467,7 @@ pub fn readme(baseline: &Baseline, exr_bytes: u64) -> String {
         out,
         "# Goldens\n\n\
          Written by `cargo xtask goldens`; do not edit by hand. Checked by \
-         `crates/oit-harness/tests/goldens.rs`, part of `cargo test --workspace`.\n\n\
+         `tests/gpu/harness/goldens.rs`, part of `cargo test --workspace`.\n\n\
          - `SCENE.exr` ({n} files, {exr_bytes} bytes in all): the exact CPU reference \
          (`oit_reference`, `OUTPUT_VERSION` {v}) of every bundled scene at {w}×{h}, part \
          `reference`: linear f32 `R`, `G`, `B`, `A` and the per-pixel counts `layers` and \

@@ -1,7 +1,7 @@
 //! oit-metrics: how far a render is from the reference, and the files that show it.
 //!
 //! Every number oit-lab reports is computed here, on **linear RGB** (alpha is ignored: the
-//! final composite is opaque, see DESIGN.md), from two [`LinearImage`]s of the same size.
+//! final composite is opaque), from two [`LinearImage`]s of the same size.
 //!
 //! # Metrics ([`compare`] → [`Errors`], the `error` object of `results.json`)
 //!

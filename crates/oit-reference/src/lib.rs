@@ -1,7 +1,7 @@
 //! oit-reference: the exact many-layer CPU reference (an A-buffer) every GPU technique is
 //! measured against.
 //!
-//! It rasterizes with the GPU's coverage rules (DESIGN.md, "Rasterization conventions"):
+//! It rasterizes with the GPU's coverage rules (the README of this crate, "What exact means here"):
 //! positions from [`Camera::clip`](oit_scene::Camera::clip) in f32; clipping in homogeneous clip
 //! space against the whole clip volume, the viewport (`|x|, |y| <= w`: no guard band, as
 //! lavapipe with a depth buffer), near (`z >= 0`) and far (`z <= w`), never dividing by

@@ -415,7 +415,7 @@ std::thread_local! {
     /// Each thread's second buffer for the in-cache radix passes (at most [`LOCAL`] pairs,
     /// 128 KiB). Reused by every run the thread sorts, it stays in L2; the run's share of the
     /// sorter's scratch it replaces was cold, so the first scatter into it missed on every
-    /// line (0.81–0.85x the sort time on one thread without those misses, session 32).
+    /// line (0.81–0.85x the sort time on one thread without those misses, measured 2026-11-29).
     static RADIX_SCRATCH: std::cell::RefCell<Vec<u64>> = const { std::cell::RefCell::new(Vec::new()) };
 }
 

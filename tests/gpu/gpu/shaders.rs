@@ -1,5 +1,5 @@
 //! The include syntax cannot be mistaken for WGSL. (Every WGSL file of every crate is
-//! validated by oit-harness's `tests/shaders.rs`, which sees all the crates.)
+//! validated by `harness::shaders`, which sees all the crates.)
 
 #[test]
 fn unprocessed_includes_do_not_parse() {

@@ -3,7 +3,7 @@
 //! opacity slots, and both resolves put the stack over the final colour per channel with
 //! dual-source blending. Measured on the four transmission scenes in Rgba32Float targets, so
 //! the numbers are the storage formats' precision; the Rgba16Float sweeps over the bundled
-//! scenes are in `tests/gpu.rs`.
+//! scenes are in `linked_list::gpu`.
 
 use oit_gpu::testing::context_or_skip;
 use oit_gpu::{ColorFormat, Context, Technique, TransmissionSupport};

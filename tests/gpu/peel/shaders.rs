@@ -1,5 +1,5 @@
 //! The counter layout this crate's WGSL and Rust both write down agrees. (Every WGSL file of
-//! every crate is validated by oit-harness's `tests/shaders.rs`.)
+//! every crate is validated by `harness::shaders`.)
 
 /// The counter layout is written twice (WGSL in peel_counters.wgsl, which every peel shader
 /// includes, and Rust); they must agree. No shader holds a pass count: the counters are a

@@ -1,7 +1,7 @@
 //! Coloured transmission: both peelers composite per channel (one accumulator per colour
 //! channel, shaders/peel_transmit.wgsl) on the four transmission scenes, and say where they
 //! cannot. Exactness at 128² in Rgba32Float targets is part of the bundled sweep in
-//! `tests/gpu.rs`; here: the default Rgba16Float target at the scenes' own size, the
+//! `peel::gpu`; here: the default Rgba16Float target at the scenes' own size, the
 //! ablation switches on the per-channel pipelines, a WBOIT-tail configuration that never
 //! needs its tail, and `Technique::transmission` per adapter and configuration.
 

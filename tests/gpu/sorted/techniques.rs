@@ -305,7 +305,7 @@ fn every_technique_on_every_bundled_scene_is_finite_and_within_its_measured_erro
             );
             let e = rmse(&image, &reference.image);
             line += &format!("  {}={e:.3e}", info.name);
-            // Coloured transmission: tests/transmission.rs bounds sorted-object there.
+            // Coloured transmission: sorted::transmission bounds sorted-object there.
             if scene.has_coloured_transmission() {
                 continue;
             }

@@ -9,7 +9,7 @@
 //!
 //! Not twinned: white noise (`pcg4d`) and hashed alpha (`cell_hash`, `hashed_threshold`) have
 //! no CPU counterpart, since no CPU code needs their values; what they must deliver, uniform
-//! unbiased thresholds, is asserted from images in `tests/gpu.rs` (convergence at spp^−½ and
+//! unbiased thresholds, is asserted from images in `stochastic::gpu` (convergence at spp^−½ and
 //! the bias bound at spp = 64).
 
 use oit_gpu::testing::{context_or_skip, eval_f32_with, uniform_buffer};

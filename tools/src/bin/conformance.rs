@@ -4,7 +4,7 @@
 //! `cargo xtask conformance --scenes N` (or `cargo run --release -p oit-tools --bin
 //! conformance -- --scenes N [--first SEED]`). Prints every scene with a differing pixel and a
 //! summary; exits 1 when any pixel differs. CI runs the first 200 seeds as a test
-//! (tests/gpu.rs); this runs as many as you like. A pixel may differ by up to its fragments in a
+//! (tests/gpu/gpu/context.rs); this runs as many as you like. A pixel may differ by up to its fragments in a
 //! cutoff's undecided band (`Reference::compare_fragment_counts`); any other difference fails. Since the reference mirrors lavapipe's vertex
 //! arithmetic and viewport clipping, no pixel of seeds 0–39 999 differs on lavapipe.
 
