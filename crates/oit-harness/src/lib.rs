@@ -10,6 +10,9 @@ pub mod inputs;
 pub mod report;
 pub mod results;
 mod run;
+mod timing;
+
+pub use timing::time_technique;
 
 pub use oit_results::interference;
 pub use oit_results::{
@@ -24,7 +27,7 @@ use oit_scene::{Resolution, Scene};
 pub use run::{
     APPROXIMATE_TRANSMISSION, CompareOptions, DEFAULT_MEMORY_BUDGET, DEFAULT_RUN_BUDGET, Event,
     LOCK_FILE, MAX_WARMUP, MemoryPlan, RUN_BYTES_PER_PIXEL, ReferenceCache, RenderedFrame, compare,
-    compare_all, render_once, time_technique,
+    compare_all, render_once,
 };
 
 /// Errors of the harness. Each names the file it concerns.
