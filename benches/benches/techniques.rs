@@ -50,7 +50,7 @@ fn techniques(c: &mut Criterion<GpuTime>, ctx: &Context, clock: &GpuClock, size:
         let registry = registry.clone();
         let canonical = spec.canonical();
         families.push((
-            spec.name.clone(),
+            spec.name().to_owned(),
             Box::new(move || {
                 TechniqueSpec::build(&canonical, &registry).unwrap_or_else(|e| panic!("{e}"))
             }),

@@ -63,14 +63,10 @@ impl Default for DrawOrderBlend {
 
 impl Technique for DrawOrderBlend {
     fn spec(&self) -> TechniqueSpec {
-        TechniqueSpec {
-            name: match self.shading {
-                BlendShading::VertexColour => FLOOR_NAME,
-                BlendShading::Material => "blend-in-draw-order",
-            }
-            .to_owned(),
-            params: Default::default(),
-        }
+        TechniqueSpec::of(match self.shading {
+            BlendShading::VertexColour => FLOOR_NAME,
+            BlendShading::Material => "blend-in-draw-order",
+        })
     }
 
     fn check(&self, _caps: &Caps) -> Result<(), Unsupported> {

@@ -49,7 +49,9 @@ pub use scene::{
     CullRule, GpuScene, MATERIAL_STRIDE, MATERIAL_UNIFORM_STRIDE, MaterialSource, SceneBytes,
     ScenePipelineDesc, ScenePipelines, VERTEX_STRIDE, depth_test, vertex_layout,
 };
-pub use spec::{Allowed, ParamInfo, SpecError, TechniqueInfo, TechniqueSpec};
+pub use spec::{
+    Allowed, Bounded, Param, ParamInfo, ParamValue, SpecError, TechniqueInfo, TechniqueSpec,
+};
 pub use targets::{ColorFormat, Targets, f16_to_f32, read_color};
 pub use technique::{RenderStats, Technique, TransmissionSupport, check_scene};
 pub use timer::{

@@ -1,4 +1,10 @@
-//! Technique specs `name[:key=value[,key=value…]]`, validated against a registry.
+//! Technique specs `name[:key=value[,key=value…]]`, validated against a registry, and the one
+//! typed declaration of each technique parameter ([`Param`]) from which parsing, the canonical
+//! spec string and `oit techniques` all come.
+//!
+//! A parameter's values are a [`ParamValue`] type: a word enum declared with [`words!`] (each
+//! variant and its word written once), a [`Bounded`] integer, or a type of the technique's own.
+//! A configuration holds such types, so it cannot hold a value its spec could not say.
 
 use crate::technique::Technique;
 use std::collections::BTreeMap;
@@ -34,7 +40,7 @@ impl std::fmt::Display for Allowed {
 
 impl Allowed {
     /// The canonical spelling of `value`, or `None` when it is not allowed.
-    fn canonical(&self, value: &str) -> Option<String> {
+    pub fn canonical(&self, value: &str) -> Option<String> {
         match self {
             Allowed::Values(v) => v.contains(&value).then(|| value.to_owned()),
             Allowed::Integer { min, max, words } => {
@@ -51,13 +57,185 @@ impl Allowed {
     }
 }
 
+/// What `oit techniques` and the parser know of a parameter: made by [`Param::info`] from the
+/// parameter's one declaration.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct ParamInfo {
     pub key: &'static str,
     pub description: &'static str,
     /// Must itself be allowed (checked by [`TechniqueInfo::validate`]).
-    pub default: &'static str,
+    pub default: String,
     pub allowed: Allowed,
+}
+
+/// A type a technique parameter takes: the values that exist and how each is written.
+pub trait ParamValue: Copy + PartialEq + std::fmt::Debug + 'static {
+    /// The values, as parsing errors and `oit techniques` list them.
+    fn allowed() -> Allowed;
+    /// The value a word in canonical form stands for; `None` for any other text.
+    fn from_word(word: &str) -> Option<Self>;
+    /// The canonical word of the value.
+    fn word(self) -> String;
+}
+
+/// One technique parameter, declared once: its key, its default and what it means. Its values
+/// are its type's ([`ParamValue`]).
+#[derive(Debug, Clone, Copy)]
+pub struct Param<T: ParamValue> {
+    pub key: &'static str,
+    pub default: T,
+    pub doc: &'static str,
+}
+
+impl<T: ParamValue> Param<T> {
+    pub const fn new(key: &'static str, default: T, doc: &'static str) -> Self {
+        Param { key, default, doc }
+    }
+
+    /// What the registry lists for it.
+    pub fn info(&self) -> ParamInfo {
+        ParamInfo {
+            key: self.key,
+            description: self.doc,
+            default: self.default.word(),
+            allowed: T::allowed(),
+        }
+    }
+
+    /// Its value in `spec` (a parsed spec always has one), or an error naming the key and what
+    /// is allowed.
+    pub fn read(&self, spec: &TechniqueSpec) -> Result<T, SpecError> {
+        let allowed = T::allowed().to_string();
+        let value = spec.get(self.key).ok_or_else(|| SpecError::Missing {
+            spec: spec.to_string(),
+            name: spec.name.clone(),
+            key: self.key.to_owned(),
+            allowed: allowed.clone(),
+        })?;
+        T::from_word(value).ok_or_else(|| SpecError::BadValue {
+            spec: spec.to_string(),
+            key: self.key.to_owned(),
+            value: value.to_owned(),
+            allowed,
+        })
+    }
+}
+
+/// An integer parameter in `MIN..=MAX`: a value outside cannot be made ([`Bounded::new`]
+/// refuses it), so a configuration holding one is in range.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct Bounded<const MIN: u32, const MAX: u32>(u32);
+
+impl<const MIN: u32, const MAX: u32> Bounded<MIN, MAX> {
+    /// `n`, or `None` outside `MIN..=MAX`.
+    pub const fn new(n: u32) -> Option<Self> {
+        if n >= MIN && n <= MAX {
+            Some(Bounded(n))
+        } else {
+            None
+        }
+    }
+
+    /// `n` for a constant known to be in range: a compile-time error in a `const`, a panic
+    /// otherwise (for literals in code, never for input).
+    pub const fn of(n: u32) -> Self {
+        match Self::new(n) {
+            Some(b) => b,
+            None => panic!("Bounded::of: value out of range"),
+        }
+    }
+
+    pub const fn get(self) -> u32 {
+        self.0
+    }
+}
+
+impl<const MIN: u32, const MAX: u32> ParamValue for Bounded<MIN, MAX> {
+    fn allowed() -> Allowed {
+        Allowed::Integer {
+            min: u64::from(MIN),
+            max: u64::from(MAX),
+            words: &[],
+        }
+    }
+    fn from_word(word: &str) -> Option<Self> {
+        let canonical = Self::allowed().canonical(word)?;
+        if canonical != word {
+            return None;
+        }
+        Self::new(canonical.parse().ok()?)
+    }
+    fn word(self) -> String {
+        self.0.to_string()
+    }
+}
+
+impl<const MIN: u32, const MAX: u32> std::fmt::Display for Bounded<MIN, MAX> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}", self.0)
+    }
+}
+
+/// Declares a word enum for a technique parameter: every variant with its word, once. It gets
+/// `ALL`, `WORDS` (in declaration order), `name()`, `parse()` and [`ParamValue`].
+///
+/// ```
+/// oit_gpu::words! {
+///     /// How far to look.
+///     pub enum Reach {
+///         /// The nearest layer only.
+///         Near = "near",
+///         Far = "far",
+///     }
+/// }
+/// assert_eq!(Reach::WORDS, ["near", "far"]);
+/// assert_eq!(Reach::Far.name(), "far");
+/// ```
+#[macro_export]
+macro_rules! words {
+    (
+        $(#[$meta:meta])*
+        $vis:vis enum $name:ident {
+            $( $(#[$vmeta:meta])* $variant:ident = $word:literal ),+ $(,)?
+        }
+    ) => {
+        $(#[$meta])*
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+        $vis enum $name {
+            $( $(#[$vmeta])* $variant ),+
+        }
+
+        impl $name {
+            /// Every value, in declaration order.
+            pub const ALL: &'static [$name] = &[$($name::$variant),+];
+            /// Every word, in declaration order.
+            pub const WORDS: &'static [&'static str] = &[$($word),+];
+
+            /// The value's word.
+            pub fn name(self) -> &'static str {
+                match self {
+                    $($name::$variant => $word),+
+                }
+            }
+
+            /// The value of a word, `None` for any other text.
+            pub fn parse(word: &str) -> Option<Self> {
+                Self::ALL.iter().copied().find(|v| v.name() == word)
+            }
+        }
+
+        impl $crate::ParamValue for $name {
+            fn allowed() -> $crate::Allowed {
+                $crate::Allowed::Values(Self::WORDS)
+            }
+            fn from_word(word: &str) -> Option<Self> {
+                Self::parse(word)
+            }
+            fn word(self) -> String {
+                self.name().to_owned()
+            }
+        }
+    };
 }
 
 /// One registry entry. Each technique crate exposes `pub fn techniques() -> Vec<TechniqueInfo>`;
@@ -91,7 +269,7 @@ impl TechniqueInfo {
             params: self
                 .params
                 .iter()
-                .map(|p| (p.key.to_owned(), p.default.to_owned()))
+                .map(|p| (p.key.to_owned(), p.default.clone()))
                 .collect(),
         }
     }
@@ -99,7 +277,7 @@ impl TechniqueInfo {
     /// Registry sanity: defaults allowed, keys unique (for the technique crates' own tests).
     pub fn validate(&self) -> Result<(), String> {
         for (i, p) in self.params.iter().enumerate() {
-            if p.allowed.canonical(p.default).as_deref() != Some(p.default) {
+            if p.allowed.canonical(&p.default).as_deref() != Some(p.default.as_str()) {
                 return Err(format!(
                     "{}: default {}={} is not allowed ({})",
                     self.name, p.key, p.default, p.allowed
@@ -160,11 +338,13 @@ pub enum SpecError {
 
 /// A validated technique configuration: name and every parameter (defaults filled in).
 /// `Display` is the canonical string: `name` alone without parameters, else
-/// `name:k1=v1,k2=v2` with keys sorted.
+/// `name:k1=v1,k2=v2` with keys sorted. Made by [`TechniqueSpec::parse`] against a registry,
+/// or by a technique from its typed configuration ([`TechniqueSpec::of`] and
+/// [`TechniqueSpec::with`]), never field by field.
 #[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct TechniqueSpec {
-    pub name: String,
-    pub params: BTreeMap<String, String>,
+    name: String,
+    params: BTreeMap<String, String>,
 }
 
 fn names(registry: &[TechniqueInfo]) -> String {
@@ -249,6 +429,31 @@ impl TechniqueSpec {
         Ok(out)
     }
 
+    /// The spec of technique `name` without parameters; [`TechniqueSpec::with`] adds them from
+    /// a configuration's typed values.
+    pub fn of(name: &str) -> TechniqueSpec {
+        TechniqueSpec {
+            name: name.to_owned(),
+            params: BTreeMap::new(),
+        }
+    }
+
+    /// This spec with `param` set to `value` (written in canonical form).
+    pub fn with<T: ParamValue>(mut self, param: &Param<T>, value: T) -> TechniqueSpec {
+        self.params.insert(param.key.to_owned(), value.word());
+        self
+    }
+
+    /// The technique's name.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// Every parameter, key to canonical value, keys sorted.
+    pub fn params(&self) -> &BTreeMap<String, String> {
+        &self.params
+    }
+
     /// The registry entry for this spec's name.
     pub fn info<'r>(&self, registry: &'r [TechniqueInfo]) -> Option<&'r TechniqueInfo> {
         registry.iter().find(|t| t.name == self.name)
@@ -280,54 +485,6 @@ impl TechniqueSpec {
                 expected: name.to_owned(),
             })
         }
-    }
-
-    /// The value of `key` turned into a `T` by `parse`; `allowed` describes the accepted values
-    /// in the error when the key is missing or `parse` refuses it.
-    pub fn value<T>(
-        &self,
-        key: &str,
-        allowed: &str,
-        parse: impl FnOnce(&str) -> Option<T>,
-    ) -> Result<T, SpecError> {
-        let value = self.get(key).ok_or_else(|| SpecError::Missing {
-            spec: self.to_string(),
-            name: self.name.clone(),
-            key: key.to_owned(),
-            allowed: allowed.to_owned(),
-        })?;
-        parse(value).ok_or_else(|| SpecError::BadValue {
-            spec: self.to_string(),
-            key: key.to_owned(),
-            value: value.to_owned(),
-            allowed: allowed.to_owned(),
-        })
-    }
-
-    /// One of the words `names`, turned into a `T` by `parse`.
-    pub fn word<T>(
-        &self,
-        key: &str,
-        names: &[&str],
-        parse: impl FnOnce(&str) -> Option<T>,
-    ) -> Result<T, SpecError> {
-        self.value(key, &names.join(", "), |v| {
-            names.contains(&v).then_some(v).and_then(parse)
-        })
-    }
-
-    /// An integer in `min..=max` written in canonical form (no sign, no leading zeros).
-    pub fn integer(&self, key: &str, min: u64, max: u64) -> Result<u64, SpecError> {
-        self.value(key, &format!("an integer {min}..={max}"), |v| {
-            Allowed::Integer {
-                min,
-                max,
-                words: &[],
-            }
-            .canonical(v)
-            .filter(|c| c == v)
-            .and_then(|c| c.parse().ok())
-        })
     }
 
     pub fn canonical(&self) -> String {
@@ -392,7 +549,7 @@ mod tests {
                     ParamInfo {
                         key: "passes",
                         description: "",
-                        default: "auto",
+                        default: "auto".into(),
                         allowed: Allowed::Integer {
                             min: 1,
                             max: 64,
@@ -402,7 +559,7 @@ mod tests {
                     ParamInfo {
                         key: "depth",
                         description: "",
-                        default: "r32f",
+                        default: "r32f".into(),
                         allowed: Allowed::Values(&["r32f", "rg32f"]),
                     },
                 ],
@@ -484,43 +641,57 @@ mod tests {
     #[test]
     fn invalid_registry_defaults_are_caught() {
         let mut r = registry();
-        r[1].params[1].default = "r16f";
+        r[1].params[1].default = "r16f".into();
         assert!(r[1].validate().is_err());
-        r[1].params[1].default = "r32f";
+        r[1].params[1].default = "r32f".into();
         let dup = r[1].params[0].clone();
         r[1].params.push(dup);
         assert!(r[1].validate().is_err());
     }
 
+    crate::words! {
+        /// A test parameter's words.
+        enum Depth {
+            R32f = "r32f",
+            Rg32f = "rg32f",
+        }
+    }
+
+    const DEPTH: Param<Depth> = Param::new("depth", Depth::R32f, "test depth");
+    const LAYERS: Param<Bounded<1, 64>> = Param::new("layers", Bounded::of(8), "test layers");
+
+    /// A declared parameter reads its value from a spec, writes it back in canonical form, and
+    /// names its key and what is allowed when it cannot.
     #[test]
-    fn typed_accessors_name_the_key_and_what_is_allowed() {
-        let spec = TechniqueSpec::parse("peel:passes=12", &registry()).unwrap();
-        assert!(spec.expect_name("peel").is_ok());
-        let e = spec.expect_name("plain").unwrap_err();
-        assert!(matches!(e, SpecError::WrongTechnique { .. }), "{e}");
-        assert_eq!(spec.integer("passes", 1, 64), Ok(12));
-        let e = spec.integer("passes", 1, 8).unwrap_err();
+    fn typed_parameters_read_write_and_explain() {
+        let spec = TechniqueSpec::parse("peel:depth=rg32f", &registry()).unwrap();
+        assert_eq!(DEPTH.read(&spec), Ok(Depth::Rg32f));
+        assert_eq!(DEPTH.info().default, "r32f");
+        assert_eq!(DEPTH.info().allowed, Allowed::Values(&["r32f", "rg32f"]));
+        let e = LAYERS.read(&spec).unwrap_err();
         assert!(
-            e.to_string().contains("1..=8") && e.to_string().contains("\"12\""),
+            matches!(e, SpecError::Missing { .. }) && e.to_string().contains("1..=64"),
             "{e}"
         );
-        let e = spec.integer("layers", 1, 8).unwrap_err();
-        assert!(
-            matches!(e, SpecError::Missing { .. }) && e.to_string().contains("layers"),
-            "{e}"
-        );
-        let depth = spec.word("depth", &["r32f", "rg32f"], |v| Some(v.len()));
-        assert_eq!(depth, Ok(4));
-        let e = spec
-            .word("depth", &["rg32f"], |v| Some(v.len()))
-            .unwrap_err();
-        assert!(
-            matches!(e, SpecError::BadValue { .. }) && e.to_string().contains("rg32f"),
-            "{e}"
-        );
-        // A hand-built spec with a non-canonical integer is refused, not reinterpreted.
-        let mut odd = spec.clone();
-        odd.params.insert("passes".into(), "012".into());
-        assert!(odd.integer("passes", 1, 64).is_err());
+        let built = TechniqueSpec::of("peel")
+            .with(&DEPTH, Depth::Rg32f)
+            .with(&LAYERS, Bounded::of(12));
+        assert_eq!(built.to_string(), "peel:depth=rg32f,layers=12");
+        assert_eq!(LAYERS.read(&built), Ok(Bounded::of(12)));
+        assert_eq!(LAYERS.info().default, "8");
+    }
+
+    /// A bounded integer cannot be made outside its range, and reads only canonical words.
+    #[test]
+    fn bounded_integers_hold_only_their_range() {
+        type Spp = Bounded<1, 128>;
+        assert_eq!(Spp::new(0), None);
+        assert_eq!(Spp::new(129), None);
+        assert_eq!(Spp::new(128).map(Bounded::get), Some(128));
+        for bad in ["0", "129", "012", "+3", "-1", "", "x"] {
+            assert_eq!(Spp::from_word(bad), None, "{bad}");
+        }
+        assert_eq!(Spp::from_word("12"), Some(Spp::of(12)));
+        assert_eq!(Spp::of(7).word(), "7");
     }
 }

@@ -94,7 +94,7 @@ pub fn check_scene(
     {
         return Err(Unsupported::new(format!(
             "the scene has coloured transmission, which {} does not composite: {reason}",
-            technique.spec().name
+            technique.spec().name()
         )));
     }
     Ok(())

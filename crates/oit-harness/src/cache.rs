@@ -418,8 +418,9 @@ mod tests {
         let (a, b, c) = (sized(16), sized(17), sized(18));
         let size =
             |s: &Scene| encode(&oit_reference::render(s, &Default::default()), s).len() as u64;
-        // Room for two of the three.
-        let cap = size(&a) + size(&b) + size(&c) - 1;
+        // Room for two of the three, not all three. (A file's size moves by a few bytes between
+        // renders: its statistics hold the render's timings.)
+        let cap = size(&a) + size(&b) + size(&c) - 256;
         let render = |s: &Scene| Ok(oit_reference::render(s, &Default::default()));
         let at =
             |secs: u64| std::time::SystemTime::UNIX_EPOCH + std::time::Duration::from_secs(secs);

@@ -13,20 +13,20 @@ pub fn short_spec(canonical: &str) -> String {
         return canonical.to_owned();
     };
     let registry = crate::registry();
-    let Some(info) = registry.iter().find(|i| i.name == spec.name) else {
+    let Some(info) = registry.iter().find(|i| i.name == spec.name()) else {
         return canonical.to_owned();
     };
     let defaults = info.default_spec();
     let kept: Vec<String> = spec
-        .params
+        .params()
         .iter()
-        .filter(|(k, v)| defaults.params.get(*k) != Some(*v))
+        .filter(|(k, v)| defaults.params().get(*k) != Some(*v))
         .map(|(k, v)| format!("{k}={v}"))
         .collect();
     if kept.is_empty() {
-        spec.name
+        spec.name().to_owned()
     } else {
-        format!("{}:{}", spec.name, kept.join(","))
+        format!("{}:{}", spec.name(), kept.join(","))
     }
 }
 

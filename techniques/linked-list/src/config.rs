@@ -1,46 +1,33 @@
 //! `linked-list:nodes-per-pixel=N,sort-max=N,node=f32|packed,tail=average|drop`.
 
 use crate::node::NodeFormat;
-use oit_gpu::{SpecError, TechniqueSpec};
+use oit_gpu::{Bounded, Param, ParamInfo, SpecError, TechniqueSpec};
 
 /// Largest `nodes-per-pixel`: the pool is also bounded by the adapter's storage binding size.
 pub const MAX_NODES_PER_PIXEL: u64 = 1024;
 /// Largest `sort-max`: the window lives in each resolve invocation's registers.
 pub const MAX_SORT: u64 = 128;
 
-/// What happens to the fragments behind the sort window.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum TailRule {
-    /// One layer: coverage 1 − Π(1 − α) (exact), colour the α-weighted mean (approximate).
-    Average,
-    /// Dropped (Bevy, webgpu-samples).
-    Drop,
-}
-
-impl TailRule {
-    pub const NAMES: &'static [&'static str] = &["average", "drop"];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            TailRule::Average => "average",
-            TailRule::Drop => "drop",
-        }
-    }
-
-    pub fn parse(s: &str) -> Option<Self> {
-        match s {
-            "average" => Some(TailRule::Average),
-            "drop" => Some(TailRule::Drop),
-            _ => None,
-        }
+oit_gpu::words! {
+    /// What happens to the fragments behind the sort window.
+    pub enum TailRule {
+        /// One layer: coverage 1 − Π(1 − α) (exact), colour the α-weighted mean (approximate).
+        Average = "average",
+        /// Dropped (Bevy, webgpu-samples).
+        Drop = "drop",
     }
 }
+
+/// Node pool size as an average per pixel, `1..=MAX_NODES_PER_PIXEL`.
+pub type NodesPerPixel = Bounded<1, { MAX_NODES_PER_PIXEL as u32 }>;
+/// Fragments sorted per pixel in the resolve, `1..=MAX_SORT`.
+pub type SortMax = Bounded<1, { MAX_SORT as u32 }>;
 
 /// A valid `linked-list` configuration.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct LinkedListConfig {
-    pub nodes_per_pixel: u32,
-    pub sort_max: u32,
+    pub nodes_per_pixel: NodesPerPixel,
+    pub sort_max: SortMax,
     pub node: NodeFormat,
     pub tail: TailRule,
 }
@@ -48,41 +35,67 @@ pub struct LinkedListConfig {
 impl Default for LinkedListConfig {
     fn default() -> Self {
         LinkedListConfig {
-            nodes_per_pixel: 16,
-            sort_max: 16,
-            node: NodeFormat::F32,
-            tail: TailRule::Average,
+            nodes_per_pixel: Self::NODES_PER_PIXEL.default,
+            sort_max: Self::SORT_MAX.default,
+            node: Self::NODE.default,
+            tail: Self::TAIL.default,
         }
     }
 }
 
 impl LinkedListConfig {
+    pub const NODES_PER_PIXEL: Param<NodesPerPixel> = Param::new(
+        "nodes-per-pixel",
+        NodesPerPixel::of(16),
+        "node pool size as an average per pixel (Bevy's fragments_per_pixel_average); fragments past a full pool are lost and counted",
+    );
+    pub const SORT_MAX: Param<SortMax> = Param::new(
+        "sort-max",
+        SortMax::of(16),
+        "fragments kept sorted per pixel in the resolve; those behind go to the tail rule",
+    );
+    pub const NODE: Param<NodeFormat> = Param::new(
+        "node",
+        NodeFormat::F32,
+        "f32: 16 B nodes (f32 depth, binary16 colour and alpha); packed: 12 B nodes (Bevy: unorm24 depth, unorm8 alpha, rgb9e5 colour)",
+    );
+    pub const TAIL: Param<TailRule> = Param::new(
+        "tail",
+        TailRule::Average,
+        "fragments behind the sort window: average (one layer with coverage 1 - prod(1 - alpha) and the alpha-weighted mean colour) or drop",
+    );
+
+    /// The registry's view of the parameters.
+    pub fn params() -> Vec<ParamInfo> {
+        vec![
+            Self::NODES_PER_PIXEL.info(),
+            Self::SORT_MAX.info(),
+            Self::NODE.info(),
+            Self::TAIL.info(),
+        ]
+    }
+
     pub fn from_spec(spec: &TechniqueSpec) -> Result<Self, SpecError> {
         spec.expect_name("linked-list")?;
         Ok(LinkedListConfig {
-            nodes_per_pixel: spec.integer("nodes-per-pixel", 1, MAX_NODES_PER_PIXEL)? as u32,
-            sort_max: spec.integer("sort-max", 1, MAX_SORT)? as u32,
-            node: spec.word("node", NodeFormat::NAMES, NodeFormat::parse)?,
-            tail: spec.word("tail", TailRule::NAMES, TailRule::parse)?,
+            nodes_per_pixel: Self::NODES_PER_PIXEL.read(spec)?,
+            sort_max: Self::SORT_MAX.read(spec)?,
+            node: Self::NODE.read(spec)?,
+            tail: Self::TAIL.read(spec)?,
         })
     }
 
     pub fn spec(&self) -> TechniqueSpec {
-        let params = [
-            ("node", self.node.name().to_owned()),
-            ("nodes-per-pixel", self.nodes_per_pixel.to_string()),
-            ("sort-max", self.sort_max.to_string()),
-            ("tail", self.tail.name().to_owned()),
-        ];
-        TechniqueSpec {
-            name: "linked-list".to_owned(),
-            params: params.into_iter().map(|(k, v)| (k.to_owned(), v)).collect(),
-        }
+        TechniqueSpec::of("linked-list")
+            .with(&Self::NODES_PER_PIXEL, self.nodes_per_pixel)
+            .with(&Self::SORT_MAX, self.sort_max)
+            .with(&Self::NODE, self.node)
+            .with(&Self::TAIL, self.tail)
     }
 
     /// Bytes per pixel of the pool, the heads and the lost-fragment counts; `transmit`: with
     /// the rgb-opacity nodes of scenes with coloured transmission.
     pub fn bytes_per_pixel(&self, transmit: bool) -> u64 {
-        u64::from(self.nodes_per_pixel) * self.node.bytes(transmit) + 8
+        u64::from(self.nodes_per_pixel.get()) * self.node.bytes(transmit) + 8
     }
 }

@@ -8,9 +8,10 @@ use crate::frame::Counters;
 use crate::node::{Fragment, pack_opacity, pack_rgb9e5, unpack_opacity, unpack_rgb9e5};
 use oit_gpu::wgpu;
 use oit_gpu::{
-    Caps, Context, FullscreenDesc, GpuError, GpuScene, GpuTimer, MemoryLedger, PREMULTIPLIED_OVER,
-    RenderStats, ScenePipelineDesc, ScenePipelines, SpecError, Targets, Technique, TechniqueSpec,
-    TransmissionSupport, Unsupported, bind, blend, fullscreen_pipeline, pass,
+    Bounded, Caps, Context, FullscreenDesc, GpuError, GpuScene, GpuTimer, MemoryLedger,
+    PREMULTIPLIED_OVER, Param, ParamInfo, RenderStats, ScenePipelineDesc, ScenePipelines,
+    SpecError, Targets, Technique, TechniqueSpec, TransmissionSupport, Unsupported, bind, blend,
+    fullscreen_pipeline, pass,
 };
 use oit_scene::Resolution;
 
@@ -28,10 +29,13 @@ const TAIL_T_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R16Float;
 /// Σ a and Π(1 − a) per channel on scenes with coloured transmission.
 const TAIL_RGB_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 
+/// Fragments kept per pixel, `1..=MAX_K`.
+pub type K = Bounded<1, { MAX_K as u32 }>;
+
 /// `k-buffer:k=N,tail=average|drop`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct KBufferConfig {
-    pub k: u32,
+    pub k: K,
     pub tail: TailRule,
 }
 
@@ -39,31 +43,37 @@ impl Default for KBufferConfig {
     /// NVIDIA's default of 8 layers.
     fn default() -> Self {
         KBufferConfig {
-            k: 8,
-            tail: TailRule::Average,
+            k: Self::K.default,
+            tail: Self::TAIL.default,
         }
     }
 }
 
 impl KBufferConfig {
+    pub const K: Param<K> = Param::new("k", K::of(8), "fragments kept per pixel (8 B each)");
+    pub const TAIL: Param<TailRule> = Param::new(
+        "tail",
+        TailRule::Average,
+        "fragments pushed out of the k slots: average (one layer with coverage 1 - prod(1 - alpha) and the alpha-weighted mean colour) or drop",
+    );
+
+    /// The registry's view of the parameters.
+    pub fn params() -> Vec<ParamInfo> {
+        vec![Self::K.info(), Self::TAIL.info()]
+    }
+
     pub fn from_spec(spec: &TechniqueSpec) -> Result<Self, SpecError> {
         spec.expect_name("k-buffer")?;
         Ok(KBufferConfig {
-            k: spec.integer("k", 1, MAX_K)? as u32,
-            tail: spec.word("tail", TailRule::NAMES, TailRule::parse)?,
+            k: Self::K.read(spec)?,
+            tail: Self::TAIL.read(spec)?,
         })
     }
 
     pub fn spec(&self) -> TechniqueSpec {
-        TechniqueSpec {
-            name: "k-buffer".to_owned(),
-            params: [
-                ("k".to_owned(), self.k.to_string()),
-                ("tail".to_owned(), self.tail.name().to_owned()),
-            ]
-            .into_iter()
-            .collect(),
-        }
+        TechniqueSpec::of("k-buffer")
+            .with(&Self::K, self.k)
+            .with(&Self::TAIL, self.tail)
     }
 
     /// Slots (8 B each) and the two tail targets (Rgba16Float + R16Float); `transmit` (scenes
@@ -71,9 +81,9 @@ impl KBufferConfig {
     /// tail targets.
     pub fn bytes_per_pixel(&self, transmit: bool) -> u64 {
         if transmit {
-            u64::from(self.k) * 16 + 24
+            u64::from(self.k.get()) * 16 + 24
         } else {
-            u64::from(self.k) * 8 + 10
+            u64::from(self.k.get()) * 8 + 10
         }
     }
 }
@@ -230,7 +240,7 @@ impl KBuffer {
     ) -> Result<u64, GpuError> {
         let pixels = u64::from(resolution.width) * u64::from(resolution.height);
         let chains = if transmit { 2 } else { 1 };
-        let bytes = pixels * u64::from(self.config.k) * 8 * chains;
+        let bytes = pixels * u64::from(self.config.k.get()) * 8 * chains;
         let limit = caps
             .max_storage_buffer_binding_size
             .min(caps.max_buffer_size);
@@ -483,7 +493,7 @@ impl Technique for KBuffer {
         let r = self.gpu.as_ref().expect("resources built above");
         let words: [u32; 4] = [
             targets.resolution.width,
-            self.config.k,
+            self.config.k.get(),
             u32::from(scene.scene.camera.reverse_z),
             u32::from(self.config.tail == TailRule::Average),
         ];

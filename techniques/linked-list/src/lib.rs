@@ -23,8 +23,10 @@ pub mod kbuffer;
 mod list;
 pub mod node;
 
-pub use config::{LinkedListConfig, MAX_NODES_PER_PIXEL, MAX_SORT, TailRule};
-pub use kbuffer::{KBuffer, KBufferConfig, MAX_K};
+pub use config::{
+    LinkedListConfig, MAX_NODES_PER_PIXEL, MAX_SORT, NodesPerPixel, SortMax, TailRule,
+};
+pub use kbuffer::{K, KBuffer, KBufferConfig, MAX_K};
 pub use list::{FrameCounts, LinkedList, NODE_WGSL, WGSL};
 pub use node::NodeFormat;
 
@@ -42,7 +44,7 @@ pub const SHADERS: oit_gpu::shaders::Library = &[
 /// This crate's `shaders/` folder.
 pub const SHADER_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/shaders");
 
-use oit_gpu::{Allowed, ParamInfo, TechniqueInfo};
+use oit_gpu::TechniqueInfo;
 
 /// The registry entries of this crate.
 pub fn techniques() -> Vec<TechniqueInfo> {
@@ -50,63 +52,13 @@ pub fn techniques() -> Vec<TechniqueInfo> {
         TechniqueInfo {
             name: "linked-list",
             description: "per-pixel linked lists (Yang et al. 2010): every fragment stored from a node pool, the sort_max nearest sorted per pixel, the rest by the tail rule; exact when pool and window hold every fragment",
-            params: vec![
-                ParamInfo {
-                    key: "nodes-per-pixel",
-                    description: "node pool size as an average per pixel (Bevy's fragments_per_pixel_average); fragments past a full pool are lost and counted",
-                    default: "16",
-                    allowed: Allowed::Integer {
-                        min: 1,
-                        max: MAX_NODES_PER_PIXEL,
-                        words: &[],
-                    },
-                },
-                ParamInfo {
-                    key: "sort-max",
-                    description: "fragments kept sorted per pixel in the resolve; those behind go to the tail rule",
-                    default: "16",
-                    allowed: Allowed::Integer {
-                        min: 1,
-                        max: MAX_SORT,
-                        words: &[],
-                    },
-                },
-                ParamInfo {
-                    key: "node",
-                    description: "f32: 16 B nodes (f32 depth, binary16 colour and alpha); packed: 12 B nodes (Bevy: unorm24 depth, unorm8 alpha, rgb9e5 colour)",
-                    default: "f32",
-                    allowed: Allowed::Values(NodeFormat::NAMES),
-                },
-                ParamInfo {
-                    key: "tail",
-                    description: "fragments behind the sort window: average (one layer with coverage 1 - prod(1 - alpha) and the alpha-weighted mean colour) or drop",
-                    default: "average",
-                    allowed: Allowed::Values(TailRule::NAMES),
-                },
-            ],
+            params: LinkedListConfig::params(),
             build: |spec| Ok(Box::new(LinkedList::from_spec(spec)?)),
         },
         TechniqueInfo {
             name: "k-buffer",
             description: "k-buffer on 64-bit atomics (NVIDIA's Loop64): the k nearest fragments per pixel kept sorted in one geometry pass by an atomicMax chain on (depth, packed colour) keys, the fragments pushed out averaged into one layer or dropped; needs SHADER_INT64_ATOMIC_ALL_OPS (Vulkan, DX12)",
-            params: vec![
-                ParamInfo {
-                    key: "k",
-                    description: "fragments kept per pixel (8 B each)",
-                    default: "8",
-                    allowed: Allowed::Integer {
-                        min: 1,
-                        max: MAX_K,
-                        words: &[],
-                    },
-                },
-                ParamInfo {
-                    key: "tail",
-                    description: "fragments pushed out of the k slots: average (one layer with coverage 1 - prod(1 - alpha) and the alpha-weighted mean colour) or drop",
-                    default: "average",
-                    allowed: Allowed::Values(TailRule::NAMES),
-                },
-            ],
+            params: KBufferConfig::params(),
             build: |spec| Ok(Box::new(KBuffer::from_spec(spec)?)),
         },
     ]
@@ -142,16 +94,16 @@ mod tests {
             let e = TechniqueSpec::parse(bad, &registry).unwrap_err();
             assert!(e.to_string().contains("allowed"), "{bad}: {e}");
         }
-        let mut spec = TechniqueSpec::parse("k-buffer", &registry).unwrap();
-        spec.params.insert("k".into(), "many".into());
+        // Hand-built: a parameter missing, or another technique's spec.
+        let spec = TechniqueSpec::of("k-buffer").with(&KBufferConfig::TAIL, TailRule::Drop);
         assert!(matches!(
             KBuffer::from_spec(&spec),
-            Err(SpecError::BadValue { .. })
+            Err(SpecError::Missing { .. })
         ));
-        spec.name = "linked-list".into();
-        assert!(LinkedList::from_spec(&spec).is_err());
+        let other = TechniqueSpec::of("linked-list");
+        assert!(LinkedList::from_spec(&other).is_err());
         assert!(matches!(
-            KBufferConfig::from_spec(&spec),
+            KBufferConfig::from_spec(&other),
             Err(SpecError::WrongTechnique { .. })
         ));
     }

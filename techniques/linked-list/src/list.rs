@@ -48,7 +48,7 @@ pub(crate) fn node_source(node: &str, transmit: bool) -> String {
 pub fn shader_sources(config: &LinkedListConfig, transmit: bool) -> (String, String) {
     let list = WGSL.replace(
         SORT_MAX_LINE,
-        &format!("const SORT_MAX: u32 = {}u;", config.sort_max),
+        &format!("const SORT_MAX: u32 = {}u;", config.sort_max.get()),
     );
     let node = NODE_WGSL.replace(
         PACKED_LINE,
@@ -134,7 +134,7 @@ impl LinkedList {
         transmit: bool,
     ) -> Result<(u32, u64), GpuError> {
         let pixels = u64::from(resolution.width) * u64::from(resolution.height);
-        let capacity = pixels * u64::from(self.config.nodes_per_pixel);
+        let capacity = pixels * u64::from(self.config.nodes_per_pixel.get());
         let node_bytes = self.config.node.bytes(transmit);
         let bytes = capacity * node_bytes;
         let limit = caps
@@ -404,7 +404,7 @@ mod tests {
         assert_eq!(NODE_WGSL.matches(PACKED_LINE).count(), 1);
         assert_eq!(NODE_WGSL.matches(TRANSMIT_LINE).count(), 1);
         let config = LinkedListConfig {
-            sort_max: 37,
+            sort_max: crate::SortMax::of(37),
             node: NodeFormat::Packed,
             ..Default::default()
         };

@@ -5,33 +5,17 @@
 pub const RGB9E5_MAX: f32 = 65408.0;
 const UNORM24_MAX: f32 = 16_777_215.0;
 
-/// How a stored fragment is packed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum NodeFormat {
-    /// 16 B: the window depth's f32 bits, premultiplied colour and α as binary16.
-    F32,
-    /// 12 B (Bevy's layout): unorm24 depth with unorm8 α in one word, rgb9e5 colour.
-    Packed,
+oit_gpu::words! {
+    /// How a stored fragment is packed.
+    pub enum NodeFormat {
+        /// 16 B: the window depth's f32 bits, premultiplied colour and α as binary16.
+        F32 = "f32",
+        /// 12 B (Bevy's layout): unorm24 depth with unorm8 α in one word, rgb9e5 colour.
+        Packed = "packed",
+    }
 }
 
 impl NodeFormat {
-    pub const NAMES: &'static [&'static str] = &["f32", "packed"];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            NodeFormat::F32 => "f32",
-            NodeFormat::Packed => "packed",
-        }
-    }
-
-    pub fn parse(s: &str) -> Option<Self> {
-        match s {
-            "f32" => Some(NodeFormat::F32),
-            "packed" => Some(NodeFormat::Packed),
-            _ => None,
-        }
-    }
-
     /// Bytes of one node in the pool (the `next` index included); `transmit`: nodes that store
     /// rgb opacity (scenes with coloured transmission), one word more.
     pub fn bytes(self, transmit: bool) -> u64 {

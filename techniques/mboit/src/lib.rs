@@ -31,27 +31,14 @@ pub const SHADERS: oit_gpu::shaders::Library = &[
 /// This crate's `shaders/` folder.
 pub const SHADER_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/shaders");
 
-use oit_gpu::{Allowed, ParamInfo, TechniqueInfo};
+use oit_gpu::TechniqueInfo;
 
 /// The registry entries of this crate.
 pub fn techniques() -> Vec<TechniqueInfo> {
     vec![TechniqueInfo {
         name: "mboit",
         description: "moment-based OIT (Münstermann et al. 2018): moments of absorbance over log-warped depth, a reconstructed transmittance per fragment, two geometry passes and a composite",
-        params: vec![
-            ParamInfo {
-                key: "moments",
-                description: "power4/6/8: 4, 6 or 8 power moments (Hankel bounds, 2-4 roots); trig2/3/4: 2, 3 or 4 trigonometric moments (Toeplitz bounds, wrapping zone 0.1 pi)",
-                default: "power6",
-                allowed: Allowed::Values(MomentKind::NAMES),
-            },
-            ParamInfo {
-                key: "storage",
-                description: "f32: 32-bit float moments (needs FLOAT32_BLENDABLE); f16: 16-bit float moments with the paper's 16-bit biases, still additive blending (no pixel sync)",
-                default: "f32",
-                allowed: Allowed::Values(Storage::NAMES),
-            },
-        ],
+        params: Config::params(),
         build: |spec| Ok(Box::new(Mboit::from_spec(spec)?)),
     }]
 }
@@ -73,22 +60,15 @@ mod tests {
         assert_eq!(t.spec().to_string(), "mboit:moments=trig3,storage=f16");
         let defaults = TechniqueSpec::parse("mboit", &registry).unwrap();
         assert_eq!(Config::from_spec(&defaults), Ok(Config::DEFAULT));
-        // Hand-built specs with a missing or unknown value, or another name, are refused.
-        let mut bad = defaults.clone();
-        bad.params.insert("moments".into(), "power5".into());
+        // Hand-built specs with a missing value, or of another technique, are refused.
+        let bad = TechniqueSpec::of("mboit").with(&Config::STORAGE, Storage::F32);
         let e = Config::from_spec(&bad).unwrap_err();
         assert!(
             e.to_string().contains("moments") && e.to_string().contains("trig4"),
             "{e}"
         );
-        bad.params.remove("moments");
         assert!((registry[0].build)(&bad).is_err());
-        let mut bad = defaults.clone();
-        bad.params.insert("storage".into(), "f64".into());
-        assert!(Config::from_spec(&bad).is_err());
-        let mut bad = defaults.clone();
-        bad.name = "wboit".into();
-        assert!(Config::from_spec(&bad).is_err());
+        assert!(Config::from_spec(&TechniqueSpec::of("wboit")).is_err());
         let e = TechniqueSpec::parse("mboit:moments=power10", &registry).unwrap_err();
         assert!(e.to_string().contains("power8"), "{e}");
         for (i, k) in MomentKind::ALL.iter().enumerate() {

@@ -31,40 +31,19 @@ pub const OVERESTIMATION: f32 = 0.1;
 /// Width of the trigonometric wrapping zone (an arc no depth maps to), 0.1π.
 pub const WRAPPING_ZONE: f32 = 0.1 * std::f32::consts::PI;
 
-/// Moment family and count.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum MomentKind {
-    Power4,
-    Power6,
-    Power8,
-    Trig2,
-    Trig3,
-    Trig4,
+oit_gpu::words! {
+    /// Moment family and count.
+    pub enum MomentKind {
+        Power4 = "power4",
+        Power6 = "power6",
+        Power8 = "power8",
+        Trig2 = "trig2",
+        Trig3 = "trig3",
+        Trig4 = "trig4",
+    }
 }
 
 impl MomentKind {
-    pub const ALL: [MomentKind; 6] = [
-        MomentKind::Power4,
-        MomentKind::Power6,
-        MomentKind::Power8,
-        MomentKind::Trig2,
-        MomentKind::Trig3,
-        MomentKind::Trig4,
-    ];
-    pub const NAMES: &'static [&'static str] =
-        &["power4", "power6", "power8", "trig2", "trig3", "trig4"];
-
-    pub fn name(self) -> &'static str {
-        Self::NAMES[self.index() as usize]
-    }
-
-    pub fn parse(s: &str) -> Option<Self> {
-        Self::NAMES
-            .iter()
-            .position(|&n| n == s)
-            .map(|i| Self::ALL[i])
-    }
-
     /// `MBOIT_KIND` in the shaders.
     pub fn index(self) -> u32 {
         Self::ALL.iter().position(|&k| k == self).unwrap_or(0) as u32
@@ -92,29 +71,11 @@ impl MomentKind {
     }
 }
 
-/// Precision the moments are stored in.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Storage {
-    F32,
-    F16,
-}
-
-impl Storage {
-    pub const NAMES: &'static [&'static str] = &["f32", "f16"];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Storage::F32 => "f32",
-            Storage::F16 => "f16",
-        }
-    }
-
-    pub fn parse(s: &str) -> Option<Self> {
-        match s {
-            "f32" => Some(Storage::F32),
-            "f16" => Some(Storage::F16),
-            _ => None,
-        }
+oit_gpu::words! {
+    /// Precision the moments are stored in.
+    pub enum Storage {
+        F32 = "f32",
+        F16 = "f16",
     }
 }
 
@@ -897,7 +858,7 @@ mod tests {
     fn all_resolves() -> Vec<Resolve> {
         let mut out = Vec::new();
         for storage in [Storage::F32, Storage::F16] {
-            for kind in MomentKind::ALL {
+            for &kind in MomentKind::ALL {
                 out.push(Resolve::new(kind, storage));
             }
         }

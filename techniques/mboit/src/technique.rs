@@ -5,9 +5,9 @@
 use crate::math::{self, MomentKind, Resolve, Storage};
 use oit_gpu::wgpu;
 use oit_gpu::{
-    Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, RenderStats, ScenePipelineDesc,
-    ScenePipelines, SpecError, Targets, Technique, TechniqueSpec, TransmissionSupport, Unsupported,
-    bind, blend, depth_test, pass,
+    Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, Param, ParamInfo, RenderStats,
+    ScenePipelineDesc, ScenePipelines, SpecError, Targets, Technique, TechniqueSpec,
+    TransmissionSupport, Unsupported, bind, blend, depth_test, pass,
 };
 use oit_scene::{Resolution, Scene};
 
@@ -28,29 +28,38 @@ pub struct Config {
 impl Config {
     /// The paper's recommendation: 6 power moments; fp32 storage (exact additive sums).
     pub const DEFAULT: Config = Config {
-        moments: MomentKind::Power6,
-        storage: Storage::F32,
+        moments: Self::MOMENTS.default,
+        storage: Self::STORAGE.default,
     };
 
+    pub const MOMENTS: Param<MomentKind> = Param::new(
+        "moments",
+        MomentKind::Power6,
+        "power4/6/8: 4, 6 or 8 power moments (Hankel bounds, 2-4 roots); trig2/3/4: 2, 3 or 4 trigonometric moments (Toeplitz bounds, wrapping zone 0.1 pi)",
+    );
+    pub const STORAGE: Param<Storage> = Param::new(
+        "storage",
+        Storage::F32,
+        "f32: 32-bit float moments (needs FLOAT32_BLENDABLE); f16: 16-bit float moments with the paper's 16-bit biases, still additive blending (no pixel sync)",
+    );
+
+    /// The registry's view of the parameters.
+    pub fn params() -> Vec<ParamInfo> {
+        vec![Self::MOMENTS.info(), Self::STORAGE.info()]
+    }
+
     pub fn spec(&self) -> TechniqueSpec {
-        TechniqueSpec {
-            name: "mboit".to_owned(),
-            params: [
-                ("moments", self.moments.name()),
-                ("storage", self.storage.name()),
-            ]
-            .into_iter()
-            .map(|(k, v)| (k.to_owned(), v.to_owned()))
-            .collect(),
-        }
+        TechniqueSpec::of("mboit")
+            .with(&Self::MOMENTS, self.moments)
+            .with(&Self::STORAGE, self.storage)
     }
 
     /// Refuses a spec that is not `mboit` with every parameter valid.
     pub fn from_spec(spec: &TechniqueSpec) -> Result<Config, SpecError> {
         spec.expect_name("mboit")?;
         Ok(Config {
-            moments: spec.word("moments", MomentKind::NAMES, MomentKind::parse)?,
-            storage: spec.word("storage", Storage::NAMES, Storage::parse)?,
+            moments: Self::MOMENTS.read(spec)?,
+            storage: Self::STORAGE.read(spec)?,
         })
     }
 

@@ -35,16 +35,16 @@ impl OpaqueCopy {
 
     /// Refuses a spec of another name, or with a parameter (it has none).
     pub fn from_spec(spec: &TechniqueSpec) -> Result<Self, SpecError> {
-        if spec.name != Self::NAME {
+        if spec.name() != Self::NAME {
             return Err(SpecError::WrongTechnique {
                 spec: spec.to_string(),
                 expected: Self::NAME.to_owned(),
             });
         }
-        if let Some(key) = spec.params.keys().next() {
+        if let Some(key) = spec.params().keys().next() {
             return Err(SpecError::UnknownKey {
                 spec: spec.to_string(),
-                name: spec.name.clone(),
+                name: spec.name().to_owned(),
                 key: key.clone(),
                 keys: "(none)".to_owned(),
             });
@@ -137,10 +137,7 @@ impl OpaqueCopy {
 
 impl Technique for OpaqueCopy {
     fn spec(&self) -> TechniqueSpec {
-        TechniqueSpec {
-            name: Self::NAME.to_owned(),
-            params: Default::default(),
-        }
+        TechniqueSpec::of(Self::NAME)
     }
 
     fn check(&self, caps: &Caps) -> Result<(), Unsupported> {

@@ -2,41 +2,47 @@
 
 use crate::encoding::DepthEncoding;
 use oit_gpu::wgpu::TextureFormat;
-use oit_gpu::{Caps, SpecError, TechniqueSpec, Unsupported};
+use oit_gpu::{
+    Allowed, Bounded, Caps, Param, ParamInfo, ParamValue, SpecError, TechniqueSpec, Unsupported,
+};
+
+/// A fixed number of passes (layers for front peeling): at least 1. Whether the adapter can
+/// record that many is the technique's `check` (the bound is the adapter's, not the spec's).
+pub type Passes = Bounded<1, { u32::MAX }>;
 
 /// How many passes (layers for front peeling) to run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum PassCount {
     /// At most this many; a frame stops early when nothing is left (passes with nothing to
     /// peel are not recorded, or skipped on the GPU).
-    Fixed(u32),
+    Fixed(Passes),
     /// Until nothing is left (bounded only by the adapter: [`crate::max_pass_slots`]).
     Auto,
 }
 
-impl PassCount {
-    /// Any count a u32 holds parses; whether the adapter can record that many passes is the
-    /// technique's `check` (the bound is the adapter's, not the spec's).
-    fn parse(spec: &TechniqueSpec, key: &'static str) -> Result<Self, SpecError> {
-        let max = u32::MAX;
-        spec.value(key, &format!("an integer 1..={max}, auto"), |v| {
-            if v == "auto" {
-                return Some(PassCount::Auto);
-            }
-            v.parse::<u32>()
-                .ok()
-                .filter(|n| *n >= 1)
-                .map(PassCount::Fixed)
-        })
+impl ParamValue for PassCount {
+    fn allowed() -> Allowed {
+        Allowed::Integer {
+            min: 1,
+            max: u64::from(u32::MAX),
+            words: &["auto"],
+        }
     }
-
-    fn name(self) -> String {
+    fn from_word(word: &str) -> Option<Self> {
+        if word == "auto" {
+            return Some(PassCount::Auto);
+        }
+        Passes::from_word(word).map(PassCount::Fixed)
+    }
+    fn word(self) -> String {
         match self {
-            PassCount::Fixed(n) => n.to_string(),
+            PassCount::Fixed(n) => n.word(),
             PassCount::Auto => "auto".to_owned(),
         }
     }
+}
 
+impl PassCount {
     /// Unsupported when a fixed count is more than the adapter allows (`max`, set by the
     /// adapter limit `limit`).
     pub(crate) fn check(self, key: &str, max: u32, limit: &str) -> Result<(), Unsupported> {
@@ -44,7 +50,7 @@ impl PassCount {
             _ if max == 0 => Err(Unsupported::new(format!(
                 "{key}: this adapter allows no peel pass (limited by its {limit})"
             ))),
-            PassCount::Fixed(n) if n > max => Err(Unsupported::new(format!(
+            PassCount::Fixed(n) if n.get() > max => Err(Unsupported::new(format!(
                 "{key}={n}: this adapter allows at most {max} (limited by its {limit})"
             ))),
             _ => Ok(()),
@@ -54,42 +60,24 @@ impl PassCount {
     /// The most passes this setting may record on an adapter that allows `max`.
     pub fn budget(self, max: u32) -> u32 {
         match self {
-            PassCount::Fixed(n) => n.min(max),
+            PassCount::Fixed(n) => n.get().min(max),
             PassCount::Auto => max,
         }
     }
 }
 
-/// Format of the dual-peel (−min, max) key range target.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum DepthFormat {
-    /// `Rg32Float` where the adapter can blend it, else `Rg16Float`.
-    Auto,
-    Rg32f,
-    /// Keys are rounded to binary16 in the shader before every comparison.
-    Rg16f,
+oit_gpu::words! {
+    /// Format of the dual-peel (−min, max) key range target.
+    pub enum DepthFormat {
+        /// `Rg32Float` where the adapter can blend it, else `Rg16Float`.
+        Auto = "auto",
+        Rg32f = "rg32f",
+        /// Keys are rounded to binary16 in the shader before every comparison.
+        Rg16f = "rg16f",
+    }
 }
 
 impl DepthFormat {
-    pub const NAMES: &'static [&'static str] = &["auto", "rg32f", "rg16f"];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            DepthFormat::Auto => "auto",
-            DepthFormat::Rg32f => "rg32f",
-            DepthFormat::Rg16f => "rg16f",
-        }
-    }
-
-    pub fn parse(s: &str) -> Option<Self> {
-        match s {
-            "auto" => Some(DepthFormat::Auto),
-            "rg32f" => Some(DepthFormat::Rg32f),
-            "rg16f" => Some(DepthFormat::Rg16f),
-            _ => None,
-        }
-    }
-
     /// The texture format this setting uses on an adapter, or why it cannot run there.
     /// MAX blending needs a blendable format; for `Rg32Float` that is `FLOAT32_BLENDABLE` plus
     /// the format's own blendable flag (not "filterable", which Babylon keys on).
@@ -113,32 +101,22 @@ impl DepthFormat {
     }
 }
 
-/// What happens to the layers still left after the last dual-peel pass.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Tail {
-    /// Dropped (Babylon.js); counted in `pixels_with_dropped_layers`.
-    Drop,
-    /// Composited between the front and back layers by one weighted blended OIT pass
-    /// (`oit_wboit::tail`).
-    Wboit,
+oit_gpu::words! {
+    /// What happens to the layers still left after the last dual-peel pass.
+    pub enum Tail {
+        /// Dropped (Babylon.js); counted in `pixels_with_dropped_layers`.
+        Drop = "drop",
+        /// Composited between the front and back layers by one weighted blended OIT pass
+        /// (`oit_wboit::tail`).
+        Wboit = "wboit",
+    }
 }
 
-impl Tail {
-    pub const NAMES: &'static [&'static str] = &["drop", "wboit"];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Tail::Drop => "drop",
-            Tail::Wboit => "wboit",
-        }
-    }
-
-    pub fn parse(s: &str) -> Option<Self> {
-        match s {
-            "drop" => Some(Tail::Drop),
-            "wboit" => Some(Tail::Wboit),
-            _ => None,
-        }
+oit_gpu::words! {
+    /// Whether dual peeling's stored key grows toward the viewer.
+    pub enum ReverseZ {
+        On = "on",
+        Off = "off",
     }
 }
 
@@ -157,43 +135,77 @@ impl Default for DualPeelConfig {
     /// Babylon.js's configuration: 5 passes (10 layers), layers beyond dropped.
     fn default() -> Self {
         DualPeelConfig {
-            passes: PassCount::Fixed(5),
-            depth: DepthFormat::Auto,
-            reverse_z: true,
-            tail: Tail::Drop,
-            encoding: DepthEncoding::Window,
+            passes: Self::PASSES.default,
+            depth: Self::DEPTH.default,
+            reverse_z: Self::REVERSE_Z.default == ReverseZ::On,
+            tail: Self::TAIL.default,
+            encoding: Self::ENCODING.default,
         }
     }
 }
 
 impl DualPeelConfig {
+    pub const PASSES: Param<PassCount> = Param::new(
+        "passes",
+        PassCount::Fixed(Passes::of(5)),
+        "peel passes after the init pass (2 layers each; Babylon's default is 5), or auto: exactly ceil(L/2), GPU-gated. No fixed cap: per-pass counters and pass indices grow with the frame, bounded only by the adapter (8 counter bytes per pass within max_storage_buffer_binding_size, one pass-index slot per pass within max_buffer_size; lavapipe: 16777214 passes, set by its 128 MiB storage binding size); a larger N is reported as unsupported there",
+    );
+    pub const DEPTH: Param<DepthFormat> = Param::new(
+        "depth",
+        DepthFormat::Auto,
+        "range target format: rg32f needs blendable 32-bit float targets; auto picks rg32f where the adapter can blend it, else rg16f (keys rounded to f16)",
+    );
+    pub const REVERSE_Z: Param<ReverseZ> = Param::new(
+        "reverse-z",
+        ReverseZ::On,
+        "stored key grows toward the viewer (independent of the scene's own depth buffer)",
+    );
+    pub const TAIL: Param<Tail> = Param::new(
+        "tail",
+        Tail::Drop,
+        "layers left after the last pass: drop them, or composite them with weighted blended OIT",
+    );
+    pub const ENCODING: Param<DepthEncoding> = Param::new(
+        "encoding",
+        DepthEncoding::Window,
+        "stored key: window depth, or linear / logarithmic view distance over the scene's transparent depth interval",
+    );
+
+    /// The registry's view of the parameters.
+    pub fn params() -> Vec<ParamInfo> {
+        vec![
+            Self::PASSES.info(),
+            Self::DEPTH.info(),
+            Self::REVERSE_Z.info(),
+            Self::TAIL.info(),
+            Self::ENCODING.info(),
+        ]
+    }
+
     pub fn from_spec(spec: &TechniqueSpec) -> Result<Self, SpecError> {
         spec.expect_name("dual-peel")?;
         Ok(DualPeelConfig {
-            passes: PassCount::parse(spec, "passes")?,
-            depth: spec.word("depth", DepthFormat::NAMES, DepthFormat::parse)?,
-            reverse_z: spec.word("reverse-z", &["on", "off"], |s| Some(s == "on"))?,
-            tail: spec.word("tail", Tail::NAMES, Tail::parse)?,
-            encoding: spec.word("encoding", DepthEncoding::NAMES, DepthEncoding::parse)?,
+            passes: Self::PASSES.read(spec)?,
+            depth: Self::DEPTH.read(spec)?,
+            reverse_z: Self::REVERSE_Z.read(spec)? == ReverseZ::On,
+            tail: Self::TAIL.read(spec)?,
+            encoding: Self::ENCODING.read(spec)?,
         })
     }
 
     /// The canonical spec (every key present).
     pub fn spec(&self) -> TechniqueSpec {
-        let params = [
-            ("depth", self.depth.name().to_owned()),
-            ("encoding", self.encoding.name().to_owned()),
-            ("passes", self.passes.name()),
-            (
-                "reverse-z",
-                if self.reverse_z { "on" } else { "off" }.to_owned(),
-            ),
-            ("tail", self.tail.name().to_owned()),
-        ];
-        TechniqueSpec {
-            name: "dual-peel".to_owned(),
-            params: params.into_iter().map(|(k, v)| (k.to_owned(), v)).collect(),
-        }
+        let reverse_z = if self.reverse_z {
+            ReverseZ::On
+        } else {
+            ReverseZ::Off
+        };
+        TechniqueSpec::of("dual-peel")
+            .with(&Self::PASSES, self.passes)
+            .with(&Self::DEPTH, self.depth)
+            .with(&Self::REVERSE_Z, reverse_z)
+            .with(&Self::TAIL, self.tail)
+            .with(&Self::ENCODING, self.encoding)
     }
 }
 
@@ -206,25 +218,31 @@ pub struct FrontPeelConfig {
 impl Default for FrontPeelConfig {
     fn default() -> Self {
         FrontPeelConfig {
-            layers: PassCount::Auto,
+            layers: Self::LAYERS.default,
         }
     }
 }
 
 impl FrontPeelConfig {
+    pub const LAYERS: Param<PassCount> = Param::new(
+        "layers",
+        PassCount::Auto,
+        "layers to peel (one geometry pass each), or auto: until a pass finds nothing (GPU-gated indirect draws). No fixed cap: per-layer counters and pass indices grow with the frame, bounded only by the adapter (8 counter bytes per layer within max_storage_buffer_binding_size, one pass-index slot per layer within max_buffer_size; lavapipe: 16777215 layers, set by its 128 MiB storage binding size); a larger N is reported as unsupported there",
+    );
+
+    /// The registry's view of the parameters.
+    pub fn params() -> Vec<ParamInfo> {
+        vec![Self::LAYERS.info()]
+    }
+
     pub fn from_spec(spec: &TechniqueSpec) -> Result<Self, SpecError> {
         spec.expect_name("front-peel")?;
         Ok(FrontPeelConfig {
-            layers: PassCount::parse(spec, "layers")?,
+            layers: Self::LAYERS.read(spec)?,
         })
     }
 
     pub fn spec(&self) -> TechniqueSpec {
-        TechniqueSpec {
-            name: "front-peel".to_owned(),
-            params: [("layers".to_owned(), self.layers.name())]
-                .into_iter()
-                .collect(),
-        }
+        TechniqueSpec::of("front-peel").with(&Self::LAYERS, self.layers)
     }
 }

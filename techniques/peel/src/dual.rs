@@ -697,7 +697,7 @@ impl Technique for DualPeel {
             }
             Termination::GpuGated => {
                 let initial = match config.passes {
-                    PassCount::Fixed(n) => n.min(gpu::FIXED_FIRST),
+                    PassCount::Fixed(n) => n.get().min(gpu::FIXED_FIRST),
                     PassCount::Auto => 4,
                 };
                 let mut end = self.budget.first(scene.id, initial, max);
@@ -863,7 +863,7 @@ impl Technique for DualPeel {
     fn planned_passes(&self, depth_complexity: u32) -> Option<u32> {
         let all = depth_complexity.div_ceil(2).saturating_add(1);
         Some(match self.config.passes {
-            PassCount::Fixed(n) => n.min(all).saturating_add(u32::from(n < all)),
+            PassCount::Fixed(n) => n.get().min(all).saturating_add(u32::from(n.get() < all)),
             PassCount::Auto => all,
         })
     }

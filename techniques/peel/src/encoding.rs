@@ -8,44 +8,23 @@
 
 use oit_scene::{Camera, Projection, Scene};
 
-/// How the stored key is derived from the fragment's window depth `z`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum DepthEncoding {
-    /// `z` itself, or `1 − z` when the key direction differs from the scene's depth direction.
-    Window,
-    /// View distance, linear over the scene's transparent interval `[d_min, d_max]`.
-    Linear,
-    /// `t = ln(d / d_min) / ln(d_max / d_min)`: equal relative depth steps get equal key steps.
-    /// In the `rg16f` path `t` is spread uniformly over the f16 bit patterns ([`half_uniform`]),
-    /// a 1/14336 fixed-point log depth, instead of being rounded to the nearest f16.
-    Log,
+oit_gpu::words! {
+    /// How the stored key is derived from the fragment's window depth `z`.
+    pub enum DepthEncoding {
+        /// `z` itself, or `1 − z` when the key direction differs from the scene's depth
+        /// direction.
+        Window = "window",
+        /// View distance, linear over the scene's transparent interval `[d_min, d_max]`.
+        Linear = "linear",
+        /// `t = ln(d / d_min) / ln(d_max / d_min)`: equal relative depth steps get equal key
+        /// steps. In the `rg16f` path `t` is spread uniformly over the f16 bit patterns
+        /// ([`half_uniform`]), a 1/14336 fixed-point log depth, instead of being rounded to the
+        /// nearest f16.
+        Log = "log",
+    }
 }
 
 impl DepthEncoding {
-    pub const NAMES: &'static [&'static str] = &["window", "linear", "log"];
-    pub const ALL: [DepthEncoding; 3] = [
-        DepthEncoding::Window,
-        DepthEncoding::Linear,
-        DepthEncoding::Log,
-    ];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            DepthEncoding::Window => "window",
-            DepthEncoding::Linear => "linear",
-            DepthEncoding::Log => "log",
-        }
-    }
-
-    pub fn parse(s: &str) -> Option<Self> {
-        match s {
-            "window" => Some(DepthEncoding::Window),
-            "linear" => Some(DepthEncoding::Linear),
-            "log" => Some(DepthEncoding::Log),
-            _ => None,
-        }
-    }
-
     /// The shader's `ENCODING` override value.
     pub fn index(self) -> u32 {
         match self {
@@ -299,7 +278,7 @@ mod tests {
             log_span: 100f32.ln(),
             width: 1,
         };
-        for encoding in DepthEncoding::ALL {
+        for &encoding in DepthEncoding::ALL {
             for reverse in [false, true] {
                 let keys: Vec<f32> = [1.0f32, 2.0, 10.0, 50.0, 100.0]
                     .iter()

@@ -665,7 +665,7 @@ impl Technique for FrontPeel {
         let mut counters: Option<Counters> = None;
         if gated {
             let initial = match config.layers {
-                PassCount::Fixed(n) => n.min(gpu::FIXED_FIRST),
+                PassCount::Fixed(n) => n.get().min(gpu::FIXED_FIRST),
                 PassCount::Auto => 8,
             };
             let mut end = self.budget.first(scene.id, initial, max);
@@ -788,7 +788,7 @@ impl Technique for FrontPeel {
     fn planned_passes(&self, depth_complexity: u32) -> Option<u32> {
         let all = depth_complexity.saturating_add(1);
         Some(match self.config.layers {
-            PassCount::Fixed(n) => n.min(all).saturating_add(u32::from(n < all)),
+            PassCount::Fixed(n) => n.get().min(all).saturating_add(u32::from(n.get() < all)),
             PassCount::Auto => all,
         })
     }

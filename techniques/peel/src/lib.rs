@@ -28,7 +28,7 @@ mod encoding;
 mod front;
 mod gpu;
 
-pub use config::{DepthFormat, DualPeelConfig, FrontPeelConfig, PassCount, Tail};
+pub use config::{DepthFormat, DualPeelConfig, FrontPeelConfig, PassCount, Passes, ReverseZ, Tail};
 pub use dual::DualPeel;
 pub use encoding::{DepthEncoding, KeyParams, f16_round, half_uniform, peel_key};
 pub use front::FrontPeel;
@@ -53,7 +53,7 @@ pub const SHADERS: oit_gpu::shaders::Library = &[
 /// This crate's `shaders/` folder.
 pub const SHADER_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/shaders");
 
-use oit_gpu::{Allowed, Caps, ParamInfo, TechniqueInfo};
+use oit_gpu::{Caps, TechniqueInfo};
 
 /// Most `front-peel` layers on this adapter (`auto` and `layers=N`): one pass slot per layer.
 pub fn max_front_layers(caps: &Caps) -> u32 {
@@ -72,57 +72,13 @@ pub fn techniques() -> Vec<TechniqueInfo> {
         TechniqueInfo {
             name: "front-peel",
             description: "front-to-back depth peeling (Everitt 2001): one layer per geometry pass, exact up to the layer budget; auto stops after the first empty pass",
-            params: vec![ParamInfo {
-                key: "layers",
-                description: "layers to peel (one geometry pass each), or auto: until a pass finds nothing (GPU-gated indirect draws). No fixed cap: per-layer counters and pass indices grow with the frame, bounded only by the adapter (8 counter bytes per layer within max_storage_buffer_binding_size, one pass-index slot per layer within max_buffer_size; lavapipe: 16777215 layers, set by its 128 MiB storage binding size); a larger N is reported as unsupported there",
-                default: "auto",
-                allowed: Allowed::Integer {
-                    min: 1,
-                    max: u32::MAX as u64,
-                    words: &["auto"],
-                },
-            }],
+            params: FrontPeelConfig::params(),
             build: |spec| Ok(Box::new(FrontPeel::from_spec(spec)?)),
         },
         TechniqueInfo {
             name: "dual-peel",
             description: "dual depth peeling (Bavoil & Myers 2008): nearest and farthest layer per pass from a MAX-blended (-min, max) range; range test before shading, coverage-only init pass",
-            params: vec![
-                ParamInfo {
-                    key: "passes",
-                    description: "peel passes after the init pass (2 layers each; Babylon's default is 5), or auto: exactly ceil(L/2), GPU-gated. No fixed cap: per-pass counters and pass indices grow with the frame, bounded only by the adapter (8 counter bytes per pass within max_storage_buffer_binding_size, one pass-index slot per pass within max_buffer_size; lavapipe: 16777214 passes, set by its 128 MiB storage binding size); a larger N is reported as unsupported there",
-                    default: "5",
-                    allowed: Allowed::Integer {
-                        min: 1,
-                        max: u32::MAX as u64,
-                        words: &["auto"],
-                    },
-                },
-                ParamInfo {
-                    key: "depth",
-                    description: "range target format: rg32f needs blendable 32-bit float targets; auto picks rg32f where the adapter can blend it, else rg16f (keys rounded to f16)",
-                    default: "auto",
-                    allowed: Allowed::Values(DepthFormat::NAMES),
-                },
-                ParamInfo {
-                    key: "reverse-z",
-                    description: "stored key grows toward the viewer (independent of the scene's own depth buffer)",
-                    default: "on",
-                    allowed: Allowed::Values(&["on", "off"]),
-                },
-                ParamInfo {
-                    key: "tail",
-                    description: "layers left after the last pass: drop them, or composite them with weighted blended OIT",
-                    default: "drop",
-                    allowed: Allowed::Values(Tail::NAMES),
-                },
-                ParamInfo {
-                    key: "encoding",
-                    description: "stored key: window depth, or linear / logarithmic view distance over the scene's transparent depth interval",
-                    default: "window",
-                    allowed: Allowed::Values(DepthEncoding::NAMES),
-                },
-            ],
+            params: DualPeelConfig::params(),
             build: |spec| Ok(Box::new(DualPeel::from_spec(spec)?)),
         },
     ]

@@ -57,13 +57,16 @@ mod tests {
             let t = (info.build)(&info.default_spec()).unwrap();
             assert_eq!(t.spec().to_string(), info.name);
         }
-        let mut spec = TechniqueSpec::parse("unsorted", &techniques()).unwrap();
-        spec.params.insert("layers".into(), "3".into());
+        // A parameter these techniques do not have, set by hand with a declaration of its own.
+        const LAYERS: oit_gpu::Param<oit_gpu::Bounded<1, 8>> = oit_gpu::Param::new(
+            "layers",
+            oit_gpu::Bounded::of(3),
+            "not a parameter of unsorted",
+        );
+        let spec = TechniqueSpec::of("unsorted").with(&LAYERS, oit_gpu::Bounded::of(3));
         let e = Blended::from_spec(&spec).unwrap_err();
         assert!(matches!(e, SpecError::UnknownKey { .. }), "{e}");
-        spec.params.clear();
-        spec.name = "wboit".into();
-        let e = Blended::from_spec(&spec).unwrap_err();
+        let e = Blended::from_spec(&TechniqueSpec::of("wboit")).unwrap_err();
         assert!(
             matches!(e, SpecError::WrongTechnique { .. }) && e.to_string().contains("cull-split"),
             "{e}"

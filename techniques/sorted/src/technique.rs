@@ -126,15 +126,15 @@ impl Blended {
     pub fn from_spec(spec: &TechniqueSpec) -> Result<Self, SpecError> {
         let kind = Kind::ALL
             .into_iter()
-            .find(|k| k.name() == spec.name)
+            .find(|k| k.name() == spec.name())
             .ok_or_else(|| SpecError::WrongTechnique {
                 spec: spec.to_string(),
                 expected: Kind::ALL.map(Kind::name).join(" or "),
             })?;
-        if let Some(key) = spec.params.keys().next() {
+        if let Some(key) = spec.params().keys().next() {
             return Err(SpecError::UnknownKey {
                 spec: spec.to_string(),
-                name: spec.name.clone(),
+                name: spec.name().to_owned(),
                 key: key.clone(),
                 keys: "(none)".to_owned(),
             });
@@ -326,10 +326,7 @@ fn load_depth(targets: &Targets) -> Option<wgpu::RenderPassDepthStencilAttachmen
 
 impl Technique for Blended {
     fn spec(&self) -> TechniqueSpec {
-        TechniqueSpec {
-            name: self.kind.name().to_owned(),
-            params: Default::default(),
-        }
+        TechniqueSpec::of(self.kind.name())
     }
 
     fn check(&self, caps: &Caps) -> Result<(), Unsupported> {

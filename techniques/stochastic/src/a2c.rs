@@ -12,7 +12,7 @@
 //! the resolve blends across the edge (anti-aliasing the reference does not have). Opaque
 //! edges come from the single-sample pass and stay aliased exactly as in the reference.
 
-use crate::config::A2cConfig;
+use crate::config::{A2cConfig, Samples};
 use crate::gpu;
 use oit_gpu::pass;
 use oit_gpu::wgpu;
@@ -198,12 +198,12 @@ impl Technique for AlphaToCoverage {
         caps.require_scene_materials()?;
         // Caps only records 4x; the exact test for the target's format runs in `render`.
         let depth = caps.format(wgpu::TextureFormat::Depth32Float);
-        if config.samples == 4 && !depth.multisample_x4 {
+        if config.samples == Samples::Four && !depth.multisample_x4 {
             return Err(Unsupported::new(
                 "the adapter cannot multisample Depth32Float 4x",
             ));
         }
-        if config.samples == 8 && !caps.adapter_specific_format_features {
+        if config.samples == Samples::Eight && !caps.adapter_specific_format_features {
             return Err(Unsupported::new(
                 "8x MSAA needs TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES (WebGPU guarantees only 4x)",
             ));
@@ -219,7 +219,7 @@ impl Technique for AlphaToCoverage {
         timer: &mut GpuTimer,
     ) -> Result<RenderStats, GpuError> {
         let config = self.config;
-        self.prepare(ctx, scene, targets, config.samples)?;
+        self.prepare(ctx, scene, targets, config.samples.count())?;
         let r = self.gpu.as_ref().expect("resources prepared above");
         let seed_group = r.seed.bind_group(ctx, targets);
         let mut encoder = ctx.device.create_command_encoder(&Default::default());

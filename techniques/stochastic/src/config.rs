@@ -1,65 +1,35 @@
 //! Parameters of the two techniques, read from a validated [`TechniqueSpec`].
 
-use oit_gpu::{Allowed, ParamInfo, SpecError, TechniqueSpec};
+use oit_gpu::{Bounded, Param, ParamInfo, SpecError, TechniqueSpec};
 
-/// Where a fragment's survival threshold comes from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Pattern {
-    /// A fresh hash per pixel, seed and frame: independent thresholds, the textbook estimator.
-    White,
-    /// The project's 64×64 void-and-cluster blue-noise tile.
-    Blue,
-    /// 4×4 ordered dither (17 coverage levels).
-    Bayer4,
-    /// 8×8 ordered dither (65 coverage levels).
-    Bayer8,
-    /// 16×16 ordered dither (257 coverage levels).
-    Bayer16,
-    /// 32×32 ordered dither (1025 coverage levels).
-    Bayer32,
-    /// 64×64 ordered dither (4097 coverage levels).
-    Bayer64,
-    /// 128×128 ordered dither (16 385 coverage levels).
-    Bayer128,
-    /// 256×256 ordered dither (65 537 coverage levels).
-    Bayer256,
-    /// Wyman & McGuire 2017 hashed alpha testing on the world position, with the CDF correction.
-    Hashed,
+oit_gpu::words! {
+    /// Where a fragment's survival threshold comes from.
+    pub enum Pattern {
+        /// A fresh hash per pixel, seed and frame: independent thresholds, the textbook estimator.
+        White = "white",
+        /// The project's 64×64 void-and-cluster blue-noise tile.
+        Blue = "blue",
+        /// 4×4 ordered dither (17 coverage levels).
+        Bayer4 = "bayer4",
+        /// 8×8 ordered dither (65 coverage levels).
+        Bayer8 = "bayer8",
+        /// 16×16 ordered dither (257 coverage levels).
+        Bayer16 = "bayer16",
+        /// 32×32 ordered dither (1025 coverage levels).
+        Bayer32 = "bayer32",
+        /// 64×64 ordered dither (4097 coverage levels).
+        Bayer64 = "bayer64",
+        /// 128×128 ordered dither (16 385 coverage levels).
+        Bayer128 = "bayer128",
+        /// 256×256 ordered dither (65 537 coverage levels).
+        Bayer256 = "bayer256",
+        /// Wyman & McGuire 2017 hashed alpha testing on the world position, with the CDF
+        /// correction.
+        Hashed = "hashed",
+    }
 }
 
 impl Pattern {
-    pub const ALL: [Pattern; 10] = [
-        Pattern::White,
-        Pattern::Blue,
-        Pattern::Bayer4,
-        Pattern::Bayer8,
-        Pattern::Bayer16,
-        Pattern::Bayer32,
-        Pattern::Bayer64,
-        Pattern::Bayer128,
-        Pattern::Bayer256,
-        Pattern::Hashed,
-    ];
-    pub const NAMES: &'static [&'static str] = &[
-        "white", "blue", "bayer4", "bayer8", "bayer16", "bayer32", "bayer64", "bayer128",
-        "bayer256", "hashed",
-    ];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Pattern::White => "white",
-            Pattern::Blue => "blue",
-            Pattern::Bayer4 => "bayer4",
-            Pattern::Bayer8 => "bayer8",
-            Pattern::Bayer16 => "bayer16",
-            Pattern::Bayer32 => "bayer32",
-            Pattern::Bayer64 => "bayer64",
-            Pattern::Bayer128 => "bayer128",
-            Pattern::Bayer256 => "bayer256",
-            Pattern::Hashed => "hashed",
-        }
-    }
-
     /// Side of the Bayer matrix (`None` for the other patterns).
     pub fn bayer_side(self) -> Option<u32> {
         match self {
@@ -92,27 +62,16 @@ impl Pattern {
     }
 }
 
-/// How the pattern is decorrelated between layers.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Seed {
-    /// No offset: every layer sees the same screen-fixed pattern (the classic screen door,
-    /// kept to show the correlation failure).
-    None,
-    /// One offset per draw, from its stable id.
-    Object,
-    /// One offset per triangle (draw id and triangle).
-    Primitive,
-}
-
-impl Seed {
-    pub const NAMES: &'static [&'static str] = &["object", "primitive", "none"];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Seed::None => "none",
-            Seed::Object => "object",
-            Seed::Primitive => "primitive",
-        }
+oit_gpu::words! {
+    /// How the pattern is decorrelated between layers.
+    pub enum Seed {
+        /// One offset per draw, from its stable id.
+        Object = "object",
+        /// One offset per triangle (draw id and triangle).
+        Primitive = "primitive",
+        /// No offset: every layer sees the same screen-fixed pattern (the classic screen door,
+        /// kept to show the correlation failure).
+        None = "none",
     }
 }
 
@@ -120,101 +79,101 @@ impl Seed {
 /// samples are 256 passes a frame, where the noise (∝ 1/√spp) is 1/11 of one sample's.
 pub const MAX_SPP: u64 = 128;
 
+/// Frames averaged per image, `1..=MAX_SPP`.
+pub type Spp = Bounded<1, { MAX_SPP as u32 }>;
+
 /// `stochastic:pattern=…,seed=…,spp=N`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct StochasticConfig {
     pub pattern: Pattern,
     pub seed: Seed,
     /// Frames averaged (each with its own pattern shift).
-    pub spp: u32,
+    pub spp: Spp,
+}
+
+oit_gpu::words! {
+    /// MSAA samples per pixel of `a2c`.
+    pub enum Samples {
+        Four = "4",
+        Eight = "8",
+    }
+}
+
+impl Samples {
+    /// The sample count.
+    pub fn count(self) -> u32 {
+        match self {
+            Samples::Four => 4,
+            Samples::Eight => 8,
+        }
+    }
 }
 
 /// `a2c:samples=4|8`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct A2cConfig {
-    pub samples: u32,
-}
-
-pub(crate) fn stochastic_params() -> Vec<ParamInfo> {
-    vec![
-        ParamInfo {
-            key: "pattern",
-            description: "threshold pattern: white noise, 64x64 void-and-cluster blue noise, Bayer 4x4 to 256x256, or hashed alpha (Wyman & McGuire 2017)",
-            default: "blue",
-            allowed: Allowed::Values(Pattern::NAMES),
-        },
-        ParamInfo {
-            key: "seed",
-            description: "pattern offset per object (draw id), per primitive (draw id and triangle), or none (same pattern on every layer)",
-            default: "object",
-            allowed: Allowed::Values(Seed::NAMES),
-        },
-        ParamInfo {
-            key: "spp",
-            description: "frames averaged, each with an R2 tile shift and golden-ratio rotation (tiled) or a fresh hash (white, hashed)",
-            default: "1",
-            allowed: Allowed::Integer {
-                min: 1,
-                max: MAX_SPP,
-                words: &[],
-            },
-        },
-    ]
-}
-
-pub(crate) fn a2c_params() -> Vec<ParamInfo> {
-    vec![ParamInfo {
-        key: "samples",
-        description: "MSAA samples per pixel (the adapter must support the count for the colour and depth formats)",
-        default: "4",
-        allowed: Allowed::Values(&["4", "8"]),
-    }]
+    pub samples: Samples,
 }
 
 impl StochasticConfig {
+    pub const PATTERN: Param<Pattern> = Param::new(
+        "pattern",
+        Pattern::Blue,
+        "threshold pattern: white noise, 64x64 void-and-cluster blue noise, Bayer 4x4 to 256x256, or hashed alpha (Wyman & McGuire 2017)",
+    );
+    pub const SEED: Param<Seed> = Param::new(
+        "seed",
+        Seed::Object,
+        "pattern offset per object (draw id), per primitive (draw id and triangle), or none (same pattern on every layer)",
+    );
+    pub const SPP: Param<Spp> = Param::new(
+        "spp",
+        Spp::of(1),
+        "frames averaged, each with an R2 tile shift and golden-ratio rotation (tiled) or a fresh hash (white, hashed)",
+    );
+
+    /// The registry's view of the parameters.
+    pub fn params() -> Vec<ParamInfo> {
+        vec![Self::PATTERN.info(), Self::SEED.info(), Self::SPP.info()]
+    }
+
     pub fn from_spec(spec: &TechniqueSpec) -> Result<Self, SpecError> {
         spec.expect_name("stochastic")?;
-        let pattern = spec.word("pattern", Pattern::NAMES, |p| {
-            Pattern::ALL.into_iter().find(|x| x.name() == p)
-        })?;
-        let seed = spec.word("seed", Seed::NAMES, |s| match s {
-            "none" => Some(Seed::None),
-            "primitive" => Some(Seed::Primitive),
-            "object" => Some(Seed::Object),
-            _ => None,
-        })?;
-        let spp = spec.integer("spp", 1, MAX_SPP)? as u32;
-        Ok(StochasticConfig { pattern, seed, spp })
+        Ok(StochasticConfig {
+            pattern: Self::PATTERN.read(spec)?,
+            seed: Self::SEED.read(spec)?,
+            spp: Self::SPP.read(spec)?,
+        })
     }
 
     pub fn spec(&self) -> TechniqueSpec {
-        TechniqueSpec {
-            name: "stochastic".into(),
-            params: [
-                ("pattern", self.pattern.name().to_owned()),
-                ("seed", self.seed.name().to_owned()),
-                ("spp", self.spp.to_string()),
-            ]
-            .into_iter()
-            .map(|(k, v)| (k.to_owned(), v))
-            .collect(),
-        }
+        TechniqueSpec::of("stochastic")
+            .with(&Self::PATTERN, self.pattern)
+            .with(&Self::SEED, self.seed)
+            .with(&Self::SPP, self.spp)
     }
 }
 
 impl A2cConfig {
+    pub const SAMPLES: Param<Samples> = Param::new(
+        "samples",
+        Samples::Four,
+        "MSAA samples per pixel (the adapter must support the count for the colour and depth formats)",
+    );
+
+    /// The registry's view of the parameters.
+    pub fn params() -> Vec<ParamInfo> {
+        vec![Self::SAMPLES.info()]
+    }
+
     pub fn from_spec(spec: &TechniqueSpec) -> Result<Self, SpecError> {
         spec.expect_name("a2c")?;
-        let samples = spec.word("samples", &["4", "8"], |s| s.parse().ok())?;
-        Ok(A2cConfig { samples })
+        Ok(A2cConfig {
+            samples: Self::SAMPLES.read(spec)?,
+        })
     }
 
     pub fn spec(&self) -> TechniqueSpec {
-        TechniqueSpec {
-            name: "a2c".into(),
-            params: [("samples".to_owned(), self.samples.to_string())]
-                .into_iter()
-                .collect(),
-        }
+        TechniqueSpec::of("a2c").with(&Self::SAMPLES, self.samples)
     }
 }

@@ -29,7 +29,7 @@ pub mod pattern;
 mod stochastic;
 
 pub use a2c::AlphaToCoverage;
-pub use config::{A2cConfig, MAX_SPP, Pattern, Seed, StochasticConfig};
+pub use config::{A2cConfig, MAX_SPP, Pattern, Samples, Seed, Spp, StochasticConfig};
 pub use gpu::dither_order;
 pub use stochastic::{DITHER_WGSL, Stochastic, dither_words};
 
@@ -54,13 +54,13 @@ pub fn techniques() -> Vec<TechniqueInfo> {
         TechniqueInfo {
             name: "stochastic",
             description: "dithered alpha test: fragments survive when alpha exceeds a white/blue-noise/Bayer/hashed threshold and are written opaque with depth; spp frames averaged",
-            params: config::stochastic_params(),
+            params: StochasticConfig::params(),
             build: |s| Ok(Box::new(Stochastic::from_spec(s)?)),
         },
         TechniqueInfo {
             name: "a2c",
             description: "MSAA alpha-to-coverage: opaque writes with depth, alpha turned into a sample mask by the driver, samples resolved",
-            params: config::a2c_params(),
+            params: A2cConfig::params(),
             build: |s| Ok(Box::new(AlphaToCoverage::from_spec(s)?)),
         },
     ]
@@ -107,7 +107,7 @@ mod tests {
             StochasticConfig {
                 pattern: Pattern::Bayer8,
                 seed: Seed::None,
-                spp: 7
+                spp: Spp::of(7)
             }
         );
         assert_eq!(StochasticConfig::from_spec(&c.spec()).unwrap(), c);
@@ -115,24 +115,24 @@ mod tests {
 
     #[test]
     fn tiles_are_powers_of_two() {
-        for p in Pattern::ALL {
+        for &p in Pattern::ALL {
             if let Some(t) = p.tile() {
                 assert!(t.is_power_of_two(), "{}: tile {t}", p.name());
                 // The seed shifts the tile by 16 bits in x and 16 in y.
                 assert!(t <= 1 << 16, "{}: tile {t}", p.name());
             }
-            assert_eq!(Pattern::NAMES.iter().filter(|&&n| n == p.name()).count(), 1);
+            assert_eq!(Pattern::WORDS.iter().filter(|&&n| n == p.name()).count(), 1);
             if let Some(side) = p.bayer_side() {
                 assert_eq!(p.name(), format!("bayer{side}"));
             }
         }
-        assert_eq!(Pattern::ALL.len(), Pattern::NAMES.len());
+        assert_eq!(Pattern::ALL.len(), Pattern::WORDS.len());
     }
 
     #[test]
     fn every_pattern_parses_and_sizes_its_table() {
         let reg = techniques();
-        for p in Pattern::ALL {
+        for &p in Pattern::ALL {
             let spec =
                 TechniqueSpec::parse(&format!("stochastic:pattern={}", p.name()), &reg).unwrap();
             let c = StochasticConfig::from_spec(&spec).unwrap();
@@ -147,29 +147,20 @@ mod tests {
         assert_eq!(Pattern::Bayer256.table_bytes(), 256 * 1024);
     }
 
+    /// A spec built by hand without a parameter, or of another technique, is refused at
+    /// construction with the key and what is allowed (values out of range cannot be written
+    /// into a spec at all: its parameters are private and typed).
     #[test]
-    fn hand_built_bad_specs_are_errors_not_panics() {
-        let mut spec = TechniqueSpec::parse("stochastic", &techniques()).unwrap();
-        spec.params.insert("spp".into(), "0".into());
-        let e = StochasticConfig::from_spec(&spec).unwrap_err();
-        assert!(
-            e.to_string().contains("spp") && e.to_string().contains("1..=128"),
-            "{e}"
-        );
-        // The technique is refused at construction, not built to fail later.
-        let e = Stochastic::from_spec(&spec).unwrap_err();
-        assert!(e.to_string().contains("spp"), "{e}");
-        spec.params.remove("seed");
-        spec.params.insert("spp".into(), "3".into());
-        let e = Stochastic::from_spec(&spec).unwrap_err();
+    fn hand_built_specs_without_a_parameter_are_errors_not_panics() {
+        let partial = TechniqueSpec::of("stochastic")
+            .with(&StochasticConfig::PATTERN, Pattern::Blue)
+            .with(&StochasticConfig::SPP, Spp::of(3));
+        let e = Stochastic::from_spec(&partial).unwrap_err();
         assert!(
             matches!(&e, SpecError::Missing { key, .. } if key == "seed"),
             "{e}"
         );
-        let wrong = TechniqueSpec {
-            name: "a2c".into(),
-            params: Default::default(),
-        };
+        let wrong = TechniqueSpec::of("a2c");
         assert!(matches!(
             StochasticConfig::from_spec(&wrong),
             Err(SpecError::WrongTechnique { .. })

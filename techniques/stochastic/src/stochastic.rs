@@ -117,8 +117,8 @@ impl Stochastic {
 
     /// The per-frame uniform entries (`struct Dither` at `stride`-byte offsets).
     fn dither_uniforms(config: &StochasticConfig, stride: u64) -> Vec<u8> {
-        let mut bytes = vec![0u8; (stride * u64::from(config.spp)) as usize];
-        for k in 0..config.spp {
+        let mut bytes = vec![0u8; (stride * u64::from(config.spp.get())) as usize];
+        for k in 0..config.spp.get() {
             let words = dither_words(config, k);
             let start = (stride * u64::from(k)) as usize;
             bytes[start..start + 32].copy_from_slice(bytemuck::cast_slice(&words));
@@ -250,9 +250,13 @@ impl Stochastic {
                 dither_pipelines("stochastic dither blue", wgpu::ColorWrites::BLUE, 2),
             ]
         });
-        let frames = if config.spp > 1 || coloured {
+        let frames = if config.spp.get() > 1 || coloured {
             Some(Self::frame_resources(
-                ctx, ledger, targets, config.spp, sum_format,
+                ctx,
+                ledger,
+                targets,
+                config.spp.get(),
+                sum_format,
             )?)
         } else {
             None
@@ -476,7 +480,7 @@ impl Technique for Stochastic {
                 caps.max_texture_dimension_2d
             )));
         }
-        if config.spp > 1 {
+        if config.spp.get() > 1 {
             caps.require_target(HALF_SUM_FORMAT, false)?;
         }
         Ok(())
@@ -554,7 +558,7 @@ impl Technique for Stochastic {
         };
         let passes_per_frame = if r.channels.is_some() { 3 } else { 1 };
         let stats = RenderStats {
-            geometry_passes: config.spp * passes_per_frame,
+            geometry_passes: config.spp.get() * passes_per_frame,
             ..Default::default()
         };
         let Some(f) = &r.frames else {
@@ -573,7 +577,7 @@ impl Technique for Stochastic {
             return Ok(stats);
         };
         let seed_group = f.seed.bind_group(ctx, targets);
-        for k in 0..config.spp {
+        for k in 0..config.spp.get() {
             let mut encoder = ctx.device.create_command_encoder(&Default::default());
             draw_pass(
                 &mut encoder,
@@ -584,7 +588,7 @@ impl Technique for Stochastic {
                 k,
                 Some((&f.seed, &seed_group)),
             );
-            let last = k + 1 == config.spp;
+            let last = k + 1 == config.spp.get();
             let parity = (k % 2) as usize;
             let (target, pipeline) = if last {
                 (&targets.color_view, &f.to_final)

@@ -32,7 +32,7 @@ pub const SHADERS: oit_gpu::shaders::Library = &[
 /// This crate's `shaders/` folder.
 pub const SHADER_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/shaders");
 
-use oit_gpu::{Allowed, ParamInfo, TechniqueInfo};
+use oit_gpu::TechniqueInfo;
 
 /// The registry entries of this crate.
 pub fn techniques() -> Vec<TechniqueInfo> {
@@ -40,26 +40,7 @@ pub fn techniques() -> Vec<TechniqueInfo> {
         TechniqueInfo {
             name: "wboit",
             description: "weighted blended OIT (McGuire & Bavoil 2013): one accumulation pass and a guarded full-screen composite",
-            params: vec![
-                ParamInfo {
-                    key: "weight",
-                    description: "depth weight: const (1), alpha, the paper's eq7-eq10, mcguire2015 (the 1e8 form), range (ours: estimated transmittance from the scene's transparent depth interval and mean absorbance, fp16-bounded)",
-                    default: "range",
-                    allowed: Allowed::Values(Weight::NAMES),
-                },
-                ParamInfo {
-                    key: "accum",
-                    description: "accumulation format (rgba32f needs FLOAT32_BLENDABLE)",
-                    default: "rgba16f",
-                    allowed: Allowed::Values(tail::AccumFormat::NAMES),
-                },
-                ParamInfo {
-                    key: "reveal",
-                    description: "revealage format (r8 loses alpha < 1/510; r32f needs FLOAT32_BLENDABLE)",
-                    default: "r16f",
-                    allowed: Allowed::Values(tail::RevealFormat::NAMES),
-                },
-            ],
+            params: Config::params(),
             build: |spec| Ok(Box::new(Wboit::new(Config::from_spec(spec)?))),
         },
         TechniqueInfo {
@@ -95,18 +76,18 @@ mod tests {
         );
         let defaults = TechniqueSpec::parse("wboit", &registry).unwrap();
         assert_eq!(Config::from_spec(&defaults), Ok(Config::DEFAULT));
-        // A hand-built spec with a missing or unknown value is refused, not defaulted.
-        let mut bad = defaults.clone();
-        bad.params.insert("weight".into(), "eq11".into());
+        // A hand-built spec with a missing value is refused, not defaulted; one of another
+        // technique is refused.
+        let bad = TechniqueSpec::of("wboit")
+            .with(&Config::ACCUM, tail::AccumFormat::Rgba16f)
+            .with(&Config::REVEAL, tail::RevealFormat::R16f);
         let e = Config::from_spec(&bad).unwrap_err();
         assert!(
             e.to_string().contains("weight") && e.to_string().contains("eq10"),
             "{e}"
         );
-        bad.params.remove("weight");
         assert!((registry[0].build)(&bad).is_err());
-        bad.name = "front-peel".into();
-        assert!(Config::from_spec(&bad).is_err());
+        assert!(Config::from_spec(&TechniqueSpec::of("front-peel")).is_err());
         let t = TechniqueSpec::build("weighted-average", &registry).unwrap();
         assert_eq!(t.spec().to_string(), "weighted-average");
         let e = TechniqueSpec::parse("wboit:weight=eq11", &registry).unwrap_err();

@@ -42,33 +42,17 @@ pub const WGSL: &str = include_str!("../shaders/wboit_tail.wgsl");
 /// The composite pass (shaders/wboit_composite.wgsl).
 pub const COMPOSITE_WGSL: &str = include_str!("../shaders/wboit_composite.wgsl");
 
-/// Accumulation target format: (premultiplied colour · w, α · w), additive.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum AccumFormat {
-    /// Blendable everywhere; overflows at 65504 (hdr-emissive, deep α = 1 stacks).
-    Rgba16f,
-    /// Needs `FLOAT32_BLENDABLE`.
-    Rgba32f,
+oit_gpu::words! {
+    /// Accumulation target format: (premultiplied colour · w, α · w), additive.
+    pub enum AccumFormat {
+        /// Blendable everywhere; overflows at 65504 (hdr-emissive, deep α = 1 stacks).
+        Rgba16f = "rgba16f",
+        /// Needs `FLOAT32_BLENDABLE`.
+        Rgba32f = "rgba32f",
+    }
 }
 
 impl AccumFormat {
-    pub const NAMES: &'static [&'static str] = &["rgba16f", "rgba32f"];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            AccumFormat::Rgba16f => "rgba16f",
-            AccumFormat::Rgba32f => "rgba32f",
-        }
-    }
-
-    pub fn parse(s: &str) -> Option<Self> {
-        match s {
-            "rgba16f" => Some(AccumFormat::Rgba16f),
-            "rgba32f" => Some(AccumFormat::Rgba32f),
-            _ => None,
-        }
-    }
-
     pub fn texture_format(self) -> wgpu::TextureFormat {
         match self {
             AccumFormat::Rgba16f => wgpu::TextureFormat::Rgba16Float,
@@ -85,37 +69,19 @@ impl AccumFormat {
     }
 }
 
-/// Revealage format: Π(1 − α) by (zero, one-minus-src) blending (or the fragment count of the
-/// weighted average, additive).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum RevealFormat {
-    /// 8-bit unorm: each blend rounds to 1/255, so α < 1/510 never moves it.
-    R8,
-    R16f,
-    /// Needs `FLOAT32_BLENDABLE`.
-    R32f,
+oit_gpu::words! {
+    /// Revealage format: Π(1 − α) by (zero, one-minus-src) blending (or the fragment count of
+    /// the weighted average, additive).
+    pub enum RevealFormat {
+        /// 8-bit unorm: each blend rounds to 1/255, so α < 1/510 never moves it.
+        R8 = "r8",
+        R16f = "r16f",
+        /// Needs `FLOAT32_BLENDABLE`.
+        R32f = "r32f",
+    }
 }
 
 impl RevealFormat {
-    pub const NAMES: &'static [&'static str] = &["r8", "r16f", "r32f"];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            RevealFormat::R8 => "r8",
-            RevealFormat::R16f => "r16f",
-            RevealFormat::R32f => "r32f",
-        }
-    }
-
-    pub fn parse(s: &str) -> Option<Self> {
-        match s {
-            "r8" => Some(RevealFormat::R8),
-            "r16f" => Some(RevealFormat::R16f),
-            "r32f" => Some(RevealFormat::R32f),
-            _ => None,
-        }
-    }
-
     pub fn texture_format(self) -> wgpu::TextureFormat {
         match self {
             RevealFormat::R8 => wgpu::TextureFormat::R8Unorm,
@@ -649,10 +615,10 @@ mod tests {
 
     #[test]
     fn formats_and_names() {
-        for n in AccumFormat::NAMES {
+        for n in AccumFormat::WORDS {
             assert_eq!(AccumFormat::parse(n).map(AccumFormat::name), Some(*n));
         }
-        for n in RevealFormat::NAMES {
+        for n in RevealFormat::WORDS {
             assert_eq!(RevealFormat::parse(n).map(RevealFormat::name), Some(*n));
         }
         assert_eq!(AccumFormat::parse("rgba8"), None);

@@ -7,78 +7,47 @@ use crate::tail::{self, AccumFormat, AccumTargets, CompositeMode, RevealFormat};
 use oit_gpu::pass;
 use oit_gpu::wgpu;
 use oit_gpu::{
-    Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, RenderStats, ScenePipelineDesc,
-    ScenePipelines, SpecError, Targets, Technique, TechniqueSpec, TransmissionSupport, Unsupported,
-    depth_test,
+    Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, Param, ParamInfo, RenderStats,
+    ScenePipelineDesc, ScenePipelines, SpecError, Targets, Technique, TechniqueSpec,
+    TransmissionSupport, Unsupported, depth_test,
 };
 
 /// The accumulation pass (shaders/wboit_accum.wgsl; includes common.wgsl and the tail).
 pub const ACCUM_WGSL: &str = include_str!("../shaders/wboit_accum.wgsl");
 
-/// The weight functions. z is the positive view distance, d the conventional window depth
-/// (0 at near, 1 at far; `1 − window z` under reverse-Z), α the fragment's coverage.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Weight {
-    /// w = 1: Eq. 5 of the paper without depth weights.
-    Const,
-    /// w = α (pygfx's default).
-    Alpha,
-    /// Eq. 7: α·clamp(10 / (1e-5 + (z/5)² + (z/200)⁶), 1e-2, 3e3).
-    Eq7,
-    /// Eq. 8: α·clamp(10 / (1e-5 + (z/10)³ + (z/200)⁶), 1e-2, 3e3).
-    Eq8,
-    /// Eq. 9: α·clamp(0.03 / (1e-5 + (z/200)⁴), 1e-2, 3e3).
-    Eq9,
-    /// Eq. 10: α·max(1e-2, 3e3·(1 − d)³).
-    Eq10,
-    /// McGuire 2015: a = 8·min(1, α) + 0.01, b = 1 − 0.95·d, w = clamp(a³·1e8·b³, 1e-2, 3e2).
-    McGuire2015,
-    /// Ours: an estimate of the transmittance in front of the fragment, w = 256·2^(−fall·t),
-    /// t = position of z in the scene's transparent depth interval (0 near end, 1 far end),
-    /// fall = the scene's mean absorbance in bits in front of the farthest fragment where
-    /// fragments overlap, at most 21 and at most what keeps α·w of the scene's faintest layer a
-    /// normal fp16 number ([`RangeParams`], [`crate::range::fall_cap`]). No α factor (the
-    /// transmittance is the exact weight). At most 256: with colour sums in units of the
-    /// scene's colour scale, 255 layers of α = 1 still fit in fp16.
-    Range,
+oit_gpu::words! {
+    /// The weight functions. z is the positive view distance, d the conventional window depth
+    /// (0 at near, 1 at far; `1 − window z` under reverse-Z), α the fragment's coverage.
+    pub enum Weight {
+        /// w = 1: Eq. 5 of the paper without depth weights.
+        Const = "const",
+        /// w = α (pygfx's default).
+        Alpha = "alpha",
+        /// Eq. 7: α·clamp(10 / (1e-5 + (z/5)² + (z/200)⁶), 1e-2, 3e3).
+        Eq7 = "eq7",
+        /// Eq. 8: α·clamp(10 / (1e-5 + (z/10)³ + (z/200)⁶), 1e-2, 3e3).
+        Eq8 = "eq8",
+        /// Eq. 9: α·clamp(0.03 / (1e-5 + (z/200)⁴), 1e-2, 3e3).
+        Eq9 = "eq9",
+        /// Eq. 10: α·max(1e-2, 3e3·(1 − d)³).
+        Eq10 = "eq10",
+        /// McGuire 2015: a = 8·min(1, α) + 0.01, b = 1 − 0.95·d, w = clamp(a³·1e8·b³, 1e-2, 3e2).
+        McGuire2015 = "mcguire2015",
+        /// Ours: an estimate of the transmittance in front of the fragment, w = 256·2^(−fall·t),
+        /// t = position of z in the scene's transparent depth interval (0 near end, 1 far end),
+        /// fall = the scene's mean absorbance in bits in front of the farthest fragment where
+        /// fragments overlap, at most 21 and at most what keeps α·w of the scene's faintest layer a
+        /// normal fp16 number ([`RangeParams`], [`crate::range::fall_cap`]). No α factor (the
+        /// transmittance is the exact weight). At most 256: with colour sums in units of the
+        /// scene's colour scale, 255 layers of α = 1 still fit in fp16.
+        Range = "range",
+}
 }
 
 impl Weight {
-    pub const ALL: [Weight; 8] = [
-        Weight::Const,
-        Weight::Alpha,
-        Weight::Eq7,
-        Weight::Eq8,
-        Weight::Eq9,
-        Weight::Eq10,
-        Weight::McGuire2015,
-        Weight::Range,
-    ];
-    pub const NAMES: &'static [&'static str] = &[
-        "const",
-        "alpha",
-        "eq7",
-        "eq8",
-        "eq9",
-        "eq10",
-        "mcguire2015",
-        "range",
-    ];
-
-    pub fn name(self) -> &'static str {
-        Self::NAMES[self.index() as usize]
-    }
-
     /// The `weight` switch value in the shader.
     pub fn index(self) -> u32 {
         Self::ALL.iter().position(|&w| w == self).unwrap_or(0) as u32
-    }
-
-    pub fn parse(s: &str) -> Option<Self> {
-        Self::NAMES
-            .iter()
-            .position(|&n| n == s)
-            .map(|i| Self::ALL[i])
     }
 
     /// CPU twin of the shader's `weight` (for tests and documentation tables).
@@ -123,10 +92,31 @@ impl Config {
     /// The defaults: `range` (bounded for fp16 on every depth range), `rgba16f` (blendable on
     /// every adapter), `r16f` (keeps α = 1/512 layers that R8 drops).
     pub const DEFAULT: Config = Config::Weighted {
-        weight: Weight::Range,
-        accum: tail::DEFAULT_ACCUM,
-        reveal: tail::DEFAULT_REVEAL,
+        weight: Self::WEIGHT.default,
+        accum: Self::ACCUM.default,
+        reveal: Self::REVEAL.default,
     };
+
+    pub const WEIGHT: Param<Weight> = Param::new(
+        "weight",
+        Weight::Range,
+        "depth weight: const (1), alpha, the paper's eq7-eq10, mcguire2015 (the 1e8 form), range (ours: estimated transmittance from the scene's transparent depth interval and mean absorbance, fp16-bounded)",
+    );
+    pub const ACCUM: Param<AccumFormat> = Param::new(
+        "accum",
+        tail::DEFAULT_ACCUM,
+        "accumulation format (rgba32f needs FLOAT32_BLENDABLE)",
+    );
+    pub const REVEAL: Param<RevealFormat> = Param::new(
+        "reveal",
+        tail::DEFAULT_REVEAL,
+        "revealage format (r8 loses alpha < 1/510; r32f needs FLOAT32_BLENDABLE)",
+    );
+
+    /// The registry's view of `wboit`'s parameters (`weighted-average` has none).
+    pub fn params() -> Vec<ParamInfo> {
+        vec![Self::WEIGHT.info(), Self::ACCUM.info(), Self::REVEAL.info()]
+    }
 
     pub fn spec(&self) -> TechniqueSpec {
         match *self {
@@ -134,34 +124,24 @@ impl Config {
                 weight,
                 accum,
                 reveal,
-            } => TechniqueSpec {
-                name: "wboit".to_owned(),
-                params: [
-                    ("accum", accum.name()),
-                    ("reveal", reveal.name()),
-                    ("weight", weight.name()),
-                ]
-                .into_iter()
-                .map(|(k, v)| (k.to_owned(), v.to_owned()))
-                .collect(),
-            },
-            Config::Average => TechniqueSpec {
-                name: "weighted-average".to_owned(),
-                params: Default::default(),
-            },
+            } => TechniqueSpec::of("wboit")
+                .with(&Self::WEIGHT, weight)
+                .with(&Self::ACCUM, accum)
+                .with(&Self::REVEAL, reveal),
+            Config::Average => TechniqueSpec::of("weighted-average"),
         }
     }
 
     /// Refuses a spec that is neither `wboit` with every parameter nor `weighted-average`.
     pub fn from_spec(spec: &TechniqueSpec) -> Result<Config, SpecError> {
-        if spec.name == "weighted-average" {
+        if spec.name() == "weighted-average" {
             return Ok(Config::Average);
         }
         spec.expect_name("wboit")?;
         Ok(Config::Weighted {
-            weight: spec.word("weight", Weight::NAMES, Weight::parse)?,
-            accum: spec.word("accum", AccumFormat::NAMES, AccumFormat::parse)?,
-            reveal: spec.word("reveal", RevealFormat::NAMES, RevealFormat::parse)?,
+            weight: Self::WEIGHT.read(spec)?,
+            accum: Self::ACCUM.read(spec)?,
+            reveal: Self::REVEAL.read(spec)?,
         })
     }
 

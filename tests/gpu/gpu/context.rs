@@ -31,10 +31,7 @@ struct OpaqueOnly;
 
 impl Technique for OpaqueOnly {
     fn spec(&self) -> TechniqueSpec {
-        TechniqueSpec {
-            name: "opaque-only".into(),
-            params: Default::default(),
-        }
+        TechniqueSpec::of("opaque-only")
     }
     fn check(&self, _: &Caps) -> Result<(), Unsupported> {
         Ok(())

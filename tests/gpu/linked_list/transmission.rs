@@ -99,8 +99,12 @@ fn rgb_opacity_nodes_equal_the_reference_up_to_their_precision_in_both_draw_orde
         let reference = oit_reference::render(&scene, &Default::default());
         let pixels = RES.pixel_count() as u64;
         let config = LinkedListConfig {
-            nodes_per_pixel: reference.stats.transparent_fragments.div_ceil(pixels) as u32 + 1,
-            sort_max: reference.stats.max_depth_complexity,
+            nodes_per_pixel: oit_linked_list::NodesPerPixel::new(
+                reference.stats.transparent_fragments.div_ceil(pixels) as u32 + 1,
+            )
+            .expect("in 1..=1024"),
+            sort_max: oit_linked_list::SortMax::new(reference.stats.max_depth_complexity)
+                .expect("in 1..=128"),
             node: format,
             tail: TailRule::Drop,
         };
@@ -205,8 +209,8 @@ fn the_per_channel_resolve_matches_its_cpu_twin() {
                 node::resolve(format, true, &nodes, sort_max, tail == TailRule::Average);
             let expect: Vec<f32> = (0..3).map(|i| c[i] + t[i] * background[i]).collect();
             let mut list = LinkedList::new(LinkedListConfig {
-                nodes_per_pixel: 4,
-                sort_max: sort_max as u32,
+                nodes_per_pixel: oit_linked_list::NodesPerPixel::of(4),
+                sort_max: oit_linked_list::SortMax::new(sort_max as u32).expect("in 1..=128"),
                 node: format,
                 tail,
             });
@@ -274,7 +278,7 @@ fn kbuffer_opacity_slots_equal_the_reference_up_to_their_packing_in_both_draw_or
         let scene = scene(name);
         let reference = oit_reference::render(&scene, &Default::default());
         let config = KBufferConfig {
-            k: reference.stats.max_depth_complexity,
+            k: oit_linked_list::K::new(reference.stats.max_depth_complexity).expect("in 1..=32"),
             tail: TailRule::Drop,
         };
         let mut kb = KBuffer::new(config);
@@ -350,7 +354,10 @@ fn the_kbuffer_per_channel_resolve_matches_its_cpu_twin() {
         (1, TailRule::Drop),
     ] {
         let (c, t) = kbuffer::resolve_transmit(&slots, k as usize, tail);
-        let mut kb = KBuffer::new(KBufferConfig { k, tail });
+        let mut kb = KBuffer::new(KBufferConfig {
+            k: oit_linked_list::K::of(k),
+            tail,
+        });
         let image = render(&ctx, &scene, &mut kb);
         let got = image.pixels[image.pixels.len() / 2];
         for i in 0..3 {

@@ -21,7 +21,10 @@ fn all_configs() -> Vec<Config> {
     let mut out = Vec::new();
     for storage in [Storage::F32, Storage::F16] {
         for moments in MomentKind::ALL {
-            out.push(Config { moments, storage });
+            out.push(Config {
+                moments: *moments,
+                storage,
+            });
         }
     }
     out

@@ -10,24 +10,22 @@ use oit_opaque_copy::OpaqueCopy;
 use oit_scene::{LinearImage, Scene};
 use std::time::Instant;
 
-fn spec(name: &str, params: &[(&str, &str)]) -> TechniqueSpec {
-    TechniqueSpec {
-        name: name.to_owned(),
-        params: params
-            .iter()
-            .map(|(k, v)| (k.to_string(), v.to_string()))
-            .collect(),
-    }
-}
+/// A parameter opaque-copy does not have, declared here to set it by hand.
+const SPP: oit_gpu::Param<oit_gpu::Bounded<1, 128>> = oit_gpu::Param::new(
+    "spp",
+    oit_gpu::Bounded::of(1),
+    "not a parameter of opaque-copy",
+);
 
 #[test]
 fn from_spec_refuses_another_name_and_any_parameter() {
-    assert!(OpaqueCopy::from_spec(&spec("opaque-copy", &[])).is_ok());
+    assert!(OpaqueCopy::from_spec(&TechniqueSpec::of("opaque-copy")).is_ok());
     assert!(matches!(
-        OpaqueCopy::from_spec(&spec("wboit", &[])),
+        OpaqueCopy::from_spec(&TechniqueSpec::of("wboit")),
         Err(SpecError::WrongTechnique { .. })
     ));
-    let e = OpaqueCopy::from_spec(&spec("opaque-copy", &[("spp", "4")])).unwrap_err();
+    let with_spp = TechniqueSpec::of("opaque-copy").with(&SPP, oit_gpu::Bounded::of(4));
+    let e = OpaqueCopy::from_spec(&with_spp).unwrap_err();
     assert!(
         matches!(e, SpecError::UnknownKey { ref key, .. } if key == "spp"),
         "{e}"

@@ -82,7 +82,7 @@ fn depth_range_encodings() {
     const SEPARATED: f64 = 4e-3;
 
     // RG32F: exact for every encoding and direction.
-    for encoding in DepthEncoding::ALL {
+    for &encoding in DepthEncoding::ALL {
         for reverse in [true, false] {
             let mut t = DualPeel::new(config(DepthFormat::Rg32f, encoding, reverse));
             let (image, _) = render(&ctx, &scene, &mut t);
@@ -102,7 +102,7 @@ fn depth_range_encodings() {
     );
     let mut rmse = std::collections::BTreeMap::new();
     let mut separated = std::collections::BTreeMap::new();
-    for encoding in DepthEncoding::ALL {
+    for &encoding in DepthEncoding::ALL {
         for reverse in [true, false] {
             let mut t = DualPeel::new(config(DepthFormat::Rg16f, encoding, reverse));
             let (image, _) = render(&ctx, &scene, &mut t);

@@ -180,10 +180,22 @@ fn fixed_passes_peel_exactly_2n_layers_and_the_wboit_tail_beats_dropping() {
     let gpu = GpuScene::upload(&ctx, &scene).expect("upload");
     let mut previous = f64::INFINITY;
     for n in [1u32, 2, 4, 8, 16, 32] {
-        let (image, stats) =
-            render_uploaded(&ctx, &gpu, &mut dual(PassCount::Fixed(n), Tail::Drop));
-        let (tail_image, tail_stats) =
-            render_uploaded(&ctx, &gpu, &mut dual(PassCount::Fixed(n), Tail::Wboit));
+        let (image, stats) = render_uploaded(
+            &ctx,
+            &gpu,
+            &mut dual(
+                PassCount::Fixed(oit_peel::Passes::new(n).expect("at least one pass")),
+                Tail::Drop,
+            ),
+        );
+        let (tail_image, tail_stats) = render_uploaded(
+            &ctx,
+            &gpu,
+            &mut dual(
+                PassCount::Fixed(oit_peel::Passes::new(n).expect("at least one pass")),
+                Tail::Wboit,
+            ),
+        );
         let e = errors(&image, &reference.image);
         let et = errors(&tail_image, &reference.image);
         let expected_peeled: u64 = reference
@@ -252,7 +264,7 @@ fn front_peel_fixed_layers_count_what_they_drop() {
     let mut previous = f64::INFINITY;
     for n in [1u32, 4, 16] {
         let mut t = FrontPeel::new(FrontPeelConfig {
-            layers: PassCount::Fixed(n),
+            layers: PassCount::Fixed(oit_peel::Passes::new(n).expect("at least one pass")),
         });
         let (image, stats) = render(&ctx, &scene, &mut t);
         let e = errors(&image, &reference.image);

@@ -100,7 +100,7 @@ fn tiled_threshold_on_the_gpu_equals_its_cpu_twin_bit_for_bit() {
                 let config = StochasticConfig {
                     pattern,
                     seed: seed_mode,
-                    spp: frame + 1,
+                    spp: oit_stochastic::Spp::of(frame + 1),
                 };
                 let words = dither_words(&config, frame);
                 let uniform = uniform_buffer(&ctx, bytemuck::cast_slice(&words));

@@ -42,7 +42,7 @@ fn all_configs(ctx: &Context) -> (Vec<Config>, Vec<(Config, String)>) {
     let mut ok = Vec::new();
     let mut skipped = Vec::new();
     let mut configs = vec![Config::Average];
-    for &weight in &Weight::ALL {
+    for &weight in Weight::ALL {
         for accum in [AccumFormat::Rgba16f, AccumFormat::Rgba32f] {
             for reveal in [RevealFormat::R8, RevealFormat::R16f, RevealFormat::R32f] {
                 configs.push(weighted(weight, accum, reveal));
@@ -392,7 +392,7 @@ fn hdr_emissive_default_beats_the_other_weights_and_nothing_overflows() {
     let gpu = GpuScene::upload(&ctx, &scene).expect("upload");
     let targets = Targets::new(&ctx, RES, ColorFormat::Rgba16Float).expect("targets");
     let mut errors = Vec::new();
-    for &weight in &Weight::ALL {
+    for &weight in Weight::ALL {
         let config = weighted(weight, AccumFormat::Rgba16f, RevealFormat::R16f);
         let (image, guards) = render(&ctx, &mut Wboit::new(config), &gpu, &targets);
         let e = oit_metrics::compare(&image, &reference.image).expect("same size");

@@ -92,7 +92,7 @@ fn every_weight_on_the_gpu_equals_its_cpu_twin() {
         let gpu =
             eval_f32(&ctx, &source, &expr, &inputs, Some(&uniform), &[]).expect("kernel runs");
         let (arithmetic, exp2) = tolerances(&ctx);
-        let tolerance = if weight == Weight::Range {
+        let tolerance = if *weight == Weight::Range {
             exp2
         } else {
             arithmetic

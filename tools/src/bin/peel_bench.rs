@@ -194,13 +194,19 @@ fn main() -> anyhow::Result<()> {
         ),
         (
             "dual-peel:passes=5 (Babylon default)",
-            Box::new(DualPeel::new(dual(PassCount::Fixed(5), DepthFormat::Rg32f))),
+            Box::new(DualPeel::new(dual(
+                PassCount::Fixed(oit_peel::Passes::of(5)),
+                DepthFormat::Rg32f,
+            ))),
         ),
         (
             "dual-peel:passes=5,tail=wboit",
             Box::new(DualPeel::new(DualPeelConfig {
                 tail: Tail::Wboit,
-                ..dual(PassCount::Fixed(5), DepthFormat::Rg32f)
+                ..dual(
+                    PassCount::Fixed(oit_peel::Passes::of(5)),
+                    DepthFormat::Rg32f,
+                )
             })),
         ),
     ];
