@@ -5,6 +5,10 @@
 //! table with the first table under the named heading of the named results.md, and a test
 //! checks that every such table in README.md still equals its source, so a README number
 //! cannot drift from the measurement it quotes.
+//!
+//! A line `<!-- generated: oit ARGS -->` (README.md, docs/coloured-transmission.md) is followed
+//! by the table `oit ARGS` prints (the technique registry's); `cargo xtask readme-tables`
+//! rewrites it and crates/oit-cli/tests/cli.rs checks it.
 
 use std::path::Path;
 
@@ -108,6 +112,64 @@ pub fn update_readme(root: &Path) -> Result<usize> {
         .count())
 }
 
+/// What opens a generated-table marker; the rest of the line is `ARGS -->`.
+const GENERATED: &str = "<!-- generated: oit ";
+
+/// The documents that hold generated tables.
+pub const GENERATED_IN: &[&str] = &["README.md", "docs/coloured-transmission.md"];
+
+/// `document` with the table after every generated-table marker replaced by what `run` (the
+/// `oit` arguments → its stdout) prints.
+fn splice_generated(
+    document: &str,
+    what: &str,
+    run: &dyn Fn(&str) -> Result<String>,
+) -> Result<String> {
+    let mut out = String::with_capacity(document.len());
+    let mut lines = document.lines().enumerate().peekable();
+    while let Some((i, line)) = lines.next() {
+        out.push_str(line);
+        out.push('\n');
+        let Some(rest) = line.trim().strip_prefix(GENERATED) else {
+            continue;
+        };
+        let Some(args) = rest.strip_suffix("-->").map(str::trim) else {
+            bail!(
+                "{what}:{}: a generated marker must end with `-->` on the same line",
+                i + 1
+            );
+        };
+        while lines.next_if(|(_, l)| l.starts_with('|')).is_some() {}
+        let table = run(args).with_context(|| format!("{what}:{}: `oit {args}`", i + 1))?;
+        for row in table.lines() {
+            out.push_str(row);
+            out.push('\n');
+        }
+    }
+    Ok(out)
+}
+
+/// Rewrites the generated tables of [`GENERATED_IN`] under `root`, each file atomically and
+/// only when it changed. Returns how many tables there are.
+pub fn update_generated(root: &Path, run: &dyn Fn(&str) -> Result<String>) -> Result<usize> {
+    let mut tables = 0;
+    for doc in GENERATED_IN {
+        let path = root.join(doc);
+        let before = read_under(root, doc)?;
+        let after = splice_generated(&before, doc, run)?;
+        tables += before
+            .lines()
+            .filter(|l| l.trim().starts_with(GENERATED))
+            .count();
+        if after != before {
+            let staging = path.with_extension("md.xtask-tmp");
+            std::fs::write(&staging, &after).with_context(|| staging.display().to_string())?;
+            std::fs::rename(&staging, &path).with_context(|| path.display().to_string())?;
+        }
+    }
+    Ok(tables)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -161,6 +223,30 @@ mod tests {
             let error = format!("{:#}", splice(readme, "README.md", &read).unwrap_err());
             assert!(error.contains(expected), "{error:?} lacks {expected:?}");
         }
+    }
+
+    #[test]
+    fn a_generated_table_is_replaced_by_what_oit_prints() {
+        let run = |args: &str| -> Result<String> {
+            match args {
+                "techniques --markdown techniques" => Ok("| t |\n|---|\n| new |\n".to_owned()),
+                other => bail!("unexpected {other}"),
+            }
+        };
+        let doc = "a\n<!-- generated: oit techniques --markdown techniques -->\n| t |\n|---|\n| old |\n| gone |\nb\n";
+        let spliced = splice_generated(doc, "README.md", &run).unwrap();
+        assert_eq!(
+            spliced,
+            "a\n<!-- generated: oit techniques --markdown techniques -->\n| t |\n|---|\n| new |\nb\n"
+        );
+        let error = format!(
+            "{:#}",
+            splice_generated("<!-- generated: oit scenes -->\n", "README.md", &run).unwrap_err()
+        );
+        assert!(
+            error.contains("README.md:1: `oit scenes`: unexpected scenes"),
+            "{error}"
+        );
     }
 
     #[test]

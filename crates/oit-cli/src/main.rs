@@ -39,8 +39,12 @@ enum Command {
     /// List every technique with its parameters and defaults.
     Techniques {
         /// Print JSON (one object per technique) instead of text.
-        #[arg(long)]
+        #[arg(long, conflicts_with = "markdown")]
         json: bool,
+        /// Print a Markdown table instead: `techniques` (the README's) or `transmission`
+        /// (docs/coloured-transmission.md's).
+        #[arg(long, value_name = "TABLE")]
+        markdown: Option<MarkdownArg>,
     },
     /// Render the exact CPU reference of a scene to a linear EXR (RGBA + `layers`) and a PNG preview.
     Reference {
@@ -297,6 +301,22 @@ impl std::fmt::Display for Interrupted {
     }
 }
 
+/// The tables `oit techniques --markdown` generates.
+#[derive(Debug, Clone, Copy, clap::ValueEnum)]
+enum MarkdownArg {
+    Techniques,
+    Transmission,
+}
+
+impl From<MarkdownArg> for oit_harness::MarkdownTable {
+    fn from(arg: MarkdownArg) -> Self {
+        match arg {
+            MarkdownArg::Techniques => oit_harness::MarkdownTable::Techniques,
+            MarkdownArg::Transmission => oit_harness::MarkdownTable::Transmission,
+        }
+    }
+}
+
 impl std::error::Error for Interrupted {}
 
 fn run(command: Command) -> Result<()> {
@@ -305,9 +325,11 @@ fn run(command: Command) -> Result<()> {
             load.check(std::slice::from_ref(&path))?;
             scenes(&path, json, &load.options())
         }
-        Command::Techniques { json } => {
+        Command::Techniques { json, markdown } => {
             if json {
                 println!("{}", oit_harness::techniques_json());
+            } else if let Some(table) = markdown {
+                print!("{}", oit_harness::techniques_markdown(table.into()));
             } else {
                 print!("{}", oit_harness::techniques_help());
             }

@@ -134,6 +134,44 @@ fn techniques_lists_every_registered_technique_with_defaults() {
     }
 }
 
+/// Every table under a `<!-- generated: oit ARGS -->` marker in the README and docs/ is what
+/// `oit ARGS` prints now: a technique added, renamed or re-described cannot leave a stale
+/// table behind (`cargo xtask readme-tables` rewrites them).
+#[test]
+fn generated_tables_in_the_docs_are_what_oit_prints_now() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let mut found = 0;
+    for doc in ["README.md", "docs/coloured-transmission.md"] {
+        let text = std::fs::read_to_string(root.join(doc)).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        for (i, line) in lines.iter().enumerate() {
+            let Some(args) = line
+                .trim()
+                .strip_prefix("<!-- generated: oit ")
+                .and_then(|rest| rest.strip_suffix("-->"))
+            else {
+                continue;
+            };
+            found += 1;
+            let out = oit().args(args.split_whitespace()).output().unwrap();
+            assert!(out.status.success(), "{doc}:{}: `oit {args}` failed", i + 1);
+            let table: Vec<&str> = lines[i + 1..]
+                .iter()
+                .take_while(|l| l.starts_with('|'))
+                .copied()
+                .collect();
+            let printed = String::from_utf8(out.stdout).unwrap();
+            assert_eq!(
+                table,
+                printed.lines().collect::<Vec<_>>(),
+                "{doc}:{}: the table differs from `oit {args}`; run `cargo xtask readme-tables`",
+                i + 1
+            );
+        }
+    }
+    assert_eq!(found, 2, "the techniques and transmission tables");
+}
+
 #[test]
 fn scenes_lists_the_suite_with_depth_complexity() {
     let out = oit().args(["scenes", "scenes"]).output().unwrap();

@@ -50,7 +50,7 @@ pub use scene::{
     ScenePipelineDesc, ScenePipelines, VERTEX_STRIDE, depth_test, vertex_layout,
 };
 pub use spec::{
-    Allowed, Bounded, Param, ParamInfo, ParamValue, SpecError, TechniqueInfo, TechniqueSpec,
+    Allowed, Bounded, Family, Param, ParamInfo, ParamValue, SpecError, TechniqueInfo, TechniqueSpec,
 };
 pub use targets::{ColorFormat, Targets, f16_to_f32, read_color};
 pub use technique::{RenderStats, Technique, TransmissionSupport, check_scene};

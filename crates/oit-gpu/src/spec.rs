@@ -245,10 +245,31 @@ pub struct TechniqueInfo {
     pub name: &'static str,
     pub description: &'static str,
     pub params: Vec<ParamInfo>,
+    /// What the technique does with coloured transmittance, in a sentence or two (the table
+    /// of docs/coloured-transmission.md is generated from it; `Technique::transmission` says
+    /// it per adapter at run time).
+    pub transmission: &'static str,
     /// Builds the technique from a spec. A technique value always holds a valid
     /// configuration: a spec that does not describe one (hand-built, or of another name) is an
     /// error here, never a technique that fails later.
     pub build: fn(&TechniqueSpec) -> Result<Box<dyn Technique>, SpecError>,
+}
+
+/// A technique family: one crate under `techniques/<folder>/` holding its techniques, their
+/// shaders and a README. Each crate exports one `FAMILY`; the harness's list of them is the
+/// registry, and the shader test validates every family's folder from it
+/// (docs/adding-a-technique.md).
+#[derive(Debug, Clone, Copy)]
+pub struct Family {
+    /// The folder under `techniques/`.
+    pub folder: &'static str,
+    /// The family's techniques, each with its parameters and builder.
+    pub techniques: fn() -> Vec<TechniqueInfo>,
+    /// The crate's `shaders/` folder.
+    pub shader_dir: &'static str,
+    /// The WGSL its passes include from: its own `SHADERS` (exactly the files of
+    /// `shader_dir`) first, then any it borrows from another family.
+    pub shaders: &'static [crate::shaders::Library],
 }
 
 impl std::fmt::Debug for TechniqueInfo {
@@ -540,11 +561,13 @@ mod tests {
                 name: "plain",
                 description: "no parameters",
                 params: vec![],
+                transmission: "none",
                 build: |s| Ok(Box::new(Dummy(s.clone()))),
             },
             TechniqueInfo {
                 name: "peel",
                 description: "two parameters",
+                transmission: "none",
                 params: vec![
                     ParamInfo {
                         key: "passes",

@@ -7,11 +7,13 @@
 pub mod cache;
 pub mod goldens;
 pub mod inputs;
+pub mod listing;
 pub mod report;
 pub mod results;
 mod run;
 mod timing;
 
+pub use listing::{MarkdownTable, techniques_help, techniques_json, techniques_markdown};
 pub use timing::time_technique;
 
 pub use oit_results::interference;
@@ -21,7 +23,7 @@ pub use oit_results::{
 
 use std::path::{Path, PathBuf};
 
-use oit_gpu::{Context, ContextOptions, TechniqueInfo, TechniqueSpec};
+use oit_gpu::{Context, ContextOptions, Family, TechniqueInfo, TechniqueSpec};
 use oit_scene::{Resolution, Scene};
 
 pub use run::{
@@ -67,17 +69,34 @@ impl HarnessError {
     }
 }
 
+/// Every technique family, in the order reports list them. `sorted` comes first: its
+/// `unsorted` is the baseline every cost is divided by. A new family is one line here and one
+/// dependency line in this crate's Cargo.toml (docs/adding-a-technique.md).
+pub const FAMILIES: &[Family] = &[
+    oit_sorted::FAMILY,
+    oit_peel::FAMILY,
+    oit_wboit::FAMILY,
+    oit_stochastic::FAMILY,
+    oit_mboit::FAMILY,
+    oit_linked_list::FAMILY,
+    oit_opaque_copy::FAMILY,
+];
+
 /// Every technique the project implements, in the order reports list them. `unsorted` comes
 /// first: it is the baseline every cost is divided by.
 pub fn registry() -> Vec<TechniqueInfo> {
-    let mut all = oit_sorted::techniques();
-    all.extend(oit_peel::techniques());
-    all.extend(oit_wboit::techniques());
-    all.extend(oit_stochastic::techniques());
-    all.extend(oit_mboit::techniques());
-    all.extend(oit_linked_list::techniques());
-    all.extend(oit_opaque_copy::techniques());
-    all
+    FAMILIES
+        .iter()
+        .flat_map(|family| (family.techniques)())
+        .collect()
+}
+
+/// The family folder (under `techniques/`) that implements a technique.
+pub fn family_of(technique: &str) -> Option<&'static str> {
+    FAMILIES
+        .iter()
+        .find(|family| (family.techniques)().iter().any(|t| t.name == technique))
+        .map(|family| family.folder)
 }
 
 /// Parses a spec against the registry.
@@ -181,65 +200,6 @@ fn expand_range(value: &str) -> Vec<String> {
         return (a..=b).map(|v| v.to_string()).collect();
     }
     vec![value.to_owned()]
-}
-
-/// `oit techniques`: every technique with its parameters and defaults.
-pub fn techniques_help() -> String {
-    let mut out = String::new();
-    for info in registry() {
-        out.push_str(&format!("{}\n    {}\n", info.name, info.description));
-        for p in &info.params {
-            out.push_str(&format!(
-                "    {}={} (default {}): {}\n",
-                p.key, p.allowed, p.default, p.description
-            ));
-        }
-        out.push_str(&format!(
-            "    canonical default: {}\n",
-            info.default_spec().canonical()
-        ));
-    }
-    out
-}
-
-/// `oit techniques --json`: every technique with its parameters as JSON, for scripts. An
-/// integer parameter has `min` and `max` (and the words it also takes); a word parameter its
-/// `values`.
-pub fn techniques_json() -> String {
-    let list: Vec<serde_json::Value> = registry()
-        .iter()
-        .map(|info| {
-            let params: Vec<serde_json::Value> = info
-                .params
-                .iter()
-                .map(|p| {
-                    let mut param = serde_json::json!({
-                        "key": p.key,
-                        "default": p.default,
-                        "description": p.description,
-                    });
-                    match p.allowed {
-                        oit_gpu::Allowed::Values(values) => {
-                            param["values"] = serde_json::json!(values);
-                        }
-                        oit_gpu::Allowed::Integer { min, max, words } => {
-                            param["min"] = serde_json::json!(min);
-                            param["max"] = serde_json::json!(max);
-                            param["values"] = serde_json::json!(words);
-                        }
-                    }
-                    param
-                })
-                .collect();
-            serde_json::json!({
-                "name": info.name,
-                "description": info.description,
-                "default_spec": info.default_spec().canonical(),
-                "params": params,
-            })
-        })
-        .collect();
-    serde_json::to_string_pretty(&list).expect("JSON values serialize")
 }
 
 /// Opens the GPU and prints nothing: callers print the adapter.

@@ -44,6 +44,14 @@ pub const SHADERS: oit_gpu::shaders::Library = &[
 /// This crate's `shaders/` folder.
 pub const SHADER_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/shaders");
 
+/// This crate as the harness's registry and the shader test see it.
+pub const FAMILY: oit_gpu::Family = oit_gpu::Family {
+    folder: "linked-list",
+    techniques,
+    shader_dir: SHADER_DIR,
+    shaders: &[SHADERS],
+};
+
 use oit_gpu::TechniqueInfo;
 
 /// The registry entries of this crate.
@@ -53,12 +61,14 @@ pub fn techniques() -> Vec<TechniqueInfo> {
             name: "linked-list",
             description: "per-pixel linked lists (Yang et al. 2010): every fragment stored from a node pool, the sort_max nearest sorted per pixel, the rest by the tail rule; exact when pool and window hold every fragment",
             params: LinkedListConfig::params(),
+            transmission: "**exact** per channel up to its storage with dual-source blending: list nodes store rgb opacity `1 − t` (binary16 in `f32` nodes, 20 B; unorm10 in `packed` nodes, 16 B), the resolve composites per channel and blends `dst = C + T ⊙ dst`; an averaged tail is per channel and still reported. Without dual-source blending approximate: `1 − mean(t)`",
             build: |spec| Ok(Box::new(LinkedList::from_spec(spec)?)),
         },
         TechniqueInfo {
             name: "k-buffer",
             description: "k-buffer on 64-bit atomics (NVIDIA's Loop64): the k nearest fragments per pixel kept sorted in one geometry pass by an atomicMax chain on (depth, packed colour) keys, the fragments pushed out averaged into one layer or dropped; needs SHADER_INT64_ATOMIC_ALL_OPS (Vulkan, DX12)",
             params: KBufferConfig::params(),
+            transmission: "**exact** per channel up to its storage with dual-source blending: a second chain of opacity slots `1 − t` (unorm10) sorted like the colour slots, composited per channel and blended `dst = C + T ⊙ dst`; an averaged tail is per channel and still reported. Without dual-source blending approximate: `1 − mean(t)`",
             build: |spec| Ok(Box::new(KBuffer::from_spec(spec)?)),
         },
     ]

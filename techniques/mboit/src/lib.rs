@@ -31,6 +31,14 @@ pub const SHADERS: oit_gpu::shaders::Library = &[
 /// This crate's `shaders/` folder.
 pub const SHADER_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/shaders");
 
+/// This crate as the harness's registry and the shader test see it.
+pub const FAMILY: oit_gpu::Family = oit_gpu::Family {
+    folder: "mboit",
+    techniques,
+    shader_dir: SHADER_DIR,
+    shaders: &[SHADERS],
+};
+
 use oit_gpu::TechniqueInfo;
 
 /// The registry entries of this crate.
@@ -39,6 +47,7 @@ pub fn techniques() -> Vec<TechniqueInfo> {
         name: "mboit",
         description: "moment-based OIT (Münstermann et al. 2018): moments of absorbance over log-warped depth, a reconstructed transmittance per fragment, two geometry passes and a composite",
         params: Config::params(),
+        transmission: "approximate: composites the scalar opacity `1 − mean(t)`, exact for grey filters only; its moments are of the scalar absorbance `−ln(1 − α)` and a per-channel set of moments is not implemented",
         build: |spec| Ok(Box::new(Mboit::from_spec(spec)?)),
     }]
 }

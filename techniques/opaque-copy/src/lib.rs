@@ -26,6 +26,14 @@ pub const SHADERS: oit_gpu::shaders::Library = &[("opaque_copy.wgsl", technique:
 /// This crate's `shaders/` folder.
 pub const SHADER_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/shaders");
 
+/// This crate as the harness's registry and the shader test see it.
+pub const FAMILY: oit_gpu::Family = oit_gpu::Family {
+    folder: "opaque-copy",
+    techniques,
+    shader_dir: SHADER_DIR,
+    shaders: &[SHADERS],
+};
+
 use oit_gpu::TechniqueInfo;
 
 /// The registry entry of this crate.
@@ -34,6 +42,7 @@ pub fn techniques() -> Vec<TechniqueInfo> {
         name: OpaqueCopy::NAME,
         description: "Babylon's transmission: opaque pass, copy of its colour, transmissive surfaces write C + t ⊙ copy (nearest wins), then OVER-blended transparent objects in Babylon's order",
         params: Vec::new(),
+        transmission: "approximate: exact for the nearest transmissive surface over opaque content and for transparent surfaces in front of it; anything transparent or transmissive behind the nearest glass is missing",
         build: |spec| Ok(Box::new(OpaqueCopy::from_spec(spec)?)),
     }]
 }

@@ -123,7 +123,7 @@ pub(crate) fn shader(
     name: &str,
     source: &str,
 ) -> Result<wgpu::ShaderModule, GpuError> {
-    ctx.shader_with(name, source, &[crate::SHADERS, oit_wboit::SHADERS])
+    ctx.shader_with(name, source, crate::FAMILY.shaders)
 }
 
 /// Format of the front-to-back (under) accumulator and of a peeled layer: Rgba32Float where the

@@ -53,6 +53,14 @@ pub const SHADERS: oit_gpu::shaders::Library = &[
 /// This crate's `shaders/` folder.
 pub const SHADER_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/shaders");
 
+/// This crate as the harness's registry and the shader test see it.
+pub const FAMILY: oit_gpu::Family = oit_gpu::Family {
+    folder: "peel",
+    techniques,
+    shader_dir: SHADER_DIR,
+    shaders: &[SHADERS, oit_wboit::SHADERS],
+};
+
 use oit_gpu::{Caps, TechniqueInfo};
 
 /// Most `front-peel` layers on this adapter (`auto` and `layers=N`): one pass slot per layer.
@@ -73,12 +81,14 @@ pub fn techniques() -> Vec<TechniqueInfo> {
             name: "front-peel",
             description: "front-to-back depth peeling (Everitt 2001): one layer per geometry pass, exact up to the layer budget; auto stops after the first empty pass",
             params: FrontPeelConfig::params(),
+            transmission: "**exact** per channel: one accumulator per colour channel, blended with ordinary factors (dual-source blending allows only one target, and peel passes write several), put over the final colour as `dst *= T`, `dst += F`. Needs 3 colour attachments of 48 bytes per sample, else approximate: the scalar opacity `1 − mean(t)`",
             build: |spec| Ok(Box::new(FrontPeel::from_spec(spec)?)),
         },
         TechniqueInfo {
             name: "dual-peel",
             description: "dual depth peeling (Bavoil & Myers 2008): nearest and farthest layer per pass from a MAX-blended (-min, max) range; range test before shading, coverage-only init pass",
             params: DualPeelConfig::params(),
+            transmission: "**exact** per channel as `front-peel` does, with 7 colour attachments of 80 bytes per sample, else approximate: `1 − mean(t)`. With a fixed `passes` and `tail=wboit` approximate: its WBOIT tail stays scalar",
             build: |spec| Ok(Box::new(DualPeel::from_spec(spec)?)),
         },
     ]

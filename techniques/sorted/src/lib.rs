@@ -30,7 +30,18 @@ pub const SHADERS: oit_gpu::shaders::Library =
 /// This crate's `shaders/` folder.
 pub const SHADER_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/shaders");
 
+/// This crate as the harness's registry and the shader test see it.
+pub const FAMILY: oit_gpu::Family = oit_gpu::Family {
+    folder: "sorted",
+    techniques,
+    shader_dir: SHADER_DIR,
+    shaders: &[SHADERS],
+};
+
 use oit_gpu::TechniqueInfo;
+
+/// What every technique of this crate does with coloured transmittance.
+const TRANSMISSION: &str = "**exact** per channel with dual-source blending (`dst = C + t ⊙ dst`, `techniques/sorted/shaders/blend_transmit.wgsl`) where the adapter has it (lavapipe does); else approximate: the scalar opacity `1 − mean(t)`. The technique's own order errors remain";
 
 /// The registry entries of this crate.
 pub fn techniques() -> Vec<TechniqueInfo> {
@@ -40,6 +51,7 @@ pub fn techniques() -> Vec<TechniqueInfo> {
             name: kind.name(),
             description: kind.description(),
             params: Vec::new(),
+            transmission: TRANSMISSION,
             build: |spec| Ok(Box::new(Blended::from_spec(spec)?)),
         })
         .collect()

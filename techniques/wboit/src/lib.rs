@@ -32,7 +32,18 @@ pub const SHADERS: oit_gpu::shaders::Library = &[
 /// This crate's `shaders/` folder.
 pub const SHADER_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/shaders");
 
+/// This crate as the harness's registry and the shader test see it.
+pub const FAMILY: oit_gpu::Family = oit_gpu::Family {
+    folder: "wboit",
+    techniques,
+    shader_dir: SHADER_DIR,
+    shaders: &[SHADERS],
+};
+
 use oit_gpu::TechniqueInfo;
+
+/// What both techniques of this crate do with coloured transmittance.
+const TRANSMISSION: &str = "approximate, per channel behind: McGuire & Mara 2015's layout (G3D's `DefaultRenderer`): the final colour is a third target of the accumulation pass, blended `(zero, one-minus-src)` with `1 − t`, so whatever lies behind the layers is multiplied by the exact per-channel product `Π t` in any order; the layers' own radiance is still the weighted average under the scalar coverage `1 − Π(1 − mean α)`, and the composite adds it without scaling the colour behind again. Exact for pure filters (τ = 1: max error 6.0e-8 in f32 targets on lavapipe). Needs 3 colour attachments (accumulation, revealage and an Rgba32Float final colour) within the adapter's bytes per sample (28 for the defaults; wgpu's alignment rule), else `1 − mean(t)`. The 2015 form, not the 2016 paper's `(1 − β) ⊙ average`: it keeps a single layer exact, as a filter's `1 − t` per channel is not its coverage";
 
 /// The registry entries of this crate.
 pub fn techniques() -> Vec<TechniqueInfo> {
@@ -41,12 +52,14 @@ pub fn techniques() -> Vec<TechniqueInfo> {
             name: "wboit",
             description: "weighted blended OIT (McGuire & Bavoil 2013): one accumulation pass and a guarded full-screen composite",
             params: Config::params(),
+            transmission: TRANSMISSION,
             build: |spec| Ok(Box::new(Wboit::new(Config::from_spec(spec)?))),
         },
         TechniqueInfo {
             name: "weighted-average",
             description: "weighted average (Bavoil & Myers 2008): (sum C, sum alpha) and a fragment count n, T = (1 - sum alpha / n)^n",
             params: Vec::new(),
+            transmission: TRANSMISSION,
             build: |spec| Ok(Box::new(Wboit::new(Config::from_spec(spec)?))),
         },
     ]

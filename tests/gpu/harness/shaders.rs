@@ -9,38 +9,16 @@ use std::path::{Path, PathBuf};
 
 use oit_gpu::shaders::{self, Library};
 
-/// Each crate: its folder and the libraries its passes include from, its own first.
+/// Each crate: oit-gpu's shared shaders, then every family of the registry with its folder and
+/// the libraries its passes include from, its own first.
 fn crates() -> Vec<(&'static str, &'static str, Vec<Library>)> {
-    vec![
-        ("oit-gpu", shaders::SHADER_DIR, vec![shaders::SHADERS]),
-        (
-            "oit-sorted",
-            oit_sorted::SHADER_DIR,
-            vec![oit_sorted::SHADERS],
-        ),
-        (
-            "oit-peel",
-            oit_peel::SHADER_DIR,
-            vec![oit_peel::SHADERS, oit_wboit::SHADERS],
-        ),
-        ("oit-wboit", oit_wboit::SHADER_DIR, vec![oit_wboit::SHADERS]),
-        (
-            "oit-stochastic",
-            oit_stochastic::SHADER_DIR,
-            vec![oit_stochastic::SHADERS],
-        ),
-        ("oit-mboit", oit_mboit::SHADER_DIR, vec![oit_mboit::SHADERS]),
-        (
-            "oit-linked-list",
-            oit_linked_list::SHADER_DIR,
-            vec![oit_linked_list::SHADERS],
-        ),
-        (
-            "oit-opaque-copy",
-            oit_opaque_copy::SHADER_DIR,
-            vec![oit_opaque_copy::SHADERS],
-        ),
-    ]
+    let mut all = vec![("oit-gpu", shaders::SHADER_DIR, vec![shaders::SHADERS])];
+    all.extend(
+        oit_harness::FAMILIES
+            .iter()
+            .map(|family| (family.folder, family.shader_dir, family.shaders.to_vec())),
+    );
+    all
 }
 
 /// Every `.wgsl` under `dir`, as paths relative to it with `/` separators, sorted.
