@@ -335,21 +335,14 @@ fn readme_tables() -> Result<()> {
     let tables = readme_tables::update_readme(root)?;
     println!("xtask: README.md: {tables} tables copied from the published results");
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let status = Command::new(&cargo)
-        .current_dir(root)
-        .args(["build", "-q", "-p", "oit-cli"])
-        .status()
-        .context("running cargo build -p oit-cli")?;
-    if !status.success() {
-        bail!("cargo build -p oit-cli failed");
-    }
-    let oit = root.join("target/debug/oit");
+    // `cargo run`, not a path under target/: CARGO_TARGET_DIR may put the binary elsewhere.
     let run = |args: &str| -> Result<String> {
-        let out = Command::new(&oit)
+        let out = Command::new(&cargo)
             .current_dir(root)
+            .args(["run", "-q", "-p", "oit-cli", "--"])
             .args(args.split_whitespace())
             .output()
-            .with_context(|| oit.display().to_string())?;
+            .context("running cargo run -p oit-cli")?;
         if !out.status.success() {
             bail!("{}", String::from_utf8_lossy(&out.stderr).trim());
         }
