@@ -2,10 +2,7 @@
 //! its pass count, CPU time and memory, and a resize of a reused instance.
 
 use oit_gpu::testing::context_or_skip;
-use oit_gpu::{
-    ColorFormat, Context, GpuScene, GpuTimer, RenderStats, SpecError, Targets, Technique,
-    TechniqueSpec,
-};
+use oit_gpu::{ColorFormat, Context, RenderStats, SpecError, Technique, TechniqueSpec};
 use oit_opaque_copy::OpaqueCopy;
 use oit_scene::{LinearImage, Scene};
 use std::time::Instant;
@@ -61,15 +58,8 @@ fn scene(quads: usize, size: u32) -> Scene {
 }
 
 fn render(ctx: &Context, technique: &mut OpaqueCopy, scene: &Scene) -> (LinearImage, RenderStats) {
-    let gpu = GpuScene::upload(ctx, scene).expect("upload");
-    let targets = Targets::new(ctx, scene.resolution, ColorFormat::Rgba32Float).expect("targets");
-    let mut timer = GpuTimer::wall_clock();
-    let frame =
-        oit_gpu::render_frame(ctx, &gpu, technique, &targets, &mut timer).expect("frame renders");
-    (
-        oit_gpu::read_color(ctx, &targets).expect("readback"),
-        frame.stats,
-    )
+    let (image, frame) = crate::kit::render(ctx, scene, technique, ColorFormat::Rgba32Float);
+    (image, frame.stats)
 }
 
 #[test]

@@ -28,13 +28,7 @@ fn render(ctx: &Context, scene: &Scene) -> LinearImage {
     crate::kit::render_spec(ctx, scene, "opaque-copy", ColorFormat::Rgba32Float).0
 }
 
-fn max_error(a: &LinearImage, b: &LinearImage) -> f32 {
-    a.pixels
-        .iter()
-        .zip(&b.pixels)
-        .flat_map(|(p, q)| (0..3).map(move |k| (p[k] - q[k]).abs()))
-        .fold(0.0, f32::max)
-}
+use crate::kit::max_abs_rgb as max_error;
 
 const RED_PANE: &str = r#"{"mesh": {"kind": "quad", "size": [4, 4]}, "transform": {"translate": [0, 0, 0]},
     "material": {"base_color": [1, 0.2, 0.1], "alpha": 0.9, "mode": "blend", "transmission": 0.8}}"#;

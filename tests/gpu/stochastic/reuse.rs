@@ -2,10 +2,7 @@
 //! multisampled targets, and renders each frame as a fresh instance does.
 
 use oit_gpu::testing::context_or_skip;
-use oit_gpu::{
-    ColorFormat, Context, GpuScene, GpuTimer, Targets, Technique, TechniqueSpec, read_color,
-    render_frame,
-};
+use oit_gpu::{ColorFormat, Context, Technique, TechniqueSpec};
 use oit_scene::{LinearImage, Resolution};
 
 fn render(
@@ -14,16 +11,8 @@ fn render(
     res: Resolution,
     format: ColorFormat,
 ) -> LinearImage {
-    let path = crate::kit::scenes_dir().join("sorted-quads.json");
-    let scene = oit_scene::load(&path)
-        .expect("bundled scene")
-        .with_resolution(res);
-    let gpu_scene = GpuScene::upload(ctx, &scene).expect("upload");
-    let targets = Targets::new(ctx, res, format).expect("targets");
-    let mut timer = GpuTimer::new(ctx);
-    render_frame(ctx, &gpu_scene, technique, &targets, &mut timer)
-        .unwrap_or_else(|e| panic!("{res:?} {format:?}: {e}"));
-    read_color(ctx, &targets).expect("readback")
+    let scene = crate::kit::bundled("sorted-quads", res);
+    crate::kit::render(ctx, &scene, technique, format).0
 }
 
 fn a2c() -> Box<dyn Technique> {

@@ -5,8 +5,8 @@
 
 use oit_gpu::testing::context_or_skip;
 use oit_gpu::{
-    Context, GpuScene, GpuTimer, RenderStats, Targets, Technique, TransmissionSupport, read_color,
-    render_frame,
+    ColorFormat, Context, GpuScene, GpuTimer, RenderStats, Targets, Technique, TransmissionSupport,
+    read_color, render_frame,
 };
 use oit_scene::{LinearImage, Scene};
 
@@ -16,13 +16,9 @@ fn build(spec: &str) -> Box<dyn Technique> {
 }
 
 fn render(ctx: &Context, scene: &Scene, spec: &str) -> (LinearImage, RenderStats) {
-    let gpu = GpuScene::upload(ctx, scene).expect("upload");
-    let targets = Targets::new(ctx, scene.resolution, Default::default()).expect("targets");
-    let mut technique = build(spec);
-    let mut timer = GpuTimer::wall_clock();
-    let frame = render_frame(ctx, &gpu, technique.as_mut(), &targets, &mut timer)
-        .unwrap_or_else(|e| panic!("{spec}: {e}"));
-    (read_color(ctx, &targets).expect("readback"), frame.stats)
+    let (image, frame) =
+        crate::kit::render(ctx, scene, build(spec).as_mut(), ColorFormat::default());
+    (image, frame.stats)
 }
 
 /// Mean signed difference per colour channel over the pixels with at least two transparent
