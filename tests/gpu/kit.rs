@@ -39,9 +39,19 @@ pub fn render(
     format: ColorFormat,
 ) -> (LinearImage, FrameResult) {
     let gpu = GpuScene::upload(ctx, scene).expect("upload");
-    let targets = Targets::new(ctx, scene.resolution, format).expect("targets");
+    render_uploaded(ctx, &gpu, technique, format)
+}
+
+/// [`render`] of a scene already uploaded (tests that render one upload many times).
+pub fn render_uploaded(
+    ctx: &Context,
+    gpu: &GpuScene,
+    technique: &mut dyn Technique,
+    format: ColorFormat,
+) -> (LinearImage, FrameResult) {
+    let targets = Targets::new(ctx, gpu.scene.resolution, format).expect("targets");
     let mut timer = GpuTimer::new(ctx);
-    let frame = oit_gpu::render_frame(ctx, &gpu, technique, &targets, &mut timer)
+    let frame = oit_gpu::render_frame(ctx, gpu, technique, &targets, &mut timer)
         .unwrap_or_else(|e| panic!("{}: {e}", technique.spec()));
     let image = oit_gpu::read_color(ctx, &targets).expect("readback");
     (image, frame)

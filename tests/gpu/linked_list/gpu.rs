@@ -3,7 +3,7 @@
 //! CI with OIT_REQUIRE_GPU=1).
 
 use oit_gpu::testing::{context_or_skip, gl_context_or_skip, is_llvmpipe};
-use oit_gpu::{ColorFormat, Context, GpuScene, GpuTimer, RenderStats, Targets, Technique};
+use oit_gpu::{ColorFormat, Context, GpuScene, RenderStats, Technique};
 use oit_linked_list::node::{self, NodeFormat};
 use oit_linked_list::{LinkedList, LinkedListConfig, TailRule};
 use oit_scene::{LinearImage, Resolution, Scene};
@@ -70,15 +70,8 @@ fn render(
     technique: &mut dyn Technique,
     format: ColorFormat,
 ) -> (LinearImage, RenderStats) {
-    let gpu = GpuScene::upload(ctx, scene).expect("upload");
-    let targets = Targets::new(ctx, scene.resolution, format).expect("targets");
-    let mut timer = GpuTimer::new(ctx);
-    let frame = oit_gpu::render_frame(ctx, &gpu, technique, &targets, &mut timer)
-        .unwrap_or_else(|e| panic!("{}: {e}", technique.spec()));
-    (
-        oit_gpu::read_color(ctx, &targets).expect("readback"),
-        frame.stats,
-    )
+    let (image, frame) = crate::kit::render(ctx, scene, technique, format);
+    (image, frame.stats)
 }
 
 /// Largest RGB difference from `b`, relative to `max(1, |b|)`, over the pixels not skipped.

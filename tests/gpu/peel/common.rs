@@ -4,7 +4,7 @@
 
 #![allow(dead_code, reason = "each test binary uses a subset")]
 
-use oit_gpu::{ColorFormat, Context, GpuScene, GpuTimer, RenderStats, Targets, Technique};
+use oit_gpu::{ColorFormat, Context, GpuScene, RenderStats, Technique};
 use oit_scene::{LinearImage, Resolution, Scene};
 
 pub const RES: Resolution = Resolution {
@@ -51,15 +51,8 @@ pub fn render_uploaded(
     gpu: &GpuScene,
     technique: &mut dyn Technique,
 ) -> (LinearImage, RenderStats) {
-    let targets =
-        Targets::new(ctx, gpu.scene.resolution, ColorFormat::Rgba32Float).expect("targets");
-    let mut timer = GpuTimer::new(ctx);
-    let frame = oit_gpu::render_frame(ctx, gpu, technique, &targets, &mut timer)
-        .unwrap_or_else(|e| panic!("{}: {e}", technique.spec()));
-    (
-        oit_gpu::read_color(ctx, &targets).expect("readback"),
-        frame.stats,
-    )
+    let (image, frame) = crate::kit::render_uploaded(ctx, gpu, technique, ColorFormat::Rgba32Float);
+    (image, frame.stats)
 }
 
 pub fn errors(image: &LinearImage, reference: &LinearImage) -> oit_metrics::Errors {

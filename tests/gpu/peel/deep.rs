@@ -4,7 +4,7 @@
 //! finishes in seconds; the exact answer is `oit_reference`'s.
 
 use super::common::*;
-use oit_gpu::{ColorFormat, Context, GpuScene, GpuTimer, RenderStats, Targets, Technique};
+use oit_gpu::{ColorFormat, Context, GpuScene, RenderStats, Technique};
 use oit_peel::{
     DepthEncoding, DepthFormat, DualPeel, DualPeelConfig, FrontPeel, FrontPeelConfig, Options,
     PassCount, PeelReport, Tail, Termination,
@@ -61,15 +61,8 @@ fn render16(
     gpu: &GpuScene,
     technique: &mut dyn Technique,
 ) -> (LinearImage, RenderStats) {
-    let targets =
-        Targets::new(ctx, gpu.scene.resolution, ColorFormat::Rgba16Float).expect("targets");
-    let mut timer = GpuTimer::new(ctx);
-    let frame = oit_gpu::render_frame(ctx, gpu, technique, &targets, &mut timer)
-        .unwrap_or_else(|e| panic!("{}: {e}", technique.spec()));
-    (
-        oit_gpu::read_color(ctx, &targets).expect("readback"),
-        frame.stats,
-    )
+    let (image, frame) = crate::kit::render_uploaded(ctx, gpu, technique, ColorFormat::Rgba16Float);
+    (image, frame.stats)
 }
 
 fn dual_auto() -> DualPeel {

@@ -38,12 +38,7 @@ fn render_f16(
     gpu: &GpuScene,
     technique: &mut dyn Technique,
 ) -> oit_scene::LinearImage {
-    let targets =
-        oit_gpu::Targets::new(ctx, gpu.scene.resolution, Default::default()).expect("targets");
-    let mut timer = oit_gpu::GpuTimer::new(ctx);
-    oit_gpu::render_frame(ctx, gpu, technique, &targets, &mut timer)
-        .unwrap_or_else(|e| panic!("{}: {e}", technique.spec()));
-    oit_gpu::read_color(ctx, &targets).expect("readback")
+    crate::kit::render_uploaded(ctx, gpu, technique, Default::default()).0
 }
 
 #[test]

@@ -22,12 +22,7 @@ fn bundled(name: &str) -> Scene {
 }
 
 fn render(ctx: &Context, scene: &Scene, config: Config, format: ColorFormat) -> LinearImage {
-    let gpu = GpuScene::upload(ctx, scene).expect("upload");
-    let targets = Targets::new(ctx, scene.resolution, format).expect("targets");
-    let mut technique = Wboit::new(config);
-    let mut timer = GpuTimer::wall_clock();
-    render_frame(ctx, &gpu, &mut technique, &targets, &mut timer).expect("frame renders");
-    read_color(ctx, &targets).expect("readback")
+    crate::kit::render(ctx, scene, &mut Wboit::new(config), format).0
 }
 
 fn errors(image: &LinearImage, reference: &LinearImage) -> oit_metrics::Errors {
