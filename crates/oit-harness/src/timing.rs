@@ -232,7 +232,12 @@ fn time_window(
         last = Some(frame.stats);
     }
     let after = interference::sample();
-    let mut stats = last.expect("at least one frame");
+    // `compare` refuses zero frames up front; a library caller gets the same error here.
+    let Some(mut stats) = last else {
+        return Err(HarnessError::Options(
+            "zero timed frames: at least one frame must be timed".into(),
+        ));
+    };
     stats.cpu_ms = median(&mut cpu);
     let gpu = GpuMs {
         median: median(&mut totals.clone()),
