@@ -60,33 +60,51 @@ fn table_under<'a>(markdown: &'a str, heading: &str, what: &str) -> Result<Vec<&
     Ok(table)
 }
 
-/// `document` with the table after every marker replaced by its source's table, read through
-/// `read` (a path relative to the workspace root → its text). `what` names the document in
-/// errors.
-fn splice(document: &str, what: &str, read: &dyn Fn(&str) -> Result<String>) -> Result<String> {
+/// The rows of a Markdown table, header and rule first.
+type Rows = Vec<String>;
+
+/// `document` with the table after every marker line replaced: `table_for(line, number)`
+/// says whether a line is a marker and, if so, gives the rows of its table. A marker must be
+/// followed directly by the table it replaces. `what` names the document in errors.
+fn replace_tables(
+    document: &str,
+    what: &str,
+    table_for: &dyn Fn(&str, usize) -> Result<Option<Rows>>,
+) -> Result<String> {
     let mut out = String::with_capacity(document.len());
     let mut lines = document.lines().enumerate().peekable();
     while let Some((i, line)) = lines.next() {
         out.push_str(line);
         out.push('\n');
-        let Some(source) = marker(line, what, i + 1)? else {
+        let Some(table) = table_for(line, i + 1)? else {
             continue;
         };
-        let text = read(source.path)?;
-        let table = table_under(&text, source.heading, source.path)?;
         if lines.peek().is_none_or(|(_, l)| !l.starts_with('|')) {
             bail!(
-                "{what}:{}: a results-table marker must be followed directly by its table",
+                "{what}:{}: a table marker must be followed directly by its table",
                 i + 1
             );
         }
         while lines.next_if(|(_, l)| l.starts_with('|')).is_some() {}
         for row in table {
-            out.push_str(row);
+            out.push_str(&row);
             out.push('\n');
         }
     }
     Ok(out)
+}
+
+/// `document` with the table after every results-table marker replaced by its source's table,
+/// read through `read` (a path relative to the workspace root → its text).
+fn splice(document: &str, what: &str, read: &dyn Fn(&str) -> Result<String>) -> Result<String> {
+    replace_tables(document, what, &|line, number| {
+        let Some(source) = marker(line, what, number)? else {
+            return Ok(None);
+        };
+        let text = read(source.path)?;
+        let table = table_under(&text, source.heading, source.path)?;
+        Ok(Some(table.into_iter().map(str::to_owned).collect()))
+    })
 }
 
 /// Reads a file relative to `root`, naming it in the error.
@@ -95,21 +113,32 @@ fn read_under(root: &Path, path: &str) -> Result<String> {
     std::fs::read_to_string(&full).with_context(|| full.display().to_string())
 }
 
-/// Rewrites the marked tables of `root/README.md` from the results they name; the file is
-/// replaced atomically and only when something changed. Returns how many tables it holds.
-pub fn update_readme(root: &Path) -> Result<usize> {
-    let path = root.join("README.md");
-    let before = read_under(root, "README.md")?;
-    let after = splice(&before, "README.md", &|p| read_under(root, p))?;
+/// Replaces `root/doc` by `after` atomically, and only when it differs from `before`.
+fn write_if_changed(root: &Path, doc: &str, before: &str, after: &str) -> Result<()> {
     if after != before {
-        let staging = root.join("README.md.xtask-tmp");
-        std::fs::write(&staging, &after).with_context(|| staging.display().to_string())?;
+        let path = root.join(doc);
+        let staging = path.with_extension("md.xtask-tmp");
+        std::fs::write(&staging, after).with_context(|| staging.display().to_string())?;
         std::fs::rename(&staging, &path).with_context(|| path.display().to_string())?;
     }
-    Ok(before
+    Ok(())
+}
+
+/// How many lines of `document` open with `prefix` (after indentation).
+fn count_markers(document: &str, prefix: &str) -> usize {
+    document
         .lines()
-        .filter(|l| l.trim().starts_with(MARKER))
-        .count())
+        .filter(|l| l.trim().starts_with(prefix))
+        .count()
+}
+
+/// Rewrites the marked tables of `root/README.md` from the results they name. Returns how many
+/// tables it holds.
+pub fn update_readme(root: &Path) -> Result<usize> {
+    let before = read_under(root, "README.md")?;
+    let after = splice(&before, "README.md", &|p| read_under(root, p))?;
+    write_if_changed(root, "README.md", &before, &after)?;
+    Ok(count_markers(&before, MARKER))
 }
 
 /// What opens a generated-table marker; the rest of the line is `ARGS -->`.
@@ -125,47 +154,26 @@ fn splice_generated(
     what: &str,
     run: &dyn Fn(&str) -> Result<String>,
 ) -> Result<String> {
-    let mut out = String::with_capacity(document.len());
-    let mut lines = document.lines().enumerate().peekable();
-    while let Some((i, line)) = lines.next() {
-        out.push_str(line);
-        out.push('\n');
+    replace_tables(document, what, &|line, number| {
         let Some(rest) = line.trim().strip_prefix(GENERATED) else {
-            continue;
+            return Ok(None);
         };
         let Some(args) = rest.strip_suffix("-->").map(str::trim) else {
-            bail!(
-                "{what}:{}: a generated marker must end with `-->` on the same line",
-                i + 1
-            );
+            bail!("{what}:{number}: a generated marker must end with `-->` on the same line");
         };
-        while lines.next_if(|(_, l)| l.starts_with('|')).is_some() {}
-        let table = run(args).with_context(|| format!("{what}:{}: `oit {args}`", i + 1))?;
-        for row in table.lines() {
-            out.push_str(row);
-            out.push('\n');
-        }
-    }
-    Ok(out)
+        let table = run(args).with_context(|| format!("{what}:{number}: `oit {args}`"))?;
+        Ok(Some(table.lines().map(str::to_owned).collect()))
+    })
 }
 
-/// Rewrites the generated tables of [`GENERATED_IN`] under `root`, each file atomically and
-/// only when it changed. Returns how many tables there are.
+/// Rewrites the generated tables of [`GENERATED_IN`] under `root`. Returns how many there are.
 pub fn update_generated(root: &Path, run: &dyn Fn(&str) -> Result<String>) -> Result<usize> {
     let mut tables = 0;
     for doc in GENERATED_IN {
-        let path = root.join(doc);
         let before = read_under(root, doc)?;
         let after = splice_generated(&before, doc, run)?;
-        tables += before
-            .lines()
-            .filter(|l| l.trim().starts_with(GENERATED))
-            .count();
-        if after != before {
-            let staging = path.with_extension("md.xtask-tmp");
-            std::fs::write(&staging, &after).with_context(|| staging.display().to_string())?;
-            std::fs::rename(&staging, &path).with_context(|| path.display().to_string())?;
-        }
+        write_if_changed(root, doc, &before, &after)?;
+        tables += count_markers(&before, GENERATED);
     }
     Ok(tables)
 }
@@ -216,7 +224,7 @@ mod tests {
             ),
             (
                 "<!-- results-table: docs/r.md#Other -->\n\n| a |\n",
-                "README.md:1: a results-table marker must be followed directly by its table",
+                "README.md:1: a table marker must be followed directly by its table",
             ),
         ];
         for (readme, expected) in cases {
@@ -264,10 +272,7 @@ mod tests {
             .parent()
             .expect("xtask lives one level below the workspace root");
         let readme = read_under(root, "README.md").unwrap();
-        let markers = readme
-            .lines()
-            .filter(|l| l.trim().starts_with(MARKER))
-            .count();
+        let markers = count_markers(&readme, MARKER);
         assert!(
             markers >= 1,
             "README.md has {markers} results-table markers"
