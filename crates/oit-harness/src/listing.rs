@@ -3,6 +3,7 @@
 //! in crates/oit-cli/tests/cli.rs compares them).
 
 use oit_gpu::{Allowed, ParamInfo};
+use oit_results::report::md_cell;
 
 /// `oit techniques`: every technique with its parameters and defaults.
 pub fn techniques_help() -> String {
@@ -93,7 +94,7 @@ pub fn techniques_markdown(table: MarkdownTable) -> String {
                     } else {
                         params.join("<br>")
                     },
-                    cell(info.description),
+                    md_cell(info.description),
                 ));
             }
         }
@@ -108,7 +109,7 @@ pub fn techniques_markdown(table: MarkdownTable) -> String {
             }
             for (names, text) in rows {
                 let names: Vec<String> = names.iter().map(|n| format!("`{n}`")).collect();
-                out.push_str(&format!("| {} | {} |\n", names.join(", "), cell(text)));
+                out.push_str(&format!("| {} | {} |\n", names.join(", "), md_cell(text)));
             }
         }
     }
@@ -132,11 +133,6 @@ fn param_cell(param: &ParamInfo) -> String {
         }
     };
     format!("`{}`: {allowed} (default {})", param.key, param.default)
-}
-
-/// Text in a table cell: a `|` would end the cell, a newline the row.
-fn cell(text: &str) -> String {
-    text.replace('|', "\\|").replace('\n', " ")
 }
 
 #[cfg(test)]
@@ -188,10 +184,5 @@ mod tests {
             .find(|l| l.starts_with("| `unsorted`"))
             .unwrap();
         assert!(sorted_row.contains("`cull-split`"), "{sorted_row}");
-    }
-
-    #[test]
-    fn pipes_in_text_never_split_a_cell() {
-        assert_eq!(cell("a|b\nc"), "a\\|b c");
     }
 }
