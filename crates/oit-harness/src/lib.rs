@@ -91,14 +91,6 @@ pub fn registry() -> Vec<TechniqueInfo> {
         .collect()
 }
 
-/// The family folder (under `techniques/`) that implements a technique.
-pub fn family_of(technique: &str) -> Option<&'static str> {
-    FAMILIES
-        .iter()
-        .find(|family| (family.techniques)().iter().any(|t| t.name == technique))
-        .map(|family| family.folder)
-}
-
 /// Parses a spec against the registry.
 pub fn parse_spec(text: &str) -> Result<TechniqueSpec, HarnessError> {
     Ok(TechniqueSpec::parse(text, &registry())?)

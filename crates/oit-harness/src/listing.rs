@@ -78,13 +78,16 @@ pub enum MarkdownTable {
 /// `oit techniques --markdown TABLE`: a Markdown table generated from the registry, with
 /// links relative to the workspace root's README (techniques) or docs/ (transmission).
 pub fn techniques_markdown(table: MarkdownTable) -> String {
-    let registry = crate::registry();
     let mut out = String::new();
     match table {
         MarkdownTable::Techniques => {
             out.push_str("| technique | parameters | family | what it is |\n|---|---|---|---|\n");
-            for info in &registry {
-                let family = crate::family_of(info.name).unwrap_or("?");
+            let by_family = crate::FAMILIES.iter().flat_map(|family| {
+                (family.techniques)()
+                    .into_iter()
+                    .map(|t| (family.folder, t))
+            });
+            for (family, info) in by_family {
                 let params: Vec<String> = info.params.iter().map(param_cell).collect();
                 out.push_str(&format!(
                     "| `{}` | {} | [{family}](techniques/{family}/README.md) | {} |\n",
@@ -100,6 +103,7 @@ pub fn techniques_markdown(table: MarkdownTable) -> String {
         }
         MarkdownTable::Transmission => {
             out.push_str("| technique | coloured transmittance |\n|---|---|\n");
+            let registry = crate::registry();
             let mut rows: Vec<(Vec<&str>, &str)> = Vec::new();
             for info in &registry {
                 match rows.last_mut() {
