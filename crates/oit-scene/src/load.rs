@@ -437,6 +437,7 @@ impl Ctx<'_> {
             textures: Vec::new(),
             ignored: Vec::new(),
             credits: Vec::new(),
+            frame: 0,
         };
         // Validate every object and count its triangles before generating any geometry, so an
         // absurd scene is rejected without allocating anything.

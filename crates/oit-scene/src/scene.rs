@@ -388,6 +388,10 @@ pub struct Scene {
     pub ignored: Vec<String>,
     /// Who made the content (a glTF asset's `asset.copyright`), shown wherever the scene is.
     pub credits: Vec<String>,
+    /// Which frame of the scene's animation this is (0 for a still scene). Not part of the
+    /// image the reference computes: techniques that vary over time (stochastic thresholds)
+    /// key their per-frame sequence on it, so a static camera still sees fresh noise.
+    pub frame: u32,
 }
 
 impl Camera {

@@ -75,6 +75,7 @@ fn layers(count: u32, size: u32) -> Scene {
         textures: Vec::new(),
         ignored: Vec::new(),
         credits: Vec::new(),
+        frame: 0,
     }
 }
 

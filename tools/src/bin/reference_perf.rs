@@ -118,6 +118,7 @@ fn layers_scene(n: usize, size: u32) -> Scene {
         textures: Vec::new(),
         ignored: Vec::new(),
         credits: Vec::new(),
+        frame: 0,
     }
 }
 

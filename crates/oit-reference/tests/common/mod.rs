@@ -68,6 +68,7 @@ impl SceneBuilder {
                 textures: Vec::new(),
                 ignored: Vec::new(),
                 credits: Vec::new(),
+                frame: 0,
             },
         }
     }

@@ -103,6 +103,7 @@ fn load_bytes_with_inputs(
         textures: Vec::new(),
         ignored: Vec::new(),
         credits: Vec::new(),
+        frame: 0,
     };
     let materials = asset.add_materials(&mut scene)?;
     let placement = Placement {
