@@ -56,6 +56,16 @@ pub(crate) struct RawScene {
     #[serde(default)]
     pub lighting: RawLighting,
     pub objects: Vec<RawObject>,
+    /// Present for an animated scene: its frame count and rate (crate::animation).
+    #[serde(default)]
+    pub animation: Option<RawAnimation>,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawAnimation {
+    pub frames: u64,
+    pub fps: f32,
 }
 
 fn default_up() -> [f32; 3] {
@@ -68,7 +78,7 @@ fn default_far() -> f32 {
     100.0
 }
 
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(crate) struct RawCamera {
     pub eye: [f32; 3],
@@ -85,11 +95,54 @@ pub(crate) struct RawCamera {
     pub near: f32,
     #[serde(default = "default_far")]
     pub far: f32,
+    /// Animated camera values by frame (crate::animation); empty for a still camera.
+    #[serde(default)]
+    pub keyframes: Vec<RawCameraKey>,
+    /// A generated path: the eye circles `center` (the target) once per `turns`.
+    #[serde(default)]
+    pub orbit: Option<RawOrbit>,
+}
+
+/// One camera keyframe: any subset of the animated camera fields at `frame`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawCameraKey {
+    pub frame: u64,
+    #[serde(default)]
+    pub eye: Option<[f32; 3]>,
+    #[serde(default)]
+    pub target: Option<[f32; 3]>,
+    #[serde(default)]
+    pub up: Option<[f32; 3]>,
+    #[serde(default)]
+    pub fov_y: Option<f32>,
+    #[serde(default)]
+    pub orthographic: Option<RawOrthographic>,
+}
+
+fn default_turns() -> f32 {
+    1.0
+}
+
+/// PixelSyncOIT's path in its simplest form: the eye on a circle of `radius` around
+/// `center`, `height` above it, `turns` revolutions over the animation, looking at `center`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawOrbit {
+    pub center: [f32; 3],
+    pub radius: f32,
+    #[serde(default)]
+    pub height: f32,
+    #[serde(default = "default_turns")]
+    pub turns: f32,
+    /// Angle of frame 0 in degrees about +Y, 0 on +Z (the eye at `center + (0, height, radius)`).
+    #[serde(default)]
+    pub start_degrees: f32,
 }
 
 pub(crate) const DEFAULT_FOV_Y: f32 = 45.0;
 
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(crate) struct RawOrthographic {
     /// Vertical extent of the view volume in world units.
@@ -135,9 +188,27 @@ pub(crate) struct RawObject {
     pub alpha_index: i32,
     #[serde(default)]
     pub instances: Option<RawInstances>,
+    /// Animated transform and alpha by frame (crate::animation); empty for a still object.
+    #[serde(default)]
+    pub keyframes: Vec<RawObjectKey>,
 }
 
-#[derive(Debug, Deserialize)]
+/// One object keyframe: any subset of `transform`'s fields and the material's `alpha`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawObjectKey {
+    pub frame: u64,
+    #[serde(default)]
+    pub translate: Option<[f32; 3]>,
+    #[serde(default)]
+    pub rotate: Option<[f32; 3]>,
+    #[serde(default)]
+    pub scale: Option<[f32; 3]>,
+    #[serde(default)]
+    pub alpha: Option<f32>,
+}
+
+#[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(crate) struct RawTransform {
     #[serde(default)]
@@ -163,7 +234,7 @@ fn default_mode() -> AlphaMode {
     AlphaMode::Opaque
 }
 
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(crate) struct RawMaterial {
     #[serde(default = "ones3")]

@@ -7,6 +7,7 @@
 //! billboards turned to the camera and lighting baked into vertex colours. The oit-fuzz package
 //! (fuzz/) fuzzes both loaders against their documented invariants.
 
+mod animation;
 mod error;
 mod format;
 mod gltf;
@@ -18,12 +19,13 @@ mod scene;
 mod strict;
 mod texture;
 
+pub use animation::{Animation, Frames, MAX_FRAMES};
 pub use error::{Problem, SceneError};
 pub use format::{DEFAULT_RESOLUTION, MAX_TRIANGLES};
 pub use gltf::{GLTF_BACKGROUND, MAX_TEXELS};
 pub use load::{
-    LoadOptions, is_gltf_path, load, load_dir, load_dir_with, load_with, load_with_inputs, parse,
-    parse_gltf, scene_files,
+    LoadOptions, is_gltf_path, load, load_dir, load_dir_with, load_frames, load_with,
+    load_with_inputs, parse, parse_frames, parse_gltf, scene_files,
 };
 pub use rng::SplitMix64;
 pub use scene::*;

@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use glam::{Affine3A, Mat3, Vec3};
 use serde::de::DeserializeOwned;
 
+use crate::animation::Frames;
 use crate::error::{Problem, SceneError};
 use crate::format::{
     DEFAULT_FOV_Y, GltfMeshRef, MAX_TRIANGLES, MESH_KINDS, RawCamera, RawLighting, RawMaterial,
@@ -73,18 +74,53 @@ pub fn parse(json: &str, origin: &str) -> Result<Scene> {
 
 /// [`parse`], and the files it read (glTF assets that objects name, their buffers and images).
 fn parse_with_inputs(json: &str, origin: &str) -> Result<(Scene, Vec<PathBuf>)> {
+    let (frames, inputs) = parse_frames_with_inputs(json, origin)?;
+    Ok((frames.frame(0)?, inputs))
+}
+
+/// [`parse`] for every frame: the scene's [`Frames`] (one for a still scene), and the files
+/// read to prepare them and to flatten frame 0.
+fn parse_frames_with_inputs(json: &str, origin: &str) -> Result<(Frames, Vec<PathBuf>)> {
     let json = json.strip_prefix('\u{feff}').unwrap_or(json);
-    let cx = Ctx {
-        file: origin,
-        json,
-        inputs: std::cell::RefCell::new(Vec::new()),
-    };
+    let cx = Ctx::new(origin, json);
     let mut de = serde_json::Deserializer::from_str(json);
     let raw: RawScene = serde_path_to_error::deserialize(Strict(&mut de))
         .map_err(|e| cx.serde_error(&json_path("", e.path()), e.inner()))?;
     de.end().map_err(|e| cx.serde_error("(root)", &e))?;
-    let scene = cx.build(raw)?;
-    Ok((scene, cx.inputs.into_inner()))
+    let prepared = cx.prepare_scene(&raw)?;
+    if prepared.timeline.is_none() {
+        let scene = cx.flatten(&raw, &prepared, 0)?;
+        let inputs = cx.inputs.into_inner();
+        return Ok((Frames::still(scene, origin), inputs));
+    }
+    // Frame 0 is flattened once here so that every file the frames read is known up front.
+    cx.flatten(&raw, &prepared, 0)?;
+    let inputs = cx.inputs.into_inner();
+    let frames = Frames::animated(origin.to_string(), json.to_string(), raw, prepared);
+    Ok((frames, inputs))
+}
+
+/// Reads a scene file with all its frames: an animated JSON scene's [`Frames`], or a still
+/// scene (JSON without `animation`, glTF) as one frame. Also returns every file read, `path`
+/// first, as [`load_with_inputs`] does.
+pub fn load_frames(path: &Path, options: &LoadOptions) -> Result<(Frames, Vec<PathBuf>)> {
+    if is_gltf_path(path) {
+        let (scene, inputs) = crate::gltf::load_file_with_inputs(path, options)?;
+        return Ok((Frames::still(scene, path.display().to_string()), inputs));
+    }
+    let file = path.display().to_string();
+    let json = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
+        file: file.clone(),
+        source,
+    })?;
+    let (frames, mut inputs) = parse_frames_with_inputs(&json, &file)?;
+    inputs.insert(0, path.to_path_buf());
+    Ok((frames, inputs))
+}
+
+/// [`parse`] returning every frame of an animated scene ([`Frames`]).
+pub fn parse_frames(json: &str, origin: &str) -> Result<Frames> {
+    Ok(parse_frames_with_inputs(json, origin)?.0)
 }
 
 /// Loads a glTF 2.0 asset (glTF JSON or GLB) from memory, as [`load`] loads a `.gltf` or
@@ -192,11 +228,21 @@ fn backticked(s: &str) -> Option<(&str, &str)> {
     Some((&s[start..start + len], &s[start + len + 1..]))
 }
 
-struct Ctx<'a> {
+pub(crate) struct Ctx<'a> {
     file: &'a str,
     json: &'a str,
     /// Files read besides the scene file (glTF assets, their buffers and images).
     inputs: std::cell::RefCell<Vec<PathBuf>>,
+}
+
+impl<'a> Ctx<'a> {
+    pub(crate) fn new(file: &'a str, json: &'a str) -> Self {
+        Ctx {
+            file,
+            json,
+            inputs: std::cell::RefCell::new(Vec::new()),
+        }
+    }
 }
 
 impl Ctx<'_> {
@@ -210,7 +256,7 @@ impl Ctx<'_> {
         }
     }
 
-    fn err(&self, path: impl Into<String>, problem: Problem) -> SceneError {
+    pub(crate) fn err(&self, path: impl Into<String>, problem: Problem) -> SceneError {
         SceneError::Invalid {
             file: self.file.to_string(),
             path: path.into(),
@@ -338,7 +384,7 @@ impl Ctx<'_> {
 
     // ---- value checks: each returns the value or the specific error at `path` ----
 
-    fn finite(&self, v: f32, path: &str) -> Result<f32> {
+    pub(crate) fn finite(&self, v: f32, path: &str) -> Result<f32> {
         if v.is_finite() {
             return Ok(v);
         }
@@ -347,7 +393,7 @@ impl Ctx<'_> {
         Err(self.err(path, Problem::NonFinite { value }))
     }
 
-    fn vec3(&self, v: [f32; 3], path: &str) -> Result<Vec3> {
+    pub(crate) fn vec3(&self, v: [f32; 3], path: &str) -> Result<Vec3> {
         for (k, x) in v.iter().enumerate() {
             self.finite(*x, &format!("{path}[{k}]"))?;
         }
@@ -364,7 +410,7 @@ impl Ctx<'_> {
         Ok(c)
     }
 
-    fn alpha(&self, v: f32, path: &str) -> Result<f32> {
+    pub(crate) fn alpha(&self, v: f32, path: &str) -> Result<f32> {
         self.finite(v, path)?;
         if (0.0..=1.0).contains(&v) {
             Ok(v)
@@ -373,7 +419,7 @@ impl Ctx<'_> {
         }
     }
 
-    fn positive(&self, v: f32, path: &str) -> Result<f32> {
+    pub(crate) fn positive(&self, v: f32, path: &str) -> Result<f32> {
         self.finite(v, path)?;
         if v > 0.0 {
             Ok(v)
@@ -408,7 +454,10 @@ impl Ctx<'_> {
 
     // ---- building ----
 
-    fn build(&self, raw: RawScene) -> Result<Scene> {
+    /// Validates everything about the scene once (and, for an animated scene, every frame's
+    /// camera and keyed transforms) and counts its triangles before generating any geometry,
+    /// so an absurd scene is rejected without allocating anything.
+    pub(crate) fn prepare_scene(&self, raw: &RawScene) -> Result<PreparedScene> {
         let mut res = [0u32; 2];
         for (k, v) in raw.resolution.iter().enumerate() {
             if *v == 0 || *v > u64::from(Resolution::MAX_DIMENSION) {
@@ -422,38 +471,78 @@ impl Ctx<'_> {
             height: res[1],
         };
         let background = self.color(raw.background, "background")?.to_array();
-        let camera = self.camera(&raw.camera, raw.reverse_z, resolution)?;
+        self.camera(&raw.camera, raw.reverse_z, resolution)?;
         let light = self.lighting(&raw.lighting)?;
-
-        let mut scene = Scene {
-            name: raw.name,
-            description: raw.description,
+        let mut total_triangles: u64 = 0;
+        let mut objects = Vec::with_capacity(raw.objects.len());
+        for (i, obj) in raw.objects.iter().enumerate() {
+            objects.push(self.prepare(i, obj, &mut total_triangles)?);
+        }
+        let timeline = self.timeline(raw)?;
+        if let Some(t) = &timeline {
+            self.check_frames(raw, t)?;
+        }
+        Ok(PreparedScene {
             resolution,
-            camera,
             background,
+            light,
+            objects,
+            total_triangles,
+            timeline,
+        })
+    }
+
+    /// Flattens frame `t` of a prepared scene: the frame's camera, transforms and alphas,
+    /// geometry generated and transformed, billboards turned to this frame's camera.
+    pub(crate) fn flatten(&self, raw: &RawScene, prep: &PreparedScene, t: u32) -> Result<Scene> {
+        let camera = match &prep.timeline {
+            Some(tl) => {
+                let c = tl.camera.camera_at(&raw.camera, t, tl.animation.frames);
+                self.camera(&c, raw.reverse_z, prep.resolution)?
+            }
+            None => self.camera(&raw.camera, raw.reverse_z, prep.resolution)?,
+        };
+        let mut scene = Scene {
+            name: raw.name.clone(),
+            description: raw.description.clone(),
+            resolution: prep.resolution,
+            camera,
+            background: prep.background,
             materials: Vec::with_capacity(raw.objects.len()),
             draws: Vec::new(),
             vertices: Vec::new(),
             textures: Vec::new(),
             ignored: Vec::new(),
             credits: Vec::new(),
-            frame: 0,
+            frame: t,
+            animation: prep.timeline.as_ref().map(|tl| tl.animation),
         };
-        // Validate every object and count its triangles before generating any geometry, so an
-        // absurd scene is rejected without allocating anything.
-        let mut total_triangles: u64 = 0;
-        let mut prepared = Vec::with_capacity(raw.objects.len());
-        for (i, obj) in raw.objects.iter().enumerate() {
-            prepared.push(self.prepare(i, obj, &mut total_triangles)?);
-        }
-        scene.vertices.reserve(total_triangles as usize * 3);
-        for (i, (obj, prep)) in raw.objects.iter().zip(&prepared).enumerate() {
-            self.object(i, obj, prep, light.as_ref(), &mut scene)?;
+        scene.vertices.reserve(prep.total_triangles as usize * 3);
+        for (i, (obj, p)) in raw.objects.iter().zip(&prep.objects).enumerate() {
+            let keyed = prep
+                .timeline
+                .as_ref()
+                .map(|tl| &tl.objects[i])
+                .filter(|tracks| !tracks.is_empty());
+            let (world, material) = match keyed {
+                None => (p.world, p.material),
+                Some(tracks) => {
+                    let transform = tracks.transform_at(&obj.transform, t);
+                    let world = self.transform(&transform, &format!("objects[{i}].transform"))?;
+                    let mut material = p.material;
+                    if let Some([alpha]) = tracks.alpha.at(t) {
+                        material.alpha = alpha;
+                    }
+                    (world, material)
+                }
+            };
+            let at = Placed { world, material };
+            self.object(i, obj, p, &at, prep.light.as_ref(), &mut scene)?;
         }
         Ok(scene)
     }
 
-    fn camera(&self, c: &RawCamera, reverse_z: bool, res: Resolution) -> Result<Camera> {
+    pub(crate) fn camera(&self, c: &RawCamera, reverse_z: bool, res: Resolution) -> Result<Camera> {
         let eye = self.vec3(c.eye, "camera.eye")?;
         let target = self.vec3(c.target, "camera.target")?;
         let up = self.vec3(c.up, "camera.up")?;
@@ -611,7 +700,7 @@ impl Ctx<'_> {
         Ok(tau)
     }
 
-    fn transform(&self, t: &RawTransform, p: &str) -> Result<Affine3A> {
+    pub(crate) fn transform(&self, t: &RawTransform, p: &str) -> Result<Affine3A> {
         let translate = self.vec3(t.translate, &format!("{p}.translate"))?;
         let rotate = self.vec3(t.rotate, &format!("{p}.rotate"))?;
         let scale = self.vec3(t.scale, &format!("{p}.scale"))?;
@@ -841,26 +930,28 @@ impl Ctx<'_> {
         })
     }
 
-    /// Generates one validated object's draws.
+    /// Generates one validated object's draws, placed and coloured as `at` says (the frame's
+    /// transform and material).
     fn object(
         &self,
         i: usize,
         obj: &RawObject,
         prep: &Prepared,
+        at: &Placed,
         light: Option<&Light>,
         scene: &mut Scene,
     ) -> Result<()> {
         let p = format!("objects[{i}]");
         let Prepared {
             source,
-            world,
-            material,
             counts,
             spacing,
+            ..
         } = prep;
+        let (world, material) = (&at.world, &at.material);
         let mesh = match source {
             MeshSource::Procedural(mesh) => mesh,
-            MeshSource::Gltf(g) => return self.place_gltf(&p, obj, g, prep, light, scene),
+            MeshSource::Gltf(g) => return self.place_gltf(&p, obj, g, prep, world, light, scene),
         };
         let material_index = scene.materials.len() as u32;
         scene.materials.push(*material);
@@ -942,12 +1033,17 @@ impl Ctx<'_> {
     }
 
     /// Adds a glTF object's materials (once) and its geometry (per instance).
+    #[allow(
+        clippy::too_many_arguments,
+        reason = "a private helper of `object`, called once"
+    )]
     fn place_gltf(
         &self,
         p: &str,
         obj: &RawObject,
         g: &GltfObject,
         prep: &Prepared,
+        world: &Affine3A,
         light: Option<&Light>,
         scene: &mut Scene,
     ) -> Result<()> {
@@ -976,7 +1072,7 @@ impl Ctx<'_> {
                         format!("{p} ")
                     };
                     let placement = Placement {
-                        transform: Affine3A::from_translation(offset) * prep.world,
+                        transform: Affine3A::from_translation(offset) * *world,
                         transform_path: Some(derived_path.clone()),
                         light,
                         render_group: obj.render_group,
@@ -1096,6 +1192,7 @@ impl Ctx<'_> {
 }
 
 /// An object after validation, before its geometry is generated.
+#[derive(Debug)]
 struct Prepared {
     source: MeshSource,
     world: Affine3A,
@@ -1104,7 +1201,25 @@ struct Prepared {
     spacing: Vec3,
 }
 
+/// An object's transform and material in one frame.
+struct Placed {
+    world: Affine3A,
+    material: Material,
+}
+
+/// A scene file after validation, before any frame's geometry is generated.
+#[derive(Debug)]
+pub(crate) struct PreparedScene {
+    resolution: Resolution,
+    background: [f32; 3],
+    light: Option<Light>,
+    objects: Vec<Prepared>,
+    total_triangles: u64,
+    pub(crate) timeline: Option<crate::animation::Timeline>,
+}
+
 /// Where an object's triangles come from.
+#[derive(Debug)]
 enum MeshSource {
     Procedural(RawMesh),
     Gltf(Box<GltfObject>),
@@ -1116,6 +1231,14 @@ struct GltfObject {
     nodes: Nodes,
     /// Per instance of the object.
     triangles: u64,
+}
+
+impl std::fmt::Debug for GltfObject {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("GltfObject")
+            .field("triangles", &self.triangles)
+            .finish_non_exhaustive()
+    }
 }
 
 /// A directional light, ready to bake: `rgb *= ambient + color · max(0, n · to_light)`.

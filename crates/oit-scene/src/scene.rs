@@ -392,6 +392,8 @@ pub struct Scene {
     /// image the reference computes: techniques that vary over time (stochastic thresholds)
     /// key their per-frame sequence on it, so a static camera still sees fresh noise.
     pub frame: u32,
+    /// The animation this frame belongs to (`None` for a still scene).
+    pub animation: Option<crate::Animation>,
 }
 
 impl Camera {

@@ -76,6 +76,7 @@ fn layers(count: u32, size: u32) -> Scene {
         ignored: Vec::new(),
         credits: Vec::new(),
         frame: 0,
+        animation: None,
     }
 }
 

@@ -119,6 +119,7 @@ fn layers_scene(n: usize, size: u32) -> Scene {
         ignored: Vec::new(),
         credits: Vec::new(),
         frame: 0,
+        animation: None,
     }
 }
 

@@ -69,6 +69,7 @@ impl SceneBuilder {
                 ignored: Vec::new(),
                 credits: Vec::new(),
                 frame: 0,
+                animation: None,
             },
         }
     }

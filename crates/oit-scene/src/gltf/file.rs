@@ -104,6 +104,7 @@ fn load_bytes_with_inputs(
         ignored: Vec::new(),
         credits: Vec::new(),
         frame: 0,
+        animation: None,
     };
     let materials = asset.add_materials(&mut scene)?;
     let placement = Placement {
