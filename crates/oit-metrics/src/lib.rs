@@ -151,6 +151,7 @@ mod io;
 mod metrics;
 mod ssim;
 mod tonemap;
+pub mod temporal;
 
 use std::path::PathBuf;
 
