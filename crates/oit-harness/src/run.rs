@@ -918,6 +918,7 @@ fn run_one(
         outputs: Some(outputs),
         inputs: None,
         resumed: false,
+        temporal: None,
     })
 }
 

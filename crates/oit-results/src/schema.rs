@@ -260,6 +260,60 @@ pub struct Run {
     /// against this comparison's floor and baseline when the scene had new runs).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub resumed: bool,
+    /// The run over every frame of an animated scene (absent for a still scene, and in files
+    /// written before 2026-12-06).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub temporal: Option<Temporal>,
+}
+
+/// A technique over the frames of an animated scene, each against the exact reference of that
+/// frame (docs/results-schema.md, "temporal"; definitions in `oit_metrics::temporal`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Temporal {
+    /// The frames rendered, in order (all of the animation unless a subset was asked for).
+    pub frames: Vec<u32>,
+    /// Per frame: RMSE of linear RGB, the headline ꟻLIP (`flip_name`) and the largest
+    /// per-channel error.
+    pub rmse: Vec<f64>,
+    pub flip: Vec<f64>,
+    pub flip_name: String,
+    pub max_abs: Vec<f64>,
+    /// Per frame after the first: mean |E_t − E_{t−1}| in display space.
+    pub change: Vec<f64>,
+    /// RMS of E_t − E_{t−1} over pixels, channels and consecutive frames.
+    pub flicker: f64,
+    /// Frames whose change exceeds `pop_multiple` × the median change and `pop_floor`.
+    pub pop_events: Vec<u32>,
+    pub pop_multiple: f64,
+    pub pop_floor: f64,
+    /// The frame with the largest headline ꟻLIP, and that value.
+    pub worst_frame: u32,
+    pub worst_flip: f64,
+    pub mean_flip: f64,
+    pub mean_rmse: f64,
+    /// Largest order dependence over the frames (max |forward − reversed submission|).
+    pub max_order_dependence: f64,
+    /// Frames whose image holds dropped or approximated layers (the technique's own count).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub inexact_frames: Vec<u32>,
+    /// Frame 0 rendered `frames` times at its static camera with fresh per-frame noise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub static_camera: Option<StaticCamera>,
+}
+
+/// Bias and noise at a static camera, in the display space of ꟻLIP (`oit_metrics::temporal`):
+/// `mse = bias_rmse² + noise_rms²`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StaticCamera {
+    pub frames: u32,
+    pub bias_rmse: f64,
+    pub noise_rms: f64,
+    pub mse: f64,
+    /// RMSE of the exponential history (blend `history_blend`) after 1, 2, … frames.
+    pub history_rmse: Vec<f64>,
+    pub history_blend: f64,
+    /// RMSE of the plain mean of the first 1, 2, … frames.
+    pub mean_rmse: Vec<f64>,
 }
 
 /// The inputs of a run beyond its scene name, technique and resolution.
@@ -363,6 +417,7 @@ impl Run {
             outputs: None,
             inputs: None,
             resumed: false,
+            temporal: None,
         }
     }
 }
