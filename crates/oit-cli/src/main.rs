@@ -62,6 +62,10 @@ enum Command {
         /// needs more for one pixel fails naming that pixel.
         #[arg(long, value_name = "MIB", default_value_t = 2048, value_parser = clap::value_parser!(u64).range(1..))]
         memory_budget: u64,
+        /// Frames of an animated scene: `N`, `A..B` (B exclusive), `A..B:STEP` or `all`
+        /// (default: frame 0). With more than one, each output gets `-fNNNN` before `.exr`.
+        #[arg(long, value_name = "FRAMES", value_parser = parse_frames)]
+        animation_frames: Option<oit_harness::motion::FrameSelection>,
         #[command(flatten)]
         load: LoadArgs,
     },
@@ -79,6 +83,10 @@ enum Command {
         /// Override the scene's resolution, e.g. 512x512.
         #[arg(long, value_parser = parse_resolution)]
         resolution: Option<Resolution>,
+        /// Frames of an animated scene: `N`, `A..B` (B exclusive), `A..B:STEP` or `all`
+        /// (default: frame 0). With more than one, each output gets `-fNNNN` before `.exr`.
+        #[arg(long, value_name = "FRAMES", value_parser = parse_frames)]
+        animation_frames: Option<oit_harness::motion::FrameSelection>,
         #[command(flatten)]
         load: LoadArgs,
         #[command(flatten)]
@@ -148,6 +156,15 @@ enum Command {
         /// Error axis of the plots and Pareto fronts.
         #[arg(long, default_value = "flip", value_parser = ["flip", "rmse"])]
         metric: String,
+        /// Frames of each animated scene's path measured for motion (flicker, pop events,
+        /// per-frame errors): `all`, `N`, `A..B` (B exclusive) or `A..B:STEP`. Not to be
+        /// confused with --frames, the timed repetitions of frame 0.
+        #[arg(long, value_name = "FRAMES", default_value = "all", value_parser = parse_frames)]
+        animation_frames: oit_harness::motion::FrameSelection,
+        /// Renders of frame 0 of each animated scene at its static camera, for bias and noise
+        /// over frames (0: not measured).
+        #[arg(long, value_name = "N", default_value_t = oit_harness::motion::DEFAULT_STATIC_FRAMES, value_parser = clap::value_parser!(u32).range(0..=1024))]
+        static_frames: u32,
         #[command(flatten)]
         load: LoadArgs,
         #[command(flatten)]
@@ -340,34 +357,39 @@ fn run(command: Command) -> Result<()> {
             output,
             resolution,
             memory_budget,
+            animation_frames,
             load,
         } => {
             load.check(std::slice::from_ref(&scene))?;
-            reference(
+            for frame in frame_outputs(
                 &scene,
-                output,
                 resolution,
-                mib(memory_budget),
+                animation_frames,
+                output,
                 &load.options(),
-            )
+            )? {
+                reference(frame, mib(memory_budget))?;
+            }
+            Ok(())
         }
         Command::Render {
             scene,
             technique,
             output,
             resolution,
+            animation_frames,
             load,
             gpu,
         } => {
             load.check(std::slice::from_ref(&scene))?;
-            render(
+            let frames = frame_outputs(
                 &scene,
-                &technique,
-                output,
                 resolution,
+                animation_frames,
+                output,
                 &load.options(),
-                &gpu,
-            )
+            )?;
+            render(frames, &technique, &gpu)
         }
         Command::Compare {
             scenes,
@@ -385,6 +407,8 @@ fn run(command: Command) -> Result<()> {
             memory_budget,
             run_budget,
             metric,
+            animation_frames,
+            static_frames,
             load,
             gpu,
         } => {
@@ -407,6 +431,8 @@ fn run(command: Command) -> Result<()> {
                 retime,
                 cancel: None,
                 context: gpu.options(),
+                animation_frames,
+                static_frames,
             };
             compare(
                 &scenes,
@@ -440,20 +466,6 @@ fn print_adapter(ctx: &oit_gpu::Context) {
         "adapter: {} ({}, {}, {} {})",
         info.name, info.backend, info.device_type, info.driver, info.driver_info
     );
-}
-
-/// The scene at `path` (resolution applied) and every file read for it.
-fn load_scene(
-    path: &Path,
-    resolution: Option<Resolution>,
-    load: &oit_scene::LoadOptions,
-) -> Result<(Scene, Vec<PathBuf>)> {
-    let (scene, inputs) = oit_scene::load_with_inputs(path, load)?;
-    let scene = match resolution {
-        Some(r) => scene.with_resolution(r),
-        None => scene,
-    };
-    Ok((scene, inputs))
 }
 
 /// The scenes of `paths`, or an error when there are none (an empty folder is a mistake).
@@ -594,15 +606,78 @@ fn mib(value: u64) -> u64 {
     value.saturating_mul(1 << 20)
 }
 
-fn reference(
-    scene_path: &Path,
+/// One frame of a scene to write, and where: the EXR and its PNG preview.
+struct FrameOutput {
+    scene: Scene,
+    scene_path: PathBuf,
+    inputs: Vec<PathBuf>,
     output: Option<PathBuf>,
+    /// `-fNNNN`, inserted before the extension, when several frames are written.
+    suffix: String,
+}
+
+/// The frames `selection` asks for (frame 0 when `None`), each with its output name. Every
+/// frame is validated before anything is written.
+fn frame_outputs(
+    scene_path: &Path,
     resolution: Option<Resolution>,
-    memory_budget: u64,
+    selection: Option<oit_harness::motion::FrameSelection>,
+    output: Option<PathBuf>,
     load: &oit_scene::LoadOptions,
-) -> Result<()> {
-    let (scene, inputs) = load_scene(scene_path, resolution, load)?;
-    let default = format!("{}-reference", oit_harness::file_stem(&scene.name));
+) -> Result<Vec<FrameOutput>> {
+    let (frames, inputs) = oit_scene::load_frames(scene_path, load)?;
+    let selected = match selection {
+        None => vec![0],
+        Some(s) => s
+            .frames(frames.count())
+            .map_err(|e| anyhow::anyhow!("{}: {e}", scene_path.display()))?,
+    };
+    let several = selected.len() > 1;
+    selected
+        .into_iter()
+        .map(|t| {
+            let scene = frames.frame(t)?;
+            let scene = match resolution {
+                Some(r) => scene.with_resolution(r),
+                None => scene,
+            };
+            let suffix = if several {
+                format!("-f{t:04}")
+            } else {
+                String::new()
+            };
+            let output_of_frame = output.as_ref().map(|o| {
+                let stem = o
+                    .file_stem()
+                    .map(|s| s.to_string_lossy().into_owned())
+                    .unwrap_or_default();
+                let ext = o
+                    .extension()
+                    .map(|e| e.to_string_lossy().into_owned())
+                    .unwrap_or_default();
+                o.with_file_name(format!("{stem}{suffix}.{ext}"))
+            });
+            Ok(FrameOutput {
+                scene,
+                scene_path: scene_path.to_path_buf(),
+                inputs: inputs.clone(),
+                output: output_of_frame,
+                suffix,
+            })
+        })
+        .collect()
+}
+
+fn reference(frame: FrameOutput, memory_budget: u64) -> Result<()> {
+    let FrameOutput {
+        scene,
+        scene_path,
+        inputs,
+        output,
+        suffix,
+    } = frame;
+    let scene_path = scene_path.as_path();
+    let default = format!("{}-reference{suffix}", oit_harness::file_stem(&scene.name));
     let (output, png) = output_paths(output, &default, &inputs)?;
     let bar = progress_bar(0, &format!("reference {}", scene.name));
     let tick = bar.clone();
@@ -632,9 +707,13 @@ fn reference(
     oit_harness::write_reference_exr(&output, &reference)?;
     oit_metrics::write_png_preview(&png, &reference.image)?;
     let st = &reference.stats;
+    let name = match scene.animation {
+        Some(_) => format!("{} frame {}", scene.name, scene.frame),
+        None => scene.name.clone(),
+    };
     println!(
         "{}: {} at {}: {} fragments, depth complexity max {} mean {:.2}, {:.3} s ({:.1} M fragments/s)",
-        scene.name,
+        name,
         output.display(),
         scene.resolution,
         st.fragments,
@@ -657,53 +736,60 @@ fn reference(
     Ok(())
 }
 
-fn render(
-    scene_path: &Path,
-    spec: &str,
-    output: Option<PathBuf>,
-    resolution: Option<Resolution>,
-    load: &oit_scene::LoadOptions,
-    gpu: &GpuArgs,
-) -> Result<()> {
-    let (scene, inputs) = load_scene(scene_path, resolution, load)?;
+fn render(frames: Vec<FrameOutput>, spec: &str, gpu: &GpuArgs) -> Result<()> {
     let spec = oit_harness::parse_spec(spec)?;
-    let default = format!(
-        "{}-{}",
-        oit_harness::file_stem(&scene.name),
-        oit_harness::file_stem(&spec.canonical())
-    );
     // Refused before the GPU is opened: a bad output costs nothing.
-    let (output, png) = output_paths(output, &default, &inputs)?;
+    let mut planned = Vec::with_capacity(frames.len());
+    for frame in frames {
+        let default = format!(
+            "{}-{}{}",
+            oit_harness::file_stem(&frame.scene.name),
+            oit_harness::file_stem(&spec.canonical()),
+            frame.suffix
+        );
+        let (output, png) = output_paths(frame.output.clone(), &default, &frame.inputs)?;
+        planned.push((frame.scene, output, png));
+    }
     let ctx = oit_harness::open_context(&gpu.options())?;
     print_adapter(&ctx);
-    // One call with no steps to count: a spinner with the time so far (a deep peel can take
-    // minutes on a CPU adapter).
-    let spinner = ProgressBar::new_spinner();
-    spinner.set_style(
-        ProgressStyle::with_template("{spinner} {msg} {elapsed_precise}").expect("static template"),
-    );
-    spinner.set_message(format!(
-        "rendering {} with {}",
-        scene.name,
-        spec.canonical()
-    ));
-    spinner.enable_steady_tick(Duration::from_millis(200));
-    let frame = oit_harness::render_once(&ctx, &scene, &spec);
-    spinner.finish_and_clear();
-    let frame = frame?;
-    oit_metrics::write_exr(
-        &output,
-        &[oit_metrics::ExrLayer::new("render", &frame.image)],
-    )?;
-    oit_metrics::write_png_preview(&png, &frame.image)?;
-    println!(
-        "{} with {}: {} ({})",
-        scene.name,
-        spec.canonical(),
-        output.display(),
-        png.display()
-    );
+    for (scene, output, png) in planned {
+        // One call with no steps to count: a spinner with the time so far (a deep peel can
+        // take minutes on a CPU adapter).
+        let spinner = ProgressBar::new_spinner();
+        spinner.set_style(
+            ProgressStyle::with_template("{spinner} {msg} {elapsed_precise}")
+                .expect("static template"),
+        );
+        spinner.set_message(format!(
+            "rendering {} frame {} with {}",
+            scene.name,
+            scene.frame,
+            spec.canonical()
+        ));
+        spinner.enable_steady_tick(Duration::from_millis(200));
+        let frame = oit_harness::render_once(&ctx, &scene, &spec);
+        spinner.finish_and_clear();
+        let frame = frame?;
+        oit_metrics::write_exr(
+            &output,
+            &[oit_metrics::ExrLayer::new("render", &frame.image)],
+        )?;
+        oit_metrics::write_png_preview(&png, &frame.image)?;
+        println!(
+            "{} frame {} with {}: {} ({})",
+            scene.name,
+            scene.frame,
+            spec.canonical(),
+            output.display(),
+            png.display()
+        );
+    }
     Ok(())
+}
+
+/// Reads `--animation-frames`.
+fn parse_frames(text: &str) -> std::result::Result<oit_harness::motion::FrameSelection, String> {
+    oit_harness::motion::FrameSelection::parse(text)
 }
 
 fn parse_metric(name: &str) -> oit_report::Metric {
@@ -832,6 +918,12 @@ fn compare(
             }
             oit_harness::Event::Notice(line) => {
                 say(format!("note: {}", oit_harness::report::printable(line)))
+            }
+            oit_harness::Event::FrameDone { scene, done, of } => {
+                bar.set_message(format!(
+                    "{} motion {done}/{of}",
+                    oit_harness::report::printable(scene)
+                ));
             }
         },
     )?;

@@ -8,9 +8,11 @@ pub mod cache;
 pub mod goldens;
 pub mod inputs;
 pub mod listing;
+pub mod motion;
 pub mod report;
 pub mod results;
 mod run;
+mod strip;
 mod timing;
 
 pub use listing::{MarkdownTable, techniques_help, techniques_json, techniques_markdown};
@@ -207,6 +209,8 @@ pub struct SceneEntry {
     /// Every file the loader read, `path` first (glTF assets, buffers, images): outputs
     /// never land on them ([`inputs`]).
     pub inputs: Vec<PathBuf>,
+    /// Every frame of an animated scene (`None` for a still one); `scene` is its frame 0.
+    pub frames: Option<std::sync::Arc<oit_scene::Frames>>,
 }
 
 impl SceneEntry {
@@ -217,16 +221,20 @@ impl SceneEntry {
             inputs: vec![path.clone()],
             path,
             scene,
+            frames: None,
         }
     }
 
     /// Loads one scene file.
     pub fn load(path: &Path, options: &oit_scene::LoadOptions) -> Result<Self, HarnessError> {
-        let (scene, inputs) = oit_scene::load_with_inputs(path, options)?;
+        let (frames, inputs) = oit_scene::load_frames(path, options)?;
+        let scene = frames.frame(0)?;
+        let frames = frames.animation().map(|_| std::sync::Arc::new(frames));
         Ok(SceneEntry {
             path: path.to_path_buf(),
             scene,
             inputs,
+            frames,
         })
     }
 }

@@ -65,6 +65,11 @@ pub struct CompareOptions {
     /// is written, and the results say they are incomplete.
     pub cancel: Option<Arc<AtomicBool>>,
     pub context: ContextOptions,
+    /// Frames of an animated scene rendered for the motion measurements (all by default).
+    pub animation_frames: crate::motion::FrameSelection,
+    /// Times frame 0 of an animated scene is rendered at its static camera for bias and noise
+    /// (0: not measured).
+    pub static_frames: u32,
 }
 
 /// Default of [`CompareOptions::run_budget`].
@@ -88,6 +93,8 @@ impl Default for CompareOptions {
             retime: 0,
             cancel: None,
             context: ContextOptions::default(),
+            animation_frames: crate::motion::FrameSelection::ALL,
+            static_frames: crate::motion::DEFAULT_STATIC_FRAMES,
         }
     }
 }
@@ -106,6 +113,12 @@ pub enum Event<'a> {
     Warning(&'a str),
     /// One line that says what the comparison did with earlier results.
     Notice(&'a str),
+    /// A frame of an animated scene's path was measured for every technique.
+    FrameDone {
+        scene: &'a str,
+        done: usize,
+        of: usize,
+    },
 }
 
 /// One rendered image and what it cost.
@@ -117,7 +130,7 @@ pub struct RenderedFrame {
     pub memory_bytes: u64,
 }
 
-fn build(spec: &TechniqueSpec) -> Result<Box<dyn Technique>, HarnessError> {
+pub(crate) fn build(spec: &TechniqueSpec) -> Result<Box<dyn Technique>, HarnessError> {
     Ok(TechniqueSpec::build(&spec.canonical(), &registry())?)
 }
 
@@ -302,6 +315,20 @@ pub fn compare_all(
             write_outputs(out, &results)?;
             continue;
         }
+        if let Some(frames) = &entry.frames
+            && !cancelled()
+        {
+            motion_runs(
+                ctx,
+                frames,
+                &scene,
+                specs,
+                options,
+                cache_dir.as_deref(),
+                &mut results.runs[first_run..],
+                on_event,
+            )?;
+        }
         // Techniques of the earlier comparison that were not requested now stay beside these
         // runs: a comparison grows one technique at a time.
         let requested: Vec<String> = specs.iter().map(TechniqueSpec::canonical).collect();
@@ -381,6 +408,59 @@ pub fn compare_all(
     Ok(results)
 }
 
+/// The motion measurements of an animated scene, added to its rendered runs that have none
+/// yet (runs taken from an earlier comparison keep theirs). A scene-level failure is a
+/// warning: the still runs stand.
+#[allow(clippy::too_many_arguments)] // the comparison's state, passed down once per scene
+fn motion_runs(
+    ctx: &Context,
+    frames: &oit_scene::Frames,
+    scene: &Scene,
+    specs: &[TechniqueSpec],
+    options: &CompareOptions,
+    cache_dir: Option<&Path>,
+    runs: &mut [Run],
+    on_event: &dyn Fn(Event<'_>),
+) -> Result<(), HarnessError> {
+    let wanted: Vec<TechniqueSpec> = specs
+        .iter()
+        .filter(|spec| {
+            let canonical = spec.canonical();
+            runs.iter().any(|r| {
+                r.technique == canonical && r.status == RunStatus::Ok && r.temporal.is_none()
+            })
+        })
+        .cloned()
+        .collect();
+    if wanted.is_empty() {
+        return Ok(());
+    }
+    let scene_dir = options.out_dir.join(file_stem(&scene.name));
+    let measured = crate::motion::measure(
+        ctx, frames, &wanted, options, cache_dir, &scene_dir, on_event,
+    );
+    match measured {
+        Ok(measured) => {
+            for (canonical, temporal) in measured {
+                if let (Some(run), Ok(temporal)) =
+                    (runs.iter_mut().find(|r| r.technique == canonical), temporal)
+                {
+                    run.temporal = Some(temporal);
+                }
+            }
+            Ok(())
+        }
+        Err(e @ HarnessError::Io { .. }) if is_under(&e, &options.out_dir) => Err(e),
+        Err(e) => {
+            on_event(Event::Warning(&format!(
+                "scene {}: no motion measurements: {e}",
+                scene.name
+            )));
+            Ok(())
+        }
+    }
+}
+
 /// Most untimed warm-up frames a run may ask for: beyond this a run never ends in practice.
 pub const MAX_WARMUP: u32 = 1000;
 
@@ -452,27 +532,7 @@ fn run_scene(
     on_event: &dyn Fn(Event<'_>),
 ) -> Result<(), HarnessError> {
     let out = &options.out_dir;
-    let memory = MemoryPlan::of(scene, options.memory_budget)?;
-    let compute = || {
-        Ok(oit_reference::try_render(
-            scene,
-            &oit_reference::ReferenceOptions {
-                memory_budget: memory.reference_bytes,
-                ..Default::default()
-            },
-        )?)
-    };
-    let reference = match cache_dir {
-        Some(dir) => {
-            let (reference, outcome) =
-                crate::cache::reference(dir, scene, options.cache_cap, compute)?;
-            if let Some(warning) = outcome.warning(&scene.name) {
-                on_event(Event::Warning(&warning));
-            }
-            reference
-        }
-        None => compute()?,
-    };
+    let reference = reference_of(scene, options, cache_dir, on_event)?;
     let scene_dir = out.join(file_stem(&scene.name));
     std::fs::create_dir_all(&scene_dir).map_err(|e| HarnessError::io(&scene_dir, e))?;
     oit_metrics::remove_stale_temporaries(&scene_dir);
@@ -569,6 +629,37 @@ fn run_scene(
         });
     }
     Ok(())
+}
+
+/// The exact reference of `scene` within the memory budget, from the cache when it holds a
+/// trustworthy one (a warning says when it did not).
+pub(crate) fn reference_of(
+    scene: &Scene,
+    options: &CompareOptions,
+    cache_dir: Option<&Path>,
+    on_event: &dyn Fn(Event<'_>),
+) -> Result<oit_reference::Reference, HarnessError> {
+    let memory = MemoryPlan::of(scene, options.memory_budget)?;
+    let compute = || {
+        Ok(oit_reference::try_render(
+            scene,
+            &oit_reference::ReferenceOptions {
+                memory_budget: memory.reference_bytes,
+                ..Default::default()
+            },
+        )?)
+    };
+    match cache_dir {
+        Some(dir) => {
+            let (reference, outcome) =
+                crate::cache::reference(dir, scene, options.cache_cap, compute)?;
+            if let Some(warning) = outcome.warning(&scene.name) {
+                on_event(Event::Warning(&warning));
+            }
+            Ok(reference)
+        }
+        None => compute(),
+    }
 }
 
 /// How a scene's memory budget is shared: the images of one run (render, reference, reversed

@@ -150,8 +150,8 @@ mod heatmap;
 mod io;
 mod metrics;
 mod ssim;
-mod tonemap;
 pub mod temporal;
+mod tonemap;
 
 use std::path::PathBuf;
 

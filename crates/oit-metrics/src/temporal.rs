@@ -196,7 +196,11 @@ impl StaticTracker {
         let count = f64::from(self.frames + 1);
         for (i, p) in shown.iter().enumerate() {
             for c in 0..3 {
-                let x = if p[c].is_finite() { f64::from(p[c]) } else { 2.0 };
+                let x = if p[c].is_finite() {
+                    f64::from(p[c])
+                } else {
+                    2.0
+                };
                 let truth = f64::from(self.reference[i][c]);
                 self.sum[i][c] += x;
                 self.sum_sq[i][c] += x * x;
@@ -289,7 +293,9 @@ mod tests {
         for _ in 0..256 {
             let values: Vec<f32> = (0..64)
                 .map(|_| {
-                    state = state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+                    state = state
+                        .wrapping_mul(6_364_136_223_846_793_005)
+                        .wrapping_add(1);
                     0.5 + ((state >> 40) as f32 / (1u64 << 24) as f32 - 0.5) * 0.2
                 })
                 .collect();
