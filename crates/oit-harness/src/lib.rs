@@ -210,7 +210,7 @@ pub struct SceneEntry {
     /// never land on them ([`inputs`]).
     pub inputs: Vec<PathBuf>,
     /// Every frame of an animated scene (`None` for a still one); `scene` is its frame 0.
-    pub frames: Option<std::sync::Arc<oit_scene::Frames>>,
+    pub frames: Option<std::rc::Rc<oit_scene::Frames>>,
 }
 
 impl SceneEntry {
@@ -229,7 +229,7 @@ impl SceneEntry {
     pub fn load(path: &Path, options: &oit_scene::LoadOptions) -> Result<Self, HarnessError> {
         let (frames, inputs) = oit_scene::load_frames(path, options)?;
         let scene = frames.frame(0)?;
-        let frames = frames.animation().map(|_| std::sync::Arc::new(frames));
+        let frames = frames.animation().map(|_| std::rc::Rc::new(frames));
         Ok(SceneEntry {
             path: path.to_path_buf(),
             scene,

@@ -100,6 +100,9 @@ impl FrameSelection {
     }
 }
 
+/// Per canonical spec, its `temporal` block or why it has none.
+pub type MotionRuns = Vec<(String, Result<Temporal, String>)>;
+
 /// One technique's state along the path.
 struct Track {
     canonical: String,
@@ -128,7 +131,7 @@ pub fn measure(
     cache_dir: Option<&Path>,
     scene_dir: &Path,
     on_event: &dyn Fn(Event<'_>),
-) -> Result<Vec<(String, Result<Temporal, String>)>, HarnessError> {
+) -> Result<MotionRuns, HarnessError> {
     let selected = options
         .animation_frames
         .frames(frames.count())

@@ -141,6 +141,9 @@ fn median(sorted: &[f64]) -> Option<f64> {
 #[derive(Debug)]
 pub struct StaticTracker {
     reference: Vec<[f32; 3]>,
+    /// The first frame: sums are kept of the difference to it, so that a deterministic
+    /// technique's variance is exactly 0 and no cancellation hides a small one.
+    first: Vec<[f64; 3]>,
     sum: Vec<[f64; 3]>,
     sum_sq: Vec<[f64; 3]>,
     history: Option<Vec<[f64; 3]>>,
@@ -169,11 +172,18 @@ pub struct StaticStats {
     pub mean_rmse: Vec<f64>,
 }
 
+/// A display value as the static statistics count it: a non-finite one as 2, farther than any
+/// finite display value (in [0, 1]) can be from the truth.
+fn shown_value(v: f32) -> f64 {
+    if v.is_finite() { f64::from(v) } else { 2.0 }
+}
+
 impl StaticTracker {
     pub fn new(reference: &LinearImage) -> Self {
         let n = reference.pixels.len();
         StaticTracker {
             reference: display_image(reference),
+            first: Vec::new(),
             sum: vec![[0.0; 3]; n],
             sum_sq: vec![[0.0; 3]; n],
             history: None,
@@ -190,8 +200,11 @@ impl StaticTracker {
         let b = HISTORY_BLEND;
         let history = self
             .history
-            .get_or_insert_with(|| shown.iter().map(|p| p.map(f64::from)).collect());
+            .get_or_insert_with(|| shown.iter().map(|p| p.map(shown_value)).collect());
         let first = self.frames == 0;
+        if first {
+            self.first = history.clone();
+        }
         let (mut frame_se, mut history_se, mut mean_se) = (0.0, 0.0, 0.0);
         let count = f64::from(self.frames + 1);
         for (i, p) in shown.iter().enumerate() {
@@ -202,14 +215,15 @@ impl StaticTracker {
                     2.0
                 };
                 let truth = f64::from(self.reference[i][c]);
-                self.sum[i][c] += x;
-                self.sum_sq[i][c] += x * x;
+                let d = x - self.first[i][c];
+                self.sum[i][c] += d;
+                self.sum_sq[i][c] += d * d;
                 if !first {
                     history[i][c] = (1.0 - b) * history[i][c] + b * x;
                 }
                 frame_se += (x - truth).powi(2);
                 history_se += (history[i][c] - truth).powi(2);
-                mean_se += (self.sum[i][c] / count - truth).powi(2);
+                mean_se += (self.first[i][c] + self.sum[i][c] / count - truth).powi(2);
             }
         }
         let samples = (shown.len() * 3).max(1) as f64;
@@ -224,9 +238,9 @@ impl StaticTracker {
         let samples = (self.reference.len() * 3).max(1) as f64;
         let (mut bias_se, mut variance) = (0.0, 0.0);
         for (i, truth) in self.reference.iter().enumerate() {
-            for c in 0..3 {
+            for (c, truth) in truth.iter().enumerate() {
                 let mean = self.sum[i][c] / n;
-                bias_se += (mean - f64::from(truth[c])).powi(2);
+                bias_se += (self.first[i][c] + mean - f64::from(*truth)).powi(2);
                 variance += (self.sum_sq[i][c] / n - mean * mean).max(0.0);
             }
         }

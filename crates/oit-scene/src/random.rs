@@ -90,6 +90,65 @@ pub fn random_scene_json(seed: u64) -> (String, RandomSceneInfo) {
     )
 }
 
+/// Random scene `seed` set in motion: an `animation` of 3 to 6 frames, camera keyframes (eye
+/// and target moved, sometimes the field of view or orthographic height) and, on most objects,
+/// keyframes of translation, rotation and scale, and of alpha on objects with a material.
+/// Content nobody keyed by hand, for tests that every frame of an animated scene is exact.
+pub fn random_animated_scene_json(seed: u64) -> (String, RandomSceneInfo) {
+    let (text, info) = random_scene_json(seed);
+    let mut scene: Value = serde_json::from_str(&text).expect("the generator writes valid JSON");
+    let mut r = SplitMix64::new(seed ^ 0xa417_a7ed_5ce7);
+    let frames = 3 + r.next_u64() % 4;
+    scene["animation"] = json!({"frames": frames, "fps": 24});
+    let last = frames - 1;
+    let shift = |r: &mut SplitMix64, v: &Value, by: f32| -> Value {
+        let a = v.as_array().cloned().unwrap_or_default();
+        Value::Array(
+            a.iter()
+                .map(|x| json!(round(x.as_f64().unwrap_or(0.0) as f32 + r.range(-by, by))))
+                .collect(),
+        )
+    };
+    let camera = scene["camera"].clone();
+    let mut key0 = json!({"frame": 0, "eye": shift(&mut r, &camera["eye"], 0.4)});
+    let mut key1 = json!({"frame": last, "eye": shift(&mut r, &camera["eye"], 0.4),
+                          "target": shift(&mut r, &camera["target"], 0.2)});
+    if let Some(fov) = camera["fov_y"].as_f64() {
+        key1["fov_y"] = json!(round((fov as f32 * r.range(0.8, 1.2)).clamp(20.0, 85.0)));
+    } else if let Some(h) = camera["orthographic"]["height"].as_f64() {
+        key0["orthographic"] = json!({"height": round(h as f32 * r.range(0.8, 1.2))});
+    }
+    scene["camera"]["keyframes"] = json!([key0, key1]);
+    if let Some(objects) = scene["objects"].as_array_mut() {
+        for object in objects {
+            if r.next_f32() < 0.25 {
+                continue;
+            }
+            let mid = 1 + r.next_u64() % last;
+            let mut first = json!({"frame": 0, "translate": [0, 0, 0]});
+            let mut second = json!({"frame": mid, "rotate": rotation(&mut r)});
+            let scale = round(r.range(0.6, 1.4));
+            let third = json!({"frame": last,
+                "translate": [round(r.range(-0.5, 0.5)), round(r.range(-0.5, 0.5)), round(r.range(-0.5, 0.5))],
+                "scale": [scale, scale, scale]});
+            if object.get("material").is_some() {
+                first["alpha"] = json!(round(r.range(0.05, 1.0)));
+                second["alpha"] = json!(round(r.range(0.05, 1.0)));
+            }
+            let keys = if mid == last {
+                vec![first, second]
+            } else {
+                vec![first, second, third]
+            };
+            object["keyframes"] = Value::Array(keys);
+        }
+    }
+    (
+        serde_json::to_string_pretty(&scene).expect("a JSON value serializes"),
+        info,
+    )
+}
+
 /// Six decimals: the file is what the loader reads, so the values must survive the round trip.
 fn round(x: f32) -> f64 {
     (f64::from(x) * 1e6).round() / 1e6
@@ -228,5 +287,19 @@ mod tests {
         // Every kind of content and both conventions appear in a few hundred seeds.
         assert_eq!(kinds.len(), 6, "{kinds:?}");
         assert!((50..250).contains(&ortho) && (100..200).contains(&reverse));
+    }
+
+    #[test]
+    fn animated_seeds_load_and_move() {
+        for seed in 0..200 {
+            let (text, _) = random_animated_scene_json(seed);
+            assert_eq!(text, random_animated_scene_json(seed).0);
+            let frames = crate::parse_frames(&text, &format!("random-{seed}"))
+                .unwrap_or_else(|e| panic!("seed {seed}: {e}\n{text}"));
+            assert!((3..=6).contains(&frames.count()));
+            let first = frames.frame(0).expect("frame 0");
+            let last = frames.frame(frames.count() - 1).expect("last frame");
+            assert_ne!(first.camera.view_proj, last.camera.view_proj, "seed {seed}");
+        }
     }
 }

@@ -2,6 +2,7 @@ mod calibration;
 mod compare;
 mod goldens;
 mod material_forms;
+mod motion;
 mod robustness;
 mod shaders;
 mod sweeps;
