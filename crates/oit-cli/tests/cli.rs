@@ -904,3 +904,65 @@ fn ctrl_c_stops_compare_with_what_finished_and_resume_completes_it() {
     assert_eq!(full["runs"].as_array().unwrap().len(), 42);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `oit reference --animation-frames A..B` writes one EXR and PNG per frame, `-fNNNN` before
+/// the extension, and each frame is that frame (the fading sphere's alpha, hence the image,
+/// changes); a frame the scene does not have is one clear line, and nothing is written.
+#[test]
+fn reference_writes_the_asked_frames_of_an_animated_scene() {
+    let dir = temp_dir("reference-frames");
+    let exr = dir.join("fade.exr");
+    let out = oit()
+        .args([
+            "reference",
+            "scenes/motion/motion-fade.json",
+            "--resolution",
+            "32x32",
+            "--animation-frames",
+            "0..24:11",
+            "-o",
+        ])
+        .arg(&exr)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let frames: Vec<_> = [0, 11, 22]
+        .iter()
+        .map(|t| {
+            let path = dir.join(format!("fade-f{t:04}.exr"));
+            assert!(dir.join(format!("fade-f{t:04}.png")).is_file());
+            oit_metrics::read_exr_rgba(&path, None).unwrap()
+        })
+        .collect();
+    assert_ne!(frames[0].pixels, frames[1].pixels);
+    assert_ne!(frames[1].pixels, frames[2].pixels);
+    assert!(
+        !exr.exists(),
+        "no unnumbered file when several frames are written"
+    );
+
+    let empty = temp_dir("reference-frames-bad");
+    let out = oit()
+        .args([
+            "reference",
+            "scenes/motion/motion-fade.json",
+            "--animation-frames",
+            "20..30",
+            "-o",
+        ])
+        .arg(empty.join("x.exr"))
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("0..24") && stderr.contains("motion-fade.json"),
+        "{stderr}"
+    );
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    assert_eq!(std::fs::read_dir(&empty).unwrap().count(), 0);
+}
