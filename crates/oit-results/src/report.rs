@@ -5,6 +5,13 @@ use std::fmt::Write as _;
 use crate::interference::Interference;
 use crate::schema::{Results, Run, RunStatus};
 
+mod motion;
+
+pub use motion::{
+    MOTION_COLUMNS, MOTION_SUMMARY_HEADING, motion_cells, motion_runs, motion_summary_markdown,
+    pops_cell, scene_motion_markdown, scene_motion_terminal,
+};
+
 /// What the columns of every table mean, once, for the top of results.md and report.html.
 pub const COLUMNS: &[(&str, &str)] = &[
     (
@@ -126,6 +133,7 @@ pub fn markdown(results: &Results) -> String {
         "RMSE per scene and technique",
         |r| r.error.map(|e| e.rmse),
     ));
+    out.push_str(&motion_summary_markdown(results));
     for (scene, runs) in by_scene(results) {
         let res = runs[0].resolution;
         let _ = writeln!(out, "## {} ({}x{})\n", md_cell(&scene), res[0], res[1]);
@@ -158,11 +166,12 @@ pub fn markdown(results: &Results) -> String {
             "| technique | GPU ms | cost × unsorted | cost × floor | bytes/px | RMSE | max error | FLIP | order dep. | inexact |"
         );
         let _ = writeln!(out, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---|");
-        for r in runs {
+        for r in &runs {
             let cells: Vec<String> = row_cells(r).iter().map(|c| md_cell(c)).collect();
             let _ = writeln!(out, "| {} |", cells.join(" | "));
         }
         let _ = writeln!(out);
+        out.push_str(&scene_motion_markdown(&runs));
     }
     out
 }
@@ -325,6 +334,7 @@ pub fn terminal_table_labelled(results: &Results, label: &dyn Fn(&str) -> String
         for (i, note) in notes.iter().enumerate() {
             say(&mut out, &format!("[{}] {note}", i + 1));
         }
+        out.push_str(&scene_motion_terminal(&runs, label));
     }
     out
 }
@@ -709,7 +719,7 @@ mod tests {
     }
 
     /// Results of `runs` (and `floors`) on a made-up adapter.
-    fn results_of(runs: Vec<Run>, floors: Vec<crate::schema::FloorJson>) -> Results {
+    pub(crate) fn results_of(runs: Vec<Run>, floors: Vec<crate::schema::FloorJson>) -> Results {
         Results {
             schema: crate::schema::SCHEMA.into(),
             tool: None,
