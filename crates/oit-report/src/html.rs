@@ -7,8 +7,9 @@ use std::path::{Path, PathBuf};
 
 use oit_results::{Results, Run, RunStatus, SceneJson};
 
+use crate::motion::{MotionKind, motion_stem};
 use crate::plot::{Metric, PlotKind, runs_by_scene};
-use crate::{ReportError, pareto_members, write_plots};
+use crate::{ReportError, pareto_members, write_motion_plots, write_plots};
 
 /// The page's file name inside the results directory.
 pub const REPORT_FILE: &str = "report.html";
@@ -35,6 +36,7 @@ pub fn write_html_report(
     let plots_dir = dir.join("plots");
     write_plots(&results, &plots_dir, Metric::Flip)?;
     write_plots(&results, &plots_dir, Metric::Rmse)?;
+    write_motion_plots(&results, &plots_dir)?;
     oit_metrics::write_png_srgb8(
         &plots_dir.join(ERROR_LEGEND),
         &oit_metrics::heatmap_legend(LEGEND_PX, 14),
@@ -654,6 +656,7 @@ fn scene_section(
         );
     }
     out.push_str("</tbody></table>\n");
+    motion_section(out, dir, scene, runs);
 
     // The scene's reference and its layer count, once.
     let reference = format!("{stem}/reference.png");
@@ -717,6 +720,61 @@ fn scene_section(
         out.push_str("</div>\n</div>\n");
     }
     out.push_str("</section>\n");
+}
+
+/// An animated scene's motion: the error-over-time plot, the convergence plot when some run
+/// measured a static camera, and the motion table (oit_results::report::motion_cells). Nothing
+/// for a still scene.
+fn motion_section(out: &mut String, dir: &Path, scene: &str, runs: &[&Run]) {
+    let rows = oit_results::report::motion_runs(runs);
+    let Some((_, first)) = rows.first() else {
+        return;
+    };
+    let stem = oit_results::file_stem(scene);
+    let _ = writeln!(
+        out,
+        "<div class=\"motion\" id=\"{}-motion\">\n<h3>Motion over {} frames</h3>\n\
+         <p>Each frame against the exact reference of that frame: {} per frame, one line per \
+         technique, pop events marked ×.</p>\n<div class=\"plots\">",
+        esc(&stem),
+        first.frames.len(),
+        esc(&first.flip_name)
+    );
+    let mut plots = vec![(MotionKind::FlipOverFrames, "FLIP of each frame")];
+    if rows.iter().any(|(_, t)| t.static_camera.is_some()) {
+        plots.push((MotionKind::Convergence, "static-camera history convergence"));
+    }
+    for (kind, what) in plots {
+        let rel = format!("plots/{}", motion_stem(scene, kind));
+        out.push_str(&image(
+            dir,
+            &format!("{rel}.svg"),
+            &format!("{scene}: {what}"),
+        ));
+        let _ = writeln!(
+            out,
+            " <a href=\"{}\">PNG</a>",
+            esc(&url(&format!("{rel}.png")))
+        );
+    }
+    out.push_str("</div>\n<table class=\"sortable\">\n<thead><tr><th>technique</th>");
+    for (name, meaning) in oit_results::report::MOTION_COLUMNS {
+        let _ = write!(
+            out,
+            "<th title=\"{}\">{}</th>",
+            esc(&meaning.replace('`', "")),
+            esc(name)
+        );
+    }
+    out.push_str("</tr></thead>\n<tbody>\n");
+    for (run, t) in &rows {
+        out.push_str("<tr>");
+        for cell in oit_results::report::motion_cells(run, t, 8) {
+            let _ = write!(out, "<td>{}</td>", esc(&cell));
+        }
+        out.push_str("</tr>\n");
+    }
+    out.push_str("</tbody></table>\n</div>\n");
 }
 
 #[cfg(test)]

@@ -5,16 +5,24 @@
 //! - [`write_plots`]: per scene, error against GPU cost relative to `unsorted` and error against
 //!   bytes per pixel, as SVG and PNG. Text is rendered by plotters' pure-Rust `ab_glyph` path
 //!   with a bundled DejaVu Sans, so no system font library (fontconfig, freetype) is needed.
+//! - [`write_motion_plots`]: per animated scene (runs with a `temporal` block), the headline ꟻLIP
+//!   of every frame per technique with its pop events marked, and the static-camera convergence
+//!   of the exponential history, as SVG and PNG ([`motion`](motion_plot_data) module).
 //! - [`write_html_report`]: a static `report.html` (no server, no network, no external files
 //!   other than the run's own images) with tables, images side by side, and the plots.
 
 mod html;
+mod motion;
 mod pareto;
 mod plot;
 
 use std::path::{Path, PathBuf};
 
 pub use html::{REPORT_FILE, write_html_report};
+pub use motion::{
+    CONVERGENCE_SUFFIX, FRAMES_SUFFIX, MotionKind, MotionPlot, MotionSeries, YScale,
+    motion_plot_data, motion_stem, render_motion_png, render_motion_svg, write_motion_plots,
+};
 pub use pareto::{pareto_front, pareto_markdown, pareto_members, scene_front};
 pub use plot::{
     LEGEND_WIDTH, LegendEntry, Metric, PLOT_SIZE, PlotData, PlotKind, PlotPoint, family, log_ticks,

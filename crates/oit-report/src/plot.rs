@@ -24,9 +24,9 @@ pub const LEGEND_WIDTH: u32 = 180;
 /// DejaVu Sans 2.37 (Bitstream Vera licence, `fonts/LICENSE-DejaVu.txt`), registered with
 /// plotters' pure-Rust `ab_glyph` text path so that no system font library is needed.
 static FONT: &[u8] = include_bytes!("../fonts/DejaVuSans.ttf");
-const FONT_FAMILY: &str = "sans-serif";
+pub(crate) const FONT_FAMILY: &str = "sans-serif";
 
-fn register_font() -> Result<(), ReportError> {
+pub(crate) fn register_font() -> Result<(), ReportError> {
     static REGISTERED: OnceLock<bool> = OnceLock::new();
     let ok = *REGISTERED.get_or_init(|| {
         plotters::style::register_font(FONT_FAMILY, FontStyle::Normal, FONT).is_ok()
@@ -147,7 +147,7 @@ pub struct LegendEntry {
 /// Configurations in order of first appearance, each with its colour (family) and shape
 /// (place among its family's configurations) and a legend label: the family name, with the
 /// parameters that differ between the family's configurations when it has several.
-fn configuration_styles(results: &Results) -> Vec<(String, LegendEntry)> {
+pub(crate) fn configuration_styles(results: &Results) -> Vec<(String, LegendEntry)> {
     let families = family_order(results);
     let mut configs: Vec<String> = Vec::new();
     for run in &results.runs {
@@ -495,7 +495,7 @@ pub fn render_png(plot: &PlotData) -> Result<Vec<u8>, ReportError> {
 }
 
 /// Ten colours distinguishable on white (Tableau 10).
-const PALETTE: [RGBColor; 10] = [
+pub(crate) const PALETTE: [RGBColor; 10] = [
     RGBColor(31, 119, 180),
     RGBColor(255, 127, 14),
     RGBColor(44, 160, 44),
@@ -517,10 +517,10 @@ pub fn style_colour(style: usize) -> (u8, u8, u8) {
 /// A data marker: the family's colour (`style`) and the configuration's shape (`shape`):
 /// circle, square, triangle or diamond. Its own element, because
 /// plotters' boxed `DynElement` only works with `'static` backends.
-struct Marker<C> {
-    at: C,
-    style: usize,
-    shape: usize,
+pub(crate) struct Marker<C> {
+    pub(crate) at: C,
+    pub(crate) style: usize,
+    pub(crate) shape: usize,
 }
 
 impl<'a, C> PointCollection<'a, C> for &'a Marker<C> {
@@ -668,7 +668,7 @@ pub fn log_ticks(lo: f64, hi: f64) -> Vec<f64> {
 }
 
 /// A log range around the positive values with some margin, or `[lo, hi]` when there are none.
-fn log_range(values: impl Iterator<Item = f64>, lo: f64, hi: f64) -> (f64, f64) {
+pub(crate) fn log_range(values: impl Iterator<Item = f64>, lo: f64, hi: f64) -> (f64, f64) {
     let (min, max) = values
         .filter(|v| *v > 0.0 && v.is_finite())
         .fold((f64::INFINITY, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
@@ -819,7 +819,7 @@ fn draw_legend<DB: DrawingBackend>(
 }
 
 /// Tick labels: plain for ordinary magnitudes, scientific for tiny or huge ones.
-fn short_number(v: f64) -> String {
+pub(crate) fn short_number(v: f64) -> String {
     let a = v.abs();
     if a == 0.0 {
         "0".into()
