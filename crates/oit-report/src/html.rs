@@ -722,6 +722,15 @@ fn scene_section(
     out.push_str("</section>\n");
 }
 
+/// Where `oit compare` writes a technique's frame strip of an animated scene (render |
+/// reference | error heat map for a few frames of the path), relative to the results folder.
+fn motion_strip(scene_stem: &str, technique: &str) -> String {
+    format!(
+        "{scene_stem}/{}-motion.png",
+        oit_results::file_stem(technique)
+    )
+}
+
 /// An animated scene's motion: the error-over-time plot, the convergence plot when some run
 /// measured a static camera, and the motion table (oit_results::report::motion_cells). Nothing
 /// for a still scene.
@@ -766,11 +775,25 @@ fn motion_section(out: &mut String, dir: &Path, scene: &str, runs: &[&Run]) {
             esc(name)
         );
     }
-    out.push_str("</tr></thead>\n<tbody>\n");
+    out.push_str(
+        "<th title=\"a few frames of the path, one row each: render, reference, error heat map\">\
+         frames</th></tr></thead>\n<tbody>\n",
+    );
     for (run, t) in &rows {
         out.push_str("<tr>");
         for cell in oit_results::report::motion_cells(run, t, 8) {
             let _ = write!(out, "<td>{}</td>", esc(&cell));
+        }
+        // The harness's frame strip, linked only when it is on disk.
+        let strip = motion_strip(&stem, &run.technique);
+        if dir.join(&strip).is_file() {
+            let _ = write!(
+                out,
+                "<td class=\"text\"><a href=\"{}\">strip</a></td>",
+                esc(&url(&strip))
+            );
+        } else {
+            out.push_str("<td>–</td>");
         }
         out.push_str("</tr>\n");
     }

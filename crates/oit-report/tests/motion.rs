@@ -255,6 +255,11 @@ fn the_report_shows_motion_for_the_animated_scene_only() {
         serde_json::to_vec_pretty(&results()).unwrap(),
     )
     .unwrap();
+    // unsorted's frame strip is on disk, the others' are not.
+    std::fs::create_dir_all(dir.0.join("swap")).unwrap();
+    image::RgbImage::from_pixel(6, 4, image::Rgb([9, 9, 9]))
+        .save(dir.0.join("swap/unsorted-motion.png"))
+        .unwrap();
     let page =
         oit_report::write_html_report(&dir.0, oit_report::Metric::Flip, &|t| t.to_owned()).unwrap();
     let html = std::fs::read_to_string(page).unwrap();
@@ -278,7 +283,8 @@ fn the_report_shows_motion_for_the_animated_scene_only() {
     assert!(
         motion.contains(&format!(
             "<tr><td>unsorted</td><td>0.0100</td><td>2 (3, 6)</td><td>3 (0.4000)</td>\
-             <td>{mean:.4}</td><td>0.5000</td><td>–</td></tr>"
+             <td>{mean:.4}</td><td>0.5000</td><td>–</td>\
+             <td class=\"text\"><a href=\"swap/unsorted-motion.png\">strip</a></td></tr>"
         )),
         "{motion}"
     );
@@ -286,6 +292,7 @@ fn the_report_shows_motion_for_the_animated_scene_only() {
         motion.contains("<td>1.0e-3 / 0.0500</td>"),
         "static bias / noise: {motion}"
     );
+    assert_eq!(motion.matches("-motion.png").count(), 1, "{motion}");
     // The skipped run has no motion row; the still scene's section has no motion part.
     assert!(!motion.contains("wboit"));
     let still = &html[html.find("<section id=\"still\">").unwrap()..];
