@@ -239,16 +239,23 @@ pub fn motion_summary_markdown(results: &Results) -> String {
     }
     let mut out = String::new();
     let _ = writeln!(out, "## {MOTION_SUMMARY_HEADING}\n");
-    let _ = writeln!(
-        out,
-        "Per technique over the animated scenes it ran on (runs with a `temporal` block): the \
-         median flicker, the pop events in all, and the largest worst-frame FLIP (HDR marks \
-         HDR-FLIP). Columns of the motion tables:\n"
-    );
-    for (name, meaning) in MOTION_COLUMNS {
-        let _ = writeln!(out, "- **{name}**: {meaning}.");
+    if techniques.is_empty() {
+        let _ = writeln!(
+            out,
+            "No animated scene in this comparison: no run has a `temporal` block.\n"
+        );
+    } else {
+        let _ = writeln!(
+            out,
+            "Per technique over the animated scenes it ran on (runs with a `temporal` block): \
+             the median flicker, the pop events in all, and the largest worst-frame FLIP (HDR \
+             marks HDR-FLIP). Columns of the motion tables:\n"
+        );
+        for (name, meaning) in MOTION_COLUMNS {
+            let _ = writeln!(out, "- **{name}**: {meaning}.");
+        }
+        let _ = writeln!(out);
     }
-    let _ = writeln!(out);
     let _ = writeln!(
         out,
         "| technique | motion scenes | median flicker | pop events | worst frame FLIP |"
@@ -394,10 +401,17 @@ pub(crate) mod tests {
         );
         assert!(text.contains("| u | 1 | 0 | 0 | 0.0000 |"), "{text}");
         assert!(!text.contains("no animated scene"), "{text}");
-        let none = super::super::tests::results_of(vec![ok("still", "t", None)], Vec::new());
         assert!(
-            motion_summary_markdown(&none).contains("| – (no animated scene) | 0 | – | – | – |")
+            text.contains("- **flicker**: RMS"),
+            "the columns explained: {text}"
         );
+        let none = super::super::tests::results_of(vec![ok("still", "t", None)], Vec::new());
+        let none = motion_summary_markdown(&none);
+        assert!(
+            none.contains("| – (no animated scene) | 0 | – | – | – |"),
+            "{none}"
+        );
+        assert!(!none.contains("- **flicker**"), "{none}");
     }
 
     #[test]
