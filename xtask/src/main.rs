@@ -308,7 +308,8 @@ fn results(args: &[String]) -> Result<()> {
             Path::new("docs/results").join(adapter_slug(&scratch.join(first).join("results.json"))?)
         }
     };
-    // Only what the README links to is published: results.json, results.md and the FLIP-cost plots.
+    // Only what the README links to is published: results.json, results.md and the plots
+    // `published_plot` names.
     // The per-run EXR/PNG files stay in target/xtask-results (the same command remakes them).
     for (name, _) in &sets {
         let (from, to) = (scratch.join(name), dir.join(name));
@@ -322,12 +323,10 @@ fn results(args: &[String]) -> Result<()> {
         }
         for entry in std::fs::read_dir(from.join("plots")).context("plots folder")? {
             let path = entry?.path();
-            // FLIP against cost is the plot the README shows; the rest stay in the scratch
-            // folder (and in `oit report`), to keep the repository small.
             let wanted = path
                 .file_name()
                 .and_then(|n| n.to_str())
-                .is_some_and(|n| n.contains("-flip-cost."));
+                .is_some_and(published_plot);
             if !wanted {
                 continue;
             }
@@ -339,6 +338,20 @@ fn results(args: &[String]) -> Result<()> {
         println!("xtask results: wrote {}", to.display());
     }
     readme_tables()
+}
+
+/// Whether a plot of `oit compare`'s `plots/` folder is published: FLIP against cost
+/// (`SCENE-flip-cost`) and, for animated scenes, FLIP per frame (`SCENE-flip-frames`, which the
+/// README shows) and the static-camera convergence (`SCENE-convergence`), as SVG and PNG. The
+/// rest stay in the scratch folder (and in `oit report`), to keep the repository small.
+fn published_plot(file_name: &str) -> bool {
+    let Some((stem, ext)) = file_name.rsplit_once('.') else {
+        return false;
+    };
+    matches!(ext, "svg" | "png")
+        && ["-flip-cost", "-flip-frames", "-convergence"]
+            .iter()
+            .any(|suffix| stem.ends_with(suffix))
 }
 
 /// `cargo xtask readme-tables`: the README's marked tables from the results they name.
@@ -508,6 +521,42 @@ mod tests {
         assert_eq!(dir, Some("out/x"));
         let names: Vec<&str> = sets.iter().map(|(n, _)| *n).collect();
         assert_eq!(names, ["suite", "transmission"], "in the published order");
+    }
+
+    #[test]
+    fn published_plots_are_flip_cost_and_the_motion_plots() {
+        for name in [
+            "particles-flip-cost.svg",
+            "particles-flip-cost.png",
+            "motion-sort-swap-flip-frames.png",
+            "motion-sort-swap-flip-frames.svg",
+            "motion-sort-swap-convergence.png",
+        ] {
+            assert!(published_plot(name), "{name}");
+        }
+        for name in [
+            "particles-rmse-cost.svg",
+            "particles-flip-bytes.png",
+            "legend-error.png",
+            "motion-sort-swap-flip-frames.json",
+            "flip-frames",
+        ] {
+            assert!(!published_plot(name), "{name}");
+        }
+    }
+
+    #[test]
+    fn the_motion_set_measures_the_animated_scenes_and_the_suite_does_not() {
+        let set = |name: &str| RESULT_SETS.iter().find(|(n, _)| *n == name).unwrap().1;
+        assert!(set("motion").contains(&"scenes/motion/"));
+        // Folders are not searched recursively: the still suite stays the still suite.
+        assert!(!set("suite").contains(&"scenes/motion/"));
+        assert!(
+            Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("../scenes/motion/motion-sort-swap.json")
+                .is_file(),
+            "the README's error-over-time plot is this scene's"
+        );
     }
 
     #[test]
