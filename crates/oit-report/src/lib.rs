@@ -7,7 +7,7 @@
 //!   with a bundled DejaVu Sans, so no system font library (fontconfig, freetype) is needed.
 //! - [`write_motion_plots`]: per animated scene (runs with a `temporal` block), the headline ꟻLIP
 //!   of every frame per technique with its pop events marked, and the static-camera convergence
-//!   of the exponential history, as SVG and PNG ([`motion`](motion_plot_data) module).
+//!   of the exponential history, as SVG and PNG (what is drawn: [`motion_plot_data`]).
 //! - [`write_html_report`]: a static `report.html` (no server, no network, no external files
 //!   other than the run's own images) with tables, images side by side, and the plots.
 

@@ -299,3 +299,52 @@ fn the_report_shows_motion_for_the_animated_scene_only() {
     let still = &still[..still.find("</section>").unwrap()];
     assert!(!still.contains("motion"), "{still}");
 }
+
+/// The motion plots decode in a browser: headless Chromium loads the page of an animated scene
+/// with every image (skipped, with a message, where Chromium is not installed, unless
+/// OIT_REQUIRE_BROWSER=1).
+#[test]
+fn the_motion_plots_decode_in_headless_chromium() {
+    const BROWSER: &str = "/usr/bin/chromium";
+    if !std::path::Path::new(BROWSER).exists() {
+        assert!(
+            !std::env::var("OIT_REQUIRE_BROWSER").is_ok_and(|v| v == "1"),
+            "OIT_REQUIRE_BROWSER=1 but {BROWSER} is missing"
+        );
+        eprintln!("skipped the_motion_plots_decode_in_headless_chromium: {BROWSER} not found");
+        return;
+    }
+    let dir = TempDir::new("chromium");
+    std::fs::write(
+        dir.0.join("results.json"),
+        serde_json::to_vec_pretty(&results()).unwrap(),
+    )
+    .unwrap();
+    let page =
+        oit_report::write_html_report(&dir.0, oit_report::Metric::Flip, &|t| t.to_owned()).unwrap();
+    let out = std::process::Command::new(BROWSER)
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--no-first-run",
+            "--disable-background-networking",
+            "--virtual-time-budget=10000",
+        ])
+        .arg(format!(
+            "--user-data-dir={}",
+            dir.0.join("profile").display()
+        ))
+        .arg("--dump-dom")
+        .arg(format!("file://{}", page.display()))
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{BROWSER} failed: {}", out.status);
+    let dom = String::from_utf8_lossy(&out.stdout);
+    let body = &dom[dom.find("<body").unwrap()..];
+    let body = &body[..body.find('>').unwrap()];
+    // The two legend bars, two speed plots per scene and the two motion plots; no run has
+    // render PNGs on disk (notes instead).
+    assert!(body.contains("data-images-ok=\"8/8\""), "{body}");
+    assert!(body.contains("data-errors=\"\""), "{body}");
+}
