@@ -13,27 +13,32 @@
 // Σ C_i,c Π_{j<i} t_j,c + Π t_j,c C_o,c: the per-channel composite, in expectation.
 #include "common.wgsl"
 
-// One frame's parameters (bound with a dynamic offset, one entry per averaged frame).
+// One sub-frame's parameters (bound with a dynamic offset, one entry per averaged sample).
 struct Dither {
-    // 0 white, 1 tiled table (blue noise or Bayer), 2 hashed alpha.
+    // 0 white, 1 tiled table (blue noise or Bayer), 2 hashed alpha, 3 spatiotemporal blue noise.
     pattern: u32,
     // 0 none (same pattern on every layer), 1 per object, 2 per primitive.
     seed_mode: u32,
     // Side of the threshold table (tiled patterns; a power of two).
     tile: u32,
-    // Frame index within the average (white and hashed hash it in).
+    // Sub-frame: animation frame × spp + sample (white and hashed hash it in).
     frame: u32,
-    // R2 shift of the tile for this frame, in pixels.
+    // R2 shift of the tile for this sub-frame (STBN: for its period), in pixels.
     frame_offset: vec2<u32>,
-    // Golden-ratio rotation of the threshold value for this frame (tiled patterns).
+    // Golden-ratio rotation of the threshold value for this sub-frame (tiled patterns; 0 for
+    // STBN).
     rotation: f32,
     // Wyman & McGuire's hash scale (1 as in Falcor: one hash cell per pixel).
     hash_scale: f32,
+    // First row of this sub-frame's slice in the table (STBN stacks its slices vertically;
+    // 0 for the other patterns).
+    slice_row: u32,
 }
 
 @group(1) @binding(0) var<uniform> dither: Dither;
 // `tile²` thresholds (rank + ½)/tile², one R32Float texel each (a texture, not a storage
-// buffer: the per-fragment read is several times cheaper on CPU rasterizers).
+// buffer: the per-fragment read is several times cheaper on CPU rasterizers); STBN stacks its
+// slices of `tile²` vertically.
 @group(1) @binding(1) var table: texture_2d<f32>;
 
 // 0, 1, 2: the colour channel this pass dithers (coloured transmission); 3: all at once by α.
@@ -42,6 +47,7 @@ override CHANNEL: u32 = 3u;
 const PATTERN_WHITE: u32 = 0u;
 const PATTERN_TILED: u32 = 1u;
 const PATTERN_HASHED: u32 = 2u;
+const PATTERN_STBN: u32 = 3u;
 const SEED_NONE: u32 = 0u;
 const SEED_OBJECT: u32 = 1u;
 
@@ -120,12 +126,15 @@ fn vs_stochastic(
     return out;
 }
 
-// Tiled table lookup. The seed shifts the tile toroidally (16 bits each for x and y); frame k
-// shifts it along the R2 sequence (all layers alike) and rotates the threshold value
+// Tiled table lookup. The seed shifts the tile toroidally (16 bits each for x and y); sub-frame
+// k shifts it along the R2 sequence (all layers alike) and rotates the threshold value
 // (Cranley–Patterson): by k/φ when every layer shares the pattern (seed none), and by a hash
 // of (seed, k) for k ≥ 1 otherwise. A rotation common to all layers would keep two layers'
 // threshold differences fixed from frame to frame; for a structured table (Bayer) the average
-// then converges to a biased value. Frame 0 is the plain pattern.
+// then converges to a biased value. Sub-frame 0 is the plain pattern.
+// STBN reads the slice of sub-frame k (its rows from `slice_row`), shifted by the R2 offset of
+// its period and not rotated: each pixel's values over the slices are the blue sequence, and
+// the seed shift already gives every layer another pixel's sequence.
 fn tiled_threshold(pixel: vec2<u32>, seed: u32) -> f32 {
     let t = dither.tile;
     // Tiles are powers of two: a mask instead of `%` (integer division is slow on CPU
@@ -134,10 +143,10 @@ fn tiled_threshold(pixel: vec2<u32>, seed: u32) -> f32 {
     let seed_shift = vec2<u32>(seed & 0xffffu, seed >> 16u);
     let q = (pixel + seed_shift + dither.frame_offset) & mask;
     var rotation = dither.rotation;
-    if dither.seed_mode != SEED_NONE && dither.frame > 0u {
+    if dither.pattern == PATTERN_TILED && dither.seed_mode != SEED_NONE && dither.frame > 0u {
         rotation = unit(pcg(seed ^ pcg(dither.frame + 0x632be5abu)));
     }
-    return fract(textureLoad(table, q, 0).r + rotation);
+    return fract(textureLoad(table, vec2<u32>(q.x, q.y + dither.slice_row), 0).r + rotation);
 }
 
 fn white_threshold(pixel: vec2<u32>, seed: u32) -> f32 {
@@ -207,7 +216,7 @@ fn fs_stochastic(v: StochasticOut, @builtin(front_facing) front_facing: bool) ->
     var survive: bool;
     if dither.pattern == PATTERN_WHITE {
         survive = opacity > white_threshold(pixel, v.seed);
-    } else if dither.pattern == PATTERN_TILED {
+    } else if dither.pattern == PATTERN_TILED || dither.pattern == PATTERN_STBN {
         survive = opacity > tiled_threshold(pixel, v.seed);
     } else {
         // The paper's test: discard when α < threshold, threshold in [1e-6, 1].

@@ -26,6 +26,9 @@ oit_gpu::words! {
         /// Wyman & McGuire 2017 hashed alpha testing on the world position, with the CDF
         /// correction.
         Hashed = "hashed",
+        /// Spatiotemporal blue noise (Wolfe et al. 2022): 32 slices of 64×64, each spatially
+        /// blue, every pixel's sequence over the slices blue in time; frame t reads a slice.
+        Stbn = "stbn",
     }
 }
 
@@ -40,7 +43,7 @@ impl Pattern {
             Pattern::Bayer64 => Some(64),
             Pattern::Bayer128 => Some(128),
             Pattern::Bayer256 => Some(256),
-            Pattern::White | Pattern::Blue | Pattern::Hashed => None,
+            Pattern::White | Pattern::Blue | Pattern::Hashed | Pattern::Stbn => None,
         }
     }
 
@@ -50,15 +53,32 @@ impl Pattern {
     pub fn tile(self) -> Option<u32> {
         match self {
             Pattern::Blue => Some(crate::pattern::BLUE_NOISE_SIDE as u32),
+            Pattern::Stbn => Some(crate::stbn::STBN_SIDE as u32),
             Pattern::White | Pattern::Hashed => None,
             bayer => bayer.bayer_side(),
         }
     }
 
-    /// Bytes of the R32Float threshold texture the dither pass binds (a one-texel placeholder
-    /// for procedural patterns, which read none).
+    /// Slices of the threshold table stacked vertically: [`crate::stbn::STBN_SLICES`] for
+    /// `stbn`, 1 for the other tiled patterns (and for the placeholder of procedural ones).
+    pub fn slices(self) -> u32 {
+        match self {
+            Pattern::Stbn => crate::stbn::STBN_SLICES as u32,
+            _ => 1,
+        }
+    }
+
+    /// Width and height in texels of the R32Float threshold texture the dither pass binds:
+    /// `tile × tile·slices` (a one-texel placeholder for procedural patterns, which read none).
+    pub fn table_size(self) -> (u32, u32) {
+        let t = self.tile().unwrap_or(1);
+        (t, t * self.slices())
+    }
+
+    /// Bytes of the R32Float threshold texture the dither pass binds.
     pub fn table_bytes(self) -> u64 {
-        self.tile().map_or(4, |t| u64::from(t) * u64::from(t) * 4)
+        let (w, h) = self.table_size();
+        u64::from(w) * u64::from(h) * 4
     }
 }
 
@@ -119,7 +139,7 @@ impl StochasticConfig {
     pub const PATTERN: Param<Pattern> = Param::new(
         "pattern",
         Pattern::Blue,
-        "threshold pattern: white noise, 64x64 void-and-cluster blue noise, Bayer 4x4 to 256x256, or hashed alpha (Wyman & McGuire 2017)",
+        "threshold pattern: white noise, 64x64 void-and-cluster blue noise, Bayer 4x4 to 256x256, hashed alpha (Wyman & McGuire 2017), or 64x64x32 spatiotemporal blue noise (Wolfe et al. 2022)",
     );
     pub const SEED: Param<Seed> = Param::new(
         "seed",
@@ -129,7 +149,7 @@ impl StochasticConfig {
     pub const SPP: Param<Spp> = Param::new(
         "spp",
         Spp::of(1),
-        "frames averaged, each with an R2 tile shift and golden-ratio rotation (tiled) or a fresh hash (white, hashed)",
+        "frames averaged; sample k of animation frame t is sub-frame t*spp+k: an R2 tile shift and golden-ratio rotation (tiled), a fresh hash (white, hashed), or STBN slice (t*spp+k) mod 32 (R2-shifted per period)",
     );
 
     /// The registry's view of the parameters.

@@ -4,11 +4,13 @@
 //! order independent by construction (up to exact depth ties, see below) and exact only in
 //! expectation:
 //!
-//! - `stochastic:pattern=white|blue|bayer4|…|bayer256|hashed,seed=object|primitive|none,spp=N`: a
-//!   fragment survives when its α exceeds the pattern's threshold at that pixel ([`pattern`]
-//!   builds the Bayer and void-and-cluster tables on the CPU). `spp=N` averages N frames,
-//!   each with its own pattern shift, in f32; the error falls as N grows, which is the
-//!   convergence axis the harness plots.
+//! - `stochastic:pattern=white|blue|bayer4|…|bayer256|hashed|stbn,seed=object|primitive|none,spp=N`:
+//!   a fragment survives when its α exceeds the pattern's threshold at that pixel ([`pattern`]
+//!   builds the Bayer and void-and-cluster tables on the CPU, [`stbn`] the spatiotemporal
+//!   blue-noise volume). `spp=N` averages N samples, each with its own pattern shift, in f32;
+//!   the error falls as N grows, which is the convergence axis the harness plots. Sample k of
+//!   animation frame t (`Scene::frame`) is sub-frame `t·spp + k`, so every frame of an
+//!   animation gets fresh thresholds and frame 0 is the still image.
 //! - `a2c:samples=4|8`: MSAA with alpha-to-coverage; the driver's α → sample-mask table does
 //!   the dithering, the resolve averages the samples.
 //!
@@ -26,12 +28,13 @@ mod a2c;
 mod config;
 mod gpu;
 pub mod pattern;
+pub mod stbn;
 mod stochastic;
 
 pub use a2c::AlphaToCoverage;
 pub use config::{A2cConfig, MAX_SPP, Pattern, Samples, Seed, Spp, StochasticConfig};
 pub use gpu::dither_order;
-pub use stochastic::{DITHER_WGSL, Stochastic, dither_words};
+pub use stochastic::{DITHER_WGSL, DITHER_WORDS, Stochastic, dither_words};
 
 /// Every WGSL file of this crate (`shaders/`), by file name: what its passes' `#include`s
 /// resolve in first (`oit_gpu::shaders::resolve`), and what the shader test holds against the
@@ -100,7 +103,7 @@ mod tests {
         let e = TechniqueSpec::parse("stochastic:pattern=pink", &reg).unwrap_err();
         assert!(
             e.to_string().contains(
-                "white, blue, bayer4, bayer8, bayer16, bayer32, bayer64, bayer128, bayer256, hashed"
+                "white, blue, bayer4, bayer8, bayer16, bayer32, bayer64, bayer128, bayer256, hashed, stbn"
             ),
             "{e}"
         );

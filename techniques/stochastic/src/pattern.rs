@@ -1,5 +1,10 @@
 //! Threshold patterns computed on the CPU: Bayer ordered dither, void-and-cluster blue noise,
-//! and the per-frame shifts that `spp=N` uses.
+//! and the per-frame shifts that `spp=N` and animation frames use (spatiotemporal blue noise is
+//! generated in [`crate::stbn`]).
+//!
+//! Sub-frames: sample `k` of animation frame `t` (`Scene::frame`) with `spp` samples per frame
+//! is sub-frame `t·spp + k` (wrapping in u32), so frame 0 is what a still image always was and
+//! every later frame continues the same sequence with fresh thresholds.
 //!
 //! A threshold array holds `side²` values in `(0, 1)`; a fragment with coverage α survives at a
 //! pixel when `α > threshold`. Ranks `r` in `0..side²` become thresholds `(r + ½) / side²`, so
@@ -221,12 +226,42 @@ pub fn frame_shift(k: u32, side: u32) -> ([u32; 2], f32) {
     (off, (k * GOLDEN).fract() as f32)
 }
 
-/// The threshold table a pattern uploads, row-major (`side²` values): the blue-noise tile or
-/// the Bayer matrix as thresholds; one placeholder texel for the procedural patterns, which
-/// read none but still bind a texture.
+/// Sub-frame `k` of animation frame `frame` with `spp` samples per frame: `frame·spp + k`,
+/// wrapping (the sequences are periodic or hashed, so a wrap after 2^32 sub-frames is harmless).
+pub fn sub_frame(frame: u32, spp: u32, k: u32) -> u32 {
+    frame.wrapping_mul(spp).wrapping_add(k)
+}
+
+/// Where sub-frame `s` of the `stbn` pattern reads: slice `s mod slices`, and the R2 tile shift
+/// of period `⌊s / slices⌋` (none in the first period), so that later periods do not repeat
+/// the first exactly.
+pub fn stbn_frame(s: u32) -> (u32, [u32; 2]) {
+    let slices = crate::stbn::STBN_SLICES as u32;
+    let (offset, _) = frame_shift(s / slices, crate::stbn::STBN_SIDE as u32);
+    (s % slices, offset)
+}
+
+/// The `stbn` lookup of stochastic_dither.wgsl (`tiled_threshold` with the slice's first row and
+/// no value rotation), the twin the GPU lookup is tested against: the threshold at `pixel` of
+/// `volume` (slices of `tile²` stacked) in the slice sub-frame `s` reads, shifted toroidally by
+/// the seed (low 16 bits in x, high in y) and by the period's R2 offset.
+pub fn stbn_threshold(volume: &[f32], tile: u32, pixel: [u32; 2], seed: u32, s: u32) -> f32 {
+    let (slice, offset) = stbn_frame(s);
+    let mask = tile - 1;
+    let x = (pixel[0] + (seed & 0xffff) + offset[0]) & mask;
+    let y = (pixel[1] + (seed >> 16) + offset[1]) & mask;
+    let v = volume[((slice * tile + y) * tile + x) as usize];
+    v - v.floor()
+}
+
+/// The threshold table a pattern uploads, row-major (`side²` values, or `side²·slices` with the
+/// slices stacked vertically for `stbn`): the blue-noise tile, the STBN volume or the Bayer
+/// matrix as thresholds; one placeholder texel for the procedural patterns, which read none but
+/// still bind a texture.
 pub fn table(pattern: Pattern) -> Vec<f32> {
     match (pattern, pattern.bayer_side()) {
         (Pattern::Blue, _) => thresholds(&blue_noise().0),
+        (Pattern::Stbn, _) => crate::stbn::stbn_thresholds(),
         (_, Some(side)) => thresholds(&bayer(side as usize)),
         _ => vec![0.0; 1],
     }
@@ -247,9 +282,9 @@ pub fn unit(h: u32) -> f32 {
 
 /// `tiled_threshold` of stochastic_dither.wgsl, the twin the GPU lookup is tested against: the
 /// threshold at `pixel` of `table` (side `tile`, a power of two) shifted toroidally by the
-/// seed (low 16 bits in x, high in y) and by frame `frame`'s R2 offset, its value rotated by
-/// the frame's golden-ratio step, or for seeded layers from frame 1 on by a hash of (seed,
-/// frame).
+/// seed (low 16 bits in x, high in y) and by sub-frame `frame`'s R2 offset, its value rotated by
+/// the sub-frame's golden-ratio step, or for seeded layers from sub-frame 1 on by a hash of
+/// (seed, sub-frame).
 pub fn tiled_threshold(
     table: &[f32],
     tile: u32,

@@ -18,8 +18,11 @@ pub const DITHER_WGSL: &str = include_str!("../shaders/stochastic_dither.wgsl");
 /// WGSL of the frame averaging pass.
 pub const ACCUMULATE_WGSL: &str = include_str!("../shaders/stochastic_accumulate.wgsl");
 
-/// Bytes of `struct Dither` in stochastic_dither.wgsl.
-const DITHER_UNIFORM_BYTES: u64 = 32;
+/// Bytes of `struct Dither` in stochastic_dither.wgsl: nine 4-byte words, padded to the
+/// struct's 8-byte alignment (its `vec2<u32>`).
+const DITHER_UNIFORM_BYTES: u64 = 40;
+/// [`dither_words`]' length: `DITHER_UNIFORM_BYTES / 4`.
+pub const DITHER_WORDS: usize = 10;
 /// Bytes of `struct Accumulate` in stochastic_accumulate.wgsl.
 const ACCUMULATE_UNIFORM_BYTES: u64 = 12;
 /// Format of the running sum of frames: f32, so 128 frames add without visible rounding.
@@ -50,6 +53,10 @@ struct Resources {
     channels: Option<[ScenePipelines; 3]>,
     dither_bind_group: wgpu::BindGroup,
     dither_stride: u64,
+    /// The per-sample `struct Dither` entries, and the animation frame they were written for
+    /// (rewritten when a scene of another frame is rendered).
+    dither_buffer: wgpu::Buffer,
+    dither_frame: u32,
     frames: Option<FrameResources>,
 }
 
@@ -115,13 +122,16 @@ impl Stochastic {
         self.config
     }
 
-    /// The per-frame uniform entries (`struct Dither` at `stride`-byte offsets).
-    fn dither_uniforms(config: &StochasticConfig, stride: u64) -> Vec<u8> {
-        let mut bytes = vec![0u8; (stride * u64::from(config.spp.get())) as usize];
-        for k in 0..config.spp.get() {
-            let words = dither_words(config, k);
+    /// The per-sample uniform entries of animation frame `frame` (`struct Dither` at
+    /// `stride`-byte offsets): sample k is sub-frame `frame·spp + k`.
+    fn dither_uniforms(config: &StochasticConfig, frame: u32, stride: u64) -> Vec<u8> {
+        let spp = config.spp.get();
+        let mut bytes = vec![0u8; (stride * u64::from(spp)) as usize];
+        for k in 0..spp {
+            let words = dither_words(config, pattern::sub_frame(frame, spp, k));
             let start = (stride * u64::from(k)) as usize;
-            bytes[start..start + 32].copy_from_slice(bytemuck::cast_slice(&words));
+            bytes[start..start + DITHER_UNIFORM_BYTES as usize]
+                .copy_from_slice(bytemuck::cast_slice(&words));
         }
         bytes
     }
@@ -160,7 +170,8 @@ impl Stochastic {
             ],
         });
         let dither_stride = bind::uniform_stride(ctx, DITHER_UNIFORM_BYTES);
-        let uniforms = Self::dither_uniforms(config, dither_stride);
+        let dither_frame = scene.scene.frame;
+        let uniforms = Self::dither_uniforms(config, dither_frame, dither_stride);
         let dither_buffer = ledger.create_buffer(
             device,
             &wgpu::BufferDescriptor {
@@ -172,13 +183,13 @@ impl Stochastic {
         );
         ctx.queue.write_buffer(&dither_buffer, 0, &uniforms);
         let table = pattern::table(config.pattern);
-        let side = config.pattern.tile().unwrap_or(1);
+        let (side, rows) = config.pattern.table_size();
         let table_texture = ledger.create_texture_2d(
             device,
             "stochastic threshold table",
             oit_scene::Resolution {
                 width: side,
-                height: side,
+                height: rows,
             },
             wgpu::TextureFormat::R32Float,
             wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
@@ -190,11 +201,11 @@ impl Stochastic {
             wgpu::TexelCopyBufferLayout {
                 offset: 0,
                 bytes_per_row: Some(side * 4),
-                rows_per_image: Some(side),
+                rows_per_image: Some(rows),
             },
             wgpu::Extent3d {
                 width: side,
-                height: side,
+                height: rows,
                 depth_or_array_layers: 1,
             },
         );
@@ -267,6 +278,8 @@ impl Stochastic {
             channels,
             dither_bind_group,
             dither_stride,
+            dither_buffer,
+            dither_frame,
             frames,
         });
         Ok(())
@@ -420,10 +433,18 @@ impl Stochastic {
     }
 }
 
-/// `struct Dither` of stochastic_dither.wgsl for frame `k` of `config`, as its eight words.
-pub fn dither_words(config: &StochasticConfig, k: u32) -> [u32; 8] {
+/// `struct Dither` of stochastic_dither.wgsl for sub-frame `k` of `config` (sample k of
+/// animation frame t is sub-frame `t·spp + k`, [`pattern::sub_frame`]), as its words (the last
+/// one padding).
+pub fn dither_words(config: &StochasticConfig, k: u32) -> [u32; DITHER_WORDS] {
     let tile = config.pattern.tile().unwrap_or(1);
-    let (offset, rotation) = pattern::frame_shift(k, tile);
+    let (offset, rotation, slice_row) = if config.pattern == Pattern::Stbn {
+        let (slice, offset) = pattern::stbn_frame(k);
+        (offset, 0.0, slice * tile)
+    } else {
+        let (offset, rotation) = pattern::frame_shift(k, tile);
+        (offset, rotation, 0)
+    };
     [
         match config.pattern {
             Pattern::White => 0,
@@ -436,6 +457,7 @@ pub fn dither_words(config: &StochasticConfig, k: u32) -> [u32; 8] {
             | Pattern::Bayer128
             | Pattern::Bayer256 => 1,
             Pattern::Hashed => 2,
+            Pattern::Stbn => 3,
         },
         match config.seed {
             Seed::None => 0,
@@ -448,6 +470,8 @@ pub fn dither_words(config: &StochasticConfig, k: u32) -> [u32; 8] {
         offset[1],
         rotation.to_bits(),
         1.0f32.to_bits(),
+        slice_row,
+        0,
     ]
 }
 
@@ -472,10 +496,10 @@ impl Technique for Stochastic {
     fn check(&self, caps: &Caps) -> Result<(), Unsupported> {
         let config = self.config;
         caps.require_scene_materials()?;
-        let side = config.pattern.tile().unwrap_or(1);
-        if side > caps.max_texture_dimension_2d {
+        let (side, rows) = config.pattern.table_size();
+        if side.max(rows) > caps.max_texture_dimension_2d {
             return Err(Unsupported::new(format!(
-                "the {} threshold table is {side}×{side} texels; the adapter's 2D textures are at most {} wide",
+                "the {} threshold table is {side}×{rows} texels; the adapter's 2D textures are at most {} wide",
                 config.pattern.name(),
                 caps.max_texture_dimension_2d
             )));
@@ -495,7 +519,15 @@ impl Technique for Stochastic {
     ) -> Result<RenderStats, GpuError> {
         let config = self.config;
         self.prepare(ctx, scene, targets, &config)?;
-        let r = self.gpu.as_ref().expect("resources prepared above");
+        let r = self.gpu.as_mut().expect("resources prepared above");
+        // Another animation frame: the samples' sub-frames move on (frame 0 is what `prepare`
+        // wrote).
+        if r.dither_frame != scene.scene.frame {
+            r.dither_frame = scene.scene.frame;
+            let uniforms = Self::dither_uniforms(&config, r.dither_frame, r.dither_stride);
+            ctx.queue.write_buffer(&r.dither_buffer, 0, &uniforms);
+        }
+        let r = &*r;
         let order = self.order.of(scene);
         let draw_pass = |encoder: &mut wgpu::CommandEncoder,
                          timer: &mut GpuTimer,
