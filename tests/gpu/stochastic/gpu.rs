@@ -603,16 +603,19 @@ fn memory_is_counted_exactly() {
     let px = RES.pixel_count() as u64;
     let align = u64::from(ctx.device.limits().min_uniform_buffer_offset_alignment);
     let stride = |size: u64| size.div_ceil(align) * align;
-    let cases: [(&str, u64); 6] = [
+    // `struct Dither` is 40 bytes (nine words padded to its vec2 alignment).
+    let cases: [(&str, u64); 7] = [
         // Frame uniforms + 64x64 R32Float thresholds (one texel for procedural patterns).
-        ("stochastic:pattern=blue", stride(32) + 4096 * 4),
-        ("stochastic:pattern=bayer4", stride(32) + 16 * 4),
-        ("stochastic:pattern=bayer256", stride(32) + 65536 * 4),
-        ("stochastic:pattern=white", stride(32) + 4),
+        ("stochastic:pattern=blue", stride(40) + 4096 * 4),
+        ("stochastic:pattern=bayer4", stride(40) + 16 * 4),
+        ("stochastic:pattern=bayer256", stride(40) + 65536 * 4),
+        ("stochastic:pattern=white", stride(40) + 4),
+        // 32 slices of 64x64 stacked: 512 KiB.
+        ("stochastic:pattern=stbn", stride(40) + 32 * 4096 * 4),
         // + frame colour (Rgba16Float) and depth, two Rgba32Float sums, 16 accumulate entries.
         (
             "stochastic:pattern=hashed,spp=16",
-            16 * stride(32) + 4 + px * (8 + 4 + 16 + 16) + 16 * stride(12),
+            16 * stride(40) + 4 + px * (8 + 4 + 16 + 16) + 16 * stride(12),
         ),
         // MSAA colour (Rgba16Float) and depth, 4 samples.
         ("a2c:samples=4", px * 4 * (8 + 4)),
@@ -635,6 +638,12 @@ fn memory_is_counted_exactly() {
         .unwrap_err();
     assert!(e.to_string().contains("256×256 texels"), "{e}");
     build("stochastic:pattern=bayer128").check(&caps).unwrap();
+    // STBN's slices are stacked into one 64 × 2048 texture: its height must fit too.
+    caps.max_texture_dimension_2d = 2047;
+    let e = build("stochastic:pattern=stbn").check(&caps).unwrap_err();
+    assert!(e.to_string().contains("64×2048 texels"), "{e}");
+    caps.max_texture_dimension_2d = 2048;
+    build("stochastic:pattern=stbn").check(&caps).unwrap();
 }
 
 /// One white quad of coverage `alpha` filling the screen over black.

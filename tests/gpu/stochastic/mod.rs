@@ -1,4 +1,5 @@
 mod gpu;
 mod reuse;
+mod temporal;
 mod transmission;
 mod twins;

@@ -5,7 +5,9 @@
 //! by a power of two, one addition and `fract`), so any conformant adapter must agree to the
 //! bit. The uniform is the production one (`dither_words`). cargo-mutants does not mutate WGSL:
 //! a mask, shift or hash constant changed on one side only fails here. `pcg`, which seeded
-//! frames hash their rotation with, is twinned in Rust too (`pattern::pcg`).
+//! frames hash their rotation with, is twinned in Rust too (`pattern::pcg`). The `stbn` pattern
+//! goes through the same shader function (its slice's rows, its period's shift, no rotation)
+//! and is held against `pattern::stbn_threshold`, across slice and period boundaries.
 //!
 //! Not twinned: white noise (`pcg4d`) and hashed alpha (`cell_hash`, `hashed_threshold`) have
 //! no CPU counterpart, since no CPU code needs their values; what they must deliver, uniform
@@ -63,14 +65,16 @@ fn tiled_threshold_on_the_gpu_equals_its_cpu_twin_bit_for_bit() {
         Pattern::Bayer4,
         Pattern::Bayer16,
         Pattern::Bayer256,
+        Pattern::Stbn,
     ] {
         let side = pattern.tile().expect("tiled pattern");
+        let (_, rows) = pattern.table_size();
         let table = pattern::table(pattern);
         let texture = ctx.device.create_texture(&wgpu::TextureDescriptor {
             label: Some("threshold table"),
             size: wgpu::Extent3d {
                 width: side,
-                height: side,
+                height: rows,
                 depth_or_array_layers: 1,
             },
             mip_level_count: 1,
@@ -86,7 +90,7 @@ fn tiled_threshold_on_the_gpu_equals_its_cpu_twin_bit_for_bit() {
             wgpu::TexelCopyBufferLayout {
                 offset: 0,
                 bytes_per_row: Some(side * 4),
-                rows_per_image: Some(side),
+                rows_per_image: Some(rows),
             },
             texture.size(),
         );
@@ -94,13 +98,19 @@ fn tiled_threshold_on_the_gpu_equals_its_cpu_twin_bit_for_bit() {
         // Primitive seeds take the same branch as object seeds; both are run, so a shader that
         // tested `seed_mode == SEED_OBJECT` instead of `!= SEED_NONE` fails.
         for seed_mode in [Seed::None, Seed::Object, Seed::Primitive] {
-            // Frame 0 is the plain pattern; 1 and 2 the first shifts and rotations; 127 the last
-            // frame of spp = 128.
-            for frame in [0, 1, 2, 127] {
+            // Sub-frame 0 is the plain pattern; 1 and 2 the first shifts and rotations; 127 the
+            // last sample of spp = 128. STBN: the last slice of the first period, the first of
+            // the second and third (shifted), and a sub-frame of a late animation frame.
+            let frames: &[u32] = if pattern == Pattern::Stbn {
+                &[0, 1, 31, 32, 33, 64, 127, 1_000_003]
+            } else {
+                &[0, 1, 2, 127]
+            };
+            for &frame in frames {
                 let config = StochasticConfig {
                     pattern,
                     seed: seed_mode,
-                    spp: oit_stochastic::Spp::of(frame + 1),
+                    spp: oit_stochastic::Spp::of(frame.min(127) + 1),
                 };
                 let words = dither_words(&config, frame);
                 let uniform = uniform_buffer(&ctx, bytemuck::cast_slice(&words));
@@ -119,7 +129,11 @@ fn tiled_threshold_on_the_gpu_equals_its_cpu_twin_bit_for_bit() {
                 for (x, g) in inputs.iter().zip(&gpu) {
                     let pixel = [x[0] as u32, x[1] as u32];
                     let seed = x[2] as u32 | ((x[3] as u32) << 16);
-                    let cpu = pattern::tiled_threshold(&table, side, pixel, seed, seed_mode, frame);
+                    let cpu = if pattern == Pattern::Stbn {
+                        pattern::stbn_threshold(&table, side, pixel, seed, frame)
+                    } else {
+                        pattern::tiled_threshold(&table, side, pixel, seed, seed_mode, frame)
+                    };
                     compared += 1;
                     if g.to_bits() != cpu.to_bits() || !(0.0..1.0).contains(&cpu) {
                         failures.push(format!(
