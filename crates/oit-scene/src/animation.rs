@@ -148,7 +148,8 @@ impl CameraTracks {
 }
 
 /// Any frame of a scene file, flattened on demand. A still scene (no `animation`, or a glTF
-/// asset) has one frame. Frames are built one at a time, so a path of any length is streamed:
+/// asset without animations) has one frame; a glTF file loaded directly plays its animation 0
+/// at [`crate::GLTF_FPS`]. Frames are built one at a time, so a path of any length is streamed:
 /// only the prepared objects (generated meshes' parameters, opened glTF assets) are kept.
 #[derive(Debug)]
 pub struct Frames {
@@ -157,8 +158,13 @@ pub struct Frames {
 
 #[derive(Debug)]
 enum Inner {
-    Still { scene: Box<Scene>, file: String },
+    Still {
+        scene: Box<Scene>,
+        file: String,
+    },
     Animated(Box<AnimatedSource>),
+    /// A glTF file loaded directly, with its animation 0.
+    Gltf(Box<crate::gltf::GltfFrames>),
 }
 
 #[derive(Debug)]
@@ -196,11 +202,19 @@ impl Frames {
         }
     }
 
+    /// A glTF file's animated frames.
+    pub(crate) fn gltf(frames: Box<crate::gltf::GltfFrames>) -> Frames {
+        Frames {
+            inner: Inner::Gltf(frames),
+        }
+    }
+
     /// The animation, `None` for a still scene.
     pub fn animation(&self) -> Option<Animation> {
         match &self.inner {
             Inner::Still { .. } => None,
             Inner::Animated(a) => a.prepared.timeline.as_ref().map(|t| t.animation),
+            Inner::Gltf(g) => g.animation(),
         }
     }
 
@@ -229,6 +243,7 @@ impl Frames {
                 let cx = Ctx::new(&a.file, &a.json);
                 cx.flatten(&a.raw, &a.prepared, t)
             }
+            Inner::Gltf(g) => g.frame(t),
         }
     }
 
@@ -237,6 +252,7 @@ impl Frames {
         match &self.inner {
             Inner::Still { file, .. } => file,
             Inner::Animated(a) => &a.file,
+            Inner::Gltf(g) => g.file(),
         }
     }
 }

@@ -22,7 +22,7 @@ mod texture;
 pub use animation::{Animation, Frames, MAX_FRAMES};
 pub use error::{Problem, SceneError};
 pub use format::{DEFAULT_RESOLUTION, MAX_TRIANGLES};
-pub use gltf::{GLTF_BACKGROUND, MAX_TEXELS};
+pub use gltf::{GLTF_BACKGROUND, GLTF_FPS, MAX_TEXELS};
 pub use load::{
     LoadOptions, is_gltf_path, load, load_dir, load_dir_with, load_frames, load_with,
     load_with_inputs, parse, parse_frames, parse_gltf, scene_files,

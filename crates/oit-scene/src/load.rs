@@ -100,13 +100,13 @@ fn parse_frames_with_inputs(json: &str, origin: &str) -> Result<(Frames, Vec<Pat
     Ok((frames, inputs))
 }
 
-/// Reads a scene file with all its frames: an animated JSON scene's [`Frames`], or a still
-/// scene (JSON without `animation`, glTF) as one frame. Also returns every file read, `path`
-/// first, as [`load_with_inputs`] does.
+/// Reads a scene file with all its frames: an animated JSON scene's [`Frames`], a glTF
+/// file's animation 0 (docs/scene-format.md, "glTF animations"), or a still scene (JSON
+/// without `animation`, glTF without animations) as one frame. Also returns every file read,
+/// `path` first, as [`load_with_inputs`] does.
 pub fn load_frames(path: &Path, options: &LoadOptions) -> Result<(Frames, Vec<PathBuf>)> {
     if is_gltf_path(path) {
-        let (scene, inputs) = crate::gltf::load_file_with_inputs(path, options)?;
-        return Ok((Frames::still(scene, path.display().to_string()), inputs));
+        return crate::gltf::load_file_frames(path, options);
     }
     let file = path.display().to_string();
     let json = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
@@ -1048,6 +1048,7 @@ impl Ctx<'_> {
         scene: &mut Scene,
     ) -> Result<()> {
         let materials = g.asset.add_materials(scene)?;
+        scene.ignored.extend(g.asset.unplayed_animations());
         self.note_inputs(g.asset.files_read());
         let derived_path = if obj.instances.is_some() {
             format!("{p}.instances")

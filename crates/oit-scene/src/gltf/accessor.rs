@@ -243,7 +243,7 @@ fn view_bytes<'b>(
     }
 }
 
-use DataType::{F32, U8, U16, U32};
+use DataType::{F32, I8, I16, U8, U16, U32};
 use Dimensions::{Scalar, Vec2, Vec3, Vec4};
 
 pub(super) const POSITION: Spec = Spec {
@@ -270,4 +270,25 @@ pub(super) const INDICES: Spec = Spec {
     dims: &[Scalar],
     types: &[(U8, false), (U16, false), (U32, false)],
     allowed: "SCALAR UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT, not normalized",
+};
+pub(super) const TIMES: Spec = Spec {
+    dims: &[Scalar],
+    types: &[(F32, false)],
+    allowed: "SCALAR FLOAT (key times in seconds)",
+};
+pub(super) const TRANSLATION_SCALE: Spec = Spec {
+    dims: &[Vec3],
+    types: &[(F32, false)],
+    allowed: "VEC3 FLOAT (translation and scale outputs)",
+};
+pub(super) const ROTATION: Spec = Spec {
+    dims: &[Vec4],
+    types: &[
+        (F32, false),
+        (I8, true),
+        (U8, true),
+        (I16, true),
+        (U16, true),
+    ],
+    allowed: "VEC4 FLOAT, normalized BYTE, UNSIGNED_BYTE, SHORT or UNSIGNED_SHORT (rotation quaternions)",
 };

@@ -2,18 +2,21 @@
 //! every mesh instance of the chosen scene becomes world-space triangles (one [`Draw`] per
 //! primitive instance), glTF materials map onto [`Material`] (base colour, alpha mode, cutoff,
 //! double-sidedness, emission, base-colour and emissive textures), and what is read but not
-//! modelled is listed in [`Scene::ignored`]. docs/scene-format.md ("glTF 2.0") is the contract.
+//! modelled is listed in [`Scene::ignored`]. Node animations of a file loaded directly are
+//! played ([`animation`]). docs/scene-format.md ("glTF 2.0") is the contract.
 //!
 //! Errors name the file and a JSON pointer into the asset (`/meshes/2/primitives/0/mode`), or
 //! `(glb header)` / `(glb chunk N)` for the binary container.
 
 mod accessor;
+mod animation;
 mod file;
 mod image;
 mod source;
 
+pub use animation::GLTF_FPS;
 use file::read;
-pub(crate) use file::{load_bytes, load_file_with_inputs};
+pub(crate) use file::{GltfFrames, load_bytes, load_file_frames, load_file_with_inputs};
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -220,6 +223,16 @@ impl Asset {
         requested: Option<usize>,
         err: impl Fn(usize) -> SceneError,
     ) -> Result<Nodes> {
+        self.nodes_posed(requested, err, None)
+    }
+
+    /// [`Asset::nodes`] with the local matrices of the nodes `pose` animates replaced.
+    fn nodes_posed(
+        &self,
+        requested: Option<usize>,
+        err: impl Fn(usize) -> SceneError,
+        pose: Option<&animation::Pose>,
+    ) -> Result<Nodes> {
         let count = self.doc.scenes().len();
         let scene = match requested {
             Some(i) if i >= count => return Err(err(count)),
@@ -262,7 +275,9 @@ impl Asset {
                     .cx
                     .err(format!("/nodes/{i}"), Problem::NodeNotTree { node: i }));
             }
-            let local = Mat4::from_cols_array_2d(&node.transform().matrix());
+            let local = pose
+                .and_then(|p| p.local(i))
+                .unwrap_or_else(|| Mat4::from_cols_array_2d(&node.transform().matrix()));
             let world = parent * local;
             if !world.is_finite() {
                 return Err(self.cx.err(
