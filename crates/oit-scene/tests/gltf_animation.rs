@@ -584,3 +584,82 @@ fn a_zero_rotation_is_refused() {
     // [0, 0, 0, 2] normalised is the identity.
     assert_eq!(vertex(&f, 0, 1), Vec3::new(1.0, 0.0, 0.0));
 }
+
+// ---- The bundled asset scenes/motion/motion-gltf-panes.gltf and its generator ----
+
+#[path = "../../../tools/src/bin/motion_gltf_panes.rs"]
+#[allow(dead_code, reason = "the tool's `main` is not called here")]
+mod generator;
+
+fn motion_dir() -> PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/motion")
+}
+
+#[test]
+fn bundled_gltf_panes_match_their_generator() {
+    let (text, bytes) = generator::motion_gltf_panes();
+    let dir = motion_dir();
+    let stem = generator::STEM;
+    let on_disk = |ext: &str| std::fs::read(dir.join(format!("{stem}.{ext}"))).ok();
+    if on_disk("gltf").as_deref() != Some(text.as_bytes())
+        || on_disk("bin").as_deref() != Some(&bytes[..])
+    {
+        let out = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"));
+        std::fs::write(out.join(format!("{stem}.gltf")), &text).unwrap();
+        std::fs::write(out.join(format!("{stem}.bin")), &bytes).unwrap();
+        panic!(
+            "scenes/motion/{stem}.gltf or .bin differs from what tools/src/bin/motion_gltf_panes.rs writes; \
+             regenerate with `cargo run -p oit-tools --bin motion_gltf_panes` (this run's output is in {})",
+            out.display()
+        );
+    }
+    assert!(text.len() + bytes.len() < 50_000, "keep the asset small");
+    // Regenerating gives identical bytes.
+    assert_eq!(generator::motion_gltf_panes(), (text, bytes));
+}
+
+#[test]
+fn bundled_gltf_panes_pass_through_each_other_inside_the_view() {
+    let path = motion_dir().join(format!("{}.gltf", generator::STEM));
+    let (f, inputs) = oit_scene::load_frames(&path, &LoadOptions::default()).unwrap();
+    assert_eq!(inputs.len(), 2, "the .gltf and its .bin: {inputs:?}");
+    assert_eq!(f.count(), 61, "2 s at 30 fps");
+    let first = f.frame(0).unwrap();
+    assert_eq!((first.draws.len(), first.triangle_count()), (4, 8));
+    for m in &first.materials {
+        assert_eq!(m.mode, oit_scene::AlphaMode::Blend);
+        assert!(m.double_sided && (0.4..=0.6).contains(&m.alpha), "{m:?}");
+    }
+    assert!(
+        first.credits.iter().any(|c| c.contains("CC0 1.0")),
+        "{:?}",
+        first.credits
+    );
+    assert!(first.ignored.is_empty(), "{:?}", first.ignored);
+    let mut eyes = Vec::new();
+    let mut centres = Vec::new();
+    for t in 0..f.count() {
+        let s = f.frame(t).unwrap();
+        // Every vertex of every frame inside the view, clear of its edges and of near and far.
+        for v in &s.vertices {
+            let c = s.camera.clip(Vec3::from(v.position));
+            assert!(
+                c.w > 0.0
+                    && c.x.abs() <= 0.95 * c.w
+                    && c.y.abs() <= 0.95 * c.w
+                    && c.z > 0.0
+                    && c.z < c.w,
+                "frame {t}: {:?} at clip {c}",
+                v.position
+            );
+        }
+        eyes.push(s.camera.eye);
+        centres.push(s.draws.iter().map(|d| d.bounds_center).collect::<Vec<_>>());
+    }
+    // The camera arcs (x from − to +) and dollies in and out again.
+    assert!(eyes[0].x < -1.0 && eyes[60].x > 1.0, "{eyes:?}");
+    assert!(eyes[30].length() < eyes[0].length() - 0.5, "{eyes:?}");
+    // Green slides along Z through the red and yellow panes at the origin, blue along X.
+    assert!(centres[0][1].z < -1.0 && centres[60][1].z > 1.0);
+    assert!(centres[0][2].x > 1.0 && centres[60][2].x < -1.0);
+}
