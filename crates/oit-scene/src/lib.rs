@@ -16,6 +16,7 @@ mod mesh;
 pub mod random;
 mod rng;
 mod scene;
+mod serde_errors;
 mod strict;
 mod texture;
 

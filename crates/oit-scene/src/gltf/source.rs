@@ -9,7 +9,7 @@ use gltf::Document;
 
 use super::{Cx, Result, SUPPORTED_REQUIRED};
 use crate::error::{Problem, SceneError};
-use crate::load::{json_expected, json_found};
+use crate::serde_errors::{json_expected, json_found};
 use crate::strict::Strict;
 
 /// The JSON chunk and the optional BIN chunk of a GLB, or the whole file for glTF JSON.
