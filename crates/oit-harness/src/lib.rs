@@ -5,6 +5,7 @@
 //! each other, the harness concatenates their `techniques()` lists.
 
 pub mod cache;
+mod clip;
 pub mod goldens;
 pub mod inputs;
 pub mod listing;
@@ -12,7 +13,6 @@ pub mod motion;
 pub mod report;
 pub mod results;
 mod run;
-mod strip;
 mod timing;
 
 pub use listing::{MarkdownTable, techniques_help, techniques_json, techniques_markdown};

@@ -6,8 +6,8 @@
 //! scene is flattened, its reference computed (or read from the cache) and uploaded once for
 //! all techniques, and each technique is built once for the whole path: its pipelines and
 //! buffers are reused by every frame. Host memory is bounded whatever the frame count: per
-//! technique, the previous frame's error image ([`TRACKER_BYTES_PER_PIXEL`]) and a strip of
-//! at most [`STRIP_FRAMES`] small previews.
+//! technique, the previous frame's error image ([`TRACKER_BYTES_PER_PIXEL`]); its clip
+//! (`crate::clip`, an animated PNG) is encoded frame by frame.
 
 use std::path::Path;
 
@@ -23,8 +23,6 @@ use crate::{HarnessError, at_resolution};
 
 /// Host bytes per pixel each technique keeps while a path streams (its previous error image).
 pub const TRACKER_BYTES_PER_PIXEL: u64 = 12;
-/// Frames of the path shown in each technique's strip (render | reference | error).
-pub const STRIP_FRAMES: usize = 6;
 /// Default of [`CompareOptions::static_frames`].
 pub const DEFAULT_STATIC_FRAMES: u32 = 16;
 
@@ -117,7 +115,8 @@ struct Track {
     max_abs: Vec<f64>,
     order: f64,
     inexact_frames: Vec<u32>,
-    strip: Vec<(u32, LinearImage, LinearImage)>,
+    /// The animated PNG of the path (every `clip::step`th frame).
+    clip: Option<crate::clip::Clip>,
 }
 
 /// Measures `specs` over the selected frames of `frames` and returns, per canonical spec, its
@@ -150,10 +149,16 @@ pub fn measure(
         )));
     }
     let targets = Targets::new(ctx, first.resolution, ColorFormat::Rgba16Float)?;
+    let clip_step = crate::clip::step(selected.len());
+    let clip_frames = selected.len().div_ceil(clip_step);
+    let seconds = clip_step as f64 / f64::from(frames.animation().map_or(24.0, |a| a.fps));
+    let size = (first.resolution.width, first.resolution.height);
     let mut tracks = Vec::with_capacity(specs.len());
     for spec in specs {
+        let canonical = spec.canonical();
+        let clip = crate::clip::Clip::create(scene_dir, &canonical, size, clip_frames, seconds)?;
         tracks.push(Track {
-            canonical: spec.canonical(),
+            canonical,
             technique: build(spec)?,
             stopped: None,
             path: PathTracker::new(),
@@ -164,10 +169,9 @@ pub fn measure(
             max_abs: Vec::new(),
             order: 0.0,
             inexact_frames: Vec::new(),
-            strip: Vec::new(),
+            clip: Some(clip),
         });
     }
-    let strip_every = selected.len().div_ceil(STRIP_FRAMES).max(1);
     for (i, &t) in selected.iter().enumerate() {
         let scene = at_resolution(&frames.frame(t)?, options.resolution);
         let reference = reference_of(&scene, options, cache_dir, on_event)?;
@@ -190,9 +194,12 @@ pub fn measure(
                         track.canonical, scene.name
                     )));
                     track.stopped = Some(why);
+                    track.clip = None;
                 }
-                Ok(image) if i % strip_every == 0 && track.strip.len() < STRIP_FRAMES => {
-                    track.strip.push((t, image, reference.image.clone()));
+                Ok(image) if i % clip_step == 0 => {
+                    if let Some(clip) = &mut track.clip {
+                        clip.push(&image, &reference.image)?;
+                    }
                 }
                 Ok(_) => {}
             }
@@ -219,11 +226,13 @@ pub fn measure(
     let mut out = Vec::with_capacity(tracks.len());
     for (track, static_camera) in tracks.into_iter().zip(statics) {
         if let Some(why) = track.stopped {
+            // Its clip is dropped unfinished: no file.
             out.push((track.canonical, Err(why)));
             continue;
         }
-        if !track.strip.is_empty() {
-            crate::strip::write(scene_dir, &track.canonical, &track.strip)?;
+        let mut track = track;
+        if let Some(clip) = track.clip.take() {
+            clip.finish()?;
         }
         out.push((track.canonical.clone(), Ok(summarise(track, static_camera))));
     }

@@ -20,6 +20,7 @@ use crate::tonemap::{Srgb8Image, preview_srgb8};
 static TEMP_COUNTER: AtomicU64 = AtomicU64::new(0);
 
 /// Removes the temporary file unless the rename happened: error returns and panics alike.
+#[derive(Debug)]
 struct TempGuard {
     path: PathBuf,
     armed: bool,
@@ -51,46 +52,83 @@ pub fn write_atomic<F>(path: &Path, write: F) -> Result<(), MetricsError>
 where
     F: FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
 {
-    let Some(name) = path.file_name() else {
-        return Err(MetricsError::InvalidOutput {
-            path: path.to_path_buf(),
-            what: "the output path names no file".into(),
-        });
-    };
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    let tmp_name = format!(
-        ".{}.{}-{}.tmp",
-        name.to_string_lossy(),
-        std::process::id(),
-        TEMP_COUNTER.fetch_add(1, Ordering::Relaxed)
-    );
-    refuse_non_regular(path)?;
-    let tmp = dir.join(tmp_name);
-    let file = OpenOptions::new()
-        .write(true)
-        .create_new(true)
-        .open(&tmp)
-        .map_err(write_error(path))?;
-    let mut guard = TempGuard {
-        path: tmp,
-        armed: true,
-    };
+    let mut file = AtomicFile::create(path)?;
+    write(&mut file.writer).map_err(write_error(path))?;
+    file.commit()
+}
 
-    let mut writer = BufWriter::new(file);
-    write(&mut writer).map_err(write_error(path))?;
-    let file = writer
-        .into_inner()
-        .map_err(|e| write_error(path)(e.into_error()))?;
-    file.sync_all().map_err(write_error(path))?;
-    drop(file);
-    // Again just before the rename: the target may have been replaced meanwhile.
-    refuse_non_regular(path)?;
-    fs::rename(&guard.path, path).map_err(write_error(path))?;
-    guard.armed = false;
-    Ok(())
+/// A file written over time and published atomically, as [`write_atomic`] publishes one written
+/// at once: the bytes go to a hidden temporary beside `path`, [`AtomicFile::commit`] syncs it and
+/// renames it over `path`, and a file dropped without `commit` is removed. For outputs made
+/// while a long computation streams (an animation's frames), which must not all be held in
+/// memory first.
+#[derive(Debug)]
+pub struct AtomicFile {
+    path: PathBuf,
+    writer: BufWriter<File>,
+    guard: TempGuard,
+}
+
+impl AtomicFile {
+    /// Creates the temporary for `path` (refused when `path` exists and is not a regular file).
+    pub fn create(path: &Path) -> Result<AtomicFile, MetricsError> {
+        let Some(name) = path.file_name() else {
+            return Err(MetricsError::InvalidOutput {
+                path: path.to_path_buf(),
+                what: "the output path names no file".into(),
+            });
+        };
+        let dir = match path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p,
+            _ => Path::new("."),
+        };
+        let tmp_name = format!(
+            ".{}.{}-{}.tmp",
+            name.to_string_lossy(),
+            std::process::id(),
+            TEMP_COUNTER.fetch_add(1, Ordering::Relaxed)
+        );
+        refuse_non_regular(path)?;
+        let tmp = dir.join(tmp_name);
+        let file = OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&tmp)
+            .map_err(write_error(path))?;
+        Ok(AtomicFile {
+            path: path.to_path_buf(),
+            writer: BufWriter::new(file),
+            guard: TempGuard {
+                path: tmp,
+                armed: true,
+            },
+        })
+    }
+
+    /// Flushes, syncs and renames the temporary over the destination.
+    pub fn commit(mut self) -> Result<(), MetricsError> {
+        let path = self.path.clone();
+        self.writer.flush().map_err(write_error(&path))?;
+        self.writer
+            .get_ref()
+            .sync_all()
+            .map_err(write_error(&path))?;
+        // Again just before the rename: the target may have been replaced meanwhile.
+        refuse_non_regular(&path)?;
+        fs::rename(&self.guard.path, &path).map_err(write_error(&path))?;
+        self.guard.armed = false;
+        Ok(())
+    }
+}
+
+impl Write for AtomicFile {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.writer.write(buf)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.writer.flush()
+    }
 }
 
 /// Only a regular file (or nothing) may be replaced: a rename over `/dev/null`, a FIFO, a socket

@@ -163,8 +163,9 @@ pub use heatmap::{
     COUNT_MAX, count_color, count_legend, count_map, error_color, heatmap, heatmap_legend,
 };
 pub use io::{
-    ChannelImage, ExrChannel, ExrLayer, read_exr_channel, read_exr_rgba, remove_stale_temporaries,
-    write_atomic, write_atomic_bytes, write_exr, write_png_preview, write_png_srgb8,
+    AtomicFile, ChannelImage, ExrChannel, ExrLayer, read_exr_channel, read_exr_rgba,
+    remove_stale_temporaries, write_atomic, write_atomic_bytes, write_exr, write_png_preview,
+    write_png_srgb8,
 };
 pub use metrics::{Errors, PSNR_CAP, THRESHOLD_SLACK, compare, diff_image};
 pub use oit_scene::LinearImage;

@@ -7,8 +7,8 @@ use std::path::{Path, PathBuf};
 
 use exr::prelude::{ReadChannels, ReadLayers};
 use oit_metrics::{
-    ExrLayer, LinearImage, MetricsError, heatmap, preview_srgb8, read_exr_channel, read_exr_rgba,
-    write_atomic, write_atomic_bytes, write_exr, write_png_preview, write_png_srgb8,
+    AtomicFile, ExrLayer, LinearImage, MetricsError, heatmap, preview_srgb8, read_exr_channel,
+    read_exr_rgba, write_atomic, write_atomic_bytes, write_exr, write_png_preview, write_png_srgb8,
 };
 
 /// A fresh, empty directory for one test.
@@ -435,4 +435,43 @@ fn a_racing_reader_never_sees_a_partial_file() {
     });
     assert!(reads >= 50, "{reads}");
     assert_eq!(entries(&dir), ["results.json"]);
+}
+
+/// A file written over time appears only when committed, whole; dropped before, it leaves
+/// nothing, and an earlier file of that name stays as it was.
+#[test]
+fn an_atomic_file_appears_only_when_committed() {
+    let dir = scratch("atomic-file");
+    let path = dir.join("clip.png");
+    fs::write(&path, b"earlier").unwrap();
+    {
+        let mut file = AtomicFile::create(&path).unwrap();
+        file.write_all(b"half of a frame").unwrap();
+        assert_eq!(
+            fs::read(&path).unwrap(),
+            b"earlier",
+            "not replaced before commit"
+        );
+    }
+    assert_eq!(
+        entries(&dir),
+        ["clip.png"],
+        "an abandoned file leaves no temporary"
+    );
+    assert_eq!(fs::read(&path).unwrap(), b"earlier");
+    let mut file = AtomicFile::create(&path).unwrap();
+    for frame in 0..3u8 {
+        file.write_all(&[frame; 4]).unwrap();
+    }
+    file.commit().unwrap();
+    assert_eq!(
+        fs::read(&path).unwrap(),
+        [0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2, 2]
+    );
+    assert_eq!(entries(&dir), ["clip.png"]);
+    let error = AtomicFile::create(&dir).expect_err("a directory is no file");
+    assert!(
+        matches!(error, MetricsError::InvalidOutput { .. }),
+        "{error}"
+    );
 }

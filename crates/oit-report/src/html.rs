@@ -722,9 +722,9 @@ fn scene_section(
     out.push_str("</section>\n");
 }
 
-/// Where `oit compare` writes a technique's frame strip of an animated scene (render |
-/// reference | error heat map for a few frames of the path), relative to the results folder.
-fn motion_strip(scene_stem: &str, technique: &str) -> String {
+/// Where `oit compare` writes a technique's clip of an animated scene (an animated PNG of the
+/// path, each frame render | reference | error heat map), relative to the results folder.
+fn motion_clip(scene_stem: &str, technique: &str) -> String {
     format!(
         "{scene_stem}/{}-motion.png",
         oit_results::file_stem(technique)
@@ -776,21 +776,21 @@ fn motion_section(out: &mut String, dir: &Path, scene: &str, runs: &[&Run]) {
         );
     }
     out.push_str(
-        "<th title=\"a few frames of the path, one row each: render, reference, error heat map\">\
-         frames</th></tr></thead>\n<tbody>\n",
+        "<th title=\"the path as an animation: render, reference, error heat map side by side\">\
+         clip</th></tr></thead>\n<tbody>\n",
     );
     for (run, t) in &rows {
         out.push_str("<tr>");
         for cell in oit_results::report::motion_cells(run, t, 8) {
             let _ = write!(out, "<td>{}</td>", esc(&cell));
         }
-        // The harness's frame strip, linked only when it is on disk.
-        let strip = motion_strip(&stem, &run.technique);
-        if dir.join(&strip).is_file() {
+        // The harness's clip, linked only when it is on disk.
+        let clip = motion_clip(&stem, &run.technique);
+        if dir.join(&clip).is_file() {
             let _ = write!(
                 out,
-                "<td class=\"text\"><a href=\"{}\">strip</a></td>",
-                esc(&url(&strip))
+                "<td class=\"text\"><a href=\"{}\">play</a></td>",
+                esc(&url(&clip))
             );
         } else {
             out.push_str("<td>–</td>");

@@ -255,7 +255,7 @@ fn the_report_shows_motion_for_the_animated_scene_only() {
         serde_json::to_vec_pretty(&results()).unwrap(),
     )
     .unwrap();
-    // unsorted's frame strip is on disk, the others' are not.
+    // unsorted's clip is on disk, the others' are not.
     std::fs::create_dir_all(dir.0.join("swap")).unwrap();
     image::RgbImage::from_pixel(6, 4, image::Rgb([9, 9, 9]))
         .save(dir.0.join("swap/unsorted-motion.png"))
@@ -284,7 +284,7 @@ fn the_report_shows_motion_for_the_animated_scene_only() {
         motion.contains(&format!(
             "<tr><td>unsorted</td><td>0.0100</td><td>2 (3, 6)</td><td>3 (0.4000)</td>\
              <td>{mean:.4}</td><td>0.5000</td><td>–</td>\
-             <td class=\"text\"><a href=\"swap/unsorted-motion.png\">strip</a></td></tr>"
+             <td class=\"text\"><a href=\"swap/unsorted-motion.png\">play</a></td></tr>"
         )),
         "{motion}"
     );
