@@ -591,6 +591,12 @@ fn scenes(path: &Path, json: bool, load: &oit_scene::LoadOptions) -> Result<()> 
         for line in oit_harness::report::wrap(&oit_harness::report::printable(&l.description), 86) {
             println!("    {line}");
         }
+        if let Some(a) = s.animation {
+            println!(
+                "    animated: {} frames at {} fps (the figures above are frame 0's)",
+                a.frames, a.fps
+            );
+        }
         // Real content says where it came from and what of it is not modelled.
         if !(s.textures.is_empty() && s.credits.is_empty() && s.ignored.is_empty()) {
             for line in oit_harness::results::scene_json(s, "").report_lines() {

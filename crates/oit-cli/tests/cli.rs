@@ -206,6 +206,17 @@ fn scenes_lists_the_suite_with_depth_complexity() {
         text.contains("    Red (alpha 0.45) in front of green"),
         "{text}"
     );
+    assert!(
+        !text.contains("animated:"),
+        "the still suite has no animation"
+    );
+    let motion = oit().args(["scenes", "scenes/motion"]).output().unwrap();
+    let text = String::from_utf8_lossy(&motion.stdout);
+    assert!(
+        text.contains("    animated: 48 frames at 24 fps (the figures above are frame 0's)"),
+        "{text}"
+    );
+    assert!(text.contains("    animated: 61 frames at 30 fps"), "{text}");
 }
 
 #[test]
