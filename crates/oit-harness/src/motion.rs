@@ -98,6 +98,37 @@ impl FrameSelection {
     }
 }
 
+/// What a run's motion measurement was made from ([`crate::results::RunInputs::motion`]): the
+/// frame selection, the static-camera renders and an FNV-1a hash of the content hashes of the
+/// selected frames (at the comparison's resolution). A frame that does not flatten or a
+/// selection past the end hashes as such: the measurement will fail and say why.
+pub fn inputs(frames: &Frames, options: &CompareOptions) -> String {
+    let selection = options.animation_frames;
+    let end = selection
+        .end
+        .map_or_else(|| "end".to_string(), |e| e.to_string());
+    let mut bytes = Vec::new();
+    match selection.frames(frames.count()) {
+        Ok(selected) => {
+            for t in selected {
+                let hash = frames
+                    .frame(t)
+                    .map(|s| at_resolution(&s, options.resolution).content_hash())
+                    .unwrap_or(0);
+                bytes.extend_from_slice(&hash.to_le_bytes());
+            }
+        }
+        Err(_) => bytes.extend_from_slice(b"out of range"),
+    }
+    format!(
+        "frames {}..{end}:{}, static {}, path {:016x}",
+        selection.start,
+        selection.step,
+        options.static_frames,
+        crate::fnv1a64(&bytes)
+    )
+}
+
 /// Per canonical spec, its `temporal` block or why it has none.
 pub type MotionRuns = Vec<(String, Result<Temporal, String>)>;
 
@@ -388,5 +419,39 @@ mod tests {
             .expect_err("past the end");
         assert!(e.contains("0..10"), "{e}");
         assert!(one.frames(5).is_err());
+    }
+
+    /// `--resume` reuses a motion measurement only for the same path: another frame
+    /// selection, static-camera count or keyframe changes the run's inputs.
+    #[test]
+    fn a_runs_motion_inputs_name_the_path_it_measured() {
+        let scene = |end: u32| {
+            format!(
+                r#"{{"name": "m", "resolution": [8, 8], "animation": {{"frames": 4, "fps": 24}},
+                "camera": {{"eye": [0, 0, 5], "target": [0, 0, 0],
+                           "keyframes": [{{"frame": 0, "eye": [0, 0, 5]}}, {{"frame": 3, "eye": [{end}, 0, 5]}}]}},
+                "objects": [{{"mesh": {{"kind": "quad"}}, "material": {{"mode": "blend", "alpha": 0.5}}}}]}}"#
+            )
+        };
+        let frames = oit_scene::parse_frames(&scene(1), "m.json").expect("scene");
+        let options = CompareOptions::default();
+        let all = inputs(&frames, &options);
+        assert_eq!(all, inputs(&frames, &options), "deterministic");
+        let fewer = CompareOptions {
+            animation_frames: FrameSelection::parse("0..2").expect("selection"),
+            ..CompareOptions::default()
+        };
+        let less_static = CompareOptions {
+            static_frames: 4,
+            ..CompareOptions::default()
+        };
+        let moved = oit_scene::parse_frames(&scene(2), "m.json").expect("scene");
+        for other in [
+            inputs(&frames, &fewer),
+            inputs(&frames, &less_static),
+            inputs(&moved, &options),
+        ] {
+            assert_ne!(all, other);
+        }
     }
 }

@@ -246,6 +246,10 @@ pub fn compare_all(
             warmup: options.warmup,
             retime: options.retime,
             build: build.clone(),
+            motion: entry
+                .frames
+                .as_ref()
+                .map(|f| crate::motion::inputs(f, options)),
         };
         // Earlier runs of this scene: reused for requested techniques when made from the same
         // inputs, kept beside them for techniques not requested now.

@@ -330,6 +330,11 @@ pub struct RunInputs {
     /// are never reused).
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub build: String,
+    /// An animated scene's motion measurement: the frames asked for, the static-camera
+    /// renders and a hash of every selected frame's content (absent for a still scene), so a
+    /// run is reused only for the same path.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub motion: Option<String>,
 }
 
 fn is_zero(n: &u32) -> bool {
