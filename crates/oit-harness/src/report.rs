@@ -76,6 +76,8 @@ mod tests {
             runs,
             floors: Vec::new(),
             scenes: Vec::new(),
+            shard: None,
+            merged: Vec::new(),
         }
     }
 

@@ -70,6 +70,8 @@ pub struct CompareOptions {
     /// Times frame 0 of an animated scene is rendered at its static camera for bias and noise
     /// (0: not measured).
     pub static_frames: u32,
+    /// Make only this shard's runs ([`crate::shard`]); `None` makes them all.
+    pub shard: Option<crate::shard::Shard>,
 }
 
 /// Default of [`CompareOptions::run_budget`].
@@ -95,6 +97,7 @@ impl Default for CompareOptions {
             context: ContextOptions::default(),
             animation_frames: crate::motion::FrameSelection::ALL,
             static_frames: crate::motion::DEFAULT_STATIC_FRAMES,
+            shard: None,
         }
     }
 }
@@ -226,6 +229,17 @@ pub fn compare_all(
         runs: Vec::new(),
         floors: Vec::new(),
         scenes: Vec::new(),
+        shard: (options.shard)
+            .map(|s| crate::shard::shard_json(s, scenes, unloadable, specs, options)),
+        merged: Vec::new(),
+    };
+    let total = ((scenes.len() + unloadable.len()) * specs.len()) as u64;
+    // The specs of scene `i` this comparison runs: all, or this shard's.
+    let specs_of = |i: usize| -> Vec<TechniqueSpec> {
+        match options.shard {
+            Some(shard) => (shard.specs_of(i, specs, total).into_iter().cloned()).collect(),
+            None => specs.to_vec(),
+        }
     };
     let build = ToolJson::build_id();
     let cancelled = || {
@@ -234,9 +248,12 @@ pub fn compare_all(
             .as_ref()
             .is_some_and(|c| c.load(std::sync::atomic::Ordering::Relaxed))
     };
-    for entry in scenes {
+    for (index, entry) in scenes.iter().enumerate() {
+        let specs = &specs_of(index);
         if cancelled() {
             break;
+        } else if specs.is_empty() {
+            continue; // another shard's scene
         }
         let scene = at_resolution(&entry.scene, options.resolution);
         let scene_file = entry.path.display().to_string();
@@ -316,7 +333,7 @@ pub fn compare_all(
                     resumed: false,
                 });
             }
-            write_outputs(out, &results)?;
+            write_outputs(out, &mut results)?;
             continue;
         }
         if let Some(frames) = &entry.frames
@@ -334,11 +351,11 @@ pub fn compare_all(
             )?;
         }
         // Techniques of the earlier comparison that were not requested now stay beside these
-        // runs: a comparison grows one technique at a time.
+        // runs: a comparison grows one technique at a time (a shard keeps only its own runs).
         let requested: Vec<String> = specs.iter().map(TechniqueSpec::canonical).collect();
         for mut run in reusable_runs
             .into_iter()
-            .filter(|r| !requested.contains(&r.technique))
+            .filter(|r| !requested.contains(&r.technique) && options.shard.is_none())
         {
             run.resumed = true;
             run.scene_file.clone_from(&scene_file);
@@ -350,17 +367,14 @@ pub fn compare_all(
             fill_floor_costs(&mut results.runs[first_run..], floor_ms);
         }
         fill_costs(&mut results.runs[first_run..], || None);
-        write_outputs(out, &results)?;
+        write_outputs(out, &mut results)?;
     }
     let done = !cancelled();
-    for u in unloadable.iter().filter(|_| done) {
-        let name = u.path.file_stem().map_or_else(
-            || u.path.display().to_string(),
-            |s| s.to_string_lossy().into_owned(),
-        );
+    for (index, u) in unloadable.iter().enumerate().filter(|_| done) {
+        let name = crate::shard::unloadable_name(u);
         let file = u.path.display().to_string();
         let message = format!("could not load {file}: {}", u.error);
-        for spec in specs {
+        for spec in &specs_of(scenes.len() + index) {
             let canonical = spec.canonical();
             results.runs.push(Run::not_rendered(
                 &name,
@@ -377,9 +391,9 @@ pub fn compare_all(
             });
         }
     }
-    if done && options.resume {
+    if done && options.resume && options.shard.is_none() {
         // Scenes of the earlier comparison that were not part of this one stay, when the same
-        // build made them.
+        // build made them (a shard keeps only its own).
         for run in std::mem::take(&mut earlier_runs) {
             if run.inputs.as_ref().is_some_and(|i| i.build == build) {
                 if !results.scenes.iter().any(|s| s.scene == run.scene)
@@ -408,7 +422,7 @@ pub fn compare_all(
         on_event(Event::Notice(&line));
     }
     results.complete = done;
-    write_outputs(out, &results)?;
+    write_outputs(out, &mut results)?;
     Ok(results)
 }
 
@@ -752,7 +766,7 @@ fn check_unique_outputs(
 
 /// The lock file that keeps two comparisons out of one output folder. Removed on drop; one left
 /// by a process that no longer runs is taken over.
-struct OutputLock {
+pub(crate) struct OutputLock {
     path: PathBuf,
 }
 
@@ -760,7 +774,7 @@ struct OutputLock {
 pub const LOCK_FILE: &str = ".oit-compare.lock";
 
 impl OutputLock {
-    fn acquire(out: &Path) -> Result<OutputLock, HarnessError> {
+    pub(crate) fn acquire(out: &Path) -> Result<OutputLock, HarnessError> {
         let path = out.join(LOCK_FILE);
         for _ in 0..2 {
             match std::fs::OpenOptions::new()
@@ -782,7 +796,7 @@ impl OutputLock {
                             return Err(HarnessError::Invalid {
                                 path: out.to_path_buf(),
                                 message: format!(
-                                    "another `oit compare` (pid {pid}) is writing to this folder; wait for it or choose another --out"
+                                    "another `oit compare` or `oit merge` (pid {pid}) is writing to this folder; wait for it or choose another --out"
                                 ),
                             });
                         }
@@ -887,6 +901,7 @@ fn time_floor(
         resolution: res(scene),
         gpu_ms,
         passes,
+        shard: options.shard.map(|s| s.index),
     })
 }
 
@@ -1014,6 +1029,7 @@ fn run_one(
         inputs: None,
         resumed: false,
         temporal: None,
+        shard: None,
     })
 }
 
@@ -1063,7 +1079,11 @@ fn fill_costs(runs: &mut [Run], measure_baseline: impl FnOnce() -> Option<f64>) 
     }
 }
 
-fn write_outputs(out: &Path, results: &Results) -> Result<(), HarnessError> {
+/// Writes results.json and results.md; in a shard, every run says which shard made it.
+pub(crate) fn write_outputs(out: &Path, results: &mut Results) -> Result<(), HarnessError> {
+    if let Some(index) = results.shard.as_ref().map(|s| s.index) {
+        results.runs.iter_mut().for_each(|r| r.shard = Some(index));
+    }
     let json = serde_json::to_vec_pretty(results).expect("results serialize");
     oit_metrics::write_atomic_bytes(&out.join("results.json"), &json)?;
     oit_metrics::write_atomic_bytes(

@@ -236,6 +236,9 @@ fn html(results: &Results, dir: &Path, metric: Metric, label: &dyn Fn(&str) -> S
              finish it.</p>\n",
         );
     }
+    if let Some(note) = oit_results::report::shard_note(results) {
+        let _ = writeln!(out, "<p class=\"banner\">Shards: {}.</p>", esc(&note));
+    }
     let _ = writeln!(
         out,
         "<p>Adapter: <b>{}</b> ({}, {}, {}){}. Errors are against the exact CPU reference on \

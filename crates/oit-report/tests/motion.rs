@@ -93,6 +93,8 @@ fn results() -> Results {
         ],
         floors: Vec::new(),
         scenes: Vec::new(),
+        shard: None,
+        merged: Vec::new(),
     }
 }
 

@@ -128,6 +128,8 @@ fn results() -> Results {
                 "beta.glb: KHR_materials_transmission in /extensionsUsed: not modelled".into(),
             ],
         }],
+        shard: None,
+        merged: Vec::new(),
     }
 }
 

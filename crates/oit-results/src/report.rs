@@ -90,6 +90,44 @@ pub fn wrap(text: &str, width: usize) -> Vec<String> {
     lines
 }
 
+/// What a report says about where the timings came from when `results` is a shard
+/// (`oit compare --shard K/N`) or a merge of shards (`oit merge`); `None` otherwise.
+pub fn shard_note(results: &Results) -> Option<String> {
+    if let Some(s) = &results.shard {
+        return Some(format!(
+            "shard {}/{} of a comparison of {} runs; `oit merge` joins the shards",
+            s.index, s.count, s.runs
+        ));
+    }
+    let first = results.merged.first()?;
+    let mut adapters: Vec<String> = Vec::new();
+    for s in &results.merged {
+        if let Some(a) = &s.adapter
+            && !adapters.contains(&a.name)
+        {
+            adapters.push(a.name.clone());
+        }
+    }
+    let shards: Vec<String> = results.merged.iter().map(|s| s.index.to_string()).collect();
+    let missing: Vec<String> = (1..=first.count)
+        .filter(|k| !results.merged.iter().any(|s| s.index == *k))
+        .map(|k| k.to_string())
+        .collect();
+    let mut note = format!(
+        "merged from shards {} of {} (adapters: {}): each run was timed on its shard's machine against that shard's floor and `unsorted`, so GPU ms and cost ratios compare only within one shard (`shard` of each run in results.json), not across shards",
+        shards.join(", "),
+        first.count,
+        printable(&adapters.join("; "))
+    );
+    if !missing.is_empty() {
+        note.push_str(&format!(
+            "; shards {} are missing, and their runs with them",
+            missing.join(", ")
+        ));
+    }
+    Some(note)
+}
+
 /// One row per run, grouped by scene, in run order.
 pub fn markdown(results: &Results) -> String {
     let mut out = String::new();
@@ -100,6 +138,9 @@ pub fn markdown(results: &Results) -> String {
             out,
             "**Incomplete:** the comparison was interrupted; `oit compare … --resume` with the same output folder finishes it.\n"
         );
+    }
+    if let Some(note) = shard_note(results) {
+        let _ = writeln!(out, "**Shards:** {}.\n", md_cell(&note));
     }
     let _ = writeln!(
         out,
@@ -236,6 +277,11 @@ pub fn terminal_table_labelled(results: &Results, label: &dyn Fn(&str) -> String
             out,
             "\nincomplete: the comparison was interrupted; --resume finishes it"
         );
+    }
+    if let Some(note) = shard_note(results) {
+        for line in wrap(&format!("shards: {note}"), TERMINAL_WIDTH) {
+            let _ = writeln!(out, "{line}");
+        }
     }
     if let Some(caveat) = overall_timing_caveat(results) {
         for line in wrap(&format!("timing: {caveat}"), TERMINAL_WIDTH) {
@@ -733,6 +779,8 @@ mod tests {
             runs,
             floors,
             scenes: Vec::new(),
+            shard: None,
+            merged: Vec::new(),
         }
     }
 
@@ -812,6 +860,7 @@ mod tests {
                 resolution: [4, 4],
                 gpu_ms: timed(1.0, 0.5),
                 passes: Vec::new(),
+                shard: None,
             }],
         );
         let text = markdown(&results);
@@ -979,6 +1028,7 @@ mod tests {
                 attempts: 1,
             },
             passes: Vec::new(),
+            shard: None,
         };
         let results = results_of(vec![cheap, dear], vec![floor]);
         let md = markdown(&results);

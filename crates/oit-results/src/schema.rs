@@ -26,6 +26,34 @@ pub struct Results {
     /// Per scene: its size on the GPU and where its content came from.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub scenes: Vec<SceneJson>,
+    /// The part of a comparison this file holds (`oit compare --shard K/N`; absent for a whole
+    /// comparison and in files written before 2026-12-06).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shard: Option<ShardJson>,
+    /// The shards `oit merge` made this file from, each with its adapter (absent unless merged):
+    /// timings, and so cost ratios, compare only within one shard.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub merged: Vec<ShardJson>,
+}
+
+/// One shard of a comparison split with `oit compare --shard K/N` (docs/sharding.md).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ShardJson {
+    /// K: 1 ≤ K ≤ `count`.
+    pub index: u32,
+    /// N: how many shards the comparison was split into.
+    pub count: u32,
+    /// Runs of the whole comparison (every shard together).
+    pub runs: u64,
+    /// A hash (FNV-1a, hex) of the whole comparison's plan: every (scene, technique) in order
+    /// and the options that change a run. Shards of one comparison have the same plan.
+    pub plan: String,
+    /// Whether the shard finished its runs (only in a merged file's `merged`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub complete: Option<bool>,
+    /// The adapter that ran the shard (only in a merged file's `merged`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub adapter: Option<AdapterJson>,
 }
 
 fn yes() -> bool {
@@ -127,6 +155,10 @@ pub struct FloorJson {
     /// Per-pass medians (`opaque`, `floor`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub passes: Vec<PassMs>,
+    /// The shard (K of `--shard K/N`) that timed this floor (absent when not sharded). A scene
+    /// whose runs fell in two shards has a floor from each.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shard: Option<u32>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -264,6 +296,10 @@ pub struct Run {
     /// written before 2026-12-06).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub temporal: Option<Temporal>,
+    /// The shard (K of `--shard K/N`) that made this run (absent when not sharded): its cost
+    /// ratios are against that shard's floor and `unsorted`, timed on the same machine.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shard: Option<u32>,
 }
 
 /// A technique over the frames of an animated scene, each against the exact reference of that
@@ -423,6 +459,7 @@ impl Run {
             inputs: None,
             resumed: false,
             temporal: None,
+            shard: None,
         }
     }
 }
