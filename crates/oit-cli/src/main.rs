@@ -165,10 +165,32 @@ enum Command {
         /// over frames (0: not measured).
         #[arg(long, value_name = "N", default_value_t = oit_harness::motion::DEFAULT_STATIC_FRAMES, value_parser = clap::value_parser!(u32).range(0..=1024))]
         static_frames: u32,
+        /// Make only shard K of N of the runs (1 ≤ K ≤ N; a contiguous, balanced block of the
+        /// scene × technique runs, the same on every machine); `oit merge` joins the shards'
+        /// output folders (docs/sharding.md).
+        #[arg(long, value_name = "K/N", value_parser = parse_shard)]
+        shard: Option<oit_harness::Shard>,
         #[command(flatten)]
         load: LoadArgs,
         #[command(flatten)]
         gpu: GpuArgs,
+    },
+    /// Join the output folders of `oit compare --shard K/N` into one results.json, results.md,
+    /// plots and report.html, with every run's images.
+    Merge {
+        /// The shards' output folders (each holds results.json), in any order.
+        #[arg(required = true)]
+        dirs: Vec<PathBuf>,
+        /// Output directory for the merged results; never one of the shard folders.
+        #[arg(long)]
+        out: PathBuf,
+        /// Merge even when shards are missing or were interrupted; the merged results then say
+        /// they are incomplete and which shards are missing.
+        #[arg(long)]
+        allow_missing: bool,
+        /// Error axis of the plots and Pareto fronts.
+        #[arg(long, default_value = "flip", value_parser = ["flip", "rmse"])]
+        metric: String,
     },
     /// Rebuild results.md, the plots and the static HTML report of DIR from its results.json.
     Report {
@@ -239,6 +261,11 @@ impl GpuArgs {
             adapter: self.adapter.clone(),
         }
     }
+}
+
+/// Reads `--shard K/N`.
+fn parse_shard(text: &str) -> Result<oit_harness::Shard, String> {
+    oit_harness::Shard::parse(text)
 }
 
 fn parse_resolution(s: &str) -> Result<Resolution, String> {
@@ -409,6 +436,7 @@ fn run(command: Command) -> Result<()> {
             metric,
             animation_frames,
             static_frames,
+            shard,
             load,
             gpu,
         } => {
@@ -433,6 +461,7 @@ fn run(command: Command) -> Result<()> {
                 context: gpu.options(),
                 animation_frames,
                 static_frames,
+                shard,
             };
             compare(
                 &scenes,
@@ -454,6 +483,25 @@ fn run(command: Command) -> Result<()> {
             }
             let html = write_report(&dir, &results, parse_metric(&metric))?;
             println!("wrote {}", html.display());
+            Ok(())
+        }
+        Command::Merge {
+            dirs,
+            out,
+            allow_missing,
+            metric,
+        } => {
+            let results = oit_harness::merge(&dirs, &out, allow_missing)?;
+            print!("{}", oit_harness::report::terminal_table(&results));
+            let html = write_report(&out, &results, parse_metric(&metric))?;
+            println!(
+                "\nwrote {} ({} runs from {} shards), {} and {}",
+                out.join("results.json").display(),
+                results.runs.len(),
+                results.merged.len(),
+                out.join("results.md").display(),
+                html.display()
+            );
             Ok(())
         }
     }
@@ -860,7 +908,15 @@ fn compare(
     // Specs are validated (and sweeps bounded) before the GPU is opened.
     let specs = oit_harness::resolve_specs(specs)?;
     let scene_count = scenes.len() + unloadable.len();
-    let runs = (scene_count as u64) * (specs.len() as u64);
+    let total = (scene_count as u64) * (specs.len() as u64);
+    // A shard is bounded by the runs it makes.
+    let runs = options.shard.map_or(total, |s| {
+        let r = s.range(total);
+        r.end - r.start
+    });
+    if let Some(shard) = options.shard {
+        eprintln!("shard {shard}: {runs} of the comparison's {total} runs");
+    }
     if runs > max_runs {
         bail!(
             "{runs} runs ({scene_count} scenes × {} techniques) is more than --max-runs {max_runs}; raise it to run them all",

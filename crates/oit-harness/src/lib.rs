@@ -9,13 +9,17 @@ mod clip;
 pub mod goldens;
 pub mod inputs;
 pub mod listing;
+pub mod merge;
 pub mod motion;
 pub mod report;
 pub mod results;
 mod run;
+pub mod shard;
 mod timing;
 
 pub use listing::{MarkdownTable, techniques_help, techniques_json, techniques_markdown};
+pub use merge::merge;
+pub use shard::Shard;
 pub use timing::time_technique;
 
 pub use oit_results::interference;
