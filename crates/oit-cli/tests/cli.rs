@@ -977,3 +977,128 @@ fn reference_writes_the_asked_frames_of_an_animated_scene() {
     assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
     assert_eq!(std::fs::read_dir(&empty).unwrap().count(), 0);
 }
+
+/// `--shard` takes K/N with 1 ≤ K ≤ N, and says so in one line naming the flag and what it got.
+#[test]
+fn a_bad_shard_is_a_usage_error_naming_what_is_allowed() {
+    for (bad, says) in [
+        ("0/3", "K 0 is outside 1..=3"),
+        ("4/3", "K 4 is outside 1..=3"),
+        ("1/0", "N is 0"),
+        ("2", "not K/N"),
+    ] {
+        let out = oit()
+            .args(["compare", "scenes/enderton.json", "--shard", bad])
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{bad}: {stderr}");
+        let line = stderr.lines().next().unwrap_or_default();
+        assert!(
+            line.contains("--shard") && line.contains(says) && line.contains("1 ≤ K ≤ N"),
+            "{bad}: {stderr}"
+        );
+    }
+}
+
+/// A results.json as `oit compare --shard K/N` writes it, with no runs (no GPU needed).
+fn shard_file(dir: &Path, index: u32, count: u32, plan: &str) {
+    std::fs::create_dir_all(dir).unwrap();
+    let json = format!(
+        r#"{{"schema": "oit-lab/results/v1",
+            "adapter": {{"name": "a{index}", "backend": "vulkan", "device_type": "cpu", "driver": "d"}},
+            "runs": [],
+            "shard": {{"index": {index}, "count": {count}, "runs": 0, "plan": "{plan}"}}}}"#
+    );
+    std::fs::write(dir.join("results.json"), json).unwrap();
+}
+
+/// `oit merge` refuses, in one line naming the file and the field, a foreign file, a whole
+/// comparison, a shard of another comparison, a shard given twice and a missing shard; it
+/// merges shards of one comparison, says where the timings came from, and never writes into a
+/// shard.
+#[test]
+fn merge_refuses_foreign_files_and_joins_shards_of_one_comparison() {
+    let dir = temp_dir("merge");
+    let (one, two, out) = (dir.join("s1"), dir.join("s2"), dir.join("merged"));
+    shard_file(&one, 1, 2, "abc");
+    let merge = |dirs: &[&Path], extra: &[&str]| {
+        let mut c = oit();
+        c.arg("merge").args(dirs).arg("--out").arg(&out).args(extra);
+        c.output().unwrap()
+    };
+    let fails = |dirs: &[&Path], extra: &[&str], file: &Path, says: &[&str]| {
+        let o = merge(dirs, extra);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{stderr}");
+        assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
+        assert!(stderr.contains(&file.display().to_string()), "{stderr}");
+        for s in says {
+            assert!(stderr.contains(s), "{s} in {stderr}");
+        }
+        assert!(!out.join("results.json").exists(), "nothing merged");
+    };
+    std::fs::create_dir_all(&two).unwrap();
+    std::fs::write(two.join("results.json"), r#"{"schema": "x"}"#).unwrap();
+    fails(
+        &[&one, &two],
+        &[],
+        &two.join("results.json"),
+        &["schema is `x`"],
+    );
+    std::fs::write(
+        two.join("results.json"),
+        r#"{"schema": "oit-lab/results/v1", "adapter": {"name": "a", "backend": "b", "device_type": "c", "driver": "d"}, "runs": []}"#,
+    )
+    .unwrap();
+    fails(
+        &[&one, &two],
+        &[],
+        &two.join("results.json"),
+        &["no `shard` field"],
+    );
+    shard_file(&two, 2, 2, "other");
+    fails(
+        &[&one, &two],
+        &[],
+        &two.join("results.json"),
+        &["`shard.plan` is other", "abc"],
+    );
+    shard_file(&two, 1, 2, "abc");
+    fails(
+        &[&one, &two],
+        &[],
+        &two.join("results.json"),
+        &["shard 1/2 again"],
+    );
+    let o = merge(&[&one], &[]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("shards 2 of 2 are missing") && stderr.contains("--allow-missing"));
+
+    shard_file(&two, 2, 2, "abc");
+    let o = merge(&[&two, &one], &[]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("merged from shards 1, 2 of 2"));
+    let merged: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("results.json")).unwrap()).unwrap();
+    assert_eq!(merged["merged"].as_array().map(Vec::len), Some(2));
+    assert_eq!(merged["merged"][1]["adapter"]["name"], "a2");
+    assert_eq!(merged["adapter"]["name"], "a1 | a2");
+    assert!(merged.get("shard").is_none());
+    let md = std::fs::read_to_string(out.join("results.md")).unwrap();
+    assert!(md.contains("compare only within one shard"), "{md}");
+    assert!(out.join("report.html").is_file());
+    // Merging again replaces its own merge, never a shard.
+    assert!(merge(&[&one, &two], &[]).status.success());
+    let o = oit()
+        .args(["merge"])
+        .args([&one, &two])
+        .arg("--out")
+        .arg(&one)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("the merge never writes into its inputs"));
+    let _ = std::fs::remove_dir_all(&dir);
+}

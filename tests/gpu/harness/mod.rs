@@ -5,5 +5,6 @@ mod material_forms;
 mod motion;
 mod robustness;
 mod shaders;
+mod shard;
 mod sweeps;
 mod textures;
