@@ -477,6 +477,7 @@ fn every_argument_has_a_description() {
         "render",
         "compare",
         "report",
+        "merge",
     ] {
         let out = oit().args([command, "--help"]).output().unwrap();
         let help = String::from_utf8_lossy(&out.stdout);
