@@ -171,7 +171,7 @@ fn three_shards_merged_are_the_unsharded_comparison() {
     // Never into a shard, never a whole comparison.
     let err = merge(&dirs, &dirs[0], false).unwrap_err().to_string();
     assert!(err.contains("shard folder"), "{err}");
-    let err = merge(&[whole_dir.clone()], &root.join("x"), false)
+    let err = merge(std::slice::from_ref(&whole_dir), &root.join("x"), false)
         .unwrap_err()
         .to_string();
     assert!(
