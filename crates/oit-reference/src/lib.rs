@@ -33,7 +33,9 @@
 //! [`ReferenceOptions::memory_budget`]: a tile whose fragments do not fit is rendered in
 //! slices, and a pixel that cannot fit alone is an error, not an abort.
 
+pub mod analyze;
 mod composite;
+mod fragments;
 mod raster;
 mod setup;
 
@@ -45,6 +47,7 @@ use oit_scene::{LinearImage, Scene};
 use rayon::prelude::*;
 
 pub use composite::{composite_front_to_back, composite_transmittance_front_to_back};
+pub use fragments::{FragmentVisitor, PixelFragment, RectFragments, render_visiting};
 pub use raster::PRECISION_TIE_ULPS;
 pub use setup::CUTOFF_UNDECIDED_BOUND;
 
@@ -367,7 +370,19 @@ pub fn render(scene: &Scene, options: &ReferenceOptions) -> Reference {
 /// [`render`] that reports invalid input, or a scene beyond the memory budget, as an error
 /// instead of panicking.
 pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference, ReferenceError> {
+    render_with(scene, options, None)
+}
+
+/// [`try_render`], handing every rectangle's sorted transparent lists to `visit` when given
+/// ([`render_visiting`]): then every tile takes the stored path (the output is the same bit
+/// for bit; [`ReferenceOptions::in_order`] is ignored).
+pub(crate) fn render_with(
+    scene: &Scene,
+    options: &ReferenceOptions,
+    visit: Option<(&FragmentVisitor<'_>, &fragments::Ranks)>,
+) -> Result<Reference, ReferenceError> {
     let start = Instant::now();
+    let in_order = options.in_order && visit.is_none();
     validate(scene, options)?;
     let (width, height) = (scene.resolution.width, scene.resolution.height);
     let tile = options.tile_size;
@@ -450,7 +465,7 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
     // same.
     let heavy = |t: usize| {
         let len = (bin_start[t + 1] - bin_start[t]) as usize;
-        options.in_order
+        in_order
             && threads > 1
             && len >= HEAVY_BIN
             && len * threads >= bin_start[tile_count] as usize
@@ -476,7 +491,8 @@ pub fn try_render(scene: &Scene, options: &ReferenceOptions) -> Result<Reference
         reverse_z: scene.camera.reverse_z,
         background: scene.background.map(f64::from),
         coloured: scene.has_transmission(),
-        in_order: options.in_order,
+        in_order,
+        visit,
     };
     let done = AtomicUsize::new(0);
     let tile_rect = |t: usize, band_height: u32| TileRect {

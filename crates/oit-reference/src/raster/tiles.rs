@@ -74,6 +74,8 @@ pub(crate) struct TileContext<'a> {
     pub coloured: bool,
     /// Try [`render_rect_in_order`] before the stored path ([`crate::ReferenceOptions`]).
     pub in_order: bool,
+    /// Called by [`render_rect`] with each rectangle's sorted lists ([`crate::render_visiting`]).
+    pub visit: Option<(&'a crate::FragmentVisitor<'a>, &'a crate::fragments::Ranks)>,
 }
 
 /// Why [`render_tile`] did not render a tile.
@@ -513,6 +515,7 @@ pub(super) fn render_rect(
         background,
         coloured,
         in_order: _,
+        visit,
     } = *ctx;
     let t_start = Instant::now();
     let n = (tile.width * tile.height) as usize;
@@ -747,6 +750,20 @@ pub(super) fn render_rect(
             column = 0;
             out_row += out.stride;
         }
+    }
+    if let Some((visit, ranks)) = visit {
+        visit(&crate::RectFragments {
+            x0: tile.x0,
+            y0: tile.y0,
+            width: tile.width,
+            height: tile.height,
+            start: &s.start[..n],
+            end: &s.end[..n],
+            keys: &s.keys,
+            colors: &s.colors,
+            ranks,
+            reverse_z,
+        });
     }
     let t_end = Instant::now();
     stats.raster = t_raster - t_start;
