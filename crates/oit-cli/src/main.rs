@@ -12,6 +12,8 @@ use clap::{Args, Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use oit_scene::{Resolution, Scene};
 
+mod analyze;
+
 #[derive(Debug, Parser)]
 #[command(
     name = "oit",
@@ -33,6 +35,24 @@ enum Command {
         /// Print JSON (one object per scene) instead of the table.
         #[arg(long)]
         json: bool,
+        #[command(flatten)]
+        load: LoadArgs,
+    },
+    /// Measure what scenes ask of a technique from the reference's fragment lists (no GPU):
+    /// layers, order conflicts, self-overlap, α, radiance, depth (docs/analyze.md).
+    Analyze {
+        /// Scene files (.json, .gltf, .glb) or directories of them.
+        #[arg(required = true)]
+        scenes: Vec<PathBuf>,
+        /// Print JSON (schema `oit-lab/analyze/v1`) instead of the tables.
+        #[arg(long)]
+        json: bool,
+        /// Override every scene's resolution, e.g. 512x512.
+        #[arg(long, value_parser = parse_resolution)]
+        resolution: Option<Resolution>,
+        /// Memory the reference may hold for fragments, in MiB (default 2048).
+        #[arg(long, value_name = "MIB", default_value_t = 2048, value_parser = clap::value_parser!(u64).range(1..))]
+        memory_budget: u64,
         #[command(flatten)]
         load: LoadArgs,
     },
@@ -368,6 +388,22 @@ fn run(command: Command) -> Result<()> {
         Command::Scenes { path, json, load } => {
             load.check(std::slice::from_ref(&path))?;
             scenes(&path, json, &load.options())
+        }
+        Command::Analyze {
+            scenes,
+            json,
+            resolution,
+            memory_budget,
+            load,
+        } => {
+            load.check(&scenes)?;
+            analyze::run(
+                &scenes,
+                json,
+                resolution,
+                mib(memory_budget),
+                &load.options(),
+            )
         }
         Command::Techniques { json, markdown } => {
             if json {
