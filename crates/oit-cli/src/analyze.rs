@@ -56,6 +56,14 @@ pub fn run(
     load: &oit_scene::LoadOptions,
 ) -> Result<()> {
     let files = files(paths)?;
+    if let [file] = files.as_slice()
+        && !json
+    {
+        // One scene: its error is the command's, said once.
+        let a = analyze_file(file, resolution, memory_budget, load)?;
+        print!("{}", table(file, &a));
+        return Ok(());
+    }
     let mut entries = Vec::new();
     for file in &files {
         let entry = match analyze_file(file, resolution, memory_budget, load) {

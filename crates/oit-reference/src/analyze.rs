@@ -7,8 +7,7 @@
 //! measures and the precedence edges (who is directly in front of whom at some pixel), whose
 //! strongly connected components are the cycles; the second counts, per pixel and per pair,
 //! what those cycles touch. The pair and edge maps are not counted in the memory budget: they
-//! hold at most one entry per composited fragment (distinct adjacent pairs), and in the
-//! bundled scenes a few thousand (measured 2026-12-06).
+//! hold at most one entry per composited fragment (distinct adjacent pairs).
 
 use std::collections::{BTreeMap, HashMap, HashSet};
 use std::sync::Mutex;
