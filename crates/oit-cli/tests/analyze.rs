@@ -126,3 +126,4 @@ fn analyze_reports_a_missing_file_and_goes_on() {
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert!(v["scenes"][0]["error"].is_string());
     assert_eq!(v["scenes"][1]["analysis"]["scene"], "sorted-quads");
+}
