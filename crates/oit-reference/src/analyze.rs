@@ -193,13 +193,14 @@ impl TechniqueOrders {
                 continue;
             }
             let g = groups.entry(d.render_group).or_default();
+            let first = ranks.first_rank(i);
             for t in 0..d.triangle_count() {
                 let v = (d.first_vertex + 3 * t) as usize;
                 let p = |k: usize| glam::Vec3::from(scene.vertices[v + k].position);
                 let c = (p(0) + p(1) + p(2)) / 3.0;
                 let depth = -(row.x * c.x + row.y * c.y + row.z * c.z + row.w);
                 let key = !ordered_bits(depth);
-                let rank = ranks.rank_of(i, t).unwrap_or(0);
+                let rank = (first + u64::from(t)) as u32;
                 g.push((key, rank));
             }
         }
@@ -320,17 +321,6 @@ impl First {
         for w in runs.windows(2) {
             self.object_edges.insert((w[0].0 as u32, w[1].0 as u32));
         }
-        // Self-overlap: a draw with two fragments, in one run or several.
-        let mut overlapping = false;
-        for (i, &(d, count)) in runs.iter().enumerate() {
-            let first = runs[..i].iter().position(|&(e, _)| e == d);
-            let more = runs[i + 1..].iter().any(|&(e, _)| e == d);
-            if first.is_none() && (count > 1 || more) {
-                overlapping = true;
-                *self.self_overlap.entry(d).or_default() += 1;
-            }
-        }
-        self.self_overlap_pixels += u64::from(overlapping);
         // Front to back, each fragment must have been blended after the next one.
         let object = |d: usize| orders.object[d].unwrap_or(0);
         let object_wrong = runs.windows(2).any(|w| object(w[0].0) <= object(w[1].0));
@@ -342,6 +332,17 @@ impl First {
         let triangle = |f: &PixelFragment| orders.triangle[f.rank as usize];
         let triangle_wrong = list.windows(2).any(|w| triangle(&w[0]) <= triangle(&w[1]));
         self.triangle_wrong += u64::from(triangle_wrong);
+        // Self-overlap: a draw with two fragments, in one run or several (the runs sorted by
+        // draw, so O(r log r) for r runs; they are not needed after this).
+        runs.sort_unstable_by_key(|&(d, _)| d);
+        let mut overlapping = false;
+        for group in runs.chunk_by(|a, b| a.0 == b.0) {
+            if group.len() > 1 || group[0].1 > 1 {
+                overlapping = true;
+                *self.self_overlap.entry(group[0].0).or_default() += 1;
+            }
+        }
+        self.self_overlap_pixels += u64::from(overlapping);
     }
 }
 

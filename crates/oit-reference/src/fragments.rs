@@ -110,6 +110,8 @@ pub struct Ranks {
     first: Vec<u64>,
     /// Indices into `scene.draws`, in id order.
     draws: Vec<usize>,
+    /// Per index into `scene.draws`: its position in `draws`.
+    position: Vec<usize>,
 }
 
 impl Ranks {
@@ -124,7 +126,15 @@ impl Ranks {
             total += u64::from(scene.draws[i].triangle_count());
         }
         first.push(total);
-        Ranks { first, draws }
+        let mut position = vec![0; draws.len()];
+        for (p, &i) in draws.iter().enumerate() {
+            position[i] = p;
+        }
+        Ranks {
+            first,
+            draws,
+            position,
+        }
     }
 
     /// The draw (index into `scene.draws`) and triangle index of `rank`.
@@ -136,10 +146,9 @@ impl Ranks {
         (self.draws[d], (rank - self.first[d]) as u32)
     }
 
-    /// The rank of triangle `triangle` of draw `draw` (index into `scene.draws`).
-    pub fn rank_of(&self, draw: usize, triangle: u32) -> Option<u32> {
-        let d = self.draws.iter().position(|&i| i == draw)?;
-        u32::try_from(self.first[d] + u64::from(triangle)).ok()
+    /// The first rank of draw `draw` (index into `scene.draws`).
+    pub fn first_rank(&self, draw: usize) -> u64 {
+        self.first[self.position[draw]]
     }
 }
 
