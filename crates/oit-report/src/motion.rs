@@ -32,7 +32,7 @@ use plotters::prelude::*;
 use crate::ReportError;
 use crate::plot::{
     FONT_FAMILY, LEGEND_WIDTH, LegendEntry, Marker, PALETTE, PLOT_SIZE, configuration_styles,
-    log_range, log_ticks, register_font, runs_by_scene, short_number,
+    log_range, log_ticks, runs_by_scene, short_number,
 };
 
 /// The stem suffix of the error-over-time plot.
@@ -370,56 +370,30 @@ pub fn write_motion_plots(results: &Results, out_dir: &Path) -> Result<Vec<PathB
     if plots.is_empty() {
         return Ok(Vec::new());
     }
-    std::fs::create_dir_all(out_dir).map_err(|e| ReportError::io(out_dir, e))?;
-    let mut files = Vec::new();
-    for plot in plots {
-        let svg = out_dir.join(format!("{}.svg", plot.stem));
-        oit_metrics::write_atomic_bytes(&svg, render_motion_svg(&plot)?.as_bytes())?;
-        files.push(svg);
-        let png = out_dir.join(format!("{}.png", plot.stem));
-        oit_metrics::write_atomic_bytes(&png, &render_motion_png(&plot)?)?;
-        files.push(png);
-    }
-    Ok(files)
+    crate::plot::write_charts(&plots, out_dir)
 }
 
 /// The plot as an SVG document.
 pub fn render_motion_svg(plot: &MotionPlot) -> Result<String, ReportError> {
-    register_font()?;
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, PLOT_SIZE).into_drawing_area();
-        draw(&root, plot).map_err(|message| ReportError::Plot {
-            plot: plot.stem.clone(),
-            message,
-        })?;
-    }
-    Ok(svg)
+    crate::plot::chart_svg(plot)
 }
 
 /// The plot as PNG bytes (RGB8).
 pub fn render_motion_png(plot: &MotionPlot) -> Result<Vec<u8>, ReportError> {
-    register_font()?;
-    let (w, h) = PLOT_SIZE;
-    let mut rgb = vec![0u8; (w * h * 3) as usize];
-    {
-        let root = BitMapBackend::with_buffer(&mut rgb, PLOT_SIZE).into_drawing_area();
-        draw(&root, plot).map_err(|message| ReportError::Plot {
-            plot: plot.stem.clone(),
-            message,
-        })?;
+    crate::plot::chart_png(plot)
+}
+
+impl crate::plot::Chart for MotionPlot {
+    fn stem(&self) -> &str {
+        &self.stem
     }
-    let failed = |message: String| ReportError::Plot {
-        plot: plot.stem.clone(),
-        message,
-    };
-    let image = image::RgbImage::from_raw(w, h, rgb)
-        .ok_or_else(|| failed("bitmap buffer has the wrong size".into()))?;
-    let mut png = Vec::new();
-    image
-        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
-        .map_err(|e| failed(format!("PNG encoding: {e}")))?;
-    Ok(png)
+
+    fn draw_on<'a, DB: DrawingBackend + 'a>(
+        &self,
+        root: &'a DrawingArea<DB, Shift>,
+    ) -> Result<(), String> {
+        draw(root, self)
+    }
 }
 
 fn draw<'a, DB: DrawingBackend + 'a>(

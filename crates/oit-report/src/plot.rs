@@ -441,56 +441,96 @@ pub fn write_plots(
     out_dir: &Path,
     metric: Metric,
 ) -> Result<Vec<PathBuf>, ReportError> {
+    write_charts(&plot_data(results, metric), out_dir)
+}
+
+/// The plot as an SVG document.
+pub fn render_svg(plot: &PlotData) -> Result<String, ReportError> {
+    chart_svg(plot)
+}
+
+/// The plot as PNG bytes (RGB8).
+pub fn render_png(plot: &PlotData) -> Result<Vec<u8>, ReportError> {
+    chart_png(plot)
+}
+
+/// A picture drawn with plotters on any backend at [`PLOT_SIZE`]: the cost–error plots and the
+/// motion plots share how they become SVG and PNG files.
+pub(crate) trait Chart {
+    /// File stem, also the name in errors.
+    fn stem(&self) -> &str;
+    fn draw_on<'a, DB: DrawingBackend + 'a>(
+        &self,
+        root: &'a DrawingArea<DB, Shift>,
+    ) -> Result<(), String>;
+}
+
+impl Chart for PlotData {
+    fn stem(&self) -> &str {
+        &self.stem
+    }
+
+    fn draw_on<'a, DB: DrawingBackend + 'a>(
+        &self,
+        root: &'a DrawingArea<DB, Shift>,
+    ) -> Result<(), String> {
+        draw(root, self)
+    }
+}
+
+/// Writes each chart as `STEM.svg` and `STEM.png` into `out_dir` (created if missing),
+/// atomically; returns the files, SVG before PNG.
+pub(crate) fn write_charts(
+    charts: &[impl Chart],
+    out_dir: &Path,
+) -> Result<Vec<PathBuf>, ReportError> {
     std::fs::create_dir_all(out_dir).map_err(|e| ReportError::io(out_dir, e))?;
     let mut files = Vec::new();
-    for plot in plot_data(results, metric) {
-        let svg = out_dir.join(format!("{}.svg", plot.stem));
-        oit_metrics::write_atomic_bytes(&svg, render_svg(&plot)?.as_bytes())?;
+    for chart in charts {
+        let svg = out_dir.join(format!("{}.svg", chart.stem()));
+        oit_metrics::write_atomic_bytes(&svg, chart_svg(chart)?.as_bytes())?;
         files.push(svg);
-        let png = out_dir.join(format!("{}.png", plot.stem));
-        oit_metrics::write_atomic_bytes(&png, &render_png(&plot)?)?;
+        let png = out_dir.join(format!("{}.png", chart.stem()));
+        oit_metrics::write_atomic_bytes(&png, &chart_png(chart)?)?;
         files.push(png);
     }
     Ok(files)
 }
 
-/// The plot as an SVG document.
-pub fn render_svg(plot: &PlotData) -> Result<String, ReportError> {
+/// The chart as an SVG document.
+pub(crate) fn chart_svg(chart: &impl Chart) -> Result<String, ReportError> {
     register_font()?;
+    let failed = |message: String| ReportError::Plot {
+        plot: chart.stem().to_string(),
+        message,
+    };
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, PLOT_SIZE).into_drawing_area();
-        draw(&root, plot).map_err(|message| ReportError::Plot {
-            plot: plot.stem.clone(),
-            message,
-        })?;
+        chart.draw_on(&root).map_err(failed)?;
     }
     Ok(svg)
 }
 
-/// The plot as PNG bytes (RGB8).
-pub fn render_png(plot: &PlotData) -> Result<Vec<u8>, ReportError> {
+/// The chart as PNG bytes (RGB8).
+pub(crate) fn chart_png(chart: &impl Chart) -> Result<Vec<u8>, ReportError> {
     register_font()?;
+    let failed = |message: String| ReportError::Plot {
+        plot: chart.stem().to_string(),
+        message,
+    };
     let (w, h) = PLOT_SIZE;
     let mut rgb = vec![0u8; (w * h * 3) as usize];
     {
         let root = BitMapBackend::with_buffer(&mut rgb, PLOT_SIZE).into_drawing_area();
-        draw(&root, plot).map_err(|message| ReportError::Plot {
-            plot: plot.stem.clone(),
-            message,
-        })?;
+        chart.draw_on(&root).map_err(failed)?;
     }
-    let image = image::RgbImage::from_raw(w, h, rgb).ok_or_else(|| ReportError::Plot {
-        plot: plot.stem.clone(),
-        message: "bitmap buffer has the wrong size".into(),
-    })?;
+    let image = image::RgbImage::from_raw(w, h, rgb)
+        .ok_or_else(|| failed("bitmap buffer has the wrong size".into()))?;
     let mut png = Vec::new();
     image
         .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
-        .map_err(|e| ReportError::Plot {
-            plot: plot.stem.clone(),
-            message: format!("PNG encoding: {e}"),
-        })?;
+        .map_err(|e| failed(format!("PNG encoding: {e}")))?;
     Ok(png)
 }
 
