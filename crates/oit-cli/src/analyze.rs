@@ -34,14 +34,7 @@ fn files(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
         }
     }
     if out.is_empty() {
-        bail!(
-            "no scene files (*.json, *.gltf, *.glb) found in {}",
-            paths
-                .iter()
-                .map(|p| p.display().to_string())
-                .collect::<Vec<_>>()
-                .join(", ")
-        );
+        return Err(crate::no_scene_files(paths));
     }
     Ok(out)
 }

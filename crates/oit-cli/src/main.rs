@@ -552,6 +552,18 @@ fn print_adapter(ctx: &oit_gpu::Context) {
     );
 }
 
+/// The error of a command given no scene file: an empty folder is a mistake.
+fn no_scene_files(paths: &[PathBuf]) -> anyhow::Error {
+    anyhow::anyhow!(
+        "no scene files (*.json, *.gltf, *.glb) found in {}",
+        paths
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    )
+}
+
 /// The scenes of `paths`, or an error when there are none (an empty folder is a mistake).
 fn load_some_scenes(
     paths: &[PathBuf],
@@ -559,14 +571,7 @@ fn load_some_scenes(
 ) -> Result<Vec<oit_harness::SceneEntry>> {
     let scenes = oit_harness::load_scenes_with(paths, load)?;
     if scenes.is_empty() {
-        bail!(
-            "no scene files (*.json, *.gltf, *.glb) found in {}",
-            paths
-                .iter()
-                .map(|p| p.display().to_string())
-                .collect::<Vec<_>>()
-                .join(", ")
-        );
+        return Err(no_scene_files(paths));
     }
     Ok(scenes)
 }
@@ -919,14 +924,7 @@ fn compare(
     // One scene that does not load is reported as failed; the others run.
     let (scenes, unloadable) = oit_harness::load_scenes_lenient(paths, load)?;
     if scenes.is_empty() && unloadable.is_empty() {
-        bail!(
-            "no scene files (*.json, *.gltf, *.glb) found in {}",
-            paths
-                .iter()
-                .map(|p| p.display().to_string())
-                .collect::<Vec<_>>()
-                .join(", ")
-        );
+        return Err(no_scene_files(paths));
     }
     for u in &unloadable {
         eprintln!(

@@ -455,18 +455,7 @@ impl Ctx<'_> {
             width: 1,
             height: 1,
         };
-        let at_frame = |t: u32, e: SceneError| match e {
-            SceneError::Invalid {
-                file,
-                path,
-                problem,
-            } => SceneError::Invalid {
-                file,
-                path: format!("{path} (at frame {t}, from the keyframes)"),
-                problem,
-            },
-            other => other,
-        };
+        let at_frame = |t: u32, e: SceneError| e.at_frame(t, "the keyframes");
         let animated_camera = timeline.camera.orbit.is_some() || !raw.camera.keyframes.is_empty();
         for t in 0..frames {
             if animated_camera {

@@ -63,6 +63,23 @@ impl SceneError {
         }
     }
 
+    /// The same error, its path marked as a value of frame `t` derived from `source` (the
+    /// keyframes, a glTF animation): the frame's own values are nowhere in the file.
+    pub fn at_frame(self, t: u32, source: &str) -> SceneError {
+        match self {
+            SceneError::Invalid {
+                file,
+                path,
+                problem,
+            } => SceneError::Invalid {
+                file,
+                path: format!("{path} (at frame {t}, from {source})"),
+                problem,
+            },
+            other => other,
+        }
+    }
+
     /// The file name the error refers to.
     pub fn file(&self) -> &str {
         match self {

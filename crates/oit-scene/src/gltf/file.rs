@@ -136,18 +136,7 @@ impl std::fmt::Debug for GltfFrames {
 
 /// Marks an error of frame `t` as such.
 fn at_frame(t: u32, e: SceneError) -> SceneError {
-    match e {
-        SceneError::Invalid {
-            file,
-            path,
-            problem,
-        } => SceneError::Invalid {
-            file,
-            path: format!("{path} (at frame {t}, from /animations/0)"),
-            problem,
-        },
-        other => other,
-    }
+    e.at_frame(t, "/animations/0")
 }
 
 /// Where a file's geometry goes: as it is, unlit.
