@@ -283,7 +283,15 @@ impl Ctx<'_> {
             ));
         }
         let frames = anim.frames as u32;
-        let fps = self.positive(anim.fps, "animation.fps")?;
+        let fps = self.finite(anim.fps, "animation.fps")?;
+        if fps <= 0.0 {
+            return Err(self.bad(
+                "animation.fps",
+                "frame rate",
+                fps.to_string(),
+                "frames per second > 0".into(),
+            ));
+        }
         let camera = self.camera_tracks(&raw.camera, frames)?;
         let objects = raw
             .objects

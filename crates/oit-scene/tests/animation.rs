@@ -244,6 +244,15 @@ fn keys_are_validated_with_file_path_and_what_is_allowed() {
             "1..=10000",
         ),
         (
+            {
+                let mut v = animated(4, json!([]), json!([]));
+                v["animation"]["fps"] = json!(0);
+                v
+            },
+            "animation.fps",
+            "frames per second > 0",
+        ),
+        (
             animated(
                 4,
                 json!([{"frame": 0, "eye": [0, 0, 5]}, {"frame": 2, "eye": [0, 0, -5]}]),
