@@ -478,26 +478,15 @@ where
     Y::CoordDescType: Ranged<ValueType = f64> + ValueFormatter<f64>,
 {
     let err = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
-    let mut chart = ChartBuilder::on(root)
-        .caption(&plot.title, (FONT_FAMILY, 20))
-        .margin(12)
-        .x_label_area_size(50)
-        .y_label_area_size(80)
-        .build_cartesian_2d(x, y)
-        .map_err(err)?;
-    chart
-        .configure_mesh()
-        .x_desc(plot.x_label.as_str())
-        .y_desc(plot.y_label.as_str())
-        .axis_desc_style((FONT_FAMILY, 15))
-        .label_style((FONT_FAMILY, 12))
-        .light_line_style(WHITE)
-        .bold_line_style(BLACK.mix(0.12))
-        .x_labels(10)
-        .x_label_formatter(x_format)
-        .y_label_formatter(y_format)
-        .draw()
-        .map_err(err)?;
+    let axes = crate::plot::Axes {
+        title: &plot.title,
+        x_label: &plot.x_label,
+        y_label: &plot.y_label,
+        x_format,
+        y_format,
+        x_ticks: Some(10),
+    };
+    let mut chart = axes.build(root, x, y)?;
     let scale = plot.y_scale;
     for s in &plot.series {
         let colour = PALETTE[s.legend.style % PALETTE.len()];

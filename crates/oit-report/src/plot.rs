@@ -725,6 +725,65 @@ pub(crate) fn log_range(values: impl Iterator<Item = f64>, lo: f64, hi: f64) -> 
     (min / 1.5, max * 1.5)
 }
 
+/// A plotters chart over the coordinates `X` × `Y` describe.
+pub(crate) type Chart2d<'a, DB, X, Y> = ChartContext<
+    'a,
+    DB,
+    Cartesian2d<<X as AsRangedCoord>::CoordDescType, <Y as AsRangedCoord>::CoordDescType>,
+>;
+
+/// The frame every plot of the report shares: caption, margins, axis descriptions, fonts and
+/// grid; the cost–error plots and the motion plots differ only in what they draw inside it.
+pub(crate) struct Axes<'f> {
+    pub title: &'f str,
+    pub x_label: &'f str,
+    pub y_label: &'f str,
+    pub x_format: &'f dyn Fn(&f64) -> String,
+    pub y_format: &'f dyn Fn(&f64) -> String,
+    /// How many x labels to aim for (plotters' default when `None`).
+    pub x_ticks: Option<usize>,
+}
+
+impl Axes<'_> {
+    /// The chart on `root` over `x` × `y`, its mesh drawn.
+    pub(crate) fn build<'a, DB, X, Y>(
+        &self,
+        root: &'a DrawingArea<DB, Shift>,
+        x: X,
+        y: Y,
+    ) -> Result<Chart2d<'a, DB, X, Y>, String>
+    where
+        DB: DrawingBackend + 'a,
+        X: AsRangedCoord<Value = f64>,
+        Y: AsRangedCoord<Value = f64>,
+        X::CoordDescType: Ranged<ValueType = f64> + ValueFormatter<f64>,
+        Y::CoordDescType: Ranged<ValueType = f64> + ValueFormatter<f64>,
+    {
+        let err = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+        let mut chart = ChartBuilder::on(root)
+            .caption(self.title, (FONT_FAMILY, 20))
+            .margin(12)
+            .x_label_area_size(50)
+            .y_label_area_size(80)
+            .build_cartesian_2d(x, y)
+            .map_err(err)?;
+        let mut mesh = chart.configure_mesh();
+        mesh.x_desc(self.x_label)
+            .y_desc(self.y_label)
+            .axis_desc_style((FONT_FAMILY, 15))
+            .label_style((FONT_FAMILY, 12))
+            .light_line_style(WHITE)
+            .bold_line_style(BLACK.mix(0.12))
+            .x_label_formatter(self.x_format)
+            .y_label_formatter(self.y_format);
+        if let Some(n) = self.x_ticks {
+            mesh.x_labels(n);
+        }
+        mesh.draw().map_err(err)?;
+        Ok(chart)
+    }
+}
+
 fn draw_chart<'a, DB, X, Y>(
     root: &'a DrawingArea<DB, Shift>,
     legend: &DrawingArea<DB, Shift>,
@@ -740,25 +799,15 @@ where
     Y::CoordDescType: Ranged<ValueType = f64> + ValueFormatter<f64>,
 {
     let err = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
-    let mut chart = ChartBuilder::on(root)
-        .caption(&plot.title, (FONT_FAMILY, 20))
-        .margin(12)
-        .x_label_area_size(50)
-        .y_label_area_size(80)
-        .build_cartesian_2d(x, y)
-        .map_err(err)?;
-    chart
-        .configure_mesh()
-        .x_desc(plot.x_label.as_str())
-        .y_desc(plot.y_label.as_str())
-        .axis_desc_style((FONT_FAMILY, 15))
-        .label_style((FONT_FAMILY, 12))
-        .light_line_style(WHITE)
-        .bold_line_style(BLACK.mix(0.12))
-        .x_label_formatter(&|v| short_number(*v))
-        .y_label_formatter(&|v| short_number(*v))
-        .draw()
-        .map_err(err)?;
+    let axes = Axes {
+        title: &plot.title,
+        x_label: &plot.x_label,
+        y_label: &plot.y_label,
+        x_format: &|v| short_number(*v),
+        y_format: &|v| short_number(*v),
+        x_ticks: None,
+    };
+    let mut chart = axes.build(root, x, y)?;
 
     // Pareto front: the staircase of what is attainable, and a ring around each member.
     let mut front: Vec<&PlotPoint> = plot.front.iter().map(|&i| &plot.points[i]).collect();
