@@ -70,6 +70,22 @@ pub fn render_spec(
     (image, frame, technique.memory_bytes())
 }
 
+/// Largest per-channel error of `render` against `reference`, relative above 1 (absolute
+/// below): the exactness measure of the exact techniques on HDR and LDR content alike.
+pub fn max_relative_rgb(render: &LinearImage, reference: &LinearImage) -> f32 {
+    assert_eq!(
+        render.pixels.len(),
+        reference.pixels.len(),
+        "images of different sizes"
+    );
+    render
+        .pixels
+        .iter()
+        .zip(&reference.pixels)
+        .flat_map(|(a, b)| (0..3).map(move |c| (a[c] - b[c]).abs() / b[c].abs().max(1.0)))
+        .fold(0.0, f32::max)
+}
+
 /// The largest absolute difference of any RGB channel of any pixel.
 pub fn max_abs_rgb(a: &LinearImage, b: &LinearImage) -> f32 {
     assert_eq!(a.pixels.len(), b.pixels.len(), "images of different sizes");

@@ -392,13 +392,7 @@ fn peeling_is_exact_on_tie_free_random_scenes() {
                     continue;
                 }
             };
-            let worst = frame
-                .image
-                .pixels
-                .iter()
-                .zip(&reference.image.pixels)
-                .flat_map(|(a, b)| (0..3).map(move |c| (a[c] - b[c]).abs() / b[c].abs().max(1.0)))
-                .fold(0.0f32, f32::max);
+            let worst = crate::kit::max_relative_rgb(&frame.image, &reference.image);
             if worst > 4e-3 || frame.stats.pixels_with_dropped_layers > 0 {
                 failures.push(format!(
                     "seed {seed} {}: max error {worst:e}, dropped layers on {} px; {about:?}",
