@@ -285,7 +285,7 @@ fn the_report_shows_motion_for_the_animated_scene_only() {
     assert!(
         motion.contains(&format!(
             "<tr><td>unsorted</td><td>0.0100</td><td>2 (3, 6)</td><td>3 (0.4000)</td>\
-             <td>{mean:.4}</td><td>0.5000</td><td>–</td>\
+             <td>{mean:.4}</td><td>0.5000</td><td>–</td><td>–</td>\
              <td class=\"text\"><a href=\"swap/unsorted-motion.png\">play</a></td></tr>"
         )),
         "{motion}"

@@ -32,6 +32,10 @@ pub const MOTION_COLUMNS: &[(&str, &str)] = &[
         "static bias / noise",
         "frame 0 rendered repeatedly at its camera with fresh per-frame noise: RMSE of the mean image, and RMS of the per-pixel standard deviation (display space); – when not measured",
     ),
+    (
+        "inexact frames",
+        "frames whose image holds dropped or approximated layers by the technique's own count (k-buffer tails, peeling's last passes), of the frames rendered; – when none",
+    ),
 ];
 
 /// How many pop frames a cell names before `…`.
@@ -66,7 +70,7 @@ pub fn pops_cell(pops: &[u32], shown: usize) -> String {
 
 /// The cells of one motion row: technique, flicker, pop events, worst frame, mean ꟻLIP, max
 /// order dependence, static bias / noise. Pop frames are named up to `shown`.
-pub fn motion_cells(run: &Run, t: &Temporal, shown: usize) -> [String; 7] {
+pub fn motion_cells(run: &Run, t: &Temporal, shown: usize) -> [String; 8] {
     [
         run.technique.clone(),
         sci(t.flicker),
@@ -82,7 +86,17 @@ pub fn motion_cells(run: &Run, t: &Temporal, shown: usize) -> [String; 7] {
             || "–".to_owned(),
             |s| format!("{} / {}", sci(s.bias_rmse), sci(s.noise_rms)),
         ),
+        inexact_cell(t),
     ]
+}
+
+/// `N/M`: frames with dropped or approximated layers of the frames rendered; `–` when none.
+fn inexact_cell(t: &Temporal) -> String {
+    if t.inexact_frames.is_empty() {
+        "–".to_owned()
+    } else {
+        format!("{}/{}", t.inexact_frames.len(), t.frames.len())
+    }
 }
 
 /// The frame count of a scene's motion runs: `N`, or `N–M` when runs differ.
@@ -111,9 +125,9 @@ pub fn scene_motion_markdown(runs: &[&Run]) -> String {
     );
     let _ = writeln!(
         out,
-        "| technique | flicker | pop events | worst frame (FLIP) | mean FLIP | max order dep. | static bias / noise |"
+        "| technique | flicker | pop events | worst frame (FLIP) | mean FLIP | max order dep. | static bias / noise | inexact frames |"
     );
-    let _ = writeln!(out, "|---|---:|---|---:|---:|---:|---:|");
+    let _ = writeln!(out, "|---|---:|---|---:|---:|---:|---:|---:|");
     for (run, t) in rows {
         let cells: Vec<String> = motion_cells(run, t, POPS_SHOWN)
             .iter()
@@ -157,6 +171,13 @@ pub fn scene_motion_terminal(runs: &[&Run], label: &dyn Fn(&str) -> String) -> S
         };
         if !t.pop_events.is_empty() {
             parts.push(format!("pops at {}", pops_cell(&t.pop_events, 8)));
+        }
+        if !t.inexact_frames.is_empty() {
+            parts.push(format!(
+                "dropped or approximated layers on {} of {} frames",
+                t.inexact_frames.len(),
+                t.frames.len()
+            ));
         }
         if let Some(s) = &t.static_camera {
             parts.push(format!(
@@ -364,19 +385,26 @@ pub(crate) mod tests {
             history_blend: 0.1,
             mean_rmse: vec![0.25; 8],
         });
+        t.inexact_frames = vec![1, 3];
         let with = ok("m", "a|b", Some(t));
         let without = ok("m", "plain", Some(temporal(&[0.0; 3], 0.0, &[])));
         let text = scene_motion_markdown(&[&with, &without]);
         assert!(text.starts_with("### Motion (3–4 frames)\n"), "{text}");
         assert!(
             text.contains(
-                "| a\\|b | 0.0300 | 1 (2) | 2 (0.5000) | 0.2188 | 0.1250 | 1.5e-3 / 0.2500 |"
+                "| a\\|b | 0.0300 | 1 (2) | 2 (0.5000) | 0.2188 | 0.1250 | 1.5e-3 / 0.2500 | 2/4 |"
             ),
             "{text}"
         );
         assert!(
-            text.contains("| plain | 0 | 0 | 0 (0.0000) | 0.0000 | 0.1250 | – |"),
+            text.contains("| plain | 0 | 0 | 0 (0.0000) | 0.0000 | 0.1250 | – | – |"),
             "{text}"
+        );
+        // The terminal says it under the table.
+        let terminal = scene_motion_terminal(&[&with, &without], &|t| t.to_owned());
+        assert!(
+            terminal.contains("dropped or approximated layers on 2 of 4 frames"),
+            "{terminal}"
         );
     }
 
