@@ -16,6 +16,7 @@ pub mod results;
 mod run;
 pub mod shard;
 mod timing;
+pub mod vary;
 
 pub use listing::{MarkdownTable, techniques_help, techniques_json, techniques_markdown};
 pub use merge::merge;
@@ -215,6 +216,9 @@ pub struct SceneEntry {
     pub inputs: Vec<PathBuf>,
     /// Every frame of an animated scene (`None` for a still one); `scene` is its frame 0.
     pub frames: Option<std::rc::Rc<oit_scene::Frames>>,
+    /// The parameter `oit compare --vary` set to make this scene from a scene file (`None`
+    /// for a scene as read); recorded in each of its runs ([`vary`]).
+    pub varied: Option<oit_results::Varied>,
 }
 
 impl SceneEntry {
@@ -226,6 +230,7 @@ impl SceneEntry {
             path,
             scene,
             frames: None,
+            varied: None,
         }
     }
 
@@ -239,6 +244,7 @@ impl SceneEntry {
             scene,
             inputs,
             frames,
+            varied: None,
         })
     }
 }

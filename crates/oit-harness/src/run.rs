@@ -333,6 +333,7 @@ pub fn compare_all(
                     resumed: false,
                 });
             }
+            crate::vary::tag(&mut results.runs[first_run..], entry);
             write_outputs(out, &mut results)?;
             continue;
         }
@@ -367,6 +368,7 @@ pub fn compare_all(
             fill_floor_costs(&mut results.runs[first_run..], floor_ms);
         }
         fill_costs(&mut results.runs[first_run..], || None);
+        crate::vary::tag(&mut results.runs[first_run..], entry);
         write_outputs(out, &mut results)?;
     }
     let done = !cancelled();
@@ -1030,6 +1032,7 @@ fn run_one(
         resumed: false,
         temporal: None,
         shard: None,
+        varied: None,
     })
 }
 

@@ -300,6 +300,28 @@ pub struct Run {
     /// ratios are against that shard's floor and `unsorted`, timed on the same machine.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub shard: Option<u32>,
+    /// The scene parameter `oit compare --vary` set for this run's scene (absent otherwise,
+    /// and in files written before 2026-12-06): runs of one sweep share `base_scene` and
+    /// `parameter` and differ in `value`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub varied: Option<Varied>,
+}
+
+/// One value of a scene-parameter sweep (`oit compare --vary`, docs/results-schema.md).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Varied {
+    /// The name of the scene the sweep derived this one from.
+    pub base_scene: String,
+    /// What was set: `resolution`, or a JSON pointer into the scene file
+    /// (`/objects/0/mesh/count`).
+    pub parameter: String,
+    /// The parameter's short name, as in the derived scene's name (`base[count=16]`).
+    pub label: String,
+    /// The value as set in the derived scene (`16`, `0.5`, `256x256`).
+    pub value: String,
+    /// The value on the growth plots' x axis and in the fitted power law: the number set, or
+    /// for `resolution` the pixel count (width × height).
+    pub x: f64,
 }
 
 /// A technique over the frames of an animated scene, each against the exact reference of that
@@ -460,6 +482,7 @@ impl Run {
             resumed: false,
             temporal: None,
             shard: None,
+            varied: None,
         }
     }
 }
