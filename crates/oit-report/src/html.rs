@@ -32,11 +32,23 @@ pub fn write_html_report(
     metric: Metric,
     label: &dyn Fn(&str) -> String,
 ) -> Result<PathBuf, ReportError> {
+    write_html_report_with(dir, metric, label, crate::DEFAULT_BREAK_AT)
+}
+
+/// [`write_html_report`] with the error bound at which the growth section (scene-parameter
+/// sweeps, crate::growth) says a technique breaks, on `metric`.
+pub fn write_html_report_with(
+    dir: &Path,
+    metric: Metric,
+    label: &dyn Fn(&str) -> String,
+    break_at: f64,
+) -> Result<PathBuf, ReportError> {
     let results = Results::read(&dir.join("results.json"))?;
     let plots_dir = dir.join("plots");
     write_plots(&results, &plots_dir, Metric::Flip)?;
     write_plots(&results, &plots_dir, Metric::Rmse)?;
     write_motion_plots(&results, &plots_dir)?;
+    crate::write_growth_plots(&results, &plots_dir, metric, break_at)?;
     oit_metrics::write_png_srgb8(
         &plots_dir.join(ERROR_LEGEND),
         &oit_metrics::heatmap_legend(LEGEND_PX, 14),
@@ -45,7 +57,7 @@ pub fn write_html_report(
         &plots_dir.join(LAYERS_LEGEND),
         &oit_metrics::count_legend(LEGEND_PX, 14),
     )?;
-    let page = html(&results, dir, metric, label);
+    let page = html(&results, dir, metric, label, break_at);
     let path = dir.join(REPORT_FILE);
     oit_metrics::write_atomic_bytes(&path, page.as_bytes())?;
     Ok(path)
@@ -165,7 +177,7 @@ const CHECK_SCRIPT: &str = r#"(function () {
   });
 })();"#;
 
-fn esc(text: &str) -> String {
+pub(crate) fn esc(text: &str) -> String {
     let mut out = String::with_capacity(text.len());
     for c in text.chars() {
         match c {
@@ -182,7 +194,7 @@ fn esc(text: &str) -> String {
 
 /// A relative path as a URL: `/`-separated, anything but unreserved characters percent-encoded
 /// (a `:` would otherwise read as a URL scheme).
-fn url(rel: &str) -> String {
+pub(crate) fn url(rel: &str) -> String {
     let mut out = String::new();
     for b in rel.replace('\\', "/").bytes() {
         if b.is_ascii_alphanumeric() || b"-_./~".contains(&b) {
@@ -219,7 +231,13 @@ fn column_title(name: &str) -> String {
         .map_or_else(String::new, |(_, meaning)| esc(&meaning.replace('`', "")))
 }
 
-fn html(results: &Results, dir: &Path, metric: Metric, label: &dyn Fn(&str) -> String) -> String {
+fn html(
+    results: &Results,
+    dir: &Path,
+    metric: Metric,
+    label: &dyn Fn(&str) -> String,
+    break_at: f64,
+) -> String {
     let members = pareto_members(results, metric);
     let a = &results.adapter;
     let mut out = String::new();
@@ -262,6 +280,7 @@ fn html(results: &Results, dir: &Path, metric: Metric, label: &dyn Fn(&str) -> S
     let scenes = runs_by_scene(results);
     how_to_read(&mut out, metric);
     summary(&mut out, results, &scenes, &members, metric, label);
+    crate::growth::html_section(&mut out, results, metric, break_at);
     out.push_str("<nav><h2>Scenes</h2><ul>\n");
     for (scene, _) in &scenes {
         let about = results.scenes.iter().find(|s| s.scene == *scene);

@@ -8,9 +8,13 @@
 //! - [`write_motion_plots`]: per animated scene (runs with a `temporal` block), the headline ꟻLIP
 //!   of every frame per technique with its pop events marked, and the static-camera convergence
 //!   of the exponential history, as SVG and PNG (what is drawn: [`motion_plot_data`]).
+//! - [`write_growth_plots`] / [`growth_markdown`]: for scene-parameter sweeps (runs with
+//!   `varied`), cost and error against the swept value per technique, the fitted growth
+//!   exponent and where each technique breaks ([`growth_data`]).
 //! - [`write_html_report`]: a static `report.html` (no server, no network, no external files
 //!   other than the run's own images) with tables, images side by side, and the plots.
 
+mod growth;
 mod html;
 mod motion;
 mod pareto;
@@ -18,7 +22,11 @@ mod plot;
 
 use std::path::{Path, PathBuf};
 
-pub use html::{REPORT_FILE, write_html_report};
+pub use growth::{
+    DEFAULT_BREAK_AT, FitError, GrowthChart, GrowthKind, GrowthPoint, GrowthRow, GrowthSweep,
+    PowerLaw, fit_power_law, growth_charts, growth_data, growth_markdown, write_growth_plots,
+};
+pub use html::{REPORT_FILE, write_html_report, write_html_report_with};
 pub use motion::{
     CONVERGENCE_SUFFIX, FRAMES_SUFFIX, MotionKind, MotionPlot, MotionSeries, YScale,
     motion_plot_data, motion_stem, render_motion_png, render_motion_svg, write_motion_plots,
