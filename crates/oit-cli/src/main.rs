@@ -13,6 +13,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use oit_scene::{Resolution, Scene};
 
 mod analyze;
+mod growth;
 
 #[derive(Debug, Parser)]
 #[command(
@@ -191,6 +192,8 @@ enum Command {
         #[arg(long, value_name = "K/N", value_parser = parse_shard)]
         shard: Option<oit_harness::Shard>,
         #[command(flatten)]
+        growth: growth::GrowthArgs,
+        #[command(flatten)]
         load: LoadArgs,
         #[command(flatten)]
         gpu: GpuArgs,
@@ -211,6 +214,8 @@ enum Command {
         /// Error axis of the plots and Pareto fronts.
         #[arg(long, default_value = "flip", value_parser = ["flip", "rmse"])]
         metric: String,
+        #[command(flatten)]
+        bound: growth::BreakArgs,
     },
     /// Rebuild results.md, the plots and the static HTML report of DIR from its results.json.
     Report {
@@ -219,6 +224,8 @@ enum Command {
         /// Error axis of the plots and Pareto fronts.
         #[arg(long, default_value = "flip", value_parser = ["flip", "rmse"])]
         metric: String,
+        #[command(flatten)]
+        bound: growth::BreakArgs,
     },
 }
 
@@ -473,6 +480,7 @@ fn run(command: Command) -> Result<()> {
             animation_frames,
             static_frames,
             shard,
+            growth,
             load,
             gpu,
         } => {
@@ -504,11 +512,11 @@ fn run(command: Command) -> Result<()> {
                 &techniques,
                 &options,
                 &load.options(),
-                parse_metric(&metric),
+                (parse_metric(&metric), &growth),
                 max_runs,
             )
         }
-        Command::Report { dir, metric } => {
+        Command::Report { dir, metric, bound } => {
             let results = oit_harness::results::Results::read(&dir.join("results.json"))?;
             if !results.complete {
                 eprintln!(
@@ -517,7 +525,7 @@ fn run(command: Command) -> Result<()> {
                     dir.display()
                 );
             }
-            let html = write_report(&dir, &results, parse_metric(&metric))?;
+            let html = write_report(&dir, &results, parse_metric(&metric), &bound)?;
             println!("wrote {}", html.display());
             Ok(())
         }
@@ -526,10 +534,11 @@ fn run(command: Command) -> Result<()> {
             out,
             allow_missing,
             metric,
+            bound,
         } => {
             let results = oit_harness::merge(&dirs, &out, allow_missing)?;
             print!("{}", oit_harness::report::terminal_table(&results));
-            let html = write_report(&out, &results, parse_metric(&metric))?;
+            let html = write_report(&out, &results, parse_metric(&metric), &bound)?;
             println!(
                 "\nwrote {} ({} runs from {} shards), {} and {}",
                 out.join("results.json").display(),
@@ -902,14 +911,21 @@ fn write_report(
     dir: &Path,
     results: &oit_harness::results::Results,
     metric: oit_report::Metric,
+    bound: &growth::BreakArgs,
 ) -> Result<PathBuf> {
     let mut markdown = oit_harness::report::markdown(results);
     markdown.push_str(&oit_report::pareto_markdown(results, metric));
+    markdown.push_str(&oit_report::growth_markdown(
+        results,
+        metric,
+        bound.break_at,
+    ));
     oit_metrics::write_atomic_bytes(&dir.join("results.md"), markdown.as_bytes())?;
-    Ok(oit_report::write_html_report(
+    Ok(oit_report::write_html_report_with(
         dir,
         metric,
         &oit_harness::report::short_spec,
+        bound.break_at,
     )?)
 }
 
@@ -918,11 +934,12 @@ fn compare(
     specs: &[String],
     options: &oit_harness::CompareOptions,
     load: &oit_scene::LoadOptions,
-    metric: oit_report::Metric,
+    (metric, growth): (oit_report::Metric, &growth::GrowthArgs),
     max_runs: u64,
 ) -> Result<()> {
     // One scene that does not load is reported as failed; the others run.
     let (scenes, unloadable) = oit_harness::load_scenes_lenient(paths, load)?;
+    let scenes = growth::vary(scenes, growth, options.resolution)?;
     if scenes.is_empty() && unloadable.is_empty() {
         return Err(no_scene_files(paths));
     }
@@ -1025,7 +1042,8 @@ fn compare(
     )?;
     bar.finish_and_clear();
     print!("{}", oit_harness::report::terminal_table(&results));
-    let html = write_report(&options.out_dir, &results, metric)?;
+    growth::print_tables(&results, metric, &growth.bound);
+    let html = write_report(&options.out_dir, &results, metric, &growth.bound)?;
     println!(
         "\nwrote {}, {} and {}",
         options.out_dir.join("results.json").display(),
