@@ -1,6 +1,7 @@
 mod calibration;
 mod compare;
 mod goldens;
+mod growth;
 mod material_forms;
 mod motion;
 mod robustness;
