@@ -37,8 +37,8 @@ pub const DEFAULT_BREAK_AT: f64 = 0.05;
 pub struct PowerLaw {
     pub a: f64,
     pub b: f64,
-    /// Coefficient of determination of the log–log line (1 when ln y is constant and fitted
-    /// exactly).
+    /// Coefficient of determination of the log–log line (1 when the line passes through every
+    /// point, a constant ln y included).
     pub r2: f64,
     pub points: usize,
 }
@@ -86,10 +86,12 @@ pub fn fit_power_law(points: &[(f64, f64)]) -> Result<PowerLaw, FitError> {
     let ln_a = my - b * mx;
     let ss_tot: f64 = logs.iter().map(|p| (p.1 - my).powi(2)).sum();
     let ss_res: f64 = logs.iter().map(|p| (p.1 - ln_a - b * p.0).powi(2)).sum();
-    let r2 = if ss_tot > 0.0 {
-        1.0 - ss_res / ss_tot
-    } else {
+    // A line through every point (to rounding) explains everything, also a flat one whose
+    // ln y varies only by rounding.
+    let r2 = if ss_res <= 1e-24 * n * (1.0 + my * my) || ss_tot <= 0.0 {
         1.0
+    } else {
+        1.0 - ss_res / ss_tot
     };
     Ok(PowerLaw {
         a: ln_a.exp(),
