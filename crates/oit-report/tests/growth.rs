@@ -7,9 +7,7 @@ use oit_report::{
     GrowthKind, Metric, growth_charts, growth_data, growth_markdown, write_growth_plots,
     write_html_report_with,
 };
-use oit_results::{
-    AdapterJson, FloorJson, GpuMs, Results, Run, RunStatus, SCHEMA, Varied,
-};
+use oit_results::{AdapterJson, FloorJson, GpuMs, Results, Run, RunStatus, SCHEMA, Varied};
 
 fn gpu_ms(median: f64) -> GpuMs {
     GpuMs {
@@ -134,15 +132,33 @@ fn exponents_breaks_and_skipped_values_of_a_sweep() {
         // 0.02·x passes 0.05 at x = 4; linear's 0.001·x never does.
         assert_eq!(square.breaks_at.as_ref().unwrap().value, "4");
         assert!(linear.breaks_at.is_none());
-        assert!(square.points[3].not_run.as_deref().unwrap().contains("run budget"));
+        assert!(
+            square.points[3]
+                .not_run
+                .as_deref()
+                .unwrap()
+                .contains("run budget")
+        );
 
         let table = growth_markdown(&results, Metric::Flip, 0.05);
-        assert!(table.contains("## How cost grows: stack over `count`"), "{table}");
+        assert!(
+            table.contains("## How cost grows: stack over `count`"),
+            "{table}"
+        );
         assert!(table.contains("exceeds 0.05"), "{table}");
         let square_line = table.lines().find(|l| l.starts_with("| square")).unwrap();
-        let b_cell: f64 = square_line.split('|').nth(2).unwrap().trim().parse().unwrap();
+        let b_cell: f64 = square_line
+            .split('|')
+            .nth(2)
+            .unwrap()
+            .trim()
+            .parse()
+            .unwrap();
         assert!((b_cell - 2.0).abs() <= 0.02, "{square_line}");
-        assert!(square_line.contains("count = 4 (mean FLIP 0.08)"), "{square_line}");
+        assert!(
+            square_line.contains("count = 4 (mean FLIP 0.08)"),
+            "{square_line}"
+        );
         assert!(square_line.contains("not run at 8"), "{square_line}");
         let linear_line = table.lines().find(|l| l.starts_with("| linear")).unwrap();
         assert!(linear_line.contains("holds"), "{linear_line}");
@@ -199,7 +215,11 @@ fn plots_and_the_report_section_are_written() {
     let files = write_growth_plots(&results, &dir.join("plots"), Metric::Flip, 0.05).unwrap();
     assert_eq!(files.len(), 6);
     for f in &files {
-        assert!(std::fs::metadata(f).unwrap().len() > 1000, "{}", f.display());
+        assert!(
+            std::fs::metadata(f).unwrap().len() > 1000,
+            "{}",
+            f.display()
+        );
     }
     let svg = std::fs::read_to_string(dir.join("plots/stack-count-growth-error.svg")).unwrap();
     assert!(svg.contains("break bound 0.05"));
@@ -211,7 +231,10 @@ fn plots_and_the_report_section_are_written() {
     .unwrap();
     let page = write_html_report_with(&dir, Metric::Flip, &|t| t.to_owned(), 0.05).unwrap();
     let html = std::fs::read_to_string(page).unwrap();
-    assert!(html.contains("<section id=\"growth\">"), "no growth section");
+    assert!(
+        html.contains("<section id=\"growth\">"),
+        "no growth section"
+    );
     for kind in GrowthKind::ALL {
         assert!(
             html.contains(&format!("plots/stack-count-{}.png", kind.suffix())),

@@ -57,7 +57,7 @@ fn a_layer_sweep_records_each_value_and_error_grows_with_the_layers() {
         assert_eq!(v.parameter, "/objects/0/mesh/count");
         assert_eq!(v.label, "count");
         assert_eq!(v.x, f64::from(layers));
-        run.error.clone().unwrap()
+        run.error.unwrap()
     };
     let flip = |technique: &str, layers: u32| errors(technique, layers).flip_mean;
     for technique in ["unsorted", "wboit"] {
