@@ -190,6 +190,10 @@ enum Command {
         /// output folders (docs/sharding.md).
         #[arg(long, value_name = "K/N", value_parser = parse_shard)]
         shard: Option<oit_harness::Shard>,
+        /// Skip the exactness predictions (each still scene's reference is otherwise rendered
+        /// once more to keep its per-pixel lists; docs/predictions.md).
+        #[arg(long)]
+        no_predict: bool,
         #[command(flatten)]
         load: LoadArgs,
         #[command(flatten)]
@@ -473,6 +477,7 @@ fn run(command: Command) -> Result<()> {
             animation_frames,
             static_frames,
             shard,
+            no_predict,
             load,
             gpu,
         } => {
@@ -498,6 +503,7 @@ fn run(command: Command) -> Result<()> {
                 animation_frames,
                 static_frames,
                 shard,
+                predict: !no_predict,
             };
             compare(
                 &scenes,

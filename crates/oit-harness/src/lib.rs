@@ -11,6 +11,7 @@ pub mod inputs;
 pub mod listing;
 pub mod merge;
 pub mod motion;
+pub mod predict;
 pub mod report;
 pub mod results;
 mod run;

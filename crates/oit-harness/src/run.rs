@@ -72,6 +72,9 @@ pub struct CompareOptions {
     pub static_frames: u32,
     /// Make only this shard's runs ([`crate::shard`]); `None` makes them all.
     pub shard: Option<crate::shard::Shard>,
+    /// Predict every rendered run's exactness from the reference's per-pixel lists
+    /// ([`crate::predict`]; renders each still scene's reference once more).
+    pub predict: bool,
 }
 
 /// Default of [`CompareOptions::run_budget`].
@@ -98,6 +101,7 @@ impl Default for CompareOptions {
             animation_frames: crate::motion::FrameSelection::ALL,
             static_frames: crate::motion::DEFAULT_STATIC_FRAMES,
             shard: None,
+            predict: true,
         }
     }
 }
@@ -551,6 +555,7 @@ fn run_scene(
 ) -> Result<(), HarnessError> {
     let out = &options.out_dir;
     let reference = reference_of(scene, options, cache_dir, on_event)?;
+    let lists = crate::predict::lists_for(scene, options, on_event);
     let scene_dir = out.join(file_stem(&scene.name));
     std::fs::create_dir_all(&scene_dir).map_err(|e| HarnessError::io(&scene_dir, e))?;
     oit_metrics::remove_stale_temporaries(&scene_dir);
@@ -631,6 +636,7 @@ fn run_scene(
                     )
                 });
                 run.inputs = Some(inputs.clone());
+                crate::predict::fill(&mut run, scene, lists.as_ref(), &ctx.caps);
                 run
             }
         };
@@ -1030,6 +1036,7 @@ fn run_one(
         resumed: false,
         temporal: None,
         shard: None,
+        prediction: None,
     })
 }
 

@@ -3,6 +3,7 @@ mod compare;
 mod goldens;
 mod material_forms;
 mod motion;
+mod predictions;
 mod robustness;
 mod shaders;
 mod shard;
