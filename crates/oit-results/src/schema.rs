@@ -302,7 +302,7 @@ pub struct Run {
     pub shard: Option<u32>,
     /// Whether the technique was predicted exact on the scene, and why, from its model of a
     /// pixel run on the reference's lists (`oit_gpu::predict`); absent where no prediction was
-    /// made (`--no-predict`, runs not rendered, animated scenes, files before 2026-12-07).
+    /// made (`--no-predict`, runs not rendered, animated scenes, older files).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub prediction: Option<PredictionRecord>,
 }
