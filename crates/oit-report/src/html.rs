@@ -809,6 +809,18 @@ fn motion_section(out: &mut String, dir: &Path, scene: &str, runs: &[&Run]) {
     out.push_str("</tbody></table>\n</div>\n");
 }
 
+/// A run's prediction cell: the verdict, and why (the full reason is in results.md too).
+fn prediction_html(run: &Run) -> String {
+    match &run.prediction {
+        Some(p) => format!(
+            "{}: {}",
+            oit_results::report::prediction_cell(run),
+            p.because
+        ),
+        None => String::new(),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -841,17 +853,5 @@ mod tests {
             esc("<a href=\"x\">&'"),
             "&lt;a href=&quot;x&quot;&gt;&amp;&#39;"
         );
-    }
-}
-
-/// A run's prediction cell: the verdict, and why (the full reason is in results.md too).
-fn prediction_html(run: &Run) -> String {
-    match &run.prediction {
-        Some(p) => format!(
-            "{}: {}",
-            oit_results::report::prediction_cell(run),
-            p.because
-        ),
-        None => String::new(),
     }
 }
