@@ -1,7 +1,8 @@
 //! `oit`: compare order-independent transparency techniques against an exact CPU reference.
 //!
 //! Exit codes: 0 on success; 1 with one line on stderr otherwise; 2 for usage errors (clap);
-//! 130 when `compare` was interrupted (Ctrl-C) after writing what it finished.
+//! 3 when `recommend` finds no configuration within the budget; 130 when `compare` was
+//! interrupted (Ctrl-C) after writing what it finished.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -13,6 +14,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use oit_scene::{Resolution, Scene};
 
 mod analyze;
+mod recommend;
 
 #[derive(Debug, Parser)]
 #[command(
@@ -199,6 +201,9 @@ enum Command {
         #[command(flatten)]
         gpu: GpuArgs,
     },
+    /// The cheapest configuration within an error budget, per scene and over all scenes given,
+    /// with the Pareto front and why each cheaper one fails (docs/recommend.md).
+    Recommend(Box<recommend::RecommendArgs>),
     /// Join the output folders of `oit compare --shard K/N` into one results.json, results.md,
     /// plots and report.html, with every run's images.
     Merge {
@@ -328,6 +333,10 @@ fn main() -> ExitCode {
             eprintln!("oit: {e}");
             ExitCode::from(130)
         }
+        Err(e) if e.is::<recommend::NotMet>() => {
+            eprintln!("oit: {e}");
+            ExitCode::from(recommend::NOT_MET_EXIT)
+        }
         Err(e) => {
             eprintln!("oit: error: {}", one_line(&e));
             ExitCode::FAILURE
@@ -356,6 +365,7 @@ impl Command {
     /// Whether the command opens a GPU adapter (and with it Mesa's drivers).
     fn opens_gpu(&self) -> bool {
         matches!(self, Command::Render { .. } | Command::Compare { .. })
+            || matches!(self, Command::Recommend(args) if args.opens_gpu())
     }
 }
 
@@ -514,6 +524,7 @@ fn run(command: Command) -> Result<()> {
                 max_runs,
             )
         }
+        Command::Recommend(args) => recommend::run(*args),
         Command::Report { dir, metric } => {
             let results = oit_harness::results::Results::read(&dir.join("results.json"))?;
             if !results.complete {
@@ -927,7 +938,20 @@ fn compare(
     metric: oit_report::Metric,
     max_runs: u64,
 ) -> Result<()> {
-    // One scene that does not load is reported as failed; the others run.
+    let (scenes, unloadable) = load_for_comparison(paths, load)?;
+    // Specs are validated (and sweeps bounded) before the GPU is opened.
+    let specs = oit_harness::resolve_specs(specs)?;
+    let results = run_comparison(paths, &scenes, &unloadable, &specs, options, max_runs)?;
+    print!("{}", oit_harness::report::terminal_table(&results));
+    finish_comparison(&results, &options.out_dir, metric)
+}
+
+/// The scenes of a comparison: one scene that does not load is reported as failed; the others
+/// run.
+fn load_for_comparison(
+    paths: &[PathBuf],
+    load: &oit_scene::LoadOptions,
+) -> Result<(Vec<oit_harness::SceneEntry>, Vec<oit_harness::Unloadable>)> {
     let (scenes, unloadable) = oit_harness::load_scenes_lenient(paths, load)?;
     if scenes.is_empty() && unloadable.is_empty() {
         return Err(no_scene_files(paths));
@@ -939,14 +963,25 @@ fn compare(
             u.error
         );
     }
+    Ok((scenes, unloadable))
+}
+
+/// Runs `specs` on the scenes with a progress bar (Ctrl-C stops after the run in progress)
+/// and returns what results.json holds; `compare` and `recommend` share it.
+fn run_comparison(
+    paths: &[PathBuf],
+    scenes: &[oit_harness::SceneEntry],
+    unloadable: &[oit_harness::Unloadable],
+    specs: &[oit_gpu::TechniqueSpec],
+    options: &oit_harness::CompareOptions,
+    max_runs: u64,
+) -> Result<oit_harness::results::Results> {
     // The output folder is never a scene folder, nor holds a file a scene reads.
     let scene_dirs: Vec<PathBuf> = paths.iter().filter(|p| p.is_dir()).cloned().collect();
     let inputs: Vec<PathBuf> = (scenes.iter().flat_map(|e| e.inputs.iter().cloned()))
         .chain(unloadable.iter().map(|u| u.path.clone()))
         .collect();
     oit_harness::inputs::refuse_out_dir_over_inputs(&options.out_dir, &scene_dirs, &inputs)?;
-    // Specs are validated (and sweeps bounded) before the GPU is opened.
-    let specs = oit_harness::resolve_specs(specs)?;
     let scene_count = scenes.len() + unloadable.len();
     let total = (scene_count as u64) * (specs.len() as u64);
     // A shard is bounded by the runs it makes.
@@ -996,53 +1031,62 @@ fn compare(
     // Warnings and notices reach stderr whether or not it is a terminal (logs, CI, cron): the
     // bar only draws on a terminal, so they are printed around it, not through it.
     let say = |line: String| bar.suspend(|| eprintln!("{line}"));
-    let results = oit_harness::compare_all(
-        &ctx,
-        &scenes,
-        &unloadable,
-        &specs,
-        &options,
-        &|event| match event {
-            oit_harness::Event::RunDone {
-                scene,
-                technique,
-                resumed,
-            } => {
-                let kept = if resumed { " (kept)" } else { "" };
-                bar.set_message(format!(
-                    "{} {technique}{kept}",
-                    oit_harness::report::printable(scene)
-                ));
-                bar.inc(1);
-            }
-            oit_harness::Event::Warning(line) => {
-                say(format!("warning: {}", oit_harness::report::printable(line)))
-            }
-            oit_harness::Event::Notice(line) => {
-                say(format!("note: {}", oit_harness::report::printable(line)))
-            }
-            oit_harness::Event::FrameDone { scene, done, of } => {
-                bar.set_message(format!(
-                    "{} motion {done}/{of}",
-                    oit_harness::report::printable(scene)
-                ));
-            }
-        },
-    )?;
+    let results =
+        oit_harness::compare_all(
+            &ctx,
+            scenes,
+            unloadable,
+            specs,
+            &options,
+            &|event| match event {
+                oit_harness::Event::RunDone {
+                    scene,
+                    technique,
+                    resumed,
+                } => {
+                    let kept = if resumed { " (kept)" } else { "" };
+                    bar.set_message(format!(
+                        "{} {technique}{kept}",
+                        oit_harness::report::printable(scene)
+                    ));
+                    bar.inc(1);
+                }
+                oit_harness::Event::Warning(line) => {
+                    say(format!("warning: {}", oit_harness::report::printable(line)))
+                }
+                oit_harness::Event::Notice(line) => {
+                    say(format!("note: {}", oit_harness::report::printable(line)))
+                }
+                oit_harness::Event::FrameDone { scene, done, of } => {
+                    bar.set_message(format!(
+                        "{} motion {done}/{of}",
+                        oit_harness::report::printable(scene)
+                    ));
+                }
+            },
+        )?;
     bar.finish_and_clear();
-    print!("{}", oit_harness::report::terminal_table(&results));
-    let html = write_report(&options.out_dir, &results, metric)?;
+    Ok(results)
+}
+
+/// After a comparison: results.md, the plots and report.html; an interrupted one is an error.
+fn finish_comparison(
+    results: &oit_harness::results::Results,
+    out_dir: &Path,
+    metric: oit_report::Metric,
+) -> Result<()> {
+    let html = write_report(out_dir, results, metric)?;
     println!(
         "\nwrote {}, {} and {}",
-        options.out_dir.join("results.json").display(),
-        options.out_dir.join("results.md").display(),
+        out_dir.join("results.json").display(),
+        out_dir.join("results.md").display(),
         html.display()
     );
     if !results.complete {
         return Err(Interrupted(format!(
             "interrupted: {} runs are in {}; run the same command with --resume to finish the rest",
             results.runs.len(),
-            options.out_dir.join("results.json").display()
+            out_dir.join("results.json").display()
         ))
         .into());
     }

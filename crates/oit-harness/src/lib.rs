@@ -5,6 +5,7 @@
 //! each other, the harness concatenates their `techniques()` lists.
 
 pub mod cache;
+pub mod candidates;
 mod clip;
 pub mod goldens;
 pub mod inputs;

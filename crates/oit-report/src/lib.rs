@@ -8,6 +8,8 @@
 //! - [`write_motion_plots`]: per animated scene (runs with a `temporal` block), the headline ꟻLIP
 //!   of every frame per technique with its pop events marked, and the static-camera convergence
 //!   of the exponential history, as SVG and PNG (what is drawn: [`motion_plot_data`]).
+//! - [`recommend`]: the cheapest configuration within an error budget, per scene and over
+//!   several scenes (`oit recommend`, docs/recommend.md).
 //! - [`write_html_report`]: a static `report.html` (no server, no network, no external files
 //!   other than the run's own images) with tables, images side by side, and the plots.
 
@@ -15,6 +17,7 @@ mod html;
 mod motion;
 mod pareto;
 mod plot;
+pub mod recommend;
 
 use std::path::{Path, PathBuf};
 
