@@ -184,12 +184,12 @@ impl Measured {
             m.fails.push(format!("{} non-finite pixels", e.nonfinite));
         }
         if let Some(b) = budget.max_flip
-            && !(flip <= b)
+            && !within(flip, b)
         {
             m.fails.push(format!("{name} {} > {b}", num(flip)));
         }
         if let Some(b) = budget.max_error
-            && !(max_error <= b)
+            && !within(max_error, b)
         {
             m.fails.push(format!("max error {} > {b}", num(max_error)));
         }
@@ -633,6 +633,11 @@ fn suite_answer(answers: &[SceneAnswer], candidates: &[String], budget: &Budget)
         closest,
         candidates: rows,
     }
+}
+
+/// `value` meets `bound` (equal included); NaN meets nothing.
+fn within(value: f64, bound: f64) -> bool {
+    value.partial_cmp(&bound).is_some_and(|o| o.is_le())
 }
 
 /// A number in 4 significant digits, small ones in scientific notation.
