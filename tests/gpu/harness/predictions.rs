@@ -1,7 +1,8 @@
 //! Every technique's exactness prediction (`Technique::predict`, `oit_gpu::predict`) against
 //! its measured error, on content nobody tuned the models to: every bundled scene, seeded
-//! random scenes (`OIT_RANDOM_SCENES=N` for more than the default) and the glTF assets. A
-//! prediction of exact or inexact that the measurement contradicts is a bug in the model or in
+//! random scenes (`OIT_RANDOM_SCENES=N` for more than the default) and the glTF assets, with
+//! every default configuration and, on the bundled scenes and the assets, a few sized ones
+//! ([`SIZED`]). A prediction of exact or inexact that the measurement contradicts is a bug in the model or in
 //! the technique. Borderline and unmodelled predictions are counted, and must stay a minority.
 
 use std::path::{Path, PathBuf};
@@ -139,6 +140,7 @@ fn predictions_agree_with_measurement_on_the_bundled_scenes() {
             &ctx,
             &at_size(&scene),
             &name.unwrap_or_default(),
+            &SIZED,
             &mut tally,
         );
     }
@@ -164,6 +166,7 @@ fn predictions_agree_with_measurement_on_random_scenes_and_gltf_assets() {
             &ctx,
             &at_size(&scene),
             &format!("seed {seed} ({about:?})"),
+            &[],
             &mut tally,
         );
     }
