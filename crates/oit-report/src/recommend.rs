@@ -202,6 +202,13 @@ impl Measured {
                 .push(format!("cost × floor {c:.2} > {cap} (--max-cost)")),
             _ => {}
         }
+        // Why the scene defeats it, from its prediction (docs/predictions.md), after the numbers.
+        if !m.fails.is_empty()
+            && let Some(p) = &run.prediction
+            && p.verdict == "inexact"
+        {
+            m.fails.push(format!("predicted inexact: {}", p.because));
+        }
         m.meets = m.fails.is_empty();
         m
     }
