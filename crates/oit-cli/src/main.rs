@@ -1,7 +1,8 @@
 //! `oit`: compare order-independent transparency techniques against an exact CPU reference.
 //!
 //! Exit codes: 0 on success; 1 with one line on stderr otherwise; 2 for usage errors (clap);
-//! 130 when `compare` was interrupted (Ctrl-C) after writing what it finished.
+//! 3 when `recommend` finds no configuration within the budget; 130 when `compare` was
+//! interrupted (Ctrl-C) after writing what it finished.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -14,6 +15,7 @@ use oit_scene::{Resolution, Scene};
 
 mod analyze;
 mod growth;
+mod recommend;
 
 #[derive(Debug, Parser)]
 #[command(
@@ -191,6 +193,10 @@ enum Command {
         /// output folders (docs/sharding.md).
         #[arg(long, value_name = "K/N", value_parser = parse_shard)]
         shard: Option<oit_harness::Shard>,
+        /// Skip the exactness predictions (each still scene's reference is otherwise rendered
+        /// once more to keep its per-pixel lists; docs/predictions.md).
+        #[arg(long)]
+        no_predict: bool,
         #[command(flatten)]
         growth: growth::GrowthArgs,
         #[command(flatten)]
@@ -198,6 +204,9 @@ enum Command {
         #[command(flatten)]
         gpu: GpuArgs,
     },
+    /// The cheapest configuration within an error budget, per scene and over all scenes given,
+    /// with the Pareto front and why each cheaper one fails (docs/recommend.md).
+    Recommend(Box<recommend::RecommendArgs>),
     /// Join the output folders of `oit compare --shard K/N` into one results.json, results.md,
     /// plots and report.html, with every run's images.
     Merge {
@@ -331,6 +340,10 @@ fn main() -> ExitCode {
             eprintln!("oit: {e}");
             ExitCode::from(130)
         }
+        Err(e) if e.is::<recommend::NotMet>() => {
+            eprintln!("oit: {e}");
+            ExitCode::from(recommend::NOT_MET_EXIT)
+        }
         Err(e) => {
             eprintln!("oit: error: {}", one_line(&e));
             ExitCode::FAILURE
@@ -359,6 +372,7 @@ impl Command {
     /// Whether the command opens a GPU adapter (and with it Mesa's drivers).
     fn opens_gpu(&self) -> bool {
         matches!(self, Command::Render { .. } | Command::Compare { .. })
+            || matches!(self, Command::Recommend(args) if args.opens_gpu())
     }
 }
 
@@ -480,6 +494,7 @@ fn run(command: Command) -> Result<()> {
             animation_frames,
             static_frames,
             shard,
+            no_predict,
             growth,
             load,
             gpu,
@@ -506,6 +521,7 @@ fn run(command: Command) -> Result<()> {
                 animation_frames,
                 static_frames,
                 shard,
+                predict: !no_predict,
             };
             compare(
                 &scenes,
@@ -516,6 +532,7 @@ fn run(command: Command) -> Result<()> {
                 max_runs,
             )
         }
+        Command::Recommend(args) => recommend::run(*args),
         Command::Report { dir, metric, bound } => {
             let results = oit_harness::results::Results::read(&dir.join("results.json"))?;
             if !results.complete {
@@ -525,7 +542,7 @@ fn run(command: Command) -> Result<()> {
                     dir.display()
                 );
             }
-            let html = write_report(&dir, &results, parse_metric(&metric), &bound)?;
+            let html = write_report(&dir, &results, parse_metric(&metric), bound.break_at)?;
             println!("wrote {}", html.display());
             Ok(())
         }
@@ -538,7 +555,7 @@ fn run(command: Command) -> Result<()> {
         } => {
             let results = oit_harness::merge(&dirs, &out, allow_missing)?;
             print!("{}", oit_harness::report::terminal_table(&results));
-            let html = write_report(&out, &results, parse_metric(&metric), &bound)?;
+            let html = write_report(&out, &results, parse_metric(&metric), bound.break_at)?;
             println!(
                 "\nwrote {} ({} runs from {} shards), {} and {}",
                 out.join("results.json").display(),
@@ -911,21 +928,17 @@ fn write_report(
     dir: &Path,
     results: &oit_harness::results::Results,
     metric: oit_report::Metric,
-    bound: &growth::BreakArgs,
+    break_at: f64,
 ) -> Result<PathBuf> {
     let mut markdown = oit_harness::report::markdown(results);
     markdown.push_str(&oit_report::pareto_markdown(results, metric));
-    markdown.push_str(&oit_report::growth_markdown(
-        results,
-        metric,
-        bound.break_at,
-    ));
+    markdown.push_str(&oit_report::growth_markdown(results, metric, break_at));
     oit_metrics::write_atomic_bytes(&dir.join("results.md"), markdown.as_bytes())?;
     Ok(oit_report::write_html_report_with(
         dir,
         metric,
         &oit_harness::report::short_spec,
-        bound.break_at,
+        break_at,
     )?)
 }
 
@@ -937,9 +950,23 @@ fn compare(
     (metric, growth): (oit_report::Metric, &growth::GrowthArgs),
     max_runs: u64,
 ) -> Result<()> {
-    // One scene that does not load is reported as failed; the others run.
-    let (scenes, unloadable) = oit_harness::load_scenes_lenient(paths, load)?;
+    let (scenes, unloadable) = load_for_comparison(paths, load)?;
     let scenes = growth::vary(scenes, growth, options.resolution)?;
+    // Specs are validated (and sweeps bounded) before the GPU is opened.
+    let specs = oit_harness::resolve_specs(specs)?;
+    let results = run_comparison(paths, &scenes, &unloadable, &specs, options, max_runs)?;
+    print!("{}", oit_harness::report::terminal_table(&results));
+    growth::print_tables(&results, metric, &growth.bound);
+    finish_comparison(&results, &options.out_dir, metric, growth.bound.break_at)
+}
+
+/// The scenes of a comparison: one scene that does not load is reported as failed; the others
+/// run.
+fn load_for_comparison(
+    paths: &[PathBuf],
+    load: &oit_scene::LoadOptions,
+) -> Result<(Vec<oit_harness::SceneEntry>, Vec<oit_harness::Unloadable>)> {
+    let (scenes, unloadable) = oit_harness::load_scenes_lenient(paths, load)?;
     if scenes.is_empty() && unloadable.is_empty() {
         return Err(no_scene_files(paths));
     }
@@ -950,14 +977,25 @@ fn compare(
             u.error
         );
     }
+    Ok((scenes, unloadable))
+}
+
+/// Runs `specs` on the scenes with a progress bar (Ctrl-C stops after the run in progress)
+/// and returns what results.json holds; `compare` and `recommend` share it.
+fn run_comparison(
+    paths: &[PathBuf],
+    scenes: &[oit_harness::SceneEntry],
+    unloadable: &[oit_harness::Unloadable],
+    specs: &[oit_gpu::TechniqueSpec],
+    options: &oit_harness::CompareOptions,
+    max_runs: u64,
+) -> Result<oit_harness::results::Results> {
     // The output folder is never a scene folder, nor holds a file a scene reads.
     let scene_dirs: Vec<PathBuf> = paths.iter().filter(|p| p.is_dir()).cloned().collect();
     let inputs: Vec<PathBuf> = (scenes.iter().flat_map(|e| e.inputs.iter().cloned()))
         .chain(unloadable.iter().map(|u| u.path.clone()))
         .collect();
     oit_harness::inputs::refuse_out_dir_over_inputs(&options.out_dir, &scene_dirs, &inputs)?;
-    // Specs are validated (and sweeps bounded) before the GPU is opened.
-    let specs = oit_harness::resolve_specs(specs)?;
     let scene_count = scenes.len() + unloadable.len();
     let total = (scene_count as u64) * (specs.len() as u64);
     // A shard is bounded by the runs it makes.
@@ -1007,54 +1045,63 @@ fn compare(
     // Warnings and notices reach stderr whether or not it is a terminal (logs, CI, cron): the
     // bar only draws on a terminal, so they are printed around it, not through it.
     let say = |line: String| bar.suspend(|| eprintln!("{line}"));
-    let results = oit_harness::compare_all(
-        &ctx,
-        &scenes,
-        &unloadable,
-        &specs,
-        &options,
-        &|event| match event {
-            oit_harness::Event::RunDone {
-                scene,
-                technique,
-                resumed,
-            } => {
-                let kept = if resumed { " (kept)" } else { "" };
-                bar.set_message(format!(
-                    "{} {technique}{kept}",
-                    oit_harness::report::printable(scene)
-                ));
-                bar.inc(1);
-            }
-            oit_harness::Event::Warning(line) => {
-                say(format!("warning: {}", oit_harness::report::printable(line)))
-            }
-            oit_harness::Event::Notice(line) => {
-                say(format!("note: {}", oit_harness::report::printable(line)))
-            }
-            oit_harness::Event::FrameDone { scene, done, of } => {
-                bar.set_message(format!(
-                    "{} motion {done}/{of}",
-                    oit_harness::report::printable(scene)
-                ));
-            }
-        },
-    )?;
+    let results =
+        oit_harness::compare_all(
+            &ctx,
+            scenes,
+            unloadable,
+            specs,
+            &options,
+            &|event| match event {
+                oit_harness::Event::RunDone {
+                    scene,
+                    technique,
+                    resumed,
+                } => {
+                    let kept = if resumed { " (kept)" } else { "" };
+                    bar.set_message(format!(
+                        "{} {technique}{kept}",
+                        oit_harness::report::printable(scene)
+                    ));
+                    bar.inc(1);
+                }
+                oit_harness::Event::Warning(line) => {
+                    say(format!("warning: {}", oit_harness::report::printable(line)))
+                }
+                oit_harness::Event::Notice(line) => {
+                    say(format!("note: {}", oit_harness::report::printable(line)))
+                }
+                oit_harness::Event::FrameDone { scene, done, of } => {
+                    bar.set_message(format!(
+                        "{} motion {done}/{of}",
+                        oit_harness::report::printable(scene)
+                    ));
+                }
+            },
+        )?;
     bar.finish_and_clear();
-    print!("{}", oit_harness::report::terminal_table(&results));
-    growth::print_tables(&results, metric, &growth.bound);
-    let html = write_report(&options.out_dir, &results, metric, &growth.bound)?;
+    Ok(results)
+}
+
+/// After a comparison: results.md, the plots and report.html; an interrupted one is an error.
+fn finish_comparison(
+    results: &oit_harness::results::Results,
+    out_dir: &Path,
+    metric: oit_report::Metric,
+    break_at: f64,
+) -> Result<()> {
+    let html = write_report(out_dir, results, metric, break_at)?;
     println!(
         "\nwrote {}, {} and {}",
-        options.out_dir.join("results.json").display(),
-        options.out_dir.join("results.md").display(),
+        out_dir.join("results.json").display(),
+        out_dir.join("results.md").display(),
         html.display()
     );
     if !results.complete {
         return Err(Interrupted(format!(
             "interrupted: {} runs are in {}; run the same command with --resume to finish the rest",
             results.runs.len(),
-            options.out_dir.join("results.json").display()
+            out_dir.join("results.json").display()
         ))
         .into());
     }

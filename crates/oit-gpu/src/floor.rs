@@ -10,6 +10,7 @@
 use crate::blend::PREMULTIPLIED_OVER;
 use crate::context::{Caps, Context};
 use crate::error::{GpuError, Unsupported};
+use crate::predict::{PixelLists, Prediction};
 use crate::scene::{GpuScene, MaterialSource, ScenePipelineDesc, ScenePipelines, depth_test};
 use crate::spec::TechniqueSpec;
 use crate::targets::Targets;
@@ -71,6 +72,15 @@ impl Technique for DrawOrderBlend {
 
     fn check(&self, _caps: &Caps) -> Result<(), Unsupported> {
         Ok(())
+    }
+
+    fn predict(&self, _scene: &oit_scene::Scene, lists: &PixelLists, _caps: &Caps) -> Prediction {
+        match self.shading {
+            BlendShading::VertexColour => Prediction::unmodelled(
+                "the floor is a cost yardstick: its image is vertex colour, not the materials",
+            ),
+            BlendShading::Material => crate::predict::predict_draw_order(lists),
+        }
     }
 
     fn render(

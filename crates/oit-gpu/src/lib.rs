@@ -15,6 +15,7 @@
 //! - [`memory`]: exact byte counts of what a technique allocates.
 //! - [`TechniqueSpec`]: `name[:key=value,…]` parsing against a registry, canonical strings.
 //! - [`count_fragments`]: the rasterization conformance pass.
+//! - [`predict`]: whether a technique is exact on a scene, and why, from its model of a pixel.
 //! - [`Floor`]: one blended pass with the cheapest fragment work, the yardstick of every cost.
 
 pub mod bind;
@@ -27,6 +28,7 @@ mod frame;
 pub mod memory;
 pub mod pass;
 mod pipeline;
+pub mod predict;
 mod readback;
 mod scene;
 pub mod shaders;
@@ -44,6 +46,7 @@ pub use floor::{BlendShading, DrawOrderBlend, FLOOR_NAME, Floor};
 pub use frame::{FrameResult, opaque_pass, render_frame};
 pub use memory::MemoryLedger;
 pub use pipeline::{FullscreenDesc, fullscreen_pipeline};
+pub use predict::{Prediction, Verdict};
 pub use readback::{read_buffer, read_buffer_u32, read_texture};
 pub use scene::{
     CullRule, GpuScene, MATERIAL_STRIDE, MATERIAL_UNIFORM_STRIDE, MaterialSource, SceneBytes,

@@ -538,6 +538,14 @@ mod tests {
         fn check(&self, _: &Caps) -> Result<(), Unsupported> {
             Ok(())
         }
+        fn predict(
+            &self,
+            _: &oit_scene::Scene,
+            _: &crate::predict::PixelLists,
+            _: &crate::Caps,
+        ) -> crate::Prediction {
+            crate::Prediction::unmodelled("a test technique")
+        }
         fn render(
             &mut self,
             _: &Context,

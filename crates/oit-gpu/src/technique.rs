@@ -2,6 +2,7 @@
 
 use crate::context::{Caps, Context};
 use crate::error::{GpuError, Unsupported};
+use crate::predict::{PixelLists, Prediction};
 use crate::scene::GpuScene;
 use crate::spec::TechniqueSpec;
 use crate::targets::Targets;
@@ -48,6 +49,11 @@ pub trait Technique: std::fmt::Debug {
     /// What the technique does with coloured transmittance ([`Scene::has_transmission`]) on
     /// an adapter with `caps` (e.g. dual-source blending).
     fn transmission(&self, caps: &Caps) -> TransmissionSupport;
+    /// Whether this configuration is exact on `scene`, and why, from a model of what it does
+    /// to each pixel's transparent list (`lists`, the exact reference's) on an adapter with
+    /// `caps` ([`crate::predict`]). The harness checks it against the measured error of every
+    /// run.
+    fn predict(&self, scene: &Scene, lists: &PixelLists, caps: &Caps) -> Prediction;
     /// Geometry passes one frame will make on a scene whose deepest pixel has
     /// `depth_complexity` transparent layers, for techniques whose pass count grows with it
     /// (depth peeling); `None` for the rest. The harness prices it before a run starts, so a

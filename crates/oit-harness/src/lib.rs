@@ -5,14 +5,17 @@
 //! each other, the harness concatenates their `techniques()` lists.
 
 pub mod cache;
+pub mod candidates;
 mod clip;
 pub mod goldens;
 pub mod inputs;
 pub mod listing;
 pub mod merge;
 pub mod motion;
+pub mod predict;
 pub mod report;
 pub mod results;
+mod resume;
 mod run;
 pub mod shard;
 mod timing;

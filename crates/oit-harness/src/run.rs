@@ -16,6 +16,7 @@ use oit_scene::{LinearImage, Resolution, Scene};
 use crate::results::{
     FloorJson, Outputs, Results, Run, RunInputs, RunStatus, SCHEMA, Stats, ToolJson,
 };
+use crate::resume::ResumeCount;
 use crate::timing::{PassEstimate, time_frames, time_unbudgeted};
 use crate::{HarnessError, SceneEntry, Unloadable, at_resolution, file_stem, registry};
 
@@ -72,6 +73,9 @@ pub struct CompareOptions {
     pub static_frames: u32,
     /// Make only this shard's runs ([`crate::shard`]); `None` makes them all.
     pub shard: Option<crate::shard::Shard>,
+    /// Predict every rendered run's exactness from the reference's per-pixel lists
+    /// ([`crate::predict`]; renders each still scene's reference once more).
+    pub predict: bool,
 }
 
 /// Default of [`CompareOptions::run_budget`].
@@ -98,6 +102,7 @@ impl Default for CompareOptions {
             animation_frames: crate::motion::FrameSelection::ALL,
             static_frames: crate::motion::DEFAULT_STATIC_FRAMES,
             shard: None,
+            predict: true,
         }
     }
 }
@@ -484,46 +489,6 @@ fn motion_runs(
 /// Most untimed warm-up frames a run may ask for: beyond this a run never ends in practice.
 pub const MAX_WARMUP: u32 = 1000;
 
-/// What `--resume` did, for the line that says so.
-#[derive(Debug, Default)]
-struct ResumeCount {
-    /// Requested runs taken from the earlier comparison.
-    reused: usize,
-    /// Earlier runs of techniques not requested now, kept beside the new ones.
-    kept_unrequested: usize,
-    /// Earlier runs of scenes not in this comparison, kept.
-    kept_other_scenes: usize,
-    /// Earlier runs made by another build or from other inputs: not kept.
-    dropped: usize,
-    /// Requested runs made now.
-    made: usize,
-}
-
-impl ResumeCount {
-    fn describe(&self) -> Option<String> {
-        let mut parts = vec![
-            format!("{} runs made now", self.made),
-            format!("{} taken from the earlier results", self.reused),
-        ];
-        if self.kept_unrequested > 0 {
-            parts.push(format!(
-                "{} of techniques not requested now kept beside them",
-                self.kept_unrequested
-            ));
-        }
-        if self.kept_other_scenes > 0 {
-            parts.push(format!("{} of other scenes kept", self.kept_other_scenes));
-        }
-        if self.dropped > 0 {
-            parts.push(format!(
-                "{} earlier runs dropped (made by another build of oit, from other inputs, or failed)",
-                self.dropped
-            ));
-        }
-        Some(format!("--resume: {}", parts.join("; ")))
-    }
-}
-
 /// Whether `e` concerns a path inside `out`.
 fn is_under(e: &HarnessError, out: &Path) -> bool {
     match e {
@@ -553,6 +518,7 @@ fn run_scene(
 ) -> Result<(), HarnessError> {
     let out = &options.out_dir;
     let reference = reference_of(scene, options, cache_dir, on_event)?;
+    let lists = crate::predict::lists_for(scene, options, on_event);
     let scene_dir = out.join(file_stem(&scene.name));
     std::fs::create_dir_all(&scene_dir).map_err(|e| HarnessError::io(&scene_dir, e))?;
     oit_metrics::remove_stale_temporaries(&scene_dir);
@@ -633,6 +599,7 @@ fn run_scene(
                     )
                 });
                 run.inputs = Some(inputs.clone());
+                crate::predict::fill(&mut run, scene, lists.as_ref(), &ctx.caps);
                 run
             }
         };
@@ -1033,6 +1000,7 @@ fn run_one(
         temporal: None,
         shard: None,
         varied: None,
+        prediction: None,
     })
 }
 

@@ -73,7 +73,7 @@ impl std::fmt::Display for Shard {
 }
 
 /// The name an unloadable scene file's runs carry: its file stem.
-pub(crate) fn unloadable_name(u: &Unloadable) -> String {
+pub fn unloadable_name(u: &Unloadable) -> String {
     u.path.file_stem().map_or_else(
         || u.path.display().to_string(),
         |s| s.to_string_lossy().into_owned(),

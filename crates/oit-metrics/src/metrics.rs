@@ -29,6 +29,11 @@ pub struct Errors {
     pub mean_abs: f64,
     /// Largest absolute channel error over finite pixels.
     pub max_abs: f64,
+    /// Largest channel error relative above 1, `|x − y| / max(1, |y|)`, `y` the reference,
+    /// over finite pixels: the measure a run is called exact by (`oit_gpu::predict`), which
+    /// HDR values above 1 do not inflate.
+    #[serde(default)]
+    pub max_relative: f64,
     /// Fraction of all pixels whose max-channel error exceeds 1/255 (non-finite pixels count).
     pub over_1_255: f64,
     /// Fraction of all pixels whose max-channel error exceeds 1/64 (non-finite pixels count).
@@ -128,6 +133,7 @@ pub fn compare(render: &LinearImage, reference: &LinearImage) -> Result<Errors, 
     let t255 = 1.0 / 255.0 + THRESHOLD_SLACK;
     let t64 = 1.0 / 64.0 + THRESHOLD_SLACK;
     let (mut sum_sq, mut sum_abs, mut max_abs, mut sum_rel) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+    let mut max_relative = 0.0f64;
     let (mut finite, mut nonfinite, mut over255, mut over64) = (0u64, 0u64, 0u64, 0u64);
     for (r, g) in render.pixels.iter().zip(&reference.pixels) {
         if !rgb_finite(r) || !rgb_finite(g) {
@@ -145,6 +151,7 @@ pub fn compare(render: &LinearImage, reference: &LinearImage) -> Result<Errors, 
             sum_rel += d * d / (y * y + 0.01);
             sum_abs += d;
             pixel_max = pixel_max.max(d);
+            max_relative = max_relative.max(d / y.abs().max(1.0));
         }
         max_abs = max_abs.max(pixel_max);
         over255 += u64::from(pixel_max > t255);
@@ -174,6 +181,7 @@ pub fn compare(render: &LinearImage, reference: &LinearImage) -> Result<Errors, 
         psnr,
         mean_abs,
         max_abs,
+        max_relative,
         over_1_255: over255 as f64 / total,
         over_1_64: over64 as f64 / total,
         flip_mean: perceptual.flip_mean,

@@ -42,6 +42,7 @@ fn identical_images_have_zero_error() {
             psnr: PSNR_CAP,
             mean_abs: 0.0,
             max_abs: 0.0,
+            max_relative: 0.0,
             over_1_255: 0.0,
             over_1_64: 0.0,
             flip_mean: 0.0,

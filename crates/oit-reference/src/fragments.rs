@@ -40,6 +40,13 @@ pub struct RectFragments<'a> {
     pub(crate) end: &'a [u32],
     pub(crate) keys: &'a [u64],
     pub(crate) colors: &'a [[f32; 4]],
+    /// Per slot, only in scenes with coloured transmission (empty otherwise).
+    pub(crate) transmittance: &'a [[f64; 3]],
+    /// Per pixel: the nearest opaque surface's key and colour; `far` where there is none.
+    pub(crate) opaque_key: &'a [u64],
+    pub(crate) opaque_color: &'a [[f32; 3]],
+    pub(crate) far: u64,
+    pub(crate) background: [f64; 3],
     pub(crate) ranks: &'a Ranks,
     pub(crate) reverse_z: bool,
 }
@@ -70,6 +77,26 @@ impl RectFragments<'_> {
     /// Layers of pixel `i`.
     pub fn layers(&self, i: usize) -> usize {
         (self.end[i] - self.start[i]) as usize
+    }
+
+    /// What pixel `i`'s list is composited over: the nearest opaque surface's colour, or the
+    /// scene background where there is none (as the reference composites it).
+    pub fn behind(&self, i: usize) -> [f64; 3] {
+        if self.opaque_key[i] == self.far {
+            self.background
+        } else {
+            self.opaque_color[i].map(f64::from)
+        }
+    }
+
+    /// Per-channel transmittance of pixel `i`'s fragments, nearest first: `1 − α` in every
+    /// channel unless the scene has coloured transmission.
+    pub fn transmittances(&self, i: usize) -> impl ExactSizeIterator<Item = [f64; 3]> + '_ {
+        let slots = self.start[i] as usize..self.end[i] as usize;
+        slots.map(move |slot| match self.transmittance.get(slot) {
+            Some(&t) => t,
+            None => [1.0 - f64::from(self.colors[slot][3]); 3],
+        })
     }
 
     /// Pixel `i`'s fragments, nearest first (the order they are composited in).

@@ -36,6 +36,7 @@
 pub mod analyze;
 mod composite;
 mod fragments;
+pub mod lists;
 mod raster;
 mod setup;
 
@@ -322,6 +323,12 @@ pub enum ReferenceError {
         texture: u32,
         count: usize,
     },
+    #[error(
+        "keeping every pixel's transparent list needs {} MiB, over the memory budget of {} MiB",
+        need.div_ceil(1 << 20),
+        budget >> 20
+    )]
+    ListsOverBudget { need: u64, budget: u64 },
     #[error("{0} triangles: at most {max} are supported", max = MAX_TRIANGLES)]
     TooManyTriangles(u64),
     #[error(

@@ -277,6 +277,9 @@ fn html(
     if let Some(caveat) = oit_results::report::overall_timing_caveat(results) {
         let _ = writeln!(out, "<p class=\"caveat\">Timing: {}.</p>", esc(&caveat));
     }
+    if let Some(line) = oit_results::report::predictions_summary(results) {
+        let _ = writeln!(out, "<p>Predictions: {}.</p>", esc(&line));
+    }
     let scenes = runs_by_scene(results);
     how_to_read(&mut out, metric);
     summary(&mut out, results, &scenes, &members, metric, label);
@@ -586,7 +589,7 @@ fn scene_section(
     }
     out.push_str("</div>\n");
 
-    let columns: [(&str, &str); 14] = [
+    let columns: [(&str, &str); 15] = [
         ("technique", ""),
         ("GPU ms", "GPU ms"),
         ("min–max (frames, source)", ""),
@@ -600,6 +603,7 @@ fn scene_section(
         ("SSIM", ""),
         ("max error", "max error"),
         ("order dep.", "order dep."),
+        ("predicted exact", "predicted exact"),
         ("inexact", "inexact"),
     ];
     out.push_str("<table class=\"sortable\">\n<thead><tr>");
@@ -628,7 +632,7 @@ fn scene_section(
             };
             let _ = writeln!(
                 out,
-                "<td class=\"note\" colspan=\"13\">{status}: {}</td></tr>",
+                "<td class=\"note\" colspan=\"14\">{status}: {}</td></tr>",
                 esc(run.reason.as_deref().unwrap_or("no reason recorded"))
             );
             continue;
@@ -659,7 +663,8 @@ fn scene_section(
         let _ = writeln!(
             out,
             "<td>{median}</td><td>{spread}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>\
-             <td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"note\">{}</td></tr>",
+             <td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"note\">{}</td>\
+             <td class=\"note\">{}</td></tr>",
             opt(run.cost_vs_unsorted, |v| format!("{v:.2}")),
             opt(run.cost_vs_floor, |v| if v < 1.0 {
                 format!("{v:.2}‡")
@@ -674,6 +679,7 @@ fn scene_section(
             opt(e.map(|e| e.ssim), |v| format!("{v:.4}")),
             opt(e.map(|e| e.max_abs), oit_results::report::sci),
             opt(run.order_dependence, oit_results::report::sci),
+            esc(&prediction_html(run)),
             esc(&run.inexact.join("; ")),
         );
     }
@@ -820,6 +826,18 @@ fn motion_section(out: &mut String, dir: &Path, scene: &str, runs: &[&Run]) {
         out.push_str("</tr>\n");
     }
     out.push_str("</tbody></table>\n</div>\n");
+}
+
+/// A run's prediction cell: the verdict, and why (the full reason is in results.md too).
+fn prediction_html(run: &Run) -> String {
+    match &run.prediction {
+        Some(p) => format!(
+            "{}: {}",
+            oit_results::report::prediction_cell(run),
+            p.because
+        ),
+        None => String::new(),
+    }
 }
 
 #[cfg(test)]

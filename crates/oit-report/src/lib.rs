@@ -11,6 +11,8 @@
 //! - [`write_growth_plots`] / [`growth_markdown`]: for scene-parameter sweeps (runs with
 //!   `varied`), cost and error against the swept value per technique, the fitted growth
 //!   exponent and where each technique breaks ([`growth_data`]).
+//! - [`recommend`]: the cheapest configuration within an error budget, per scene and over
+//!   several scenes (`oit recommend`, docs/recommend.md).
 //! - [`write_html_report`]: a static `report.html` (no server, no network, no external files
 //!   other than the run's own images) with tables, images side by side, and the plots.
 
@@ -19,6 +21,7 @@ mod html;
 mod motion;
 mod pareto;
 mod plot;
+pub mod recommend;
 
 use std::path::{Path, PathBuf};
 

@@ -69,6 +69,7 @@ fn ok_run(scene: &str, row: Row) -> Run {
         },
         mean_abs: rmse,
         max_abs: rmse * 3.0,
+        max_relative: rmse * 3.0,
         over_1_255: 0.0,
         over_1_64: 0.0,
         flip_mean: flip,

@@ -6,10 +6,14 @@ use crate::interference::Interference;
 use crate::schema::{Results, Run, RunStatus};
 
 mod motion;
+mod prediction;
 
 pub use motion::{
     MOTION_COLUMNS, MOTION_SUMMARY_HEADING, motion_cells, motion_runs, motion_summary_markdown,
     pops_cell, scene_motion_markdown, scene_motion_terminal,
+};
+pub use prediction::{
+    PREDICTION_COLUMN, prediction_cell, predictions_summary, scene_predictions_markdown,
 };
 
 /// What the columns of every table mean, once, for the top of results.md and report.html.
@@ -46,6 +50,7 @@ pub const COLUMNS: &[(&str, &str)] = &[
         "order dep.",
         "largest difference between the technique's image with the draws in order and with everything submitted in reverse (the draw list, and the triangles inside each draw). 0 only where reversing changed nothing",
     ),
+    PREDICTION_COLUMN,
     (
         "inexact",
         "what the technique itself reports it cut or approximated (dropped layers, approximated tails, approximate transmission)",
@@ -163,6 +168,9 @@ pub fn markdown(results: &Results) -> String {
     if let Some(caveat) = overall_timing_caveat(results) {
         let _ = writeln!(out, "**Timing:** {caveat}.\n");
     }
+    if let Some(line) = predictions_summary(results) {
+        let _ = writeln!(out, "**Predictions:** {}.\n", md_cell(&line));
+    }
     out.push_str(&summary_markdown(results));
     out.push_str(&matrix_markdown(
         results,
@@ -204,14 +212,15 @@ pub fn markdown(results: &Results) -> String {
         }
         let _ = writeln!(
             out,
-            "| technique | GPU ms | cost × unsorted | cost × floor | bytes/px | RMSE | max error | FLIP | order dep. | inexact |"
+            "| technique | GPU ms | cost × unsorted | cost × floor | bytes/px | RMSE | max error | FLIP | order dep. | predicted exact | inexact |"
         );
-        let _ = writeln!(out, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---|");
+        let _ = writeln!(out, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---|");
         for r in &runs {
             let cells: Vec<String> = row_cells(r).iter().map(|c| md_cell(c)).collect();
             let _ = writeln!(out, "| {} |", cells.join(" | "));
         }
         let _ = writeln!(out);
+        out.push_str(&scene_predictions_markdown(&runs));
         out.push_str(&scene_motion_markdown(&runs));
     }
     out
@@ -259,7 +268,7 @@ const LABEL_MAX: usize = 30;
 /// their defaults), numbers right-aligned, and everything long (skip reasons, what was
 /// inexact) as numbered notes under the table, wrapped to [`TERMINAL_WIDTH`].
 pub fn terminal_table_labelled(results: &Results, label: &dyn Fn(&str) -> String) -> String {
-    const HEAD: [&str; 10] = [
+    const HEAD: [&str; 11] = [
         "technique",
         "GPU ms",
         "×unsort",
@@ -269,6 +278,7 @@ pub fn terminal_table_labelled(results: &Results, label: &dyn Fn(&str) -> String
         "max err",
         "FLIP",
         "order",
+        "exact?",
         "note",
     ];
     let mut out = String::new();
@@ -285,6 +295,11 @@ pub fn terminal_table_labelled(results: &Results, label: &dyn Fn(&str) -> String
     }
     if let Some(caveat) = overall_timing_caveat(results) {
         for line in wrap(&format!("timing: {caveat}"), TERMINAL_WIDTH) {
+            let _ = writeln!(out, "{line}");
+        }
+    }
+    if let Some(summary) = predictions_summary(results) {
+        for line in wrap(&format!("predictions: {summary}"), TERMINAL_WIDTH) {
             let _ = writeln!(out, "{line}");
         }
     }
@@ -318,13 +333,19 @@ pub fn terminal_table_labelled(results: &Results, label: &dyn Fn(&str) -> String
                     cells[1] = text.split(':').next().unwrap_or_default().to_owned();
                     Some(text)
                 } else {
-                    let text = std::mem::take(&mut cells[9]);
+                    let text = std::mem::take(&mut cells[10]);
                     (!text.is_empty()).then_some(text)
                 };
                 note_parts.extend(note);
+                if r.prediction
+                    .as_ref()
+                    .is_some_and(|p| p.agrees == Some(false))
+                {
+                    note_parts.push("prediction contradicted by the measurement".into());
+                }
                 if !note_parts.is_empty() {
                     notes.push(note_parts.join(": "));
-                    cells[9] = format!("[{}]", notes.len());
+                    cells[10] = format!("[{}]", notes.len());
                 }
                 cells
             })
@@ -661,7 +682,7 @@ fn row_cells(r: &Run) -> Vec<String> {
             r.technique.clone(),
             format!("{status}: {}", r.reason.as_deref().unwrap_or("")),
         ];
-        cells.resize(10, String::new());
+        cells.resize(11, String::new());
         return cells;
     }
     let gpu = r
@@ -705,6 +726,7 @@ fn row_cells(r: &Run) -> Vec<String> {
         max,
         flip,
         od,
+        prediction_cell(r),
         r.inexact.join("; "),
     ]
 }

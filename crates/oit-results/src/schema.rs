@@ -300,6 +300,11 @@ pub struct Run {
     /// ratios are against that shard's floor and `unsorted`, timed on the same machine.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub shard: Option<u32>,
+    /// Whether the technique was predicted exact on the scene, and why, from its model of a
+    /// pixel run on the reference's lists (`oit_gpu::predict`); absent where no prediction was
+    /// made (`--no-predict`, runs not rendered, animated scenes, older files).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prediction: Option<PredictionRecord>,
     /// The scene parameter `oit compare --vary` set for this run's scene (absent otherwise,
     /// and in files written before 2026-12-06): runs of one sweep share `base_scene` and
     /// `parameter` and differ in `value`.
@@ -322,6 +327,22 @@ pub struct Varied {
     /// The value on the growth plots' x axis and in the fitted power law: the number set, or
     /// for `resolution` the pixel count (width × height).
     pub x: f64,
+}
+
+/// A run's prediction (docs/results-schema.md, "prediction").
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PredictionRecord {
+    /// `exact`, `inexact`, `borderline` (the model is within rounding of the bound, or
+    /// rounding decides where it differs) or `unmodelled` (measured only).
+    pub verdict: String,
+    pub because: String,
+    /// The model's largest difference from the exact composite, relative above 1.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub modelled_error: Option<f64>,
+    /// Whether the measured error agrees (`error.max_relative` against the exact bound);
+    /// absent for borderline and unmodelled predictions.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub agrees: Option<bool>,
 }
 
 /// A technique over the frames of an animated scene, each against the exact reference of that
@@ -482,6 +503,7 @@ impl Run {
             resumed: false,
             temporal: None,
             shard: None,
+            prediction: None,
             varied: None,
         }
     }

@@ -462,6 +462,15 @@ impl Technique for KBuffer {
         self.config.spec()
     }
 
+    fn predict(
+        &self,
+        scene: &oit_scene::Scene,
+        lists: &oit_gpu::predict::PixelLists,
+        caps: &Caps,
+    ) -> oit_gpu::Prediction {
+        crate::predict::predict_kbuffer(self.config, scene, lists, caps)
+    }
+
     fn check(&self, caps: &Caps) -> Result<(), Unsupported> {
         if !caps.int64_atomics {
             return Err(Unsupported::new(format!(

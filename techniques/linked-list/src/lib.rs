@@ -22,6 +22,7 @@ mod frame;
 pub mod kbuffer;
 mod list;
 pub mod node;
+mod predict;
 
 pub use config::{
     LinkedListConfig, MAX_NODES_PER_PIXEL, MAX_SORT, NodesPerPixel, SortMax, TailRule,

@@ -286,6 +286,15 @@ impl Technique for LinkedList {
         self.config.spec()
     }
 
+    fn predict(
+        &self,
+        scene: &oit_scene::Scene,
+        lists: &oit_gpu::predict::PixelLists,
+        caps: &Caps,
+    ) -> oit_gpu::Prediction {
+        crate::predict::predict_list(self.config, scene, lists, caps)
+    }
+
     fn check(&self, caps: &Caps) -> Result<(), Unsupported> {
         if caps.max_storage_buffers_per_shader_stage < 4 {
             return Err(Unsupported::new(format!(

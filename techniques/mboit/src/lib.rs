@@ -12,6 +12,7 @@
 //!   shaders/mboit_math.wgsl.
 
 pub mod math;
+mod predict;
 mod technique;
 
 pub use math::{MomentKind, Resolve, Storage, transmittance_at};

@@ -434,6 +434,15 @@ impl Technique for Mboit {
         self.config.spec()
     }
 
+    fn predict(
+        &self,
+        scene: &oit_scene::Scene,
+        lists: &oit_gpu::predict::PixelLists,
+        _caps: &Caps,
+    ) -> oit_gpu::Prediction {
+        crate::predict::predict(&self.config, scene, lists)
+    }
+
     fn check(&self, caps: &Caps) -> Result<(), Unsupported> {
         let spec = self.config.spec();
         for f in self

@@ -14,6 +14,7 @@
 //! surface is missing from the copy and hidden by its depth: the missing-layer error the
 //! bundled `transmission-*` scenes measure.
 
+mod predict;
 mod technique;
 
 pub use technique::OpaqueCopy;

@@ -140,6 +140,15 @@ impl Technique for OpaqueCopy {
         TechniqueSpec::of(Self::NAME)
     }
 
+    fn predict(
+        &self,
+        scene: &oit_scene::Scene,
+        lists: &oit_gpu::predict::PixelLists,
+        _caps: &Caps,
+    ) -> oit_gpu::Prediction {
+        crate::predict::predict(scene, lists)
+    }
+
     fn check(&self, caps: &Caps) -> Result<(), Unsupported> {
         caps.require_scene_materials()?;
         Ok(())

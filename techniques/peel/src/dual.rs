@@ -539,6 +539,15 @@ impl Technique for DualPeel {
         self.config.spec()
     }
 
+    fn predict(
+        &self,
+        scene: &oit_scene::Scene,
+        lists: &oit_gpu::predict::PixelLists,
+        caps: &Caps,
+    ) -> oit_gpu::Prediction {
+        crate::predict::predict_dual(self.config, scene, lists, caps)
+    }
+
     fn check(&self, caps: &Caps) -> Result<(), Unsupported> {
         let config = self.config;
         config.depth.resolve(caps)?;

@@ -560,6 +560,15 @@ impl Technique for FrontPeel {
         self.config.spec()
     }
 
+    fn predict(
+        &self,
+        _scene: &oit_scene::Scene,
+        lists: &oit_gpu::predict::PixelLists,
+        _caps: &Caps,
+    ) -> oit_gpu::Prediction {
+        crate::predict::predict_front(self.config, lists)
+    }
+
     fn check(&self, caps: &Caps) -> Result<(), Unsupported> {
         if caps.max_storage_buffers_per_shader_stage == 0 {
             return Err(Unsupported::new(

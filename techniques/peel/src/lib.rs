@@ -27,6 +27,7 @@ mod dual;
 mod encoding;
 mod front;
 mod gpu;
+mod predict;
 
 pub use config::{DepthFormat, DualPeelConfig, FrontPeelConfig, PassCount, Passes, ReverseZ, Tail};
 pub use dual::DualPeel;

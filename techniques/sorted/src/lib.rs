@@ -13,6 +13,7 @@
 //! - `cull-split`: in sorted-object order, each double-sided object's back faces, then its
 //!   front faces (Babylon's separateCullingPass); single-sided objects draw their front faces.
 
+mod predict;
 mod sort;
 mod technique;
 

@@ -334,6 +334,15 @@ impl Technique for Blended {
         Ok(())
     }
 
+    fn predict(
+        &self,
+        scene: &oit_scene::Scene,
+        lists: &oit_gpu::predict::PixelLists,
+        caps: &Caps,
+    ) -> oit_gpu::Prediction {
+        crate::predict::predict(self.kind, scene, lists, caps)
+    }
+
     fn render(
         &mut self,
         ctx: &Context,

@@ -193,6 +193,17 @@ impl Technique for AlphaToCoverage {
         self.config.spec()
     }
 
+    fn predict(
+        &self,
+        _scene: &oit_scene::Scene,
+        _lists: &oit_gpu::predict::PixelLists,
+        _caps: &Caps,
+    ) -> oit_gpu::Prediction {
+        oit_gpu::Prediction::unmodelled(
+            "alpha to coverage quantises α to the sample mask's dither, which no per-pixel rule predicts: measured only",
+        )
+    }
+
     fn check(&self, caps: &Caps) -> Result<(), Unsupported> {
         let config = self.config;
         caps.require_scene_materials()?;

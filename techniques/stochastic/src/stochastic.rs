@@ -493,6 +493,17 @@ impl Technique for Stochastic {
         self.config.spec()
     }
 
+    fn predict(
+        &self,
+        _scene: &oit_scene::Scene,
+        _lists: &oit_gpu::predict::PixelLists,
+        _caps: &Caps,
+    ) -> oit_gpu::Prediction {
+        oit_gpu::Prediction::unmodelled(
+            "stochastic transparency's error is sampling noise of its pattern, which no per-pixel rule predicts: measured only",
+        )
+    }
+
     fn check(&self, caps: &Caps) -> Result<(), Unsupported> {
         let config = self.config;
         caps.require_scene_materials()?;

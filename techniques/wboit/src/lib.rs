@@ -12,6 +12,7 @@
 //! - [`tail`]: the WGSL, targets and composite that dual depth peeling's `tail=wboit` reuses.
 
 mod guards;
+mod predict;
 pub mod range;
 pub mod tail;
 mod technique;

@@ -325,6 +325,15 @@ impl Technique for Wboit {
         self.config.spec()
     }
 
+    fn predict(
+        &self,
+        scene: &oit_scene::Scene,
+        lists: &oit_gpu::predict::PixelLists,
+        _caps: &Caps,
+    ) -> oit_gpu::Prediction {
+        crate::predict::predict(self.config, scene, lists)
+    }
+
     fn check(&self, caps: &Caps) -> Result<(), Unsupported> {
         let (_, accum, reveal) = self.config.formats();
         tail::check_formats(caps, accum, reveal)

@@ -36,6 +36,14 @@ impl Technique for OpaqueOnly {
     fn check(&self, _: &Caps) -> Result<(), Unsupported> {
         Ok(())
     }
+    fn predict(
+        &self,
+        _: &oit_scene::Scene,
+        _: &oit_gpu::predict::PixelLists,
+        _: &oit_gpu::Caps,
+    ) -> oit_gpu::Prediction {
+        oit_gpu::Prediction::unmodelled("a test technique")
+    }
     fn render(
         &mut self,
         _: &Context,

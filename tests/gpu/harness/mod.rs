@@ -4,6 +4,7 @@ mod goldens;
 mod growth;
 mod material_forms;
 mod motion;
+mod predictions;
 mod robustness;
 mod shaders;
 mod shard;

@@ -449,6 +449,14 @@ impl oit_gpu::Technique for HeavyFirstFrame {
     fn check(&self, caps: &oit_gpu::Caps) -> Result<(), oit_gpu::Unsupported> {
         self.inner.check(caps)
     }
+    fn predict(
+        &self,
+        _: &oit_scene::Scene,
+        _: &oit_gpu::predict::PixelLists,
+        _: &oit_gpu::Caps,
+    ) -> oit_gpu::Prediction {
+        oit_gpu::Prediction::unmodelled("a test technique")
+    }
     fn render(
         &mut self,
         ctx: &oit_gpu::Context,

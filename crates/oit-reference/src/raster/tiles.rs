@@ -761,6 +761,11 @@ pub(super) fn render_rect(
             end: &s.end[..n],
             keys: &s.keys,
             colors: &s.colors,
+            transmittance: if coloured { &s.transmittance } else { &[] },
+            opaque_key: &s.opaque_key[..n],
+            opaque_color: &s.opaque_color[..n],
+            far,
+            background,
             ranks,
             reverse_z,
         });
