@@ -833,7 +833,7 @@ mod tests {
         });
         let fixed = run("s1", "k-buffer:k=8,tail=average", 1.0, 1e-3, 0.1);
         let results = results_of(vec![sized.clone(), fixed], Vec::new());
-        let md = results_markdown(&results);
+        let md = markdown(&results);
         assert!(
             md.contains("| k-buffer:k=auto,tail=average → k=5, slots 640.0 KiB |"),
             "{md}"
