@@ -14,6 +14,7 @@ pub use motion::{
 };
 pub use prediction::{
     PREDICTION_COLUMN, prediction_cell, predictions_summary, scene_predictions_markdown,
+    terminal_prediction,
 };
 
 /// What the columns of every table mean, once, for the top of results.md and report.html.
@@ -262,7 +263,7 @@ pub const TERMINAL_WIDTH: usize = 100;
 
 /// Longest technique label in the terminal table; a longer one is cut (`…`) and given whole
 /// in the row's note.
-const LABEL_MAX: usize = 30;
+const LABEL_MAX: usize = 28;
 
 /// Fixed-width table for the terminal: techniques by `label` (the harness drops parameters at
 /// their defaults), numbers right-aligned, and everything long (skip reasons, what was
@@ -278,7 +279,7 @@ pub fn terminal_table_labelled(results: &Results, label: &dyn Fn(&str) -> String
         "max err",
         "FLIP",
         "order",
-        "exact?",
+        "pred",
         "note",
     ];
     let mut out = String::new();
@@ -318,6 +319,7 @@ pub fn terminal_table_labelled(results: &Results, label: &dyn Fn(&str) -> String
             .iter()
             .map(|r| {
                 let mut cells = row_cells(r);
+                cells[9] = terminal_prediction(r);
                 let label = technique_cell(&label(&r.technique), r);
                 let mut note_parts = Vec::new();
                 cells[0] = if label.chars().count() > LABEL_MAX {
