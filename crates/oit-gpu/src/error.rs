@@ -43,6 +43,15 @@ pub enum GpuError {
         needed: u64,
         limit: u64,
     },
+    /// Storage sized from the scene (`auto` parameters) over a stated cap: refused, never
+    /// clamped.
+    #[error("{what} needs {}, more than {}, {cap_name}; nothing is clamped, so the configuration is refused on this scene", crate::mib(*needed), crate::mib(*cap))]
+    OverMemoryCap {
+        what: String,
+        needed: u64,
+        cap: u64,
+        cap_name: String,
+    },
     #[error("shader {shader}: {message}")]
     Shader { shader: String, message: String },
     #[error("reading back {what} from the GPU failed: {message}")]

@@ -16,6 +16,8 @@
 //! - [`TechniqueSpec`]: `name[:key=value,…]` parsing against a registry, canonical strings.
 //! - [`count_fragments`]: the rasterization conformance pass.
 //! - [`predict`]: whether a technique is exact on a scene, and why, from its model of a pixel.
+//! - [`LayerCounter`]: the fragments a stored-fragment technique will hold, counted before it
+//!   sizes its storage (`auto` parameters, [`AutoSizes`]).
 //! - [`Floor`]: one blended pass with the cheapest fragment work, the yardstick of every cost.
 
 pub mod bind;
@@ -25,6 +27,7 @@ mod count;
 mod error;
 mod floor;
 mod frame;
+mod layer_count;
 pub mod memory;
 pub mod pass;
 mod pipeline;
@@ -44,6 +47,7 @@ pub use count::count_fragments;
 pub use error::{GpuError, Unsupported};
 pub use floor::{BlendShading, DrawOrderBlend, FLOOR_NAME, Floor};
 pub use frame::{FrameResult, opaque_pass, render_frame};
+pub use layer_count::{AutoSizes, LayerCount, LayerCounter, mib};
 pub use memory::MemoryLedger;
 pub use pipeline::{FullscreenDesc, fullscreen_pipeline};
 pub use predict::{Prediction, Verdict};

@@ -43,6 +43,8 @@ pub const OPAQUE: &str = include_str!("../shaders/opaque.wgsl");
 /// (`fs_depth_only`), shared by the blended baselines.
 pub const BLEND: &str = include_str!("../shaders/blend.wgsl");
 pub const COUNT_FRAGMENTS: &str = include_str!("../shaders/count_fragments.wgsl");
+/// The sizing count of the stored-fragment techniques ([`crate::LayerCounter`]).
+pub const COUNT_LAYERS: &str = include_str!("../shaders/count_layers.wgsl");
 /// The floor pass: vertex colour, premultiplied OVER ([`crate::Floor`]).
 pub const FLOOR: &str = include_str!("../shaders/floor.wgsl");
 
@@ -58,6 +60,7 @@ pub const SHADERS: Library = &[
     ("opaque.wgsl", OPAQUE),
     ("blend.wgsl", BLEND),
     ("count_fragments.wgsl", COUNT_FRAGMENTS),
+    ("count_layers.wgsl", COUNT_LAYERS),
     ("floor.wgsl", FLOOR),
 ];
 

@@ -24,6 +24,9 @@ pub struct RenderStats {
     /// Pixels where a bounded technique composited some layers by an approximate rule (e.g. a
     /// linked list's averaged tail behind its sort window) instead of dropping them.
     pub pixels_with_approximated_layers: u64,
+    /// The sizes `auto` parameters chose this frame from a count pass (`None` for fixed sizes).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub auto_sizes: Option<crate::AutoSizes>,
 }
 
 /// A transparency technique. It renders the transparent draws of a [`GpuScene`] over the opaque

@@ -39,3 +39,16 @@ pub fn adapter_json(ctx: &oit_gpu::Context) -> AdapterJson {
 pub fn reference_caveats(stats: &oit_reference::ReferenceStats) -> Vec<String> {
     caveats(stats.undecided_pixels, stats.precision_tie_pixels)
 }
+
+/// The `auto` sizes a technique reported for a frame, as results.json records them.
+pub fn auto_sizes_json(sizes: oit_gpu::AutoSizes) -> AutoSizes {
+    AutoSizes {
+        fragments: sizes.count.fragments,
+        max_per_pixel: sizes.count.max_per_pixel,
+        k: sizes.k,
+        pool_nodes: sizes.pool_nodes,
+        sort_max: sizes.sort_max,
+        sized_bytes: sizes.sized_bytes,
+        count_bytes: sizes.count_bytes,
+    }
+}

@@ -973,6 +973,7 @@ fn run_one(
         layers_peeled: frame.layers_peeled,
         pixels_with_dropped_layers: frame.pixels_with_dropped_layers,
         pixels_with_approximated_layers: frame.pixels_with_approximated_layers,
+        auto_sizes: frame.auto_sizes.map(crate::results::auto_sizes_json),
     };
     Ok(Run {
         scene: scene.name.clone(),

@@ -14,6 +14,7 @@ pub use motion::{
 };
 pub use prediction::{
     PREDICTION_COLUMN, prediction_cell, predictions_summary, scene_predictions_markdown,
+    terminal_prediction,
 };
 
 /// What the columns of every table mean, once, for the top of results.md and report.html.
@@ -262,7 +263,7 @@ pub const TERMINAL_WIDTH: usize = 100;
 
 /// Longest technique label in the terminal table; a longer one is cut (`…`) and given whole
 /// in the row's note.
-const LABEL_MAX: usize = 30;
+const LABEL_MAX: usize = 28;
 
 /// Fixed-width table for the terminal: techniques by `label` (the harness drops parameters at
 /// their defaults), numbers right-aligned, and everything long (skip reasons, what was
@@ -278,7 +279,7 @@ pub fn terminal_table_labelled(results: &Results, label: &dyn Fn(&str) -> String
         "max err",
         "FLIP",
         "order",
-        "exact?",
+        "pred",
         "note",
     ];
     let mut out = String::new();
@@ -318,7 +319,8 @@ pub fn terminal_table_labelled(results: &Results, label: &dyn Fn(&str) -> String
             .iter()
             .map(|r| {
                 let mut cells = row_cells(r);
-                let label = label(&r.technique);
+                cells[9] = terminal_prediction(r);
+                let label = technique_cell(&label(&r.technique), r);
                 let mut note_parts = Vec::new();
                 cells[0] = if label.chars().count() > LABEL_MAX {
                     note_parts.push(label.clone());
@@ -717,7 +719,7 @@ fn row_cells(r: &Run) -> Vec<String> {
     };
     let od = r.order_dependence.map(sci).unwrap_or_default();
     vec![
-        r.technique.clone(),
+        technique_cell(&r.technique, r),
         gpu,
         ratio(r.cost_vs_unsorted),
         floor_ratio(r.cost_vs_floor),
@@ -729,6 +731,15 @@ fn row_cells(r: &Run) -> Vec<String> {
         prediction_cell(r),
         r.inexact.join("; "),
     ]
+}
+
+/// A run's technique as tables show it: with the sizes its `auto` parameters chose, when it
+/// has any (`k-buffer:k=auto → k=5, slots 640.0 KiB`).
+pub fn technique_cell(technique: &str, r: &Run) -> String {
+    match r.stats.as_ref().and_then(|s| s.auto_sizes) {
+        Some(sizes) => format!("{technique} → {}", sizes.summary()),
+        None => technique.to_owned(),
+    }
 }
 
 /// The FLIP a person should read for this run: LDR-FLIP of the tone-mapped images, or HDR-FLIP
@@ -804,6 +815,51 @@ mod tests {
             shard: None,
             merged: Vec::new(),
         }
+    }
+
+    /// The sizes `auto` chose are beside the technique in results.md and the terminal table,
+    /// and results.json keeps them (a file without them still reads).
+    #[test]
+    fn auto_sizes_are_shown_beside_the_technique_and_round_trip() {
+        let mut sized = run("s1", "k-buffer:k=auto,tail=average", 1.0, 1e-3, 0.1);
+        sized.stats = Some(crate::schema::Stats {
+            auto_sizes: Some(crate::schema::AutoSizes {
+                fragments: 70,
+                max_per_pixel: 5,
+                k: Some(5),
+                sized_bytes: 640 << 10,
+                count_bytes: 112,
+                ..Default::default()
+            }),
+            ..Default::default()
+        });
+        let fixed = run("s1", "k-buffer:k=8,tail=average", 1.0, 1e-3, 0.1);
+        let results = results_of(vec![sized.clone(), fixed], Vec::new());
+        let md = markdown(&results);
+        assert!(
+            md.contains("| k-buffer:k=auto,tail=average → k=5, slots 640.0 KiB |"),
+            "{md}"
+        );
+        assert!(md.contains("| k-buffer:k=8,tail=average |"), "{md}");
+        let table = terminal_table_labelled(&results, &|t| t.to_owned());
+        assert!(table.contains("k=5, slots 640.0 KiB"), "{table}");
+        let json = serde_json::to_string(&sized).unwrap();
+        assert!(json.contains("\"auto_sizes\":{\"fragments\":70,\"max_per_pixel\":5,\"k\":5,\"sized_bytes\":655360,\"count_bytes\":112}"), "{json}");
+        let back: Run = serde_json::from_str(&json).unwrap();
+        assert_eq!(back, sized);
+        let older = json.replace(
+            ",\"auto_sizes\":{\"fragments\":70,\"max_per_pixel\":5,\"k\":5,\"sized_bytes\":655360,\"count_bytes\":112}",
+            "",
+        );
+        let back: Run = serde_json::from_str(&older).unwrap();
+        assert_eq!(back.stats.and_then(|s| s.auto_sizes), None);
+        let list = crate::schema::AutoSizes {
+            pool_nodes: Some(1234),
+            sort_max: Some(12),
+            sized_bytes: 3 << 20,
+            ..Default::default()
+        };
+        assert_eq!(list.summary(), "nodes=1234, sort-max=12, pool 3.0 MiB");
     }
 
     #[test]

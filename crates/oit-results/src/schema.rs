@@ -219,6 +219,61 @@ pub struct Stats {
     /// results written before the field existed).
     #[serde(default)]
     pub pixels_with_approximated_layers: u64,
+    /// The sizes `auto` parameters took from the technique's GPU count pass, and the bytes
+    /// they use (absent for fixed sizes, and in files written before 2026-12-06).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub auto_sizes: Option<AutoSizes>,
+}
+
+/// What `k-buffer:k=auto` and `linked-list:nodes-per-pixel=auto,sort-max=auto` counted and
+/// chose (docs/results-schema.md, "auto_sizes"): the sizes of the run's last frame.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct AutoSizes {
+    /// Transparent fragments in front of the opaque surface, all pixels together.
+    pub fragments: u64,
+    /// The deepest pixel's.
+    pub max_per_pixel: u32,
+    /// `k=auto`: slots per pixel.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub k: Option<u32>,
+    /// `nodes-per-pixel=auto`: nodes in the pool.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pool_nodes: Option<u64>,
+    /// `sort-max=auto`: fragments sorted per pixel.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sort_max: Option<u32>,
+    /// Bytes of the storage these sizes set: the k-buffer's slots, the list's node pool.
+    pub sized_bytes: u64,
+    /// Bytes the count pass keeps (4 per pixel and 48 more); part of `memory_bytes`.
+    pub count_bytes: u64,
+}
+
+impl AutoSizes {
+    /// One short phrase for tables, e.g. `k=5, slots 640.0 KiB`.
+    pub fn summary(&self) -> String {
+        let mut parts = Vec::new();
+        if let Some(k) = self.k {
+            parts.push(format!("k={k}"));
+        }
+        if let Some(nodes) = self.pool_nodes {
+            parts.push(format!("nodes={nodes}"));
+        }
+        if let Some(sort) = self.sort_max {
+            parts.push(format!("sort-max={sort}"));
+        }
+        let storage = if self.k.is_some() { "slots" } else { "pool" };
+        parts.push(format!("{storage} {}", kib_or_mib(self.sized_bytes)));
+        parts.join(", ")
+    }
+}
+
+/// Bytes as KiB below 1 MiB, MiB above, one decimal.
+fn kib_or_mib(bytes: u64) -> String {
+    if bytes < 1 << 20 {
+        format!("{:.1} KiB", bytes as f64 / 1024.0)
+    } else {
+        format!("{:.1} MiB", bytes as f64 / f64::from(1u32 << 20))
+    }
 }
 
 /// Files written for one run, relative to the output directory.

@@ -1,6 +1,7 @@
-//! `linked-list:nodes-per-pixel=N,sort-max=N,node=f32|packed,tail=average|drop`.
+//! `linked-list:nodes-per-pixel=N|auto,sort-max=N|auto,node=f32|packed,tail=average|drop`.
 
 use crate::node::NodeFormat;
+use crate::sizing::Sizing;
 use oit_gpu::{Bounded, Param, ParamInfo, SpecError, TechniqueSpec};
 
 /// Largest `nodes-per-pixel`: the pool is also bounded by the adapter's storage binding size.
@@ -26,8 +27,8 @@ pub type SortMax = Bounded<1, { MAX_SORT as u32 }>;
 /// A valid `linked-list` configuration.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct LinkedListConfig {
-    pub nodes_per_pixel: NodesPerPixel,
-    pub sort_max: SortMax,
+    pub nodes_per_pixel: Sizing<NodesPerPixel>,
+    pub sort_max: Sizing<SortMax>,
     pub node: NodeFormat,
     pub tail: TailRule,
 }
@@ -44,15 +45,15 @@ impl Default for LinkedListConfig {
 }
 
 impl LinkedListConfig {
-    pub const NODES_PER_PIXEL: Param<NodesPerPixel> = Param::new(
+    pub const NODES_PER_PIXEL: Param<Sizing<NodesPerPixel>> = Param::new(
         "nodes-per-pixel",
-        NodesPerPixel::of(16),
-        "node pool size as an average per pixel (Bevy's fragments_per_pixel_average); fragments past a full pool are lost and counted",
+        Sizing::Fixed(NodesPerPixel::of(16)),
+        "node pool size as an average per pixel (Bevy's fragments_per_pixel_average); fragments past a full pool are lost and counted. auto: a pool of exactly the fragments a GPU count pass finds in front of the opaque surface, counted every frame (the count pass is timed with the frame); refused in MiB over the adapter's storage binding or AUTO_MEMORY_CAP (1 GiB)",
     );
-    pub const SORT_MAX: Param<SortMax> = Param::new(
+    pub const SORT_MAX: Param<Sizing<SortMax>> = Param::new(
         "sort-max",
-        SortMax::of(16),
-        "fragments kept sorted per pixel in the resolve; those behind go to the tail rule",
+        Sizing::Fixed(SortMax::of(16)),
+        "fragments kept sorted per pixel in the resolve; those behind go to the tail rule. auto: the deepest pixel's count from the GPU count pass, so no tail; refused when that is over 128",
     );
     pub const NODE: Param<NodeFormat> = Param::new(
         "node",
@@ -94,8 +95,15 @@ impl LinkedListConfig {
     }
 
     /// Bytes per pixel of the pool, the heads and the lost-fragment counts; `transmit`: with
-    /// the rgb-opacity nodes of scenes with coloured transmission.
-    pub fn bytes_per_pixel(&self, transmit: bool) -> u64 {
-        u64::from(self.nodes_per_pixel.get()) * self.node.bytes(transmit) + 8
+    /// the rgb-opacity nodes of scenes with coloured transmission. `None` for an `auto` pool,
+    /// whose size is the scene's (`AutoSizes::sized_bytes`).
+    pub fn bytes_per_pixel(&self, transmit: bool) -> Option<u64> {
+        let nodes = self.nodes_per_pixel.fixed()?;
+        Some(u64::from(nodes) * self.node.bytes(transmit) + 8)
+    }
+
+    /// Whether a frame needs the count pass first.
+    pub fn counts(&self) -> bool {
+        self.nodes_per_pixel == Sizing::Auto || self.sort_max == Sizing::Auto
     }
 }

@@ -6,12 +6,13 @@
 use crate::config::TailRule;
 use crate::frame::Counters;
 use crate::node::{Fragment, pack_opacity, pack_rgb9e5, unpack_opacity, unpack_rgb9e5};
+use crate::sizing::{Sizing, check_auto_bytes};
 use oit_gpu::wgpu;
 use oit_gpu::{
-    Bounded, Caps, Context, FullscreenDesc, GpuError, GpuScene, GpuTimer, MemoryLedger,
-    PREMULTIPLIED_OVER, Param, ParamInfo, RenderStats, ScenePipelineDesc, ScenePipelines,
-    SpecError, Targets, Technique, TechniqueSpec, TransmissionSupport, Unsupported, bind, blend,
-    fullscreen_pipeline, pass,
+    AutoSizes, Bounded, Caps, Context, FullscreenDesc, GpuError, GpuScene, GpuTimer, LayerCounter,
+    MemoryLedger, PREMULTIPLIED_OVER, Param, ParamInfo, RenderStats, ScenePipelineDesc,
+    ScenePipelines, SpecError, Targets, Technique, TechniqueSpec, TransmissionSupport, Unsupported,
+    bind, blend, fullscreen_pipeline, pass,
 };
 use oit_scene::Resolution;
 
@@ -32,10 +33,10 @@ const TAIL_RGB_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 /// Fragments kept per pixel, `1..=MAX_K`.
 pub type K = Bounded<1, { MAX_K as u32 }>;
 
-/// `k-buffer:k=N,tail=average|drop`.
+/// `k-buffer:k=N|auto,tail=average|drop`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct KBufferConfig {
-    pub k: K,
+    pub k: Sizing<K>,
     pub tail: TailRule,
 }
 
@@ -50,7 +51,11 @@ impl Default for KBufferConfig {
 }
 
 impl KBufferConfig {
-    pub const K: Param<K> = Param::new("k", K::of(8), "fragments kept per pixel (8 B each)");
+    pub const K: Param<Sizing<K>> = Param::new(
+        "k",
+        Sizing::Fixed(K::of(8)),
+        "fragments kept per pixel (8 B each). auto: the deepest pixel's count of fragments in front of the opaque surface, from a GPU count pass every frame (timed with the frame), so nothing is pushed out; refused when that is over 32 or the slots over the adapter's storage binding or AUTO_MEMORY_CAP (1 GiB), in MiB",
+    );
     pub const TAIL: Param<TailRule> = Param::new(
         "tail",
         TailRule::Average,
@@ -78,13 +83,10 @@ impl KBufferConfig {
 
     /// Slots (8 B each) and the two tail targets (Rgba16Float + R16Float); `transmit` (scenes
     /// with coloured transmission): a second chain of k opacity slots and three Rgba16Float
-    /// tail targets.
-    pub fn bytes_per_pixel(&self, transmit: bool) -> u64 {
-        if transmit {
-            u64::from(self.k.get()) * 16 + 24
-        } else {
-            u64::from(self.k.get()) * 8 + 10
-        }
+    /// tail targets. `None` for `k=auto`, whose k is the scene's (`AutoSizes::k`).
+    pub fn bytes_per_pixel(&self, transmit: bool) -> Option<u64> {
+        let k = u64::from(self.k.fixed()?);
+        Some(if transmit { k * 16 + 24 } else { k * 8 + 10 })
     }
 }
 
@@ -193,12 +195,14 @@ pub struct KBuffer {
     config: KBufferConfig,
     gpu: Option<Resources>,
     ledger: MemoryLedger,
+    /// The count pass (`k=auto` only).
+    counter: LayerCounter,
 }
 
 #[derive(Debug)]
 struct Resources {
-    /// Resolution, final colour format, coloured-transmission path.
-    key: (Resolution, wgpu::TextureFormat, bool),
+    /// Resolution, final colour format, coloured-transmission path, k.
+    key: (Resolution, wgpu::TextureFormat, bool, K),
     params: wgpu::Buffer,
     slots: wgpu::Buffer,
     counters: Counters,
@@ -218,6 +222,7 @@ impl KBuffer {
             config,
             gpu: None,
             ledger: MemoryLedger::new(),
+            counter: LayerCounter::new(),
         }
     }
 
@@ -230,26 +235,44 @@ impl KBuffer {
         self.config
     }
 
-    /// Bytes of the slot buffer at `resolution` (`transmit`: two chains), or why the adapter
-    /// cannot hold it.
+    /// Bytes of the slot buffer at `resolution` (`transmit`: two chains) with the spec's k,
+    /// or why the adapter cannot hold it; `k=auto` needs [`KBuffer::slot_bytes_for`].
     pub fn slot_bytes(
         &self,
         caps: &Caps,
         resolution: Resolution,
         transmit: bool,
     ) -> Result<u64, GpuError> {
+        match self.config.k {
+            Sizing::Fixed(k) => self.slot_bytes_for(k, caps, resolution, transmit),
+            Sizing::Auto => Err(GpuError::Mismatch(
+                "k=auto: the slots are sized from a count (KBuffer::slot_bytes_for)".into(),
+            )),
+        }
+    }
+
+    /// [`KBuffer::slot_bytes`] for `k` slots a chain; a `k=auto` size over the cap is refused
+    /// in MiB.
+    pub fn slot_bytes_for(
+        &self,
+        k: K,
+        caps: &Caps,
+        resolution: Resolution,
+        transmit: bool,
+    ) -> Result<u64, GpuError> {
         let pixels = u64::from(resolution.width) * u64::from(resolution.height);
         let chains = if transmit { 2 } else { 1 };
-        let bytes = pixels * u64::from(self.config.k.get()) * 8 * chains;
+        let bytes = pixels * u64::from(k.get()) * 8 * chains;
+        let what = format!("the k-buffer slots (k={k} × {chains} chain(s) × {pixels} px × 8 B)");
+        if self.config.k == Sizing::Auto {
+            check_auto_bytes(&format!("k=auto: {what}"), bytes, caps)?;
+        }
         let limit = caps
             .max_storage_buffer_binding_size
             .min(caps.max_buffer_size);
         if bytes > limit {
             return Err(GpuError::TooLarge {
-                what: format!(
-                    "the k-buffer slots (k={} × {chains} chain(s) × {pixels} px × 8 B)",
-                    self.config.k
-                ),
+                what,
                 needed: bytes,
                 limit,
             });
@@ -262,14 +285,15 @@ impl KBuffer {
         ctx: &Context,
         targets: &Targets,
         transmit: bool,
+        k: K,
     ) -> Result<(), GpuError> {
-        let key = (targets.resolution, targets.color_format, transmit);
+        let key = (targets.resolution, targets.color_format, transmit, k);
         if self.gpu.as_ref().is_some_and(|g| g.key == key) {
             return Ok(());
         }
         self.gpu = None;
         self.ledger.clear();
-        let slot_bytes = self.slot_bytes(&ctx.caps, targets.resolution, transmit)?;
+        let slot_bytes = self.slot_bytes_for(k, &ctx.caps, targets.resolution, transmit)?;
         let device = &ctx.device;
         let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
         let mut buffer = |label: &str, size: u64, usage: wgpu::BufferUsages| {
@@ -494,15 +518,34 @@ impl Technique for KBuffer {
         targets: &Targets,
         timer: &mut GpuTimer,
     ) -> Result<RenderStats, GpuError> {
-        self.resources(
-            ctx,
-            targets,
-            crate::list::per_channel(&scene.scene, &ctx.caps),
+        let transmit = crate::list::per_channel(&scene.scene, &ctx.caps);
+        // Count → size → build, as the list does: the count pass is in the frame's GPU time,
+        // the wait for its summary in the wall time only.
+        let count = if self.config.k == Sizing::Auto {
+            Some(self.counter.count(ctx, scene, targets, timer, "k-buffer")?)
+        } else {
+            None
+        };
+        let k = self.config.k.per_pixel(
+            "k",
+            count,
+            "the insertion walks up to k slots with a 64-bit atomic each",
         )?;
-        let r = self.gpu.as_ref().expect("resources built above");
+        self.resources(ctx, targets, transmit, k)?;
+        let Some(r) = self.gpu.as_ref() else {
+            return Err(GpuError::Mismatch("k-buffer: resources not built".into()));
+        };
+        let auto_sizes = count.map(|count| AutoSizes {
+            count,
+            k: Some(k.get()),
+            pool_nodes: None,
+            sort_max: None,
+            sized_bytes: r.slots.size(),
+            count_bytes: self.counter.memory_bytes(),
+        });
         let words: [u32; 4] = [
             targets.resolution.width,
-            self.config.k.get(),
+            k.get(),
             u32::from(scene.scene.camera.reverse_z),
             u32::from(self.config.tail == TailRule::Average),
         ];
@@ -576,12 +619,13 @@ impl Technique for KBuffer {
             geometry_passes: 1,
             pixels_with_dropped_layers: u64::from(c[0]),
             pixels_with_approximated_layers: u64::from(c[1]),
+            auto_sizes,
             ..Default::default()
         })
     }
 
     fn memory_bytes(&self) -> u64 {
-        self.ledger.total()
+        self.ledger.total() + self.counter.memory_bytes()
     }
 
     fn transmission(&self, caps: &Caps) -> TransmissionSupport {

@@ -23,6 +23,7 @@ pub mod kbuffer;
 mod list;
 pub mod node;
 mod predict;
+mod sizing;
 
 pub use config::{
     LinkedListConfig, MAX_NODES_PER_PIXEL, MAX_SORT, NodesPerPixel, SortMax, TailRule,
@@ -30,6 +31,7 @@ pub use config::{
 pub use kbuffer::{K, KBuffer, KBufferConfig, MAX_K};
 pub use list::{FrameCounts, LinkedList, NODE_WGSL, WGSL};
 pub use node::NodeFormat;
+pub use sizing::{AUTO_MEMORY_CAP, Sizing};
 
 /// Every WGSL file of this crate (`shaders/`), by file name: what its passes' `#include`s
 /// resolve in first (`oit_gpu::shaders::resolve`), and what the shader test holds against the

@@ -1,13 +1,15 @@
 //! The `linked-list` technique: insert pass, resolve pass, per-pixel accounting.
 
-use crate::config::{LinkedListConfig, TailRule};
+use crate::config::{LinkedListConfig, SortMax, TailRule};
 use crate::frame::Counters;
 use crate::node::NodeFormat;
+use crate::sizing::{Sizing, check_auto_bytes};
 use oit_gpu::wgpu;
 use oit_gpu::{
-    Caps, Context, FullscreenDesc, GpuError, GpuScene, GpuTimer, MemoryLedger, PREMULTIPLIED_OVER,
-    RenderStats, ScenePipelineDesc, ScenePipelines, SpecError, Targets, Technique, TechniqueSpec,
-    TransmissionSupport, Unsupported, bind, fullscreen_pipeline, pass,
+    AutoSizes, Caps, Context, FullscreenDesc, GpuError, GpuScene, GpuTimer, LayerCount,
+    LayerCounter, MemoryLedger, PREMULTIPLIED_OVER, RenderStats, ScenePipelineDesc, ScenePipelines,
+    SpecError, Targets, Technique, TechniqueSpec, TransmissionSupport, Unsupported, bind,
+    fullscreen_pipeline, pass,
 };
 use oit_scene::Resolution;
 
@@ -43,12 +45,17 @@ pub(crate) fn node_source(node: &str, transmit: bool) -> String {
     )
 }
 
-/// The shader sources for `config`: the sort window size, the node format and whether nodes
-/// store rgb opacity (`transmit`) are constants.
-pub fn shader_sources(config: &LinkedListConfig, transmit: bool) -> (String, String) {
+/// The shader sources for `config` with a sort window of `sort_max` (the spec's, or the one
+/// `sort-max=auto` counted): the window size, the node format and whether nodes store rgb
+/// opacity (`transmit`) are constants.
+pub fn shader_sources(
+    config: &LinkedListConfig,
+    sort_max: SortMax,
+    transmit: bool,
+) -> (String, String) {
     let list = WGSL.replace(
         SORT_MAX_LINE,
-        &format!("const SORT_MAX: u32 = {}u;", config.sort_max.get()),
+        &format!("const SORT_MAX: u32 = {}u;", sort_max.get()),
     );
     let node = NODE_WGSL.replace(
         PACKED_LINE,
@@ -72,7 +79,19 @@ pub struct LinkedList {
     config: LinkedListConfig,
     gpu: Option<Resources>,
     ledger: MemoryLedger,
+    /// The node pool, apart from the rest: an `auto` pool follows the scene's fragment count
+    /// without rebuilding the pipelines.
+    pool: Option<Pool>,
+    pool_ledger: MemoryLedger,
+    /// The count pass (`auto` sizes only).
+    counter: LayerCounter,
     last: FrameCounts,
+}
+
+#[derive(Debug)]
+struct Pool {
+    capacity: u32,
+    nodes: wgpu::Buffer,
 }
 
 /// What the last frame's resolve counted.
@@ -88,13 +107,11 @@ pub struct FrameCounts {
 
 #[derive(Debug)]
 struct Resources {
-    /// Resolution, final colour format, rgb-opacity nodes.
-    key: (Resolution, wgpu::TextureFormat, bool),
-    capacity: u32,
+    /// Resolution, final colour format, rgb-opacity nodes, sort window.
+    key: (Resolution, wgpu::TextureFormat, bool, SortMax),
     params: wgpu::Buffer,
     heads: wgpu::Buffer,
     lost: wgpu::Buffer,
-    nodes: wgpu::Buffer,
     counters: Counters,
     layout: wgpu::BindGroupLayout,
     insert: ScenePipelines,
@@ -107,6 +124,9 @@ impl LinkedList {
             config,
             gpu: None,
             ledger: MemoryLedger::new(),
+            pool: None,
+            pool_ledger: MemoryLedger::new(),
+            counter: LayerCounter::new(),
             last: FrameCounts::default(),
         }
     }
@@ -125,16 +145,22 @@ impl LinkedList {
         self.last
     }
 
-    /// Node pool size at `resolution` (`transmit`: rgb-opacity nodes), or why the adapter
-    /// cannot hold it.
+    /// Node pool size (nodes, bytes) at `resolution` (`transmit`: rgb-opacity nodes), or why
+    /// the adapter cannot hold it; `nodes-per-pixel=auto` needs [`LinkedList::auto_pool`].
     pub fn pool(
         &self,
         caps: &Caps,
         resolution: Resolution,
         transmit: bool,
     ) -> Result<(u32, u64), GpuError> {
+        let Sizing::Fixed(nodes_per_pixel) = self.config.nodes_per_pixel else {
+            return Err(GpuError::Mismatch(
+                "nodes-per-pixel=auto: the pool is sized from a count (LinkedList::auto_pool)"
+                    .into(),
+            ));
+        };
         let pixels = u64::from(resolution.width) * u64::from(resolution.height);
-        let capacity = pixels * u64::from(self.config.nodes_per_pixel.get());
+        let capacity = pixels * u64::from(nodes_per_pixel.get());
         let node_bytes = self.config.node.bytes(transmit);
         let bytes = capacity * node_bytes;
         let limit = caps
@@ -143,8 +169,7 @@ impl LinkedList {
         if bytes > limit || capacity > u64::from(u32::MAX) {
             return Err(GpuError::TooLarge {
                 what: format!(
-                    "the node pool ({} nodes-per-pixel × {pixels} px × {} B)",
-                    self.config.nodes_per_pixel, node_bytes
+                    "the node pool ({nodes_per_pixel} nodes-per-pixel × {pixels} px × {node_bytes} B)"
                 ),
                 needed: bytes,
                 limit,
@@ -153,19 +178,69 @@ impl LinkedList {
         Ok((capacity as u32, bytes))
     }
 
+    /// The pool `nodes-per-pixel=auto` takes for `count`: a node for every counted fragment
+    /// (at least one), or the refusal, in MiB, when that is over the cap.
+    pub fn auto_pool(
+        &self,
+        caps: &Caps,
+        count: LayerCount,
+        transmit: bool,
+    ) -> Result<(u32, u64), GpuError> {
+        let nodes = count.fragments.max(1);
+        let node_bytes = self.config.node.bytes(transmit);
+        let bytes = nodes.saturating_mul(node_bytes);
+        check_auto_bytes(
+            &format!(
+                "the node pool of linked-list:nodes-per-pixel=auto ({} fragments in front of the opaque surface × {node_bytes} B)",
+                count.fragments
+            ),
+            bytes,
+            caps,
+        )?;
+        // Heads store index + 1, so the last index must stay below u32::MAX.
+        let capacity = u32::try_from(nodes)
+            .ok()
+            .filter(|&n| n < u32::MAX)
+            .ok_or_else(|| GpuError::TooLarge {
+                what: "the node pool's indices (u32)".into(),
+                needed: nodes,
+                limit: u64::from(u32::MAX - 1),
+            })?;
+        Ok((capacity, bytes))
+    }
+
+    /// The node pool for this frame (`capacity` nodes of `bytes`), kept while it is the same.
+    fn pool_buffer(&mut self, ctx: &Context, capacity: u32, bytes: u64) {
+        if self.pool.as_ref().is_some_and(|p| p.capacity == capacity) {
+            return;
+        }
+        self.pool = None;
+        self.pool_ledger.clear();
+        let nodes = self.pool_ledger.create_buffer(
+            &ctx.device,
+            &wgpu::BufferDescriptor {
+                label: Some("linked-list node pool"),
+                size: bytes,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            },
+        );
+        self.pool = Some(Pool { capacity, nodes });
+    }
+
     fn resources(
         &mut self,
         ctx: &Context,
         targets: &Targets,
         transmit: bool,
+        sort_max: SortMax,
     ) -> Result<(), GpuError> {
-        let key = (targets.resolution, targets.color_format, transmit);
+        let key = (targets.resolution, targets.color_format, transmit, sort_max);
         if self.gpu.as_ref().is_some_and(|g| g.key == key) {
             return Ok(());
         }
         self.gpu = None;
         self.ledger.clear();
-        let (capacity, pool_bytes) = self.pool(&ctx.caps, targets.resolution, transmit)?;
         let pixels = u64::from(targets.resolution.width) * u64::from(targets.resolution.height);
         let device = &ctx.device;
         let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
@@ -187,7 +262,6 @@ impl LinkedList {
         );
         let heads = buffer("linked-list heads", pixels * 4, storage);
         let lost = buffer("linked-list lost fragments", pixels * 4, storage);
-        let nodes = buffer("linked-list node pool", pool_bytes, storage);
         let fragment = wgpu::ShaderStages::FRAGMENT;
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("linked-list"),
@@ -200,7 +274,7 @@ impl LinkedList {
                 bind::float_texture(5, fragment),
             ],
         });
-        let (list_src, node_src) = shader_sources(&self.config, transmit);
+        let (list_src, node_src) = shader_sources(&self.config, sort_max, transmit);
         let module = if transmit {
             ctx.shader_with(
                 "linked_list_transmit.wgsl",
@@ -267,11 +341,9 @@ impl LinkedList {
         let counters = Counters::new(ctx, &mut self.ledger, "linked-list");
         self.gpu = Some(Resources {
             key,
-            capacity,
             params,
             heads,
             lost,
-            nodes,
             counters,
             layout,
             insert,
@@ -312,11 +384,45 @@ impl Technique for LinkedList {
         targets: &Targets,
         timer: &mut GpuTimer,
     ) -> Result<RenderStats, GpuError> {
-        self.resources(ctx, targets, per_channel(&scene.scene, &ctx.caps))?;
-        let r = self.gpu.as_ref().expect("resources built above");
+        let transmit = per_channel(&scene.scene, &ctx.caps);
+        // Count → size → build: the count pass is one more geometry pass in the frame's GPU
+        // time; the wait for its 16-byte summary is in the wall time only.
+        let count = if self.config.counts() {
+            Some(
+                self.counter
+                    .count(ctx, scene, targets, timer, "linked-list")?,
+            )
+        } else {
+            None
+        };
+        let sort_max = self.config.sort_max.per_pixel(
+            "sort-max",
+            count,
+            "the window lives in each resolve invocation's registers",
+        )?;
+        let (capacity, pool_bytes) = match (self.config.nodes_per_pixel, count) {
+            (Sizing::Auto, Some(count)) => self.auto_pool(&ctx.caps, count, transmit)?,
+            _ => self.pool(&ctx.caps, targets.resolution, transmit)?,
+        };
+        self.resources(ctx, targets, transmit, sort_max)?;
+        self.pool_buffer(ctx, capacity, pool_bytes);
+        let auto_sizes = count.map(|count| AutoSizes {
+            count,
+            k: None,
+            pool_nodes: (self.config.nodes_per_pixel == Sizing::Auto)
+                .then_some(u64::from(capacity)),
+            sort_max: (self.config.sort_max == Sizing::Auto).then_some(sort_max.get()),
+            sized_bytes: pool_bytes,
+            count_bytes: self.counter.memory_bytes(),
+        });
+        let (Some(r), Some(pool)) = (self.gpu.as_ref(), self.pool.as_ref()) else {
+            return Err(GpuError::Mismatch(
+                "linked-list: resources not built".into(),
+            ));
+        };
         let words: [u32; 4] = [
             targets.resolution.width,
-            r.capacity,
+            pool.capacity,
             u32::from(scene.scene.camera.reverse_z),
             u32::from(self.config.tail == TailRule::Average),
         ];
@@ -336,7 +442,7 @@ impl Technique for LinkedList {
                 },
                 wgpu::BindGroupEntry {
                     binding: 2,
-                    resource: r.nodes.as_entire_binding(),
+                    resource: pool.nodes.as_entire_binding(),
                 },
                 wgpu::BindGroupEntry {
                     binding: 3,
@@ -383,12 +489,13 @@ impl Technique for LinkedList {
             geometry_passes: 1,
             pixels_with_dropped_layers: self.last.pixels_dropped,
             pixels_with_approximated_layers: self.last.pixels_tail_averaged,
+            auto_sizes,
             ..Default::default()
         })
     }
 
     fn memory_bytes(&self) -> u64 {
-        self.ledger.total()
+        self.ledger.total() + self.pool_ledger.total() + self.counter.memory_bytes()
     }
 
     fn transmission(&self, caps: &Caps) -> TransmissionSupport {
@@ -413,15 +520,14 @@ mod tests {
         assert_eq!(NODE_WGSL.matches(PACKED_LINE).count(), 1);
         assert_eq!(NODE_WGSL.matches(TRANSMIT_LINE).count(), 1);
         let config = LinkedListConfig {
-            sort_max: crate::SortMax::of(37),
             node: NodeFormat::Packed,
             ..Default::default()
         };
-        let (list, node) = shader_sources(&config, true);
+        let (list, node) = shader_sources(&config, crate::SortMax::of(37), true);
         assert!(list.contains("const SORT_MAX: u32 = 37u;") && !list.contains(SORT_MAX_LINE));
         assert!(node.contains("const PACKED: bool = true;"));
         assert!(node.contains("const TRANSMIT: bool = true;"));
-        let (_, scalar) = shader_sources(&config, false);
+        let (_, scalar) = shader_sources(&config, crate::SortMax::of(37), false);
         assert!(scalar.contains("const TRANSMIT: bool = false;"));
     }
 }

@@ -7,9 +7,11 @@ use oit_gpu::predict::{Layer, PixelLists, model_error};
 use oit_gpu::{Caps, Prediction, Verdict};
 use oit_scene::Scene;
 
-use crate::config::{LinkedListConfig, TailRule};
+use crate::config::{LinkedListConfig, MAX_SORT, TailRule};
+use crate::kbuffer::MAX_K;
 use crate::kbuffer::{self, KBufferConfig};
 use crate::node;
+use crate::sizing::Sizing;
 
 /// Whether the technique stores rgb opacity on this scene and adapter.
 fn transmit(scene: &Scene, caps: &Caps) -> bool {
@@ -28,7 +30,17 @@ pub(crate) fn predict_list(
 ) -> Prediction {
     let transmit = transmit(scene, caps);
     let reverse_z = scene.camera.reverse_z;
-    let window = config.sort_max.get() as usize;
+    let layers = lists.max_layers();
+    // `sort-max=auto` takes the deepest pixel's count, as the GPU count pass finds it.
+    let window = match config.sort_max {
+        Sizing::Fixed(n) => n.get() as usize,
+        Sizing::Auto if u64::from(layers) > MAX_SORT => {
+            return Prediction::unmodelled(format!(
+                "sort-max=auto refuses the scene: its deepest pixel's {layers} layers are more than the window's {MAX_SORT}"
+            ));
+        }
+        Sizing::Auto => layers.max(1) as usize,
+    };
     let average = config.tail == TailRule::Average;
     let error = model_error(lists, |px| {
         let nodes: Vec<node::Node> = px
@@ -49,7 +61,6 @@ pub(crate) fn predict_list(
         let (c, t, _) = node::resolve(config.node, transmit, &nodes, window, average);
         [0, 1, 2].map(|i| f64::from(c[i]) + f64::from(t[i]) * px.behind[i])
     });
-    let layers = lists.max_layers();
     let mut p = Prediction::from_model(
         &error,
         &format!(
@@ -61,8 +72,12 @@ pub(crate) fn predict_list(
             if average { "averaged" } else { "dropped" }
         ),
     );
-    let capacity = u64::from(config.nodes_per_pixel.get()) * lists.pixel_count() as u64;
     let fragments = lists.fragment_count();
+    // `nodes-per-pixel=auto` holds every fragment (or the run is refused over its cap).
+    let capacity = match config.nodes_per_pixel {
+        Sizing::Fixed(n) => u64::from(n.get()) * lists.pixel_count() as u64,
+        Sizing::Auto => fragments,
+    };
     if fragments > capacity && p.verdict != Verdict::Inexact {
         // Which fragments a full pool loses depends on the order they arrive in.
         p.verdict = Verdict::Borderline;
@@ -82,7 +97,17 @@ pub(crate) fn predict_kbuffer(
 ) -> Prediction {
     let transmit = transmit(scene, caps);
     let reverse_z = scene.camera.reverse_z;
-    let k = config.k.get() as usize;
+    let layers = lists.max_layers();
+    // `k=auto` takes the deepest pixel's count, as the GPU count pass finds it.
+    let k = match config.k {
+        Sizing::Fixed(k) => k.get() as usize,
+        Sizing::Auto if u64::from(layers) > MAX_K => {
+            return Prediction::unmodelled(format!(
+                "k=auto refuses the scene: its deepest pixel's {layers} layers are more than k's {MAX_K}"
+            ));
+        }
+        Sizing::Auto => layers.max(1) as usize,
+    };
     let error = model_error(lists, |px| {
         let (c, t) = if transmit {
             let slots: Vec<[u64; 2]> = px
@@ -104,7 +129,6 @@ pub(crate) fn predict_kbuffer(
         };
         [0, 1, 2].map(|i| f64::from(c[i]) + f64::from(t[i]) * px.behind[i])
     });
-    let layers = lists.max_layers();
     Prediction::from_model(
         &error,
         &format!("k = {k} slots hold every pixel's {layers} layers, stored as 64-bit slots"),

@@ -780,6 +780,7 @@ impl Technique for FrontPeel {
             layers_peeled: report.peeled_per_pass.iter().map(|&n| u64::from(n)).sum(),
             pixels_with_dropped_layers: u64::from(report.dropped_pixels),
             pixels_with_approximated_layers: 0,
+            ..Default::default()
         };
         self.report = report;
         Ok(stats)

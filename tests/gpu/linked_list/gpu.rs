@@ -104,18 +104,22 @@ fn undecidable(ctx: &Context, scene: &Scene, reference: &oit_reference::Referenc
 
 fn ample(reference: &oit_reference::Reference, pixels: u64) -> LinkedListConfig {
     LinkedListConfig {
-        nodes_per_pixel: oit_linked_list::NodesPerPixel::new(
-            (reference.stats.transparent_fragments.div_ceil(pixels) as u32 + 1)
-                .min(oit_linked_list::MAX_NODES_PER_PIXEL as u32),
-        )
-        .expect("clamped to the range"),
-        sort_max: oit_linked_list::SortMax::new(
-            reference
-                .stats
-                .max_depth_complexity
-                .clamp(1, oit_linked_list::MAX_SORT as u32),
-        )
-        .expect("clamped to the range"),
+        nodes_per_pixel: oit_linked_list::Sizing::Fixed(
+            oit_linked_list::NodesPerPixel::new(
+                (reference.stats.transparent_fragments.div_ceil(pixels) as u32 + 1)
+                    .min(oit_linked_list::MAX_NODES_PER_PIXEL as u32),
+            )
+            .expect("clamped to the range"),
+        ),
+        sort_max: oit_linked_list::Sizing::Fixed(
+            oit_linked_list::SortMax::new(
+                reference
+                    .stats
+                    .max_depth_complexity
+                    .clamp(1, oit_linked_list::MAX_SORT as u32),
+            )
+            .expect("clamped to the range"),
+        ),
         ..LinkedListConfig::default()
     }
 }
@@ -211,8 +215,8 @@ fn a_small_pool_and_a_short_window_are_counted_per_pixel() {
     let deep = reference.layers.iter().filter(|&&l| l > 4).count() as u64;
     assert!(deep > 1000, "many-layers-64 should be deep: {deep} px");
     let short = |tail| LinkedListConfig {
-        nodes_per_pixel: oit_linked_list::NodesPerPixel::of(64),
-        sort_max: oit_linked_list::SortMax::of(4),
+        nodes_per_pixel: oit_linked_list::Sizing::Fixed(oit_linked_list::NodesPerPixel::of(64)),
+        sort_max: oit_linked_list::Sizing::Fixed(oit_linked_list::SortMax::of(4)),
         node: NodeFormat::F32,
         tail,
     };
@@ -245,8 +249,8 @@ fn a_small_pool_and_a_short_window_are_counted_per_pixel() {
     // A pool of one node per pixel on a scene with more fragments: the lost fragments are
     // counted, every pixel that lost one is reported, and nothing else breaks.
     let mut starved = LinkedList::new(LinkedListConfig {
-        nodes_per_pixel: oit_linked_list::NodesPerPixel::of(1),
-        sort_max: oit_linked_list::SortMax::of(64),
+        nodes_per_pixel: oit_linked_list::Sizing::Fixed(oit_linked_list::NodesPerPixel::of(1)),
+        sort_max: oit_linked_list::Sizing::Fixed(oit_linked_list::SortMax::of(64)),
         ..LinkedListConfig::default()
     });
     let (image, stats) = render(&ctx, &scene, &mut starved, ColorFormat::Rgba16Float);
@@ -316,8 +320,12 @@ fn the_gpu_resolve_matches_its_cpu_twin_for_every_node_format_and_tail_rule() {
                 node::resolve(format, false, &nodes, sort_max, tail == TailRule::Average);
             let expect: Vec<f32> = (0..3).map(|i| c[i] + t[i] * background[i]).collect();
             let mut list = LinkedList::new(LinkedListConfig {
-                nodes_per_pixel: oit_linked_list::NodesPerPixel::of(4),
-                sort_max: oit_linked_list::SortMax::new(sort_max as u32).expect("in 1..=128"),
+                nodes_per_pixel: oit_linked_list::Sizing::Fixed(
+                    oit_linked_list::NodesPerPixel::of(4),
+                ),
+                sort_max: oit_linked_list::Sizing::Fixed(
+                    oit_linked_list::SortMax::new(sort_max as u32).expect("in 1..=128"),
+                ),
                 node: format,
                 tail,
             });
@@ -345,7 +353,7 @@ fn memory_is_every_buffer_and_a_pool_too_large_is_refused_with_the_numbers() {
     let scene = three_layers();
     for format in [NodeFormat::F32, NodeFormat::Packed] {
         let config = LinkedListConfig {
-            nodes_per_pixel: oit_linked_list::NodesPerPixel::of(5),
+            nodes_per_pixel: oit_linked_list::Sizing::Fixed(oit_linked_list::NodesPerPixel::of(5)),
             node: format,
             ..LinkedListConfig::default()
         };
@@ -355,12 +363,12 @@ fn memory_is_every_buffer_and_a_pool_too_large_is_refused_with_the_numbers() {
         // Pool, heads, lost counts, 16 B params, 16 B counters and their 16 B readback.
         assert_eq!(
             list.memory_bytes(),
-            pixels * config.bytes_per_pixel(false) + 48,
+            pixels * config.bytes_per_pixel(false).expect("fixed sizes") + 48,
             "{format:?}"
         );
     }
     let huge = LinkedList::new(LinkedListConfig {
-        nodes_per_pixel: oit_linked_list::NodesPerPixel::of(1024),
+        nodes_per_pixel: oit_linked_list::Sizing::Fixed(oit_linked_list::NodesPerPixel::of(1024)),
         ..LinkedListConfig::default()
     });
     let res = Resolution {
@@ -466,7 +474,7 @@ fn beyond_k_layers_the_tail_is_counted_and_averaging_beats_dropping() {
     let tolerance = RES.pixel_count() as u64 / 200;
     let mut errors = Vec::new();
     for tail in [TailRule::Drop, TailRule::Average] {
-        let k = oit_linked_list::K::new(k).expect("k in 1..=32");
+        let k = oit_linked_list::Sizing::Fixed(oit_linked_list::K::new(k).expect("k in 1..=32"));
         let Some(mut kb) = kbuffer_or_reason(&ctx, KBufferConfig { k, tail }) else {
             return;
         };
@@ -523,7 +531,7 @@ fn the_kbuffer_matches_its_cpu_twin_and_counts_its_memory() {
         (1, TailRule::Drop),
     ] {
         let config = KBufferConfig {
-            k: oit_linked_list::K::of(k),
+            k: oit_linked_list::Sizing::Fixed(oit_linked_list::K::of(k)),
             tail,
         };
         let Some(mut kb) = kbuffer_or_reason(&ctx, config) else {
@@ -550,13 +558,13 @@ fn the_kbuffer_matches_its_cpu_twin_and_counts_its_memory() {
         }
         assert_eq!(
             kb.memory_bytes(),
-            64 * config.bytes_per_pixel(false) + 48,
+            64 * config.bytes_per_pixel(false).expect("fixed sizes") + 48,
             "k {k}"
         );
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
     let huge = KBuffer::new(KBufferConfig {
-        k: oit_linked_list::K::of(32),
+        k: oit_linked_list::Sizing::Fixed(oit_linked_list::K::of(32)),
         tail: TailRule::Average,
     });
     let e = huge
@@ -623,7 +631,9 @@ fn both_techniques_are_exact_on_seeded_random_scenes_when_nothing_overflows() {
                 format!("k-buffer:k={k}"),
                 Box::new(move || {
                     Box::new(KBuffer::new(KBufferConfig {
-                        k: oit_linked_list::K::new(k).expect("k within MAX_K"),
+                        k: oit_linked_list::Sizing::Fixed(
+                            oit_linked_list::K::new(k).expect("k within MAX_K"),
+                        ),
                         tail: TailRule::Drop,
                     }))
                 }),

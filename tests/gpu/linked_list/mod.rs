@@ -1,3 +1,4 @@
+mod auto;
 mod gpu;
 mod transmission;
 mod twins;

@@ -99,12 +99,16 @@ fn rgb_opacity_nodes_equal_the_reference_up_to_their_precision_in_both_draw_orde
         let reference = oit_reference::render(&scene, &Default::default());
         let pixels = RES.pixel_count() as u64;
         let config = LinkedListConfig {
-            nodes_per_pixel: oit_linked_list::NodesPerPixel::new(
-                reference.stats.transparent_fragments.div_ceil(pixels) as u32 + 1,
-            )
-            .expect("in 1..=1024"),
-            sort_max: oit_linked_list::SortMax::new(reference.stats.max_depth_complexity)
-                .expect("in 1..=128"),
+            nodes_per_pixel: oit_linked_list::Sizing::Fixed(
+                oit_linked_list::NodesPerPixel::new(
+                    reference.stats.transparent_fragments.div_ceil(pixels) as u32 + 1,
+                )
+                .expect("in 1..=1024"),
+            ),
+            sort_max: oit_linked_list::Sizing::Fixed(
+                oit_linked_list::SortMax::new(reference.stats.max_depth_complexity)
+                    .expect("in 1..=128"),
+            ),
             node: format,
             tail: TailRule::Drop,
         };
@@ -133,7 +137,7 @@ fn rgb_opacity_nodes_equal_the_reference_up_to_their_precision_in_both_draw_orde
         // One word more per node than on scalar scenes.
         assert_eq!(
             list.memory_bytes(),
-            pixels * config.bytes_per_pixel(true) + 48,
+            pixels * config.bytes_per_pixel(true).expect("fixed sizes") + 48,
             "{name} {format:?}"
         );
     }
@@ -209,8 +213,12 @@ fn the_per_channel_resolve_matches_its_cpu_twin() {
                 node::resolve(format, true, &nodes, sort_max, tail == TailRule::Average);
             let expect: Vec<f32> = (0..3).map(|i| c[i] + t[i] * background[i]).collect();
             let mut list = LinkedList::new(LinkedListConfig {
-                nodes_per_pixel: oit_linked_list::NodesPerPixel::of(4),
-                sort_max: oit_linked_list::SortMax::new(sort_max as u32).expect("in 1..=128"),
+                nodes_per_pixel: oit_linked_list::Sizing::Fixed(
+                    oit_linked_list::NodesPerPixel::of(4),
+                ),
+                sort_max: oit_linked_list::Sizing::Fixed(
+                    oit_linked_list::SortMax::new(sort_max as u32).expect("in 1..=128"),
+                ),
                 node: format,
                 tail,
             });
@@ -278,7 +286,9 @@ fn kbuffer_opacity_slots_equal_the_reference_up_to_their_packing_in_both_draw_or
         let scene = scene(name);
         let reference = oit_reference::render(&scene, &Default::default());
         let config = KBufferConfig {
-            k: oit_linked_list::K::new(reference.stats.max_depth_complexity).expect("in 1..=32"),
+            k: oit_linked_list::Sizing::Fixed(
+                oit_linked_list::K::new(reference.stats.max_depth_complexity).expect("in 1..=32"),
+            ),
             tail: TailRule::Drop,
         };
         let mut kb = KBuffer::new(config);
@@ -307,7 +317,7 @@ fn kbuffer_opacity_slots_equal_the_reference_up_to_their_packing_in_both_draw_or
         }
         assert_eq!(
             kb.memory_bytes(),
-            pixels * config.bytes_per_pixel(true) + 48,
+            pixels * config.bytes_per_pixel(true).expect("fixed sizes") + 48,
             "{name}"
         );
     }
@@ -355,7 +365,7 @@ fn the_kbuffer_per_channel_resolve_matches_its_cpu_twin() {
     ] {
         let (c, t) = kbuffer::resolve_transmit(&slots, k as usize, tail);
         let mut kb = KBuffer::new(KBufferConfig {
-            k: oit_linked_list::K::of(k),
+            k: oit_linked_list::Sizing::Fixed(oit_linked_list::K::of(k)),
             tail,
         });
         let image = render(&ctx, &scene, &mut kb);

@@ -29,6 +29,19 @@ pub fn prediction_cell(run: &Run) -> String {
     }
 }
 
+/// The terminal table's narrow cell: yes, no, ~ (borderline) or – (unmodelled); a
+/// contradiction is a numbered note instead.
+pub fn terminal_prediction(run: &Run) -> String {
+    match run.prediction.as_ref().map(|p| p.verdict.as_str()) {
+        Some("exact") => "yes",
+        Some("inexact") => "no",
+        Some("borderline") => "~",
+        Some(_) => "–",
+        None => "",
+    }
+    .to_string()
+}
+
 /// The reasons under a scene's table, one line per run with a prediction.
 pub fn scene_predictions_markdown(runs: &[&Run]) -> String {
     let mut out = String::new();
