@@ -46,8 +46,11 @@ fn check(ctx: &oit_gpu::Context, scene: &Scene, label: &str, extra: &[&str], tal
     let (reference, lists) =
         oit_reference::lists::render_lists(scene, &options).expect("lists fit 1 GiB");
     let mut specs = resolve_specs(&[]).expect("default specs");
-    let extra: Vec<String> = extra.iter().map(|s| s.to_string()).collect();
-    specs.extend(resolve_specs(&extra).expect("sized specs"));
+    // (`resolve_specs` of nothing is every default: only sized configurations extend them.)
+    if !extra.is_empty() {
+        let extra: Vec<String> = extra.iter().map(|s| s.to_string()).collect();
+        specs.extend(resolve_specs(&extra).expect("sized specs"));
+    }
     for spec in &specs {
         let technique = TechniqueFor::build(spec);
         if oit_gpu::check_scene(technique.as_ref(), &ctx.caps, scene).is_err() {
