@@ -15,6 +15,7 @@
 //! - [`memory`]: exact byte counts of what a technique allocates.
 //! - [`TechniqueSpec`]: `name[:key=value,…]` parsing against a registry, canonical strings.
 //! - [`count_fragments`]: the rasterization conformance pass.
+//! - [`work`]: per pass, the bytes and atomics a technique's formats imply per fragment.
 //! - [`Floor`]: one blended pass with the cheapest fragment work, the yardstick of every cost.
 
 pub mod bind;
@@ -35,6 +36,7 @@ mod targets;
 mod technique;
 pub mod testing;
 mod timer;
+pub mod work;
 
 pub use blend::PREMULTIPLIED_OVER;
 pub use context::{AdapterSummary, Backend, Caps, Context, ContextOptions, FormatCaps};
@@ -43,6 +45,7 @@ pub use error::{GpuError, Unsupported};
 pub use floor::{BlendShading, DrawOrderBlend, FLOOR_NAME, Floor};
 pub use frame::{FrameResult, opaque_pass, render_frame};
 pub use memory::MemoryLedger;
+pub use pass::CountedPass;
 pub use pipeline::{FullscreenDesc, fullscreen_pipeline};
 pub use readback::{read_buffer, read_buffer_u32, read_texture};
 pub use scene::{
@@ -55,8 +58,10 @@ pub use spec::{
 pub use targets::{ColorFormat, Targets, f16_to_f32, read_color};
 pub use technique::{RenderStats, Technique, TransmissionSupport, check_scene};
 pub use timer::{
-    FrameTimings, GpuTimer, PASSES_PER_QUERY_SET, PassTimestamps, PassTiming, TimingSource,
+    FrameTimings, GpuTimer, PASSES_PER_QUERY_SET, PassFragments, PassTimestamps, PassTiming,
+    TimingSource,
 };
+pub use work::{PassDraws, PassWork, Work};
 
 /// Re-exported so technique crates use exactly the wgpu version this crate was built with.
 pub use wgpu;
