@@ -6,6 +6,7 @@
 
 pub mod cache;
 mod clip;
+mod counts;
 pub mod goldens;
 pub mod inputs;
 pub mod listing;

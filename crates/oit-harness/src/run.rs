@@ -1005,6 +1005,7 @@ fn run_one(
         pixels_with_dropped_layers: frame.pixels_with_dropped_layers,
         pixels_with_approximated_layers: frame.pixels_with_approximated_layers,
     };
+    let counts = crate::counts::frame(ctx, forward, technique.as_mut(), targets, deadline)?;
     Ok(Run {
         scene: scene.name.clone(),
         scene_file: scene_file.to_owned(),
@@ -1025,6 +1026,7 @@ fn run_one(
         undecided_pixels: Some(reference.stats.undecided_pixels),
         precision_tie_pixels: Some(reference.stats.precision_tie_pixels),
         stats: Some(stats),
+        counts: Some(counts),
         outputs: Some(outputs),
         inputs: None,
         resumed: false,

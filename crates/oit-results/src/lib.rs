@@ -8,12 +8,14 @@
 //! - [`interference`]: how much of the machine's CPU time went elsewhere while frames were timed.
 //! - [`file_stem`]: how scene names and specs become file names in an output folder.
 
+pub mod counts;
 pub mod interference;
 pub mod report;
 pub mod schema;
 
 use std::path::PathBuf;
 
+pub use counts::{PassCounts, RunCounts};
 pub use schema::*;
 
 /// Errors reading a results file. Each names the file.
