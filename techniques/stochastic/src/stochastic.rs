@@ -657,7 +657,7 @@ impl Technique for Stochastic {
         Ok(stats)
     }
 
-    fn work(&self, _caps: &oit_gpu::Caps, target: wgpu::TextureFormat) -> oit_gpu::Work {
+    fn work(&self, caps: &oit_gpu::Caps, target: wgpu::TextureFormat) -> oit_gpu::Work {
         use oit_gpu::work::{DEPTH_BYTES, PassDraws, PassWork, Work, texel_bytes};
         let texel = texel_bytes(target);
         // A kept fragment (the dither discards the rest, uncounted): the depth test reads and
@@ -670,18 +670,12 @@ impl Technique for Stochastic {
             };
             p.bytes(DEPTH_BYTES, DEPTH_BYTES + texel)
         };
-        if self.config.spp.get() == 1 {
-            // One frame straight into the final targets (scalar scenes; a scene with coloured
-            // transmission renders per-frame targets, the passes below).
-            return Work::new(vec![dithered("stochastic", false)]);
-        }
-        let sum = texel_bytes(if self.force_half_sums {
-            HALF_SUM_FORMAT
-        } else {
-            SUM_FORMAT
-        });
+        let sum = texel_bytes(self.sum_format(caps));
         Work::new(vec![
-            // Per frame: a seed draw copies the opaque colour and depth into the frame's
+            // One frame straight into the final targets (spp=1 on a scene without coloured
+            // transmission).
+            dithered("stochastic", false),
+            // Per frame (spp > 1, or coloured transmission): a seed draw copies the opaque colour and depth into the frame's
             // targets first; its W·H samples are in this pass's count and priced as
             // fragments (an overstatement of the seed's bytes, 2 × 4 + texel read and written).
             dithered("stochastic frame ", true),
