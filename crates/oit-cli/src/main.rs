@@ -13,6 +13,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use oit_scene::{Resolution, Scene};
 
 mod analyze;
+mod cost_model;
 
 #[derive(Debug, Parser)]
 #[command(
@@ -55,6 +56,19 @@ enum Command {
         memory_budget: u64,
         #[command(flatten)]
         load: LoadArgs,
+    },
+    /// Fit GPU time to each run's counts (fragments, bytes, atomics, triangles × passes,
+    /// pixels × full-screen passes) on the adapter of a results.json: coefficients, R², the
+    /// worst residuals. The counts carry to other GPUs; the coefficients do not.
+    CostModel {
+        /// A results.json written by `oit compare`.
+        results: PathBuf,
+        /// Also write the model as JSON (schema `oit-lab/cost-model/v1`) to this file.
+        #[arg(long, value_name = "OUT")]
+        json: Option<PathBuf>,
+        /// Minimise absolute residuals (the slowest runs decide) instead of relative ones.
+        #[arg(long)]
+        absolute: bool,
     },
     /// List every technique with its parameters and defaults.
     Techniques {
@@ -405,6 +419,11 @@ fn run(command: Command) -> Result<()> {
                 &load.options(),
             )
         }
+        Command::CostModel {
+            results,
+            json,
+            absolute,
+        } => cost_model::run(&results, json.as_deref(), absolute),
         Command::Techniques { json, markdown } => {
             if json {
                 println!("{}", oit_harness::techniques_json());
