@@ -59,7 +59,7 @@ pub use targets::{ColorFormat, Targets, f16_to_f32, read_color};
 pub use technique::{RenderStats, Technique, TransmissionSupport, check_scene};
 pub use timer::{
     FrameTimings, GpuTimer, PASSES_PER_QUERY_SET, PassFragments, PassTimestamps, PassTiming,
-    TimingSource,
+    TimingSource, occlusion_counts_samples,
 };
 pub use work::{PassDraws, PassWork, Work};
 

@@ -202,6 +202,15 @@ struct Occlusion {
     last: Vec<PassFragments>,
 }
 
+/// Whether occlusion queries count samples on this backend. wgpu 30 makes them boolean
+/// (any sample passed: 0 or 1) on GL (`ANY_SAMPLES_PASSED_CONSERVATIVE`), DX12
+/// (`BINARY_OCCLUSION`) and Metal (`MTLVisibilityResultModeBoolean`); on Vulkan they count,
+/// begun without `VK_QUERY_CONTROL_PRECISE_BIT`, which a driver may count coarsely (lavapipe
+/// counts exactly: tests/gpu/gpu/occlusion.rs checks it on whatever adapter runs the tests).
+pub fn occlusion_counts_samples(caps: &crate::Caps) -> bool {
+    caps.backend == wgpu::Backend::Vulkan
+}
+
 /// Samples of one pass that passed the depth test and were not discarded (an occlusion
 /// query's count: fragments on a single-sampled target, samples on a multisampled one);
 /// `None` for a pass that began no query (a compute pass).
@@ -259,7 +268,8 @@ impl GpuTimer {
     }
 
     /// This timer also counts, per pass, the samples that pass the depth test (occlusion
-    /// queries); read them with [`GpuTimer::pass_fragments`] after `end_frame`.
+    /// queries); read them with [`GpuTimer::pass_fragments`] after `end_frame`. They are counts
+    /// only where [`occlusion_counts_samples`]; elsewhere 0 or 1.
     pub fn counting_fragments(mut self, ctx: &Context) -> Self {
         self.occlusion = Some(Occlusion {
             chunks: vec![OcclusionChunk::new(&ctx.device)],

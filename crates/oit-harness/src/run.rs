@@ -1026,7 +1026,7 @@ fn run_one(
         undecided_pixels: Some(reference.stats.undecided_pixels),
         precision_tie_pixels: Some(reference.stats.precision_tie_pixels),
         stats: Some(stats),
-        counts: Some(counts),
+        counts,
         outputs: Some(outputs),
         inputs: None,
         resumed: false,
