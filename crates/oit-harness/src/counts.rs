@@ -5,8 +5,11 @@
 //! Counted in a frame of its own, not in the timed frames: the timed frames stay as they were
 //! before counting existed (their numbers comparable with older results), and an occlusion
 //! query costs something on some adapters (lavapipe counts per lane of every depth-tested
-//! quad). Every technique here renders the same work in every frame of a still scene, so the
-//! counted frame's work is the timed frames' work.
+//! quad). It follows the timed frames directly (before the reversed-order frame), so a
+//! technique that sizes its passes from the previous frame (front-peel's remembered pass count)
+//! records the timed frames' passes; every technique renders the same work in every frame of a
+//! still scene, so the counted frame's work is the timed frames'. A pass the GPU skips (a
+//! gated peel pass past the last layer) is recorded and counts its triangles, with 0 samples.
 
 use oit_gpu::work::{PassDraws, PassWork, Work};
 use oit_gpu::{Context, GpuScene, GpuTimer, PassFragments, Targets, Technique, render_frame};

@@ -966,6 +966,7 @@ fn run_one(
     let deadline = std::time::Instant::now() + options.run_budget;
     let (gpu_ms, passes, frame) = time_frames(ctx, forward, technique.as_mut(), targets, options)?;
     let image = read_color(ctx, targets)?;
+    let counts = crate::counts::frame(ctx, forward, technique.as_mut(), targets, deadline)?;
 
     // The same technique with the draws, and the triangles within each draw, submitted in
     // reverse: any difference is order dependence.
@@ -1005,7 +1006,6 @@ fn run_one(
         pixels_with_dropped_layers: frame.pixels_with_dropped_layers,
         pixels_with_approximated_layers: frame.pixels_with_approximated_layers,
     };
-    let counts = crate::counts::frame(ctx, forward, technique.as_mut(), targets, deadline)?;
     Ok(Run {
         scene: scene.name.clone(),
         scene_file: scene_file.to_owned(),
