@@ -513,9 +513,9 @@ fn nnls(a: &[Vec<f64>], y: &[f64]) -> Vec<f64> {
                 x[j] += step * (z[k] - x[j]);
             }
             passive.retain(|&j| x[j] > tolerance);
-            for j in 0..p {
+            for (j, v) in x.iter_mut().enumerate() {
                 if !passive.contains(&j) {
-                    x[j] = 0.0;
+                    *v = 0.0;
                 }
             }
             if passive.is_empty() {
