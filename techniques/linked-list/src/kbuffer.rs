@@ -572,6 +572,12 @@ impl Technique for KBuffer {
         let tails = texel_bytes(TAIL_SUM_FORMAT) + texel_bytes(TAIL_T_FORMAT);
         let texel = texel_bytes(target);
         Work::new(vec![
+            // The count pass of the auto sizes (`oit_gpu::LayerCounter`, pass "k-buffer count"):
+            // a fragment in front of the opaque depth (loaded), counted by atomicAdd on its
+            // pixel, atomicMax and atomicAdd on the frame's summary.
+            PassWork::new("k-buffer count", PassDraws::Transparent)
+                .bytes(DEPTH_BYTES, 0)
+                .atomics(3.0),
             // A fragment in front of the opaque depth (loaded: the shader's own test): the
             // two tail targets read and written by their blends; atomicMax on the pixel's
             // slots until an empty one, at most K (the n-th fragment of a pixel makes

@@ -384,6 +384,12 @@ impl Technique for LinkedList {
         let node = self.config.node.bytes(false) as u32;
         let texel = texel_bytes(target);
         Work::new(vec![
+            // The count pass of the auto sizes (`oit_gpu::LayerCounter`, pass "linked-list count"):
+            // a fragment in front of the opaque depth (loaded), counted by atomicAdd on its
+            // pixel, atomicMax and atomicAdd on the frame's summary.
+            PassWork::new("linked-list count", PassDraws::Transparent)
+                .bytes(DEPTH_BYTES, 0)
+                .atomics(3.0),
             // A fragment that is stored (the rest are discarded, uncounted): the opaque depth
             // loaded (the shader's own test, no depth attachment), its node written; the
             // allocation's atomicAdd and the head's atomicExchange. Nothing is written to the
