@@ -14,8 +14,10 @@ use indicatif::{ProgressBar, ProgressStyle};
 use oit_scene::{Resolution, Scene};
 
 mod analyze;
+mod cost_model;
 mod growth;
 mod recommend;
+mod scenes;
 
 #[derive(Debug, Parser)]
 #[command(
@@ -58,6 +60,19 @@ enum Command {
         memory_budget: u64,
         #[command(flatten)]
         load: LoadArgs,
+    },
+    /// Fit GPU time to each run's counts (fragments, bytes, atomics, triangles × passes,
+    /// pixels × full-screen passes) on the adapter of a results.json: coefficients, R², the
+    /// worst residuals. The counts carry to other GPUs; the coefficients do not.
+    CostModel {
+        /// A results.json written by `oit compare`.
+        results: PathBuf,
+        /// Also write the model as JSON (schema `oit-lab/cost-model/v1`) to this file.
+        #[arg(long, value_name = "OUT")]
+        json: Option<PathBuf>,
+        /// Minimise absolute residuals (the slowest runs decide) instead of relative ones.
+        #[arg(long)]
+        absolute: bool,
     },
     /// List every technique with its parameters and defaults.
     Techniques {
@@ -408,7 +423,7 @@ fn run(command: Command) -> Result<()> {
     match command {
         Command::Scenes { path, json, load } => {
             load.check(std::slice::from_ref(&path))?;
-            scenes(&path, json, &load.options())
+            scenes::scenes(&path, json, &load.options())
         }
         Command::Analyze {
             scenes,
@@ -426,6 +441,11 @@ fn run(command: Command) -> Result<()> {
                 &load.options(),
             )
         }
+        Command::CostModel {
+            results,
+            json,
+            absolute,
+        } => cost_model::run(&results, json.as_deref(), absolute),
         Command::Techniques { json, markdown } => {
             if json {
                 println!("{}", oit_harness::techniques_json());
@@ -643,83 +663,6 @@ fn progress_bar(len: u64, what: &str) -> ProgressBar {
     bar.set_message(what.to_owned());
     bar.enable_steady_tick(Duration::from_millis(200));
     bar
-}
-
-/// What `oit scenes --json` prints for one scene.
-#[derive(Debug, serde::Serialize)]
-struct SceneListing {
-    scene: String,
-    file: String,
-    description: String,
-    resolution: [u32; 2],
-    triangles: u64,
-    transparent_triangles: u64,
-    draws: u64,
-    max_depth_complexity: u32,
-    mean_depth_complexity: f64,
-    credits: Vec<String>,
-    not_modelled: Vec<String>,
-}
-
-fn scenes(path: &Path, json: bool, load: &oit_scene::LoadOptions) -> Result<()> {
-    let entries = load_some_scenes(&[path.to_path_buf()], load)?;
-    let mut listings = Vec::new();
-    for entry in &entries {
-        let s = &entry.scene;
-        let reference = oit_reference::try_render(s, &oit_reference::ReferenceOptions::default())
-            .with_context(|| format!("reference of {}", entry.path.display()))?;
-        listings.push(SceneListing {
-            scene: s.name.clone(),
-            file: entry.path.display().to_string(),
-            description: s.description.clone(),
-            resolution: [s.resolution.width, s.resolution.height],
-            triangles: s.triangle_count() as u64,
-            transparent_triangles: s.transparent_triangle_count() as u64,
-            draws: s.draws.len() as u64,
-            max_depth_complexity: reference.stats.max_depth_complexity,
-            mean_depth_complexity: reference.stats.mean_depth_complexity,
-            credits: s.credits.clone(),
-            not_modelled: s.ignored.clone(),
-        });
-    }
-    if json {
-        println!("{}", serde_json::to_string_pretty(&listings)?);
-        return Ok(());
-    }
-    println!(
-        "{:<26} {:>9} {:>9} {:>9} {:>6} {:>9} {:>10}",
-        "scene", "size", "triangles", "transp.", "draws", "max depth", "mean depth"
-    );
-    for (entry, l) in entries.iter().zip(&listings) {
-        let s = &entry.scene;
-        println!(
-            "{:<26} {:>9} {:>9} {:>9} {:>6} {:>9} {:>10.2}",
-            oit_harness::report::printable(&l.scene),
-            s.resolution.to_string(),
-            l.triangles,
-            l.transparent_triangles,
-            l.draws,
-            l.max_depth_complexity,
-            l.mean_depth_complexity,
-        );
-        // What the scene tests, wrapped to the table's width.
-        for line in oit_harness::report::wrap(&oit_harness::report::printable(&l.description), 86) {
-            println!("    {line}");
-        }
-        if let Some(a) = s.animation {
-            println!(
-                "    animated: {} frames at {} fps (the figures above are frame 0's)",
-                a.frames, a.fps
-            );
-        }
-        // Real content says where it came from and what of it is not modelled.
-        if !(s.textures.is_empty() && s.credits.is_empty() && s.ignored.is_empty()) {
-            for line in oit_harness::results::scene_json(s, "").report_lines() {
-                println!("    {}", oit_harness::report::printable(&line));
-            }
-        }
-    }
-    Ok(())
 }
 
 /// MiB to bytes (the flag's unit), saturating.

@@ -91,7 +91,7 @@ pub fn count_fragments(ctx: &Context, scene: &GpuScene) -> Result<Vec<u32>, GpuE
                 wgpu::LoadOp::Clear(0.0),
                 wgpu::StoreOp::Discard,
             ),
-            None,
+            &crate::PassTimestamps::untimed(),
         );
         scene.bind(&mut pass);
         pass.set_bind_group(1, &target_group, &[]);

@@ -139,7 +139,7 @@ impl Technique for DrawOrderBlend {
                     wgpu::LoadOp::Load,
                     wgpu::StoreOp::Store,
                 ),
-                ts.writes(),
+                &ts,
             );
             scene.bind(&mut pass);
             for i in scene.transparent_draws() {
@@ -155,6 +155,20 @@ impl Technique for DrawOrderBlend {
 
     fn memory_bytes(&self) -> u64 {
         0
+    }
+
+    fn work(&self, _caps: &crate::Caps, target: wgpu::TextureFormat) -> crate::work::Work {
+        use crate::work::{DEPTH_BYTES, PassDraws, PassWork, Work, blend};
+        let label = match self.shading {
+            BlendShading::VertexColour => FLOOR_NAME,
+            BlendShading::Material => "blend",
+        };
+        let (dst_read, dst_written) = blend(target);
+        // The depth test reads the opaque depth (no write); the blend reads and writes the
+        // target texel.
+        Work::new(vec![
+            PassWork::new(label, PassDraws::Transparent).bytes(DEPTH_BYTES + dst_read, dst_written),
+        ])
     }
 
     fn transmission(&self, _caps: &Caps) -> TransmissionSupport {

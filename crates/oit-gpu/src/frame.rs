@@ -62,7 +62,7 @@ pub fn opaque_pass(
                 wgpu::LoadOp::Clear(scene.scene.camera.far_depth()),
                 wgpu::StoreOp::Store,
             ),
-            ts.writes(),
+            &ts,
         );
         scene.bind(&mut pass);
         for i in scene.opaque_draws() {

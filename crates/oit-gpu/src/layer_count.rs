@@ -231,7 +231,7 @@ impl LayerCounter {
                 &name,
                 &[crate::pass::color(&targets.color_view, wgpu::LoadOp::Load)],
                 None,
-                ts.writes(),
+                &ts,
             );
             scene.bind(&mut p);
             p.set_bind_group(1, &group, &[]);

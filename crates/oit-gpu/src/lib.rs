@@ -18,6 +18,7 @@
 //! - [`predict`]: whether a technique is exact on a scene, and why, from its model of a pixel.
 //! - [`LayerCounter`]: the fragments a stored-fragment technique will hold, counted before it
 //!   sizes its storage (`auto` parameters, [`AutoSizes`]).
+//! - [`work`]: per pass, the bytes and atomics a technique's formats imply per fragment.
 //! - [`Floor`]: one blended pass with the cheapest fragment work, the yardstick of every cost.
 
 pub mod bind;
@@ -40,6 +41,7 @@ mod targets;
 mod technique;
 pub mod testing;
 mod timer;
+pub mod work;
 
 pub use blend::PREMULTIPLIED_OVER;
 pub use context::{AdapterSummary, Backend, Caps, Context, ContextOptions, FormatCaps};
@@ -49,6 +51,7 @@ pub use floor::{BlendShading, DrawOrderBlend, FLOOR_NAME, Floor};
 pub use frame::{FrameResult, opaque_pass, render_frame};
 pub use layer_count::{AutoSizes, LayerCount, LayerCounter, mib};
 pub use memory::MemoryLedger;
+pub use pass::CountedPass;
 pub use pipeline::{FullscreenDesc, fullscreen_pipeline};
 pub use predict::{Prediction, Verdict};
 pub use readback::{read_buffer, read_buffer_u32, read_texture};
@@ -62,8 +65,10 @@ pub use spec::{
 pub use targets::{ColorFormat, Targets, f16_to_f32, read_color};
 pub use technique::{RenderStats, Technique, TransmissionSupport, check_scene};
 pub use timer::{
-    FrameTimings, GpuTimer, PASSES_PER_QUERY_SET, PassTimestamps, PassTiming, TimingSource,
+    FrameTimings, GpuTimer, PASSES_PER_QUERY_SET, PassFragments, PassTimestamps, PassTiming,
+    TimingSource, occlusion_counts_samples,
 };
+pub use work::{PassDraws, PassWork, Work};
 
 /// Re-exported so technique crates use exactly the wgpu version this crate was built with.
 pub use wgpu;

@@ -1,6 +1,8 @@
 //! Render-pass boilerplate: attachments and the pass itself, so a technique's pass reads as
 //! what it loads, clears and stores.
 
+use crate::timer::PassTimestamps;
+
 /// A colour attachment that stores its result; `load` is `LoadOp::Load` or a clear colour.
 pub fn color(
     view: &wgpu::TextureView,
@@ -40,23 +42,79 @@ pub fn depth(
     })
 }
 
-/// Begins a render pass without occlusion queries or multiview; `timestamps` is
-/// [`PassTimestamps::writes`](crate::PassTimestamps::writes) of the pass's timer entry.
+/// A render pass begun by [`begin`]: derefs to the `wgpu::RenderPass`, and on drop ends the
+/// pass's occlusion query (wgpu refuses a pass that ends with one still open).
+#[derive(Debug)]
+pub struct CountedPass<'e> {
+    pass: wgpu::RenderPass<'e>,
+    counting: bool,
+}
+
+impl<'e> std::ops::Deref for CountedPass<'e> {
+    type Target = wgpu::RenderPass<'e>;
+    fn deref(&self) -> &Self::Target {
+        &self.pass
+    }
+}
+
+impl std::ops::DerefMut for CountedPass<'_> {
+    fn deref_mut(&mut self) -> &mut Self::Target {
+        &mut self.pass
+    }
+}
+
+impl Drop for CountedPass<'_> {
+    fn drop(&mut self) {
+        if self.counting {
+            self.pass.end_occlusion_query();
+        }
+    }
+}
+
+/// Begins a render pass with the timestamp writes of `timer_entry` (the pass's
+/// [`GpuTimer::pass`](crate::GpuTimer::pass)) and, on a counting timer, its occlusion query
+/// around everything the pass draws; [`PassTimestamps::untimed`] for neither. No multiview.
 pub fn begin<'e>(
     encoder: &'e mut wgpu::CommandEncoder,
     label: &str,
     color_attachments: &[Option<wgpu::RenderPassColorAttachment<'_>>],
     depth_stencil_attachment: Option<wgpu::RenderPassDepthStencilAttachment<'_>>,
-    timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
-) -> wgpu::RenderPass<'e> {
-    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-        label: Some(label),
-        color_attachments,
-        depth_stencil_attachment,
-        timestamp_writes: timestamps,
-        occlusion_query_set: None,
-        multiview_mask: None,
-    })
+    timer_entry: &PassTimestamps,
+) -> CountedPass<'e> {
+    begin_with(
+        encoder,
+        wgpu::RenderPassDescriptor {
+            label: Some(label),
+            color_attachments,
+            depth_stencil_attachment,
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        },
+        timer_entry,
+    )
+}
+
+/// [`begin`] for a pass that needs its own descriptor (store ops other than `Store`): its
+/// `timestamp_writes` and `occlusion_query_set` are replaced by `timer_entry`'s.
+pub fn begin_with<'e>(
+    encoder: &'e mut wgpu::CommandEncoder,
+    descriptor: wgpu::RenderPassDescriptor<'_>,
+    timer_entry: &PassTimestamps,
+) -> CountedPass<'e> {
+    let occlusion = timer_entry.begin_occlusion();
+    let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        timestamp_writes: timer_entry.writes(),
+        occlusion_query_set: occlusion.map(|(set, _)| set),
+        ..descriptor
+    });
+    if let Some((_, index)) = occlusion {
+        pass.begin_occlusion_query(index);
+    }
+    CountedPass {
+        pass,
+        counting: occlusion.is_some(),
+    }
 }
 
 /// One full-screen triangle (a [`crate::fullscreen_pipeline`]) over `view`, keeping what it
@@ -68,14 +126,14 @@ pub fn fullscreen(
     view: &wgpu::TextureView,
     pipeline: &wgpu::RenderPipeline,
     groups: &[(&wgpu::BindGroup, &[u32])],
-    timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
+    timer_entry: &PassTimestamps,
 ) {
     let mut pass = begin(
         encoder,
         label,
         &[color(view, wgpu::LoadOp::Load)],
         None,
-        timestamps,
+        timer_entry,
     );
     pass.set_pipeline(pipeline);
     for (i, (group, offsets)) in groups.iter().enumerate() {

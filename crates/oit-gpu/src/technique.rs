@@ -57,6 +57,16 @@ pub trait Technique: std::fmt::Debug {
     /// `caps` ([`crate::predict`]). The harness checks it against the measured error of every
     /// run.
     fn predict(&self, scene: &Scene, lists: &PixelLists, caps: &Caps) -> Prediction;
+    /// What each of its passes reads, writes and does atomically per fragment, stated from the
+    /// formats it uses on an adapter with `caps` when the final target is `target` (results.json
+    /// `counts`, with the
+    /// occlusion counts of a counted frame). Every pass the technique registers with
+    /// `timer.pass` has one entry; a pass without one is reported as undeclared (the default
+    /// declares nothing, for test doubles).
+    fn work(&self, caps: &crate::Caps, target: wgpu::TextureFormat) -> crate::work::Work {
+        let _ = (caps, target);
+        crate::work::Work::default()
+    }
     /// Geometry passes one frame will make on a scene whose deepest pixel has
     /// `depth_complexity` transparent layers, for techniques whose pass count grows with it
     /// (depth peeling); `None` for the rest. The harness prices it before a run starts, so a

@@ -7,6 +7,7 @@
 pub mod cache;
 pub mod candidates;
 mod clip;
+mod counts;
 pub mod goldens;
 pub mod inputs;
 pub mod listing;

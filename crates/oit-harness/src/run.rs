@@ -935,6 +935,7 @@ fn run_one(
     let deadline = std::time::Instant::now() + options.run_budget;
     let (gpu_ms, passes, frame) = time_frames(ctx, forward, technique.as_mut(), targets, options)?;
     let image = read_color(ctx, targets)?;
+    let counts = crate::counts::frame(ctx, forward, technique.as_mut(), targets, deadline)?;
 
     // The same technique with the draws, and the triangles within each draw, submitted in
     // reverse: any difference is order dependence.
@@ -995,6 +996,7 @@ fn run_one(
         undecided_pixels: Some(reference.stats.undecided_pixels),
         precision_tie_pixels: Some(reference.stats.precision_tie_pixels),
         stats: Some(stats),
+        counts,
         outputs: Some(outputs),
         inputs: None,
         resumed: false,

@@ -86,12 +86,12 @@ fn check_frames_fit(
     // The first frame includes building; later ones cost at most as much (a bound, so a slow
     // build may refuse a run that would have fit: the message says how to allow it).
     let frames_left =
-        u64::from(options.warmup) + u64::from(options.frames) * (1 + u64::from(options.retime)) + 1;
+        u64::from(options.warmup) + u64::from(options.frames) * (1 + u64::from(options.retime)) + 2;
     let estimate = first.as_secs_f64() * frames_left as f64;
     let left = options.run_budget.saturating_sub(first).as_secs_f64();
     if estimate > left {
         return Err(HarnessError::Options(format!(
-            "the first frame took {:.1} s, so {frames_left} more frames (warm-up, timed, re-timed and the reversed-order frame) could take {estimate:.0} s, past --run-budget {} s; raise it or lower --frames",
+            "the first frame took {:.1} s, so {frames_left} more frames (warm-up, timed, re-timed, the reversed-order and the counted frame) could take {estimate:.0} s, past --run-budget {} s; raise it or lower --frames",
             first.as_secs_f64(),
             options.run_budget.as_secs()
         )));
@@ -134,7 +134,8 @@ impl PassEstimate {
             passes,
             depth_complexity,
             floor_ms,
-            frames: 2
+            // The first, reversed-order and counted frames, and the rest.
+            frames: 3
                 + u64::from(options.warmup)
                 + u64::from(options.frames) * (1 + u64::from(options.retime)),
         })

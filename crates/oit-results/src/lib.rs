@@ -5,15 +5,19 @@
 //! - [`schema`]: the types of results.json ([`Results`], [`Run`], …), read with
 //!   [`Results::read`], which checks the schema first.
 //! - [`report`]: results.md, the terminal table and the phrases both use.
+//! - [`counts`]: a run's work in units every GPU shares; [`cost_model`]: time fitted to it.
 //! - [`interference`]: how much of the machine's CPU time went elsewhere while frames were timed.
 //! - [`file_stem`]: how scene names and specs become file names in an output folder.
 
+pub mod cost_model;
+pub mod counts;
 pub mod interference;
 pub mod report;
 pub mod schema;
 
 use std::path::PathBuf;
 
+pub use counts::{PassCounts, RunCounts};
 pub use schema::*;
 
 /// Errors reading a results file. Each names the file.

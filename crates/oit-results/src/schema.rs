@@ -321,6 +321,11 @@ pub struct Run {
     pub order_dependence: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stats: Option<Stats>,
+    /// The frame's work in units every GPU shares (occlusion counts, stated bytes and
+    /// atomics, triangles, full-screen passes), from a counted frame after the timed ones
+    /// (absent in files written before 2026-12-06).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub counts: Option<crate::RunCounts>,
     /// Why this run's image is not the technique's exact answer, one short phrase each (e.g.
     /// `dropped layers on 1234 px`); empty when nothing was cut. Reports show it next to the
     /// numbers, never only in `stats`.
@@ -550,6 +555,7 @@ impl Run {
             error: None,
             order_dependence: None,
             stats: None,
+            counts: None,
             inexact: Vec::new(),
             undecided_pixels: None,
             precision_tie_pixels: None,

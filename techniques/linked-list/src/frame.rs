@@ -70,7 +70,7 @@ impl Counters {
             &targets.color_view,
             resolve,
             &[(&scene.bind_group, &[0]), (group, &[])],
-            ts.writes(),
+            &ts,
         );
         encoder.copy_buffer_to_buffer(&self.buffer, 0, &self.readback, 0, 16);
         timer.submit(ctx, encoder)?;

@@ -593,13 +593,7 @@ impl Technique for KBuffer {
                 &r.tail_t,
                 wgpu::LoadOp::Clear(pass::splat(1.0)),
             ));
-            let mut p = pass::begin(
-                &mut encoder,
-                "k-buffer insert",
-                &attachments,
-                None,
-                ts.writes(),
-            );
+            let mut p = pass::begin(&mut encoder, "k-buffer insert", &attachments, None, &ts);
             scene.bind(&mut p);
             p.set_bind_group(1, &insert_group, &[]);
             for i in scene.transparent_draws() {
@@ -622,6 +616,35 @@ impl Technique for KBuffer {
             auto_sizes,
             ..Default::default()
         })
+    }
+
+    fn work(&self, _caps: &oit_gpu::Caps, target: wgpu::TextureFormat) -> oit_gpu::Work {
+        use oit_gpu::work::{DEPTH_BYTES, PassDraws, PassWork, Work, texel_bytes};
+        // `k=auto` states the largest k (an upper bound, like K itself below).
+        let k = self.config.k.fixed().unwrap_or(MAX_K as u32);
+        // Scalar slots (one chain; coloured transmission doubles the slots and atomics).
+        let tails = texel_bytes(TAIL_SUM_FORMAT) + texel_bytes(TAIL_T_FORMAT);
+        let texel = texel_bytes(target);
+        Work::new(vec![
+            // The count pass of the auto sizes (`oit_gpu::LayerCounter`, pass "k-buffer count"):
+            // a fragment in front of the opaque depth (loaded), counted by atomicAdd on its
+            // pixel, atomicMax and atomicAdd on the frame's summary.
+            PassWork::new("k-buffer count", PassDraws::Transparent)
+                .bytes(DEPTH_BYTES, 0)
+                .atomics(3.0),
+            // A fragment in front of the opaque depth (loaded: the shader's own test): the
+            // two tail targets read and written by their blends; atomicMax on the pixel's
+            // slots until an empty one, at most K (the n-th fragment of a pixel makes
+            // min(n, K)): K is stated, an upper bound.
+            PassWork::new("k-buffer insert", PassDraws::Transparent)
+                .bytes(DEPTH_BYTES + tails, tails)
+                .atomics(f64::from(k)),
+            // Per pixel: up to K slots of 8 B loaded (K stated, an upper bound) and the two
+            // tail texels, the final texel read and written by the blend. The counters'
+            // atomicAdd happen only on pixels with a tail (not counted).
+            PassWork::new("k-buffer resolve", PassDraws::FullScreen)
+                .bytes(8 * k + tails + texel, texel),
+        ])
     }
 
     fn memory_bytes(&self) -> u64 {

@@ -469,7 +469,7 @@ impl Technique for LinkedList {
                 "linked-list insert",
                 &[pass::color(&targets.color_view, wgpu::LoadOp::Load)],
                 None,
-                ts.writes(),
+                &ts,
             );
             scene.bind(&mut p);
             p.set_bind_group(1, &group, &[]);
@@ -492,6 +492,35 @@ impl Technique for LinkedList {
             auto_sizes,
             ..Default::default()
         })
+    }
+
+    fn work(&self, _caps: &oit_gpu::Caps, target: wgpu::TextureFormat) -> oit_gpu::Work {
+        use oit_gpu::work::{DEPTH_BYTES, PassDraws, PassWork, Work, texel_bytes};
+        // Scalar nodes; on a scene with coloured transmission a node carries 4 B more.
+        let node = self.config.node.bytes(false) as u32;
+        let texel = texel_bytes(target);
+        Work::new(vec![
+            // The count pass of the auto sizes (`oit_gpu::LayerCounter`, pass "linked-list count"):
+            // a fragment in front of the opaque depth (loaded), counted by atomicAdd on its
+            // pixel, atomicMax and atomicAdd on the frame's summary.
+            PassWork::new("linked-list count", PassDraws::Transparent)
+                .bytes(DEPTH_BYTES, 0)
+                .atomics(3.0),
+            // A fragment that is stored (the rest are discarded, uncounted): the opaque depth
+            // loaded (the shader's own test, no depth attachment), its node written; the
+            // allocation's atomicAdd and the head's atomicExchange. Nothing is written to the
+            // attachment (empty write mask).
+            PassWork::new("linked-list insert", PassDraws::Transparent)
+                .bytes(DEPTH_BYTES, node)
+                .atomics(2.0),
+            // Per pixel: the head and the lost-node count loaded (4 B each), the final texel
+            // read and written by the blend; per stored fragment its node read. The dropped and
+            // averaged counters' atomicAdd happen only on pixels that drop or average a tail
+            // (not counted).
+            PassWork::new("linked-list resolve", PassDraws::FullScreen)
+                .bytes(8 + texel, texel)
+                .reads_fragments_of("linked-list insert", node),
+        ])
     }
 
     fn memory_bytes(&self) -> u64 {

@@ -515,13 +515,7 @@ impl Technique for Mboit {
                 .map(|v| pass::color(v, clear))
                 .collect();
             attachments.resize(3, None);
-            let mut p = pass::begin(
-                &mut encoder,
-                "mboit moments",
-                &attachments,
-                depth(),
-                ts.writes(),
-            );
+            let mut p = pass::begin(&mut encoder, "mboit moments", &attachments, depth(), &ts);
             scene.bind(&mut p);
             p.set_bind_group(1, &shared.params_group, &[]);
             for &i in &draws {
@@ -534,13 +528,7 @@ impl Technique for Mboit {
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         {
             let attachments = [pass::color(&pixels.accum_view, clear)];
-            let mut p = pass::begin(
-                &mut encoder,
-                "mboit resolve",
-                &attachments,
-                depth(),
-                ts.writes(),
-            );
+            let mut p = pass::begin(&mut encoder, "mboit resolve", &attachments, depth(), &ts);
             scene.bind(&mut p);
             p.set_bind_group(1, &shared.params_group, &[]);
             p.set_bind_group(2, &pixels.resolve_group, &[]);
@@ -558,13 +546,35 @@ impl Technique for Mboit {
             &targets.color_view,
             &composite,
             &[(&pixels.composite_group, &[])],
-            ts.writes(),
+            &ts,
         );
         timer.submit(ctx, encoder)?;
         Ok(RenderStats {
             geometry_passes: 2,
             ..Default::default()
         })
+    }
+
+    fn work(&self, _caps: &oit_gpu::Caps, target: wgpu::TextureFormat) -> oit_gpu::Work {
+        use oit_gpu::work::{DEPTH_BYTES, PassDraws, PassWork, Work, texel_bytes};
+        let moment_formats = self.config.moment_formats();
+        let moments: u32 = moment_formats.iter().map(|&f| texel_bytes(f)).sum();
+        let b0 = moment_formats.first().map_or(0, |&f| texel_bytes(f));
+        let accum = texel_bytes(self.config.accum_format());
+        let final_texel = texel_bytes(target);
+        Work::new(vec![
+            // Depth test; every moment target's texel read and written by its additive blend.
+            PassWork::new("mboit moments", PassDraws::Transparent)
+                .bytes(DEPTH_BYTES + moments, moments),
+            // Depth test; the pixel's moments loaded (every moment texture); the accumulation
+            // texel read and written by its additive blend.
+            PassWork::new("mboit resolve", PassDraws::Transparent)
+                .bytes(DEPTH_BYTES + moments + accum, accum),
+            // Per pixel: the zeroth moment and the accumulation loaded, the final texel read
+            // and written by the blend.
+            PassWork::new("mboit composite", PassDraws::FullScreen)
+                .bytes(b0 + accum + final_texel, final_texel),
+        ])
     }
 
     fn memory_bytes(&self) -> u64 {

@@ -194,7 +194,7 @@ impl Technique for OpaqueCopy {
                 "opaque-copy transmissive",
                 &[pass::color(&targets.color_view, wgpu::LoadOp::Load)],
                 depth(),
-                ts.writes(),
+                &ts,
             );
             scene.bind(&mut p);
             p.set_bind_group(1, &r.copy_group, &[]);
@@ -209,7 +209,7 @@ impl Technique for OpaqueCopy {
                 "opaque-copy blend",
                 &[pass::color(&targets.color_view, wgpu::LoadOp::Load)],
                 depth(),
-                ts.writes(),
+                &ts,
             );
             scene.bind(&mut p);
             for &i in &blended {
@@ -222,6 +222,21 @@ impl Technique for OpaqueCopy {
             cpu_ms,
             ..Default::default()
         })
+    }
+
+    fn work(&self, _caps: &oit_gpu::Caps, target: wgpu::TextureFormat) -> oit_gpu::Work {
+        use oit_gpu::work::{DEPTH_BYTES, PassDraws, PassWork, Work, texel_bytes};
+        let texel = texel_bytes(target);
+        // Not a pass of the timer: the copy of the opaque colour before the passes (a
+        // texture-to-texture copy, W·H texels read and written, outside the timestamps).
+        Work::new(vec![
+            // Depth test and write; the copy's texel read in the shader; the colour written
+            // without blending.
+            PassWork::new("transmissive over the opaque copy", PassDraws::Transmissive)
+                .bytes(DEPTH_BYTES + texel, DEPTH_BYTES + texel),
+            // Depth test (no write); the premultiplied over reads and writes the target.
+            PassWork::new("blend", PassDraws::NotTransmissive).bytes(DEPTH_BYTES + texel, texel),
+        ])
     }
 
     fn memory_bytes(&self) -> u64 {

@@ -477,7 +477,7 @@ fn clear_pass(encoder: &mut wgpu::CommandEncoder, view: &wgpu::TextureView, colo
         "peel clear",
         &[pass::color(view, wgpu::LoadOp::Clear(color))],
         None,
-        None,
+        &oit_gpu::PassTimestamps::untimed(),
     );
 }
 
@@ -520,7 +520,7 @@ impl DualPeel {
                 .chain(g.layer_attachments(targets))
                 .collect::<Vec<_>>(),
                 None,
-                ts.writes(),
+                &ts,
             );
             scene.bind(&mut pass);
             pass.set_bind_group(1, &g.groups[((k + 1) % 2) as usize], &[]);
@@ -670,7 +670,7 @@ impl Technique for DualPeel {
                     wgpu::LoadOp::Load,
                     wgpu::StoreOp::Store,
                 ),
-                ts.writes(),
+                &ts,
             );
             scene.bind(&mut pass);
             pass.set_bind_group(1, naive.unwrap_or(&g.groups[1]), &[]);
@@ -751,7 +751,7 @@ impl Technique for DualPeel {
                     &targets.color_view,
                     &back.pipeline,
                     &[(&back.group, &[]), (&g.control.pass_group, &[0])],
-                    ts.writes(),
+                    &ts,
                 );
                 timer.submit(ctx, encoder)?;
             }
@@ -764,7 +764,7 @@ impl Technique for DualPeel {
                     "dual-peel back composite per channel",
                     &targets.color_view,
                     &g.control,
-                    ts.writes(),
+                    &ts,
                 );
                 timer.submit(ctx, encoder)?;
             }
@@ -776,13 +776,8 @@ impl Technique for DualPeel {
             let mut encoder = ctx.device.create_command_encoder(&Default::default());
             {
                 let [a0, a1] = tail.accum.attachments(true);
-                let mut pass = pass::begin(
-                    &mut encoder,
-                    "dual-peel wboit tail",
-                    &[a0, a1],
-                    None,
-                    ts.writes(),
-                );
+                let mut pass =
+                    pass::begin(&mut encoder, "dual-peel wboit tail", &[a0, a1], None, &ts);
                 scene.bind(&mut pass);
                 pass.set_bind_group(1, &g.groups[last], &[]);
                 pass.set_bind_group(2, &g.control.pass_group, &[g.control.offset(recorded)]);
@@ -818,14 +813,14 @@ impl Technique for DualPeel {
                 &targets.color_view,
                 front_pipeline,
                 &[(composite_group, &[]), (&g.control.pass_group, &[0])],
-                ts.writes(),
+                &ts,
             ),
             Stacks::PerChannel { front, .. } => front.composite(
                 &mut encoder,
                 "dual-peel front composite per channel",
                 &targets.color_view,
                 &g.control,
-                ts.writes(),
+                &ts,
             ),
         }
         timer.submit(ctx, encoder)?;
@@ -870,6 +865,50 @@ impl Technique for DualPeel {
 
     /// Each pass peels the nearest and the farthest layer: half the depth complexity, and one
     /// more that finds nothing left (a fixed budget stops there, plus its tail pass).
+    fn work(&self, caps: &oit_gpu::Caps, target: wgpu::TextureFormat) -> oit_gpu::Work {
+        use oit_gpu::work::{DEPTH_BYTES, PassDraws, PassWork, Work, texel_bytes};
+        // The scalar path (coloured transmission stacks per channel: more targets).
+        let range = self.config.depth.resolve(caps).map_or(0, texel_bytes);
+        let accum = texel_bytes(gpu::accumulator_format_on(caps, target));
+        let final_texel = texel_bytes(target);
+        let mut passes = vec![
+            // Depth tested against the opaque depth (no write); the range target's texel read
+            // and written by its MAX blend (the naive init, `encoding=whole`, also writes the
+            // layer targets: not counted).
+            PassWork::new("init", PassDraws::Transparent).bytes(DEPTH_BYTES + range, range),
+            // Every fragment the shader keeps (no depth attachment): the previous range loaded,
+            // the next range read and written by MAX blending, the front and back
+            // accumulators each read and written by their blends (every output blends, a
+            // zero contribution included).
+            PassWork::numbered("peel ", PassDraws::Transparent)
+                .bytes(2 * range + 2 * accum, range + 2 * accum),
+            // Per pixel: the back accumulator loaded, the final texel read and written (only
+            // where the final colour is not the accumulator's format; else the back layers
+            // blend straight into it).
+            PassWork::new("back composite", PassDraws::FullScreen)
+                .bytes(accum + final_texel, final_texel),
+            // Per pixel: the front accumulator loaded, the final texel read and written.
+            PassWork::new("front composite", PassDraws::FullScreen)
+                .bytes(accum + final_texel, final_texel),
+        ];
+        if self.config.tail == Tail::Wboit {
+            // The fragments left inside the last range: the range loaded, the two WBOIT
+            // targets read and written by their additive blends (no depth attachment).
+            let accumulate =
+                wboit::accumulate_work("tail", wboit::DEFAULT_ACCUM, wboit::DEFAULT_REVEAL);
+            passes.push(PassWork {
+                bytes_read: accumulate.bytes_read - DEPTH_BYTES + range,
+                ..accumulate
+            });
+            passes.push(wboit::composite_work(
+                wboit::DEFAULT_ACCUM,
+                wboit::DEFAULT_REVEAL,
+                target,
+            ));
+        }
+        Work::new(passes)
+    }
+
     fn planned_passes(&self, depth_complexity: u32) -> Option<u32> {
         let all = depth_complexity.div_ceil(2).saturating_add(1);
         Some(match self.config.passes {

@@ -500,7 +500,7 @@ impl FrontPeel {
                     wgpu::LoadOp::Clear(scene.scene.camera.far_depth()),
                     wgpu::StoreOp::Discard,
                 ),
-                ts.writes(),
+                &ts,
             );
             scene.bind(&mut pass);
             pass.set_bind_group(1, &g.groups[((k + 1) % 2) as usize], &[]);
@@ -526,7 +526,7 @@ impl FrontPeel {
                     accum,
                     under_pipeline,
                     &[(under_group, &[]), (&g.control.pass_group, &[offset])],
-                    ts.writes(),
+                    &ts,
                 ),
                 Under::PerChannel {
                     accum,
@@ -539,7 +539,7 @@ impl FrontPeel {
                         "front-peel under per channel",
                         &accum.attachments(),
                         None,
-                        ts.writes(),
+                        &ts,
                     );
                     pass.set_pipeline(under_pipeline);
                     pass.set_bind_group(0, under_group, &[]);
@@ -635,7 +635,7 @@ impl Technique for FrontPeel {
                         }),
                     )],
                     None,
-                    None,
+                    &oit_gpu::PassTimestamps::untimed(),
                 );
             }
             Under::PerChannel { accum, .. } => accum.clear(&mut encoder),
@@ -660,7 +660,7 @@ impl Technique for FrontPeel {
                     wgpu::LoadOp::Load,
                     wgpu::StoreOp::Store,
                 ),
-                ts.writes(),
+                &ts,
             );
             scene.bind(&mut pass);
             for i in scene.opaque_draws() {
@@ -744,14 +744,14 @@ impl Technique for FrontPeel {
                 &targets.color_view,
                 front_pipeline,
                 &[(final_group, &[]), (&g.control.pass_group, &[0])],
-                ts.writes(),
+                &ts,
             ),
             Under::PerChannel { accum, .. } => accum.composite(
                 &mut encoder,
                 "front-peel composite per channel",
                 &targets.color_view,
                 &g.control,
-                ts.writes(),
+                &ts,
             ),
         }
         timer.submit(ctx, encoder)?;
@@ -784,6 +784,33 @@ impl Technique for FrontPeel {
         };
         self.report = report;
         Ok(stats)
+    }
+
+    fn work(&self, caps: &oit_gpu::Caps, target: wgpu::TextureFormat) -> oit_gpu::Work {
+        use oit_gpu::work::{DEPTH_BYTES, PassDraws, PassWork, Work, texel_bytes};
+        // The scalar path (coloured transmission adds a layer-transmittance target).
+        let layer = texel_bytes(gpu::accumulator_format_on(caps, target));
+        let final_texel = texel_bytes(target);
+        // R32Uint depth bits: the previous layer's and the opaque surface's.
+        const BITS: u32 = 4;
+        // A fragment behind the previous layer that passes the pass's own nearest-first depth
+        // test (a later nearer one passes again): its depth tested and written, both depth
+        // bits loaded, the layer colour and its depth bits written without blending.
+        let layer_pass = |p: PassWork| p.bytes(DEPTH_BYTES + 2 * BITS, DEPTH_BYTES + layer + BITS);
+        Work::new(vec![
+            // The opaque draws once more: depth tested against the opaque pass's (no write),
+            // their depth bits written.
+            PassWork::new("opaque depth bits", PassDraws::Opaque).bytes(DEPTH_BYTES, BITS),
+            layer_pass(PassWork::numbered("layer ", PassDraws::Transparent)),
+            // The pass after the last layer's cap, to find pixels with layers left.
+            layer_pass(PassWork::new("detect", PassDraws::Transparent)),
+            // Per pixel with a layer: the layer loaded, the accumulator read and written by
+            // the under blend.
+            PassWork::numbered("under ", PassDraws::FullScreen).bytes(2 * layer, layer),
+            // Per pixel: the accumulator loaded, the final texel read and written by the blend.
+            PassWork::new("front composite", PassDraws::FullScreen)
+                .bytes(layer + final_texel, final_texel),
+        ])
     }
 
     fn memory_bytes(&self) -> u64 {

@@ -136,7 +136,15 @@ pub(crate) fn accumulator_format(
     ctx: &Context,
     final_format: wgpu::TextureFormat,
 ) -> wgpu::TextureFormat {
-    let f32_caps = ctx.caps.format(wgpu::TextureFormat::Rgba32Float);
+    accumulator_format_on(&ctx.caps, final_format)
+}
+
+/// [`accumulator_format`] from the adapter's caps alone.
+pub(crate) fn accumulator_format_on(
+    caps: &oit_gpu::Caps,
+    final_format: wgpu::TextureFormat,
+) -> wgpu::TextureFormat {
+    let f32_caps = caps.format(wgpu::TextureFormat::Rgba32Float);
     if f32_caps.renderable && f32_caps.blendable {
         wgpu::TextureFormat::Rgba32Float
     } else {
@@ -389,7 +397,7 @@ impl Channels {
                 "peel per-channel clear",
                 &[oit_gpu::pass::color(view, wgpu::LoadOp::Clear(empty))],
                 None,
-                None,
+                &oit_gpu::PassTimestamps::untimed(),
             );
         }
     }
@@ -402,14 +410,14 @@ impl Channels {
         label: &str,
         target: &wgpu::TextureView,
         control: &Control,
-        timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
+        timer_entry: &oit_gpu::PassTimestamps,
     ) {
         let mut pass = oit_gpu::pass::begin(
             encoder,
             label,
             &[oit_gpu::pass::color(target, wgpu::LoadOp::Load)],
             None,
-            timestamps,
+            timer_entry,
         );
         pass.set_bind_group(0, &self.group, &[]);
         pass.set_bind_group(1, &control.pass_group, &[0]);

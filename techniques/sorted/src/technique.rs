@@ -6,8 +6,9 @@ use oit_gpu::pass;
 use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, CullRule, GpuError, GpuScene, GpuTimer, MaterialSource, MemoryLedger,
-    PREMULTIPLIED_OVER, RenderStats, ScenePipelineDesc, ScenePipelines, SpecError, Targets,
-    Technique, TechniqueSpec, TransmissionSupport, Unsupported, depth_test,
+    PREMULTIPLIED_OVER, PassDraws, PassWork, RenderStats, ScenePipelineDesc, ScenePipelines,
+    SpecError, Targets, Technique, TechniqueSpec, TransmissionSupport, Unsupported, Work,
+    depth_test,
 };
 use std::collections::BTreeMap;
 use std::time::Instant;
@@ -397,7 +398,7 @@ impl Technique for Blended {
                     "transparent depth prepass",
                     &[],
                     load_depth(targets),
-                    ts.writes(),
+                    &ts,
                 );
                 scene.bind(&mut pass);
                 let depth_only = p.depth_only.as_ref().expect("prepass pipelines");
@@ -418,7 +419,7 @@ impl Technique for Blended {
                 self.kind.name(),
                 &[pass::color(&targets.color_view, wgpu::LoadOp::Load)],
                 load_depth(targets),
-                ts.writes(),
+                &ts,
             );
             scene.bind(&mut pass);
             match self.kind {
@@ -463,6 +464,30 @@ impl Technique for Blended {
         }
         timer.submit(ctx, encoder)?;
         Ok(stats)
+    }
+
+    fn work(&self, _caps: &oit_gpu::Caps, target: wgpu::TextureFormat) -> oit_gpu::Work {
+        use oit_gpu::work::{DEPTH_BYTES, blend};
+        let (dst_read, dst_written) = blend(target);
+        // Every blend pass: a depth test against the opaque depth (read, no write), and the
+        // premultiplied over into the final target (its texel read and written).
+        let blended = |name: &str, draws| {
+            PassWork::new(name, draws).bytes(DEPTH_BYTES + dst_read, dst_written)
+        };
+        Work::new(match self.kind {
+            Kind::Unsorted | Kind::SortedObject | Kind::SortedTriangle => {
+                vec![blended("blend", PassDraws::Transparent)]
+            }
+            // Back faces of double-sided draws first, then front faces: those draws twice.
+            Kind::CullSplit => vec![blended("blend", PassDraws::TransparentDoubleSidedTwice)],
+            Kind::DepthPrepass => vec![
+                // The nearest transparent depth: read and written per passing fragment.
+                PassWork::new("transparent depth prepass", PassDraws::Transparent)
+                    .bytes(DEPTH_BYTES, DEPTH_BYTES),
+                // Only the fragment equal to that depth passes, and blends.
+                blended("blend nearest layer", PassDraws::Transparent),
+            ],
+        })
     }
 
     fn memory_bytes(&self) -> u64 {

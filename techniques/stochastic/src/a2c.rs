@@ -248,7 +248,7 @@ impl Technique for AlphaToCoverage {
                     wgpu::LoadOp::Clear(scene.scene.camera.far_depth()),
                     wgpu::StoreOp::Store,
                 ),
-                ts.writes(),
+                &ts,
             );
             r.seed.draw(&mut pass, &seed_group);
         }
@@ -267,7 +267,7 @@ impl Technique for AlphaToCoverage {
                     },
                 })],
                 pass::depth(&r.depth_view, wgpu::LoadOp::Load, wgpu::StoreOp::Discard),
-                ts.writes(),
+                &ts,
             );
             scene.bind(&mut pass);
             for &i in self.order.of(scene) {
@@ -279,6 +279,27 @@ impl Technique for AlphaToCoverage {
             geometry_passes: 1,
             ..Default::default()
         })
+    }
+
+    fn work(&self, _caps: &oit_gpu::Caps, target: wgpu::TextureFormat) -> oit_gpu::Work {
+        use oit_gpu::work::{DEPTH_BYTES, PassDraws, PassWork, Work, texel_bytes};
+        // Occlusion queries count samples on the multisampled targets: every number here is
+        // per sample.
+        let samples = self.config.samples.count();
+        let texel = texel_bytes(target);
+        Work::new(vec![
+            // The opaque colour and depth loaded once per pixel (shared by its samples, the
+            // division rounds down at 8 samples) and written to every sample. The multisample
+            // resolve at the end of the "a2c" pass (S texels read, one written per pixel) is
+            // priced here, on the seed's W·H·S samples, because that pass's count holds only
+            // the scene's samples.
+            PassWork::new("a2c seed msaa", PassDraws::FullScreen).bytes(
+                (texel + DEPTH_BYTES) / samples + texel,
+                DEPTH_BYTES + texel + texel / samples,
+            ),
+            // A covered sample: depth test and write, colour written without blending.
+            PassWork::new("a2c", PassDraws::Transparent).bytes(DEPTH_BYTES, DEPTH_BYTES + texel),
+        ])
     }
 
     fn memory_bytes(&self) -> u64 {

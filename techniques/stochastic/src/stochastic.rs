@@ -558,23 +558,27 @@ impl Technique for Stochastic {
                 None => wgpu::LoadOp::Load,
             };
             let ts = timer.pass(name);
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some(name),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: color,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: load_store(load_color),
-                })],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: depth,
-                    depth_ops: Some(load_store(load_depth)),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: ts.writes(),
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            let mut pass = pass::begin_with(
+                encoder,
+                wgpu::RenderPassDescriptor {
+                    label: Some(name),
+                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                        view: color,
+                        depth_slice: None,
+                        resolve_target: None,
+                        ops: load_store(load_color),
+                    })],
+                    depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                        view: depth,
+                        depth_ops: Some(load_store(load_depth)),
+                        stencil_ops: None,
+                    }),
+                    timestamp_writes: None,
+                    occlusion_query_set: None,
+                    multiview_mask: None,
+                },
+                &ts,
+            );
             if let Some((seed, group)) = seed {
                 seed.draw(&mut pass, group);
             }
@@ -652,7 +656,7 @@ impl Technique for Stochastic {
                         ops: load_store(wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT)),
                     })],
                     None,
-                    ts.writes(),
+                    &ts,
                 );
                 pass.set_pipeline(pipeline);
                 let offset = (f.accumulate_stride * entry) as u32;
@@ -662,6 +666,34 @@ impl Technique for Stochastic {
             timer.submit(ctx, encoder)?;
         }
         Ok(stats)
+    }
+
+    fn work(&self, caps: &oit_gpu::Caps, target: wgpu::TextureFormat) -> oit_gpu::Work {
+        use oit_gpu::work::{DEPTH_BYTES, PassDraws, PassWork, Work, texel_bytes};
+        let texel = texel_bytes(target);
+        // A kept fragment (the dither discards the rest, uncounted): the depth test reads and
+        // the surviving fragment writes depth, and writes its colour without blending.
+        let dithered = |name: &str, numbered: bool| {
+            let p = if numbered {
+                PassWork::numbered(name, PassDraws::Transparent)
+            } else {
+                PassWork::new(name, PassDraws::Transparent)
+            };
+            p.bytes(DEPTH_BYTES, DEPTH_BYTES + texel)
+        };
+        let sum = texel_bytes(self.sum_format(caps));
+        Work::new(vec![
+            // One frame straight into the final targets (spp=1 on a scene without coloured
+            // transmission).
+            dithered("stochastic", false),
+            // Per frame (spp > 1, or coloured transmission): a seed draw copies the opaque colour and depth into the frame's
+            // targets first; its W·H samples are in this pass's count and priced as
+            // fragments (an overstatement of the seed's bytes, 2 × 4 + texel read and written).
+            dithered("stochastic frame ", true),
+            // Per pixel: the frame's colour and the running sum loaded, the new sum (or, last,
+            // the final texel) written without blending (the sum format stated for both).
+            PassWork::numbered("accumulate frame ", PassDraws::FullScreen).bytes(texel + sum, sum),
+        ])
     }
 
     fn memory_bytes(&self) -> u64 {

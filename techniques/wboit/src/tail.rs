@@ -518,6 +518,31 @@ fn out_max(format: wgpu::TextureFormat) -> f32 {
 /// The guarded full-screen composite of `accum` over `targets.color` (pass "wboit composite").
 /// Resets the guard counters, counts every guard that fires, and copies the counts for
 /// [`AccumTargets::guard_counts`].
+/// The composite's work per pixel (one full-screen triangle, pass "wboit composite"): the two
+/// accumulation texels loaded, the final target's texel read and written by the blend, and the
+/// guard counters' atomics: one per 2×2 block for the pixel count (¼) and one per covered
+/// pixel, stated as 1.25, an upper bound on the common path (the overflow and clamp counters
+/// add one more only on pixels that hit them).
+pub fn composite_work(
+    accum: AccumFormat,
+    reveal: RevealFormat,
+    target: wgpu::TextureFormat,
+) -> oit_gpu::PassWork {
+    use oit_gpu::work::{PassDraws, PassWork, texel_bytes};
+    let loads = texel_bytes(accum.texture_format()) + texel_bytes(reveal.texture_format());
+    PassWork::new("wboit composite", PassDraws::FullScreen)
+        .bytes(loads + texel_bytes(target), texel_bytes(target))
+        .atomics(1.25)
+}
+
+/// The accumulation's work per fragment: the depth test (read, no write) and the two additive
+/// blends, each reading and writing its target's texel.
+pub fn accumulate_work(name: &str, accum: AccumFormat, reveal: RevealFormat) -> oit_gpu::PassWork {
+    use oit_gpu::work::{DEPTH_BYTES, PassDraws, PassWork, texel_bytes};
+    let targets = texel_bytes(accum.texture_format()) + texel_bytes(reveal.texture_format());
+    PassWork::new(name, PassDraws::Transparent).bytes(DEPTH_BYTES + targets, targets)
+}
+
 pub fn composite(
     ctx: &Context,
     targets: &Targets,
@@ -552,7 +577,7 @@ pub fn composite(
         &targets.color_view,
         &pipeline,
         &[(&accum.bind_group, &[])],
-        ts.writes(),
+        &ts,
     );
     encoder.copy_buffer_to_buffer(
         &accum.guards,

@@ -401,7 +401,7 @@ impl Technique for Wboit {
                     wgpu::LoadOp::Load,
                     wgpu::StoreOp::Store,
                 ),
-                ts.writes(),
+                &ts,
             );
             scene.bind(&mut pass);
             pass.set_bind_group(1, group, &[]);
@@ -415,6 +415,16 @@ impl Technique for Wboit {
             geometry_passes: 1,
             ..Default::default()
         })
+    }
+
+    fn work(&self, _caps: &oit_gpu::Caps, target: wgpu::TextureFormat) -> oit_gpu::Work {
+        let (_, accum, reveal) = self.config.formats();
+        // On a scene with coloured transmission the accumulation also multiplies a third,
+        // modulated target (the final colour's format): not counted here.
+        oit_gpu::Work::new(vec![
+            tail::accumulate_work("wboit accumulate", accum, reveal),
+            tail::composite_work(accum, reveal, target),
+        ])
     }
 
     fn memory_bytes(&self) -> u64 {

@@ -275,7 +275,7 @@ fn timer_times_frames_beyond_one_query_set() {
                     oit_gpu::wgpu::LoadOp::Clear(oit_gpu::wgpu::Color::BLACK),
                 )],
                 None,
-                ts.writes(),
+                &ts,
             );
             timer.submit(&ctx, encoder).expect("submit");
         }

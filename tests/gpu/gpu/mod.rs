@@ -1,2 +1,3 @@
 mod context;
+mod occlusion;
 mod shaders;

@@ -1,5 +1,6 @@
 mod calibration;
 mod compare;
+mod counts;
 mod goldens;
 mod growth;
 mod material_forms;
