@@ -342,6 +342,7 @@ fn errors_serialize_with_the_results_schema_names() {
             "hdr",
             "hdr_flip_mean",
             "max_abs",
+            "max_relative",
             "mean_abs",
             "nonfinite",
             "over_1_255",
@@ -393,4 +394,19 @@ fn compare_gives_the_same_answer_on_many_threads() {
     for pair in sequential.windows(2) {
         assert!(pair[1].flip_mean > pair[0].flip_mean, "{pair:?}");
     }
+}
+
+/// `max_relative` divides each channel's error by its reference value above 1 and by 1 below:
+/// an error of 0.5 on a reference of 10 counts 0.05, on a reference of 0.25 counts 0.5.
+#[test]
+fn max_relative_is_relative_above_one_and_absolute_below() {
+    let reference = LinearImage::new(2, 1, [0.25, 10.0, 0.25, 1.0]);
+    let mut render = reference.clone();
+    render.pixels[0][1] = 10.5;
+    let e = compare(&render, &reference).unwrap();
+    assert_eq!(e.max_abs, 0.5);
+    assert!((e.max_relative - 0.05).abs() < 1e-9, "{}", e.max_relative);
+    render.pixels[1][0] = 0.75;
+    let e = compare(&render, &reference).unwrap();
+    assert!((e.max_relative - 0.5).abs() < 1e-9, "{}", e.max_relative);
 }

@@ -18,6 +18,24 @@ fn transmit(scene: &Scene, caps: &Caps) -> bool {
     scene.has_transmission() && caps.dual_source_blending
 }
 
+/// A per-pixel size: the fixed one, or for `auto` the deepest pixel's layer count, as the GPU
+/// count pass finds it; a run that `auto` refuses (deeper than `max`) is unmodelled.
+fn per_pixel<const MIN: u32, const MAX: u32>(
+    size: Sizing<oit_gpu::Bounded<MIN, MAX>>,
+    layers: u32,
+    max: u64,
+    name: &str,
+    whose: &str,
+) -> Result<usize, Prediction> {
+    match size {
+        Sizing::Fixed(n) => Ok(n.get() as usize),
+        Sizing::Auto if u64::from(layers) > max => Err(Prediction::unmodelled(format!(
+            "{name}=auto refuses the scene: its deepest pixel's {layers} layers are more than {whose} {max}"
+        ))),
+        Sizing::Auto => Ok(layers.max(1) as usize),
+    }
+}
+
 fn opacity(l: &Layer) -> [f32; 3] {
     l.transmittance.map(|t| 1.0 - t)
 }
@@ -31,15 +49,15 @@ pub(crate) fn predict_list(
     let transmit = transmit(scene, caps);
     let reverse_z = scene.camera.reverse_z;
     let layers = lists.max_layers();
-    // `sort-max=auto` takes the deepest pixel's count, as the GPU count pass finds it.
-    let window = match config.sort_max {
-        Sizing::Fixed(n) => n.get() as usize,
-        Sizing::Auto if u64::from(layers) > MAX_SORT => {
-            return Prediction::unmodelled(format!(
-                "sort-max=auto refuses the scene: its deepest pixel's {layers} layers are more than the window's {MAX_SORT}"
-            ));
-        }
-        Sizing::Auto => layers.max(1) as usize,
+    let window = match per_pixel(
+        config.sort_max,
+        layers,
+        MAX_SORT,
+        "sort-max",
+        "the window's",
+    ) {
+        Ok(n) => n,
+        Err(refused) => return refused,
     };
     let average = config.tail == TailRule::Average;
     let error = model_error(lists, |px| {
@@ -98,15 +116,9 @@ pub(crate) fn predict_kbuffer(
     let transmit = transmit(scene, caps);
     let reverse_z = scene.camera.reverse_z;
     let layers = lists.max_layers();
-    // `k=auto` takes the deepest pixel's count, as the GPU count pass finds it.
-    let k = match config.k {
-        Sizing::Fixed(k) => k.get() as usize,
-        Sizing::Auto if u64::from(layers) > MAX_K => {
-            return Prediction::unmodelled(format!(
-                "k=auto refuses the scene: its deepest pixel's {layers} layers are more than k's {MAX_K}"
-            ));
-        }
-        Sizing::Auto => layers.max(1) as usize,
+    let k = match per_pixel(config.k, layers, MAX_K, "k", "k's") {
+        Ok(n) => n,
+        Err(refused) => return refused,
     };
     let error = model_error(lists, |px| {
         let (c, t) = if transmit {
