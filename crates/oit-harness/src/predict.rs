@@ -56,7 +56,8 @@ pub fn record(prediction: &Prediction, run: &Run) -> Option<PredictionRecord> {
 }
 
 /// The lists for a comparison's predictions: `None` when predictions are off, or with a
-/// warning when the lists do not fit the scene's memory budget.
+/// warning when the lists do not fit the scene's memory budget (the reference's share of it,
+/// [`crate::MemoryPlan`]; the render and the lists share that, `render_lists`).
 pub(crate) fn lists_for(
     scene: &Scene,
     options: &crate::CompareOptions,
@@ -65,7 +66,13 @@ pub(crate) fn lists_for(
     if !options.predict {
         return None;
     }
-    match lists_of(scene, options.memory_budget) {
+    // The share of the scene's budget the reference's fragments get (the rest is one run's
+    // images, held beside the lists while the runs are made).
+    let budget = match crate::MemoryPlan::of(scene, options.memory_budget) {
+        Ok(plan) => plan.reference_bytes,
+        Err(_) => return None,
+    };
+    match lists_of(scene, budget) {
         Ok(lists) => Some(lists),
         Err(e) => {
             on_event(crate::Event::Warning(&format!(

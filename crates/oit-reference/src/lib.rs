@@ -324,7 +324,7 @@ pub enum ReferenceError {
         count: usize,
     },
     #[error(
-        "keeping every pixel's transparent list needs {} MiB, over the memory budget of {} MiB",
+        "keeping every pixel's transparent list needs {} MiB, over the {} MiB it may take (a quarter of the memory budget)",
         need.div_ceil(1 << 20),
         budget >> 20
     )]

@@ -84,8 +84,10 @@ pub struct ModelError {
     pub worst: Option<(u32, u32)>,
 }
 
-/// The reference of `scene` and its per-pixel lists. The lists are held in memory: refused
-/// with [`ReferenceError::ListsOverBudget`] when they would exceed `options.memory_budget`.
+/// The reference of `scene` and its per-pixel lists, together within `options.memory_budget`:
+/// the render takes half of it, the lists a quarter (they are held twice while they are put in
+/// frame order, so at most the other half). Refused with [`ReferenceError::ListsOverBudget`]
+/// when the lists need more than their quarter.
 pub fn render_lists(
     scene: &Scene,
     options: &ReferenceOptions,
@@ -94,6 +96,11 @@ pub fn render_lists(
     let pixels = res.pixel_count();
     let collected: Mutex<Vec<Rect>> = Mutex::new(Vec::new());
     let held = AtomicU64::new(0);
+    let lists_budget = options.memory_budget / 4;
+    let render_options = ReferenceOptions {
+        memory_budget: options.memory_budget / 2,
+        ..options.clone()
+    };
     let visit = |rect: &crate::RectFragments<'_>| {
         let n = rect.pixel_count();
         let mut counts = Vec::with_capacity(n);
@@ -116,7 +123,7 @@ pub fn render_lists(
         // Kept only while the lists fit the budget (counted as they arrive, so an
         // oversized scene stops holding them long before the render ends).
         let bytes = layers.len() as u64 * LAYER_BYTES + n as u64 * PIXEL_BYTES;
-        if held.fetch_add(bytes, Ordering::Relaxed) + bytes > options.memory_budget {
+        if held.fetch_add(bytes, Ordering::Relaxed) + bytes > lists_budget {
             return;
         }
         if let Ok(mut all) = collected.lock() {
@@ -130,12 +137,12 @@ pub fn render_lists(
             });
         }
     };
-    let reference = render_visiting(scene, options, &visit)?;
+    let reference = render_visiting(scene, &render_options, &visit)?;
     let need = held.into_inner();
-    if need > options.memory_budget {
+    if need > lists_budget {
         return Err(ReferenceError::ListsOverBudget {
             need,
-            budget: options.memory_budget,
+            budget: lists_budget,
         });
     }
     let rects = collected.into_inner().unwrap_or_else(|e| e.into_inner());
@@ -315,4 +322,52 @@ pub fn composite_back_to_front<'a>(
             .map(|c| f64::from(l.premultiplied[c]) + f64::from(l.transmittance[c]) * dst[c]);
     }
     dst
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The kept lists are the reference's: their exact composite is its image (to f32), their
+    /// fragments its composited count; a budget too small for them is refused, not clamped.
+    #[test]
+    fn lists_composite_to_the_reference_and_respect_their_budget() {
+        let mut refused = 0;
+        for seed in 0..6 {
+            let (text, _) = oit_scene::random::random_scene_json(seed);
+            let scene = oit_scene::parse(&text, "random").expect("random scene");
+            let (reference, lists) =
+                render_lists(&scene, &ReferenceOptions::default()).expect("lists fit");
+            assert_eq!(lists.fragment_count(), reference.stats.composited_fragments);
+            for p in 0..lists.pixel_count() {
+                let px = lists.pixel(p);
+                let rgb = composite(px.layers.iter(), px.behind);
+                let want = reference.image.pixels[p];
+                for c in 0..3 {
+                    let tol = 1e-5 * f64::from(want[c].abs()).max(1.0);
+                    assert!(
+                        (rgb[c] - f64::from(want[c])).abs() <= tol,
+                        "seed {seed} pixel {p}: {rgb:?} against {want:?}"
+                    );
+                }
+            }
+            // A budget whose quarter is one byte short of what these lists hold.
+            let need =
+                lists.fragment_count() * LAYER_BYTES + lists.pixel_count() as u64 * PIXEL_BYTES;
+            let short = ReferenceOptions {
+                memory_budget: 4 * need - 4,
+                ..Default::default()
+            };
+            match render_lists(&scene, &short).map(|_| ()) {
+                Err(ReferenceError::ListsOverBudget { need: n, budget }) => {
+                    assert_eq!((n, budget), (need, need - 1), "seed {seed}");
+                    refused += 1;
+                }
+                // The render's own minimum can refuse first, as clearly.
+                Err(ReferenceError::MemoryBudget { .. }) => {}
+                other => panic!("seed {seed}: {other:?}"),
+            }
+        }
+        assert!(refused > 0, "no seed reached the lists' own refusal");
+    }
 }
