@@ -16,6 +16,7 @@ use oit_scene::{Resolution, Scene};
 mod analyze;
 mod cost_model;
 mod growth;
+mod notes;
 mod recommend;
 mod scenes;
 
@@ -465,13 +466,18 @@ fn run(command: Command) -> Result<()> {
             load,
         } => {
             load.check(std::slice::from_ref(&scene))?;
-            for frame in frame_outputs(
+            let frames = frame_outputs(
                 &scene,
                 resolution,
                 animation_frames,
                 output,
                 &load.options(),
-            )? {
+            )?;
+            // Every frame is the same asset: its notes once.
+            if let Some(first) = frames.first() {
+                notes::print_scene(&first.scene);
+            }
+            for frame in frames {
                 reference(frame, mib(memory_budget))?;
             }
             Ok(())
@@ -816,6 +822,9 @@ fn render(frames: Vec<FrameOutput>, spec: &str, gpu: &GpuArgs) -> Result<()> {
     }
     let ctx = oit_harness::open_context(&gpu.options())?;
     print_adapter(&ctx);
+    if let Some((scene, _, _)) = planned.first() {
+        notes::print_scene(scene);
+    }
     for (scene, output, png) in planned {
         // One call with no steps to count: a spinner with the time so far (a deep peel can
         // take minutes on a CPU adapter).

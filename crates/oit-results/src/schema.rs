@@ -139,10 +139,18 @@ impl SceneJson {
                 mib(self.scene_bytes)
             )
         }];
-        out.extend((self.credits.iter()).map(|c| format!("Credits: {}", c.trim_end_matches('.'))));
-        out.extend(self.ignored.iter().map(|i| format!("Not modelled: {i}")));
+        out.extend(note_lines(&self.credits, &self.ignored));
         out
     }
+}
+
+/// A scene's credit lines and what its loader read but does not model, as every command that
+/// renders prints them (`Credits: …`, `Not modelled: …`).
+pub fn note_lines(credits: &[String], ignored: &[String]) -> Vec<String> {
+    (credits.iter())
+        .map(|c| format!("Credits: {}", c.trim_end_matches('.')))
+        .chain(ignored.iter().map(|i| format!("Not modelled: {i}")))
+        .collect()
 }
 
 /// The floor of one scene in this run.
