@@ -1,8 +1,8 @@
 //! Writes a seeded .glb of a Sponza-class load, for measuring oit-lab at the size real content
 //! has: about 300 000 triangles in 60 primitives, 60 PNG textures of 1024² and 2048² (most
-//! opaque architecture, 16 alpha-tested foliage atlases on MASK cards, 4 BLEND glass panes of
-//! which 2 use KHR_materials_transmission). An opaque courtyard (a ground grid, columns, arches)
-//! with foliage cards hanging in front of it and glass between the columns.
+//! opaque architecture, 16 alpha-tested foliage atlases on MASK cards, 4 BLEND glass materials of
+//! which 2 use KHR_materials_transmission). An opaque courtyard (a ground grid, two rows of
+//! columns) with foliage cards hanging in front of the columns and glass panes down its middle.
 //!
 //! `cargo run -p oit-tools --bin scale_scene -- OUT.glb [--seed N] [--texture-scale S]`
 //! (`--texture-scale 64` divides every texture side by 64, for quick runs). The same seed and
@@ -126,17 +126,21 @@ fn geometry(rng: &mut Rng) -> Vec<Mesh> {
             1.0,
         );
     }
-    // Glass: 4 materials, each 64 panes between the columns (512 triangles in all).
+    // Glass: 4 materials, each 256 panes facing the camera down the courtyard's middle, in
+    // depth behind one another (2 048 triangles in all).
     for g in 0..GLASS {
-        for p in 0..64 {
-            let x = if p % 2 == 0 { -5.2 } else { 5.2 };
-            let z = (p / 2) as f32 * 1.2 - 19.0 + 0.3 * g as f32 - 0.45;
+        for _ in 0..256 {
+            let (x, y, z) = (
+                rng.range(-3.5, 3.5),
+                rng.range(0.3, 3.0),
+                rng.range(-18.0, 18.0),
+            );
             meshes[OPAQUE + FOLIAGE + g].quad(
                 [
-                    [x, 1.0, z],
-                    [x, 1.0, z + 0.25],
-                    [x, 4.0, z + 0.25],
-                    [x, 4.0, z],
+                    [x - 0.5, y, z],
+                    [x + 0.5, y, z],
+                    [x + 0.5, y + 1.2, z],
+                    [x - 0.5, y + 1.2, z],
                 ],
                 1.0,
             );
@@ -357,7 +361,7 @@ mod tests {
             "the same seed must give the same bytes"
         );
         assert_ne!(scale_scene(8, 64).unwrap().0, a);
-        assert_eq!(info.triangles, 51_200 + 147_456 + 100_000 + 512);
+        assert_eq!(info.triangles, 51_200 + 147_456 + 100_000 + 2_048);
         assert_eq!(info.textures, 60);
         assert!(
             info.sides.iter().all(|&s| s == 16 || s == 32),
