@@ -1119,28 +1119,22 @@ struct TextureCache {
 impl TextureCache {
     /// Image `i` decoded (once per asset).
     fn image(&mut self, asset: &Asset, i: usize) -> Result<&gltf::image::Data> {
-        if !self.images.contains_key(&i) {
-            let Some(img) = asset.doc.images().nth(i) else {
-                return Err(asset.cx.err(
-                    format!("/images/{i}"),
-                    Problem::NoSuchItem {
-                        index: i,
-                        count: asset.doc.images().len(),
-                    },
-                ));
-            };
-            let decoded = image::decode(&asset.cx, &img, &asset.base, &asset.buffers)?;
-            self.images.insert(i, decoded);
+        match self.images.entry(i) {
+            std::collections::hash_map::Entry::Occupied(e) => Ok(e.into_mut()),
+            std::collections::hash_map::Entry::Vacant(e) => {
+                let Some(img) = asset.doc.images().nth(i) else {
+                    return Err(asset.cx.err(
+                        format!("/images/{i}"),
+                        Problem::NoSuchItem {
+                            index: i,
+                            count: asset.doc.images().len(),
+                        },
+                    ));
+                };
+                let decoded = image::decode(&asset.cx, &img, &asset.base, &asset.buffers)?;
+                Ok(e.insert(decoded))
+            }
         }
-        self.images.get(&i).ok_or_else(|| {
-            asset.cx.err(
-                format!("/images/{i}"),
-                Problem::NoSuchItem {
-                    index: i,
-                    count: asset.doc.images().len(),
-                },
-            )
-        })
     }
 
     fn get(&mut self, asset: &Asset, key: (usize, Wrap, Wrap), scene: &mut Scene) -> Result<u32> {
