@@ -31,7 +31,11 @@ fn files(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
     let mut out = Vec::new();
     for p in paths {
         if p.is_dir() {
-            out.extend(oit_scene::scene_files(p)?);
+            let (scenes, skipped) = oit_harness::scene_files::scene_files(p)?;
+            for s in &skipped {
+                eprintln!("note: {}", s.note());
+            }
+            out.extend(scenes);
         } else {
             out.push(p.clone());
         }
