@@ -119,6 +119,10 @@ pub struct SceneJson {
     /// What the loader read but does not model (e.g. glTF extensions), one line each.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub ignored: Vec<String>,
+    /// Peak resident memory of the comparison's process while this scene ran (reference,
+    /// uploads, every run, motion), in bytes; absent off Linux and in older files.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub peak_memory_bytes: Option<u64>,
 }
 
 impl SceneJson {
@@ -139,6 +143,12 @@ impl SceneJson {
                 mib(self.scene_bytes)
             )
         }];
+        if let Some(peak) = self.peak_memory_bytes {
+            out.push(format!(
+                "Peak memory: {:.0} MiB resident while this scene ran (reference, uploads and every run)",
+                mib(peak)
+            ));
+        }
         out.extend(note_lines(&self.credits, &self.ignored));
         out
     }
