@@ -307,6 +307,10 @@ pub fn load_scenes_noting(
     Ok((out, skipped))
 }
 
+/// What [`load_scenes_lenient`] found: the scenes that loaded, the scene files that did not,
+/// and the JSON files of the folders that are not scenes.
+pub type LenientScenes = (Vec<SceneEntry>, Vec<Unloadable>, Vec<SkippedFile>);
+
 /// Like [`load_scenes_noting`], but a scene file that fails to load is returned as
 /// [`Unloadable`] instead of ending the load: one bad scene never ends a comparison. A path
 /// that does not exist, or a folder that cannot be listed, is still an error (a typo on the
@@ -315,7 +319,7 @@ pub fn load_scenes_noting(
 pub fn load_scenes_lenient(
     paths: &[PathBuf],
     options: &oit_scene::LoadOptions,
-) -> Result<(Vec<SceneEntry>, Vec<Unloadable>, Vec<SkippedFile>), HarnessError> {
+) -> Result<LenientScenes, HarnessError> {
     let mut files = Vec::new();
     let mut skipped = Vec::new();
     for path in paths {
