@@ -494,6 +494,10 @@ pub(crate) fn render_with(
     let ctx = raster::TileContext {
         triangles: &triangles,
         textures: &scene.textures,
+        lighting: raster::Lighting {
+            rig: &scene.lights,
+            eye: scene.camera.eye.to_array(),
+        },
         planes: &plane_depths,
         reverse_z: scene.camera.reverse_z,
         background: scene.background.map(f64::from),
@@ -727,6 +731,8 @@ pub(crate) fn set_up(scene: &Scene) -> Result<(raster::SetUp, u64), ReferenceErr
                         scene.camera.clip(glam::Vec3::from(v.position)),
                         v.color,
                         v.uv,
+                        v.position,
+                        v.normal,
                     )
                 });
                 let p = glam::Vec3::from(scene.vertices[v0].position).as_dvec3();

@@ -34,6 +34,7 @@ pub use keys::PRECISION_TIE_ULPS;
 pub(crate) use keys::*;
 pub(crate) use scratch::*;
 use shading::*;
+pub(crate) use shading::Lighting;
 use sort::*;
 pub(crate) use spans::*;
 pub(crate) use tiles::*;
