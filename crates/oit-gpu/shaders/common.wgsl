@@ -8,6 +8,8 @@
 struct Camera {
     // Column-major, exactly `scene.camera.view_proj`.
     view_proj: mat4x4<f32>,
+    // The eye and the lights of lit materials (shaders/lighting.wgsl).
+    lights: Lights,
 }
 
 // Set per pipeline by `oit_gpu::ScenePipelines` (false for untextured materials): a constant,

@@ -26,7 +26,9 @@ struct Light {
     pad2: u32,
 }
 
-// The scene's `LightRig` and the camera eye (binding 4 of group 0).
+// The scene's `LightRig` and the camera eye: `Camera::lights` (common.wgsl), in the camera
+// uniform after the matrix. A uniform of its own (group 0 binding 4) crashed lavapipe's
+// dual-peel passes (2026-12-07), so it shares the camera's binding.
 struct Lights {
     eye: vec3<f32>,
     count: u32,
@@ -34,8 +36,6 @@ struct Lights {
     pad: u32,
     lights: array<Light, MAX_LIGHTS>,
 }
-
-@group(0) @binding(4) var<uniform> lights: Lights;
 
 // Set per pipeline by `oit_gpu::ScenePipelines`: true only for lit materials, so unlit
 // pipelines compile the lighting (and the reads of the world position and normal) out.
@@ -113,7 +113,7 @@ fn reflect_lights(
     normal: vec3<f32>,
 ) -> Reflected {
     let n = unit(normal);
-    let v = unit(lights.eye - position);
+    let v = unit(camera.lights.eye - position);
     let m = metallic;
     let c_diff = albedo * (1.0 - m);
     let f0 = vec3<f32>(0.04) + (albedo - vec3<f32>(0.04)) * m;
@@ -121,10 +121,10 @@ fn reflect_lights(
     let a2 = a * a;
     let n_v = max(dot3(n, v), 0.0);
     let vis_v = n_v + sqrt(a2 + (1.0 - a2) * (n_v * n_v));
-    var diffuse = lights.ambient;
+    var diffuse = camera.lights.ambient;
     var specular = vec3<f32>(0.0);
-    for (var i = 0u; i < min(lights.count, MAX_LIGHTS); i++) {
-        let inc = incidence(lights.lights[i], position);
+    for (var i = 0u; i < min(camera.lights.count, MAX_LIGHTS); i++) {
+        let inc = incidence(camera.lights.lights[i], position);
         let l = inc.to_light;
         let n_l = max(dot3(n, l), 0.0);
         if n_l > 0.0 && all_finite(inc.radiance) {

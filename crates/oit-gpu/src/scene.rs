@@ -14,9 +14,12 @@ use wgpu::util::DeviceExt;
 pub const VERTEX_STRIDE: u64 = 52;
 /// Bytes per entry of the material table (matches `struct Material` in shaders/common.wgsl).
 pub const MATERIAL_STRIDE: usize = 96;
-/// Bytes of the lights uniform (`struct Lights` in shaders/lighting.wgsl): eye, count,
-/// ambient and [`oit_scene::MAX_LIGHTS`] lights of 64 bytes.
+/// Bytes of the lights (`struct Lights` in shaders/lighting.wgsl): eye, count, ambient and
+/// [`oit_scene::MAX_LIGHTS`] lights of 64 bytes, after the matrix in the camera uniform.
 pub const LIGHTS_BYTES: u64 = 32 + 64 * oit_scene::MAX_LIGHTS as u64;
+/// Bytes of the camera uniform (`struct Camera` in shaders/common.wgsl): the view-projection
+/// matrix and the lights.
+pub const CAMERA_BYTES: u64 = 64 + LIGHTS_BYTES;
 /// Distance between two materials in the per-draw uniform buffer
 /// ([`GpuScene::draw_materials`]): 256, the largest dynamic-offset alignment WebGPU allows, so
 /// it is valid on every adapter.
@@ -54,7 +57,10 @@ pub(crate) fn create_scene_layout(device: &wgpu::Device) -> wgpu::BindGroupLayou
         entries: &[
             // The camera's view-projection matrix, one material at least. Pipelines for draw
             // calls that mix materials read the table per vertex and pass it on flat.
-            bind::min_size(bind::uniform(0, wgpu::ShaderStages::VERTEX_FRAGMENT), 64),
+            bind::min_size(
+                bind::uniform(0, wgpu::ShaderStages::VERTEX_FRAGMENT),
+                CAMERA_BYTES,
+            ),
             bind::min_size(
                 bind::storage(1, wgpu::ShaderStages::VERTEX, true),
                 MATERIAL_STRIDE as u64,
@@ -66,11 +72,6 @@ pub(crate) fn create_scene_layout(device: &wgpu::Device) -> wgpu::BindGroupLayou
             ),
             // The draw's material, a uniform at its dynamic offset ([`GpuScene::use_draw`]).
             bind::dynamic_uniform(3, wgpu::ShaderStages::FRAGMENT, MATERIAL_STRIDE as u64),
-            // The lights and the eye of lit materials (shaders/lighting.wgsl `lights`).
-            bind::min_size(
-                bind::uniform(4, wgpu::ShaderStages::FRAGMENT),
-                LIGHTS_BYTES,
-            ),
         ],
     })
 }
@@ -178,7 +179,10 @@ fn material_words(m: &Material, scene: &Scene, offsets: &[u32]) -> [u32; 24] {
     ]
 }
 
-const _: () = assert!(MATERIAL_STRIDE == 24 * 4, "material_words fills one table entry");
+const _: () = assert!(
+    MATERIAL_STRIDE == 24 * 4,
+    "material_words fills one table entry"
+);
 
 /// Checks what the loader guarantees but a hand-built scene may break: texture indices in
 /// range, texel arrays matching their sizes, the texel store addressable with u32 offsets.
@@ -233,8 +237,7 @@ impl SceneBytes {
         SceneBytes {
             vertices: scene.vertices.len().max(1) as u64 * VERTEX_STRIDE,
             materials: scene.materials.len().max(1) as u64
-                * (MATERIAL_STRIDE as u64 + MATERIAL_UNIFORM_STRIDE)
-                + LIGHTS_BYTES,
+                * (MATERIAL_STRIDE as u64 + MATERIAL_UNIFORM_STRIDE),
             textures: texels.max(1) * TEXEL_BYTES,
         }
     }
@@ -340,9 +343,14 @@ impl GpuScene {
             contents: bytemuck::cast_slice(&words),
             usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::STORAGE,
         });
+        // The matrix, then the lights (`struct Camera` of shaders/common.wgsl).
+        let mut camera_words: Vec<u32> = (scene.camera.view_proj.to_cols_array())
+            .map(f32::to_bits)
+            .to_vec();
+        camera_words.extend(light_words(scene)?);
         let camera = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("camera"),
-            contents: bytemuck::cast_slice(&scene.camera.view_proj.to_cols_array()),
+            contents: bytemuck::cast_slice(&camera_words),
             usage: wgpu::BufferUsages::UNIFORM,
         });
         let texel_count = check_textures(scene)?;
@@ -409,11 +417,6 @@ impl GpuScene {
             contents: bytemuck::cast_slice(&texel_words),
             usage: wgpu::BufferUsages::STORAGE,
         });
-        let lights = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("lights"),
-            contents: bytemuck::cast_slice(&light_words(scene)?),
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("scene"),
             layout: ctx.scene_layout(),
@@ -437,10 +440,6 @@ impl GpuScene {
                         offset: 0,
                         size: wgpu::BufferSize::new(MATERIAL_STRIDE as u64),
                     }),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 4,
-                    resource: lights.as_entire_binding(),
                 },
             ],
         });
@@ -662,6 +661,9 @@ pub fn depth_test(compare: wgpu::CompareFunction, write: bool) -> wgpu::DepthSte
 ///   behind a uniform branch);
 /// * override `MAY_DISCARD`: false where no fragment can be discarded (no cutoff, and back
 ///   faces culled or drawn), so the rasterizer may test depth before shading;
+/// * override `LIT` of shaders/lighting.wgsl: true only for lit materials
+///   ([`Material::is_lit`]), so unlit draws never run (or pay for) the lighting loop, and the
+///   world position and normal varyings their fragment stage does not read are dropped;
 /// * the material read per vertex or per draw ([`MaterialSource`],
 ///   [`GpuScene::reads_material_per_draw`]), from the module or its per-draw form.
 ///

@@ -26,8 +26,8 @@ pub use error::{Problem, SceneError};
 pub use format::{DEFAULT_RESOLUTION, MAX_TRIANGLES};
 pub use gltf::{GLTF_BACKGROUND, GLTF_FPS, MAX_TEXELS};
 pub use lighting::{
-    LightKind, LightRig, MAX_LIGHTS, MIN_GGX_ALPHA, PunctualLight, Reflectance, Reflected, Specular,
-    SurfacePoint, reflect_lights,
+    LightKind, LightRig, MAX_LIGHTS, MIN_GGX_ALPHA, PunctualLight, Reflectance, Reflected,
+    Specular, SurfacePoint, reflect_lights,
 };
 pub use load::{
     LoadOptions, is_gltf_path, load, load_dir, load_dir_with, load_frames, load_with,

@@ -390,6 +390,10 @@ mod tests {
         let c20 = 20f32.to_radians().cos();
         let ramp = (c20 - 30f32.to_radians().cos())
             / (10f32.to_radians().cos() - 30f32.to_radians().cos());
-        assert!(close(at_angle(20.0), ramp * ramp, 1e-3), "{}", at_angle(20.0));
+        assert!(
+            close(at_angle(20.0), ramp * ramp, 1e-3),
+            "{}",
+            at_angle(20.0)
+        );
     }
 }

@@ -11,8 +11,7 @@ use crate::animation::Frames;
 use crate::error::{Problem, SceneError};
 use crate::format::{
     DEFAULT_FOV_Y, GltfMeshRef, MAX_TRIANGLES, MESH_KINDS, RawCamera, RawGltfLighting, RawLighting,
-    RawMaterial,
-    RawMesh, RawObject, RawScene, RawTransform, ScatterMesh,
+    RawMaterial, RawMesh, RawObject, RawScene, RawTransform, ScatterMesh,
 };
 use crate::gltf::{Asset, GltfLighting, Nodes, Placement};
 use crate::mesh::{self, Facing, Geometry};

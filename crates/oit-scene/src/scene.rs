@@ -347,7 +347,11 @@ impl Material {
                 let premultiplied = if self.premultiplied {
                     [c[0] + s[0], c[1] + s[1], c[2] + s[2]]
                 } else if kept {
-                    [alpha * c[0] + s[0], alpha * c[1] + s[1], alpha * c[2] + s[2]]
+                    [
+                        alpha * c[0] + s[0],
+                        alpha * c[1] + s[1],
+                        alpha * c[2] + s[2],
+                    ]
                 } else {
                     [
                         alpha * (c[0] + s[0]),

@@ -18,8 +18,7 @@ struct Scratch(PathBuf);
 
 impl Scratch {
     fn new(tag: &str) -> Self {
-        let dir =
-            std::env::temp_dir().join(format!("oit-gltf-light-{}-{tag}", std::process::id()));
+        let dir = std::env::temp_dir().join(format!("oit-gltf-light-{}-{tag}", std::process::id()));
         std::fs::create_dir_all(dir.join("models")).unwrap();
         Scratch(dir)
     }
@@ -98,7 +97,10 @@ fn punctual_lights_are_read_in_world_space() {
     assert_eq!(l[0].radiance, [2.0, 1.0, 0.5]);
     // −Z rotated +90° about x points along +y.
     let d = l[0].direction;
-    assert!((d[1] - 1.0).abs() < 1e-6 && d[0].abs() < 1e-6 && d[2].abs() < 1e-6, "{d:?}");
+    assert!(
+        (d[1] - 1.0).abs() < 1e-6 && d[0].abs() < 1e-6 && d[2].abs() < 1e-6,
+        "{d:?}"
+    );
     assert_eq!(l[1].kind, LightKind::Point);
     assert_eq!((l[1].position, l[1].range), ([1.0, 2.0, 3.0], 10.0));
     assert_eq!(l[1].radiance, [3.0; 3]);
@@ -135,7 +137,11 @@ fn without_lights_the_default_rig_and_unlit_materials_stay_unlit() {
     let path = dir.write("unlit.gltf", unlit.as_bytes());
     let s = oit_scene::load(&path).unwrap();
     assert!(!s.materials[0].is_lit());
-    assert!(s.ignored.iter().all(|l| !l.contains("unlit")), "{:?}", s.ignored);
+    assert!(
+        s.ignored.iter().all(|l| !l.contains("unlit")),
+        "{:?}",
+        s.ignored
+    );
 }
 
 #[test]
@@ -147,7 +153,10 @@ fn light_errors_name_the_field() {
     let path = dir.write("nine.gltf", asset(json!({}), &nine).as_bytes());
     match oit_scene::load(&path) {
         Err(SceneError::Invalid { path, problem, .. }) => {
-            assert!(path.contains("/extensions/KHR_lights_punctual/lights/8"), "{path}");
+            assert!(
+                path.contains("/extensions/KHR_lights_punctual/lights/8"),
+                "{path}"
+            );
             assert!(problem.to_string().contains("at most 8"), "{problem}");
         }
         other => panic!("expected a light count error, got {other:?}"),
@@ -302,20 +311,17 @@ fn kept_specular_adds_what_faded_scales_by_alpha() {
     let rgba = [1.0, 1.0, 1.0, 1.0];
     let parts = oit_scene::reflect_lights([0.6, 0.3, 0.9], &m.reflectance.unwrap(), &rig, &point);
     assert!(parts.specular.iter().all(|&s| s > 1e-3), "{parts:?}");
-    let premultiplied = |mat: &Material| match mat.shade_lit(
-        rgba,
-        Texels::UNTEXTURED,
-        Some((&rig, &point)),
-    ) {
-        Shaded::Transparent {
-            premultiplied,
-            alpha,
-        } => {
-            assert_eq!(alpha, 0.25);
-            premultiplied
-        }
-        other => panic!("{other:?}"),
-    };
+    let premultiplied =
+        |mat: &Material| match mat.shade_lit(rgba, Texels::UNTEXTURED, Some((&rig, &point))) {
+            Shaded::Transparent {
+                premultiplied,
+                alpha,
+            } => {
+                assert_eq!(alpha, 0.25);
+                premultiplied
+            }
+            other => panic!("{other:?}"),
+        };
     let (f, k) = (premultiplied(&m), premultiplied(&kept));
     for c in 0..3 {
         let difference = f64::from(k[c]) - f64::from(f[c]);

@@ -3,6 +3,7 @@ mod compare;
 mod counts;
 mod goldens;
 mod growth;
+mod lighting;
 mod material_forms;
 mod motion;
 mod predictions;

@@ -419,13 +419,9 @@ pub(super) fn shade_lit<const N: usize>(
         let texels = material.texels(textures, uv);
         let open = tri.cutoff_rounds
             && match material.base_texture {
-                Some(t) => undecided_textured(
-                    material,
-                    &textures[t as usize],
-                    rgba[3],
-                    texels.base[3],
-                    uv,
-                ),
+                Some(t) => {
+                    undecided_textured(material, &textures[t as usize], rgba[3], texels.base[3], uv)
+                }
                 None => undecided(material, rgba[3]),
             };
         (texels, open)

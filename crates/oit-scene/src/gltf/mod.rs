@@ -29,8 +29,8 @@ use gltf::mesh::Mode;
 
 use crate::error::{Problem, SceneError};
 use crate::format::{DEFAULT_RESOLUTION, MAX_TRIANGLES};
-use crate::load::{Light, LoadOptions};
 use crate::lighting::{LightKind, PunctualLight, Reflectance, Specular};
+use crate::load::{Light, LoadOptions};
 use crate::scene::{AlphaMode, Camera, Draw, Material, Projection, Scene, Vertex};
 use crate::texture::{MAX_UV, Texture, Wrap};
 
@@ -1091,7 +1091,11 @@ impl Asset {
                     }
                     None => face,
                 };
-                let normal = if normal.is_finite() { normal } else { Vec3::ZERO };
+                let normal = if normal.is_finite() {
+                    normal
+                } else {
+                    Vec3::ZERO
+                };
                 if let Some(l) = placement.light {
                     let lit = l.ambient + l.color * normal.dot(l.to_light).max(0.0);
                     color = (color.truncate() * lit).extend(color.w);
