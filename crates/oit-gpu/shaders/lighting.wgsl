@@ -53,8 +53,8 @@ fn dot3(a: vec3<f32>, b: vec3<f32>) -> f32 {
     return a.x * b.x + a.y * b.y + a.z * b.z;
 }
 
-// `a / |a|` by a square root and a division; zero stays zero (`unit` in lighting.rs).
-fn unit(a: vec3<f32>) -> vec3<f32> {
+// `a / |a|` by a square root and a division; zero stays zero (`unit_vector` in lighting.rs).
+fn unit_vector(a: vec3<f32>) -> vec3<f32> {
     let len2 = dot3(a, a);
     if len2 > 0.0 {
         let len = sqrt(len2);
@@ -112,8 +112,8 @@ fn reflect_lights(
     position: vec3<f32>,
     normal: vec3<f32>,
 ) -> Reflected {
-    let n = unit(normal);
-    let v = unit(camera.lights.eye - position);
+    let n = unit_vector(normal);
+    let v = unit_vector(camera.lights.eye - position);
     let m = metallic;
     let c_diff = albedo * (1.0 - m);
     let f0 = vec3<f32>(0.04) + (albedo - vec3<f32>(0.04)) * m;
@@ -128,7 +128,7 @@ fn reflect_lights(
         let l = inc.to_light;
         let n_l = max(dot3(n, l), 0.0);
         if n_l > 0.0 && all_finite(inc.radiance) {
-            let h = unit(l + v);
+            let h = unit_vector(l + v);
             let n_h = max(dot3(n, h), 0.0);
             let v_h = max(dot3(v, h), 0.0);
             let k = 1.0 - v_h;

@@ -197,9 +197,9 @@ fn scale(a: V3, s: f32) -> V3 {
     [a[0] * s, a[1] * s, a[2] * s]
 }
 
-/// `a / |a|` by a square root and a division (the shader's `unit`); zero stays zero.
+/// `a / |a|` by a square root and a division (the shader's `unit_vector`); zero stays zero.
 #[inline(always)]
-fn unit(a: V3) -> V3 {
+fn unit_vector(a: V3) -> V3 {
     let len2 = dot(a, a);
     if len2 > 0.0 {
         let len = len2.sqrt();
@@ -238,8 +238,8 @@ pub fn incidence(l: &PunctualLight, p: V3) -> (V3, V3) {
 /// base colour × base texel). Zero-length normals (or points at a point light) get ambient only.
 #[inline(always)]
 pub fn reflect_lights(albedo: V3, r: &Reflectance, rig: &LightRig, s: &SurfacePoint) -> Reflected {
-    let n = unit(s.normal);
-    let v = unit(sub(s.eye, s.position));
+    let n = unit_vector(s.normal);
+    let v = unit_vector(sub(s.eye, s.position));
     let m = r.metallic;
     let c_diff = scale(albedo, 1.0 - m);
     let f0 = [
@@ -257,7 +257,7 @@ pub fn reflect_lights(albedo: V3, r: &Reflectance, rig: &LightRig, s: &SurfacePo
         let (l, radiance) = incidence(light, s.position);
         let n_l = dot(n, l).max(0.0);
         if n_l > 0.0 && radiance.iter().all(|c| c.is_finite()) {
-            let h = unit([l[0] + v[0], l[1] + v[1], l[2] + v[2]]);
+            let h = unit_vector([l[0] + v[0], l[1] + v[1], l[2] + v[2]]);
             let n_h = dot(n, h).max(0.0);
             let v_h = dot(v, h).max(0.0);
             let k = 1.0 - v_h;
