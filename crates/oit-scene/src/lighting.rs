@@ -229,7 +229,7 @@ pub fn incidence(l: &PunctualLight, p: V3) -> (V3, V3) {
     if l.kind == LightKind::Spot {
         let cd = -dot(l.direction, to_light);
         let cone = (cd * l.cone_scale + l.cone_offset).clamp(0.0, 1.0);
-        attenuation = attenuation * (cone * cone);
+        attenuation *= cone * cone;
     }
     (to_light, scale(l.radiance, attenuation))
 }

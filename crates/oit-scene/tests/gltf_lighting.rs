@@ -67,7 +67,7 @@ fn punctual_lights_are_read_in_world_space() {
         &[
             (
                 json!({"type": "directional", "color": [1, 0.5, 0.25], "intensity": 2}),
-                json!({"rotation": [0.7071068, 0, 0, 0.7071068]}),
+                json!({"rotation": [std::f32::consts::FRAC_1_SQRT_2, 0, 0, std::f32::consts::FRAC_1_SQRT_2]}),
             ),
             (
                 json!({"type": "point", "intensity": 3, "range": 10}),

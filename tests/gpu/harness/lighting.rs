@@ -121,7 +121,7 @@ fn lit_random_scenes_stay_exact() {
             m.reflectance = Some(Reflectance {
                 metallic: k as f32 / 6.0,
                 roughness: 0.15 + 0.12 * k as f32,
-                specular: if k % 2 == 0 {
+                specular: if k.is_multiple_of(2) {
                     Specular::Faded
                 } else {
                     Specular::Kept

@@ -828,9 +828,10 @@ impl Asset {
                     outer_cone_angle,
                 } => {
                     let quarter = std::f32::consts::FRAC_PI_2;
-                    if !(0.0..quarter).contains(&inner_cone_angle)
-                        || !(inner_cone_angle < outer_cone_angle && outer_cone_angle <= quarter)
-                    {
+                    let ordered = (0.0..quarter).contains(&inner_cone_angle)
+                        && inner_cone_angle < outer_cone_angle
+                        && outer_cone_angle <= quarter;
+                    if !ordered {
                         return Err(self.cx.bad(
                             format!("{lp}/spot"),
                             "spot cone angles (inner, outer)",
