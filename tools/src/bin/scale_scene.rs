@@ -246,7 +246,11 @@ pub fn scale_scene(seed: u64, texture_scale: u32) -> Result<(Vec<u8>, ScaleScene
     let mut materials = Vec::new();
     let mut sides = Vec::new();
     for t in 0..meshes.len() {
-        let side = (if rng.next().is_multiple_of(2) { 1024 } else { 2048 }) / texture_scale;
+        let side = (if rng.next().is_multiple_of(2) {
+            1024
+        } else {
+            2048
+        }) / texture_scale;
         sides.push(side);
         let png = texture(t, side, &mut rng)?;
         images.push(json!({"bufferView": view(&mut bin, &png), "mimeType": "image/png"}));

@@ -413,8 +413,7 @@ impl Asset {
         let mut notes = MaterialNotes::default();
         let mut uv_transforms = Vec::new();
         for m in self.doc.materials() {
-            let (material, uv) =
-                self.material(&m, scene, &mut textures, &mut notes, lighting)?;
+            let (material, uv) = self.material(&m, scene, &mut textures, &mut notes, lighting)?;
             scene.materials.push(material);
             uv_transforms.push(uv);
         }
@@ -689,7 +688,7 @@ impl Asset {
             }
         }
         notes::unread_properties(m, &label, metallic_texture_read, notes);
-        let reflectance = self.reflectance(m, &mp, &label, scene, lighting)?;
+        let reflectance = self.reflectance(m, &mp, lighting)?;
         if m.volume().is_some() {
             notes.add(
                 "KHR_materials_volume",
@@ -735,8 +734,6 @@ impl Asset {
         &self,
         m: &gltf::Material,
         mp: &str,
-        label: &str,
-        scene: &mut Scene,
         lighting: GltfLighting,
     ) -> Result<Option<Reflectance>> {
         let GltfLighting::PerPixel(specular) = lighting else {
