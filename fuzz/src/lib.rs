@@ -295,6 +295,7 @@ pub fn check(input: &Input, fixtures: &Fixtures) -> Result<Outcome, Finding> {
     let origin = origin.to_string_lossy();
     let options = LoadOptions {
         camera: input.camera,
+        ..Default::default()
     };
     CAPTURE.with(|c| *c.borrow_mut() = Some(None));
     let result = std::panic::catch_unwind(AssertUnwindSafe(|| match input.format {

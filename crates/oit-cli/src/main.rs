@@ -268,6 +268,7 @@ impl LoadArgs {
     fn options(&self) -> oit_scene::LoadOptions {
         oit_scene::LoadOptions {
             camera: self.camera,
+            ..Default::default()
         }
     }
 

@@ -8,6 +8,8 @@
 struct Camera {
     // Column-major, exactly `scene.camera.view_proj`.
     view_proj: mat4x4<f32>,
+    // The eye and the lights of lit materials (shaders/lighting.wgsl).
+    lights: Lights,
 }
 
 // Set per pipeline by `oit_gpu::ScenePipelines` (false for untextured materials): a constant,
@@ -20,7 +22,7 @@ override TEXTURED: bool = true;
 // rasterizer may test depth before shading (15 % of `unsorted` on 12 000 small billboards).
 override MAY_DISCARD: bool = true;
 
-// One entry per `Scene::materials` element (80 bytes, see `oit_gpu::scene::material_words`).
+// One entry per `Scene::materials` element (96 bytes, see `oit_gpu::scene::material_words`).
 struct Material {
     // rgb = base colour (linear), a = alpha.
     base_alpha: vec4<f32>,
@@ -42,6 +44,12 @@ struct Material {
     transmission: f32,
     pad1: u32,
     pad2: u32,
+    // Lighting (`oit_scene::Reflectance`): metallic and roughness factors, and the specular
+    // rule, 0 unlit, 1 faded by α, 2 kept (shaders/lighting.wgsl).
+    metallic: f32,
+    roughness: f32,
+    specular: u32,
+    pad3: u32,
 }
 
 const MODE_OPAQUE: u32 = 0u;
@@ -60,7 +68,11 @@ struct VertexIn {
     @location(1) material: u32,
     @location(2) color: vec4<f32>,
     @location(3) uv: vec2<f32>,
+    // World-space normal, read only by lit materials' pipelines (`LIT`).
+    @location(4) normal: vec3<f32>,
 }
+
+#include "lighting.wgsl"
 
 // How the vertex stage hands the material to the fragment stage: `VertexOut`, `vs_main`,
 // `scene_vertex`, `material_of` and `texcoord`. This file includes the per-vertex form; scene
@@ -149,17 +161,31 @@ fn shade(v: VertexOut, front_facing: bool) -> Shaded {
         e = sample_texture(m.textures.z, m.textures.w, m.wrap >> 4u, texcoord(v));
     }
     let lit = v.color.rgb * m.base_alpha.rgb * t.rgb;
+    // Unlit: the albedo is the colour. Lit: `reflect_lights` (shaders/lighting.wgsl).
+    var light = Reflected(lit, vec3<f32>(0.0));
+    var kept = false;
+    if LIT && m.specular != 0u {
+        var normal = surface_normal(v);
+        if !front_facing {
+            normal = -normal;
+        }
+        light = reflect_lights(lit, m.metallic, m.roughness, surface_position(v), normal);
+        kept = m.specular == SPECULAR_KEPT;
+    }
     let reflected = 1.0 - m.transmission;
-    let c = lit * m.intensity * reflected + m.emissive * e.rgb;
+    let c = light.diffuse * m.intensity * reflected + m.emissive * e.rgb;
+    let sp = light.specular * m.intensity * reflected;
     let alpha = v.color.a * m.base_alpha.a * t.a;
     var s: Shaded;
     s.keep = (front_facing || m.double_sided != 0u) && !(uses_cutoff(m.mode) && alpha < m.cutoff);
     s.keep = s.keep || !MAY_DISCARD;
     if is_transparent(m.mode) {
         if m.premultiplied != 0u {
-            s.color = c;
+            s.color = c + sp;
+        } else if kept {
+            s.color = alpha * c + sp;
         } else {
-            s.color = alpha * c;
+            s.color = alpha * (c + sp);
         }
         s.alpha = alpha;
         let filtered = alpha * m.transmission;
@@ -171,7 +197,7 @@ fn shade(v: VertexOut, front_facing: bool) -> Shaded {
             s.alpha = 1.0 - (tt.r + tt.g + tt.b) * (1.0 / 3.0);
         }
     } else {
-        s.color = c;
+        s.color = c + sp;
         s.alpha = 1.0;
     }
     return s;

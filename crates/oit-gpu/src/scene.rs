@@ -9,10 +9,17 @@ use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, OnceLock};
 use wgpu::util::DeviceExt;
 
-/// Bytes per GPU vertex: position f32×3, material index u32, colour f32×4, uv f32×2.
-pub const VERTEX_STRIDE: u64 = 40;
+/// Bytes per GPU vertex: position f32×3, material index u32, colour f32×4, uv f32×2, normal
+/// f32×3.
+pub const VERTEX_STRIDE: u64 = 52;
 /// Bytes per entry of the material table (matches `struct Material` in shaders/common.wgsl).
-pub const MATERIAL_STRIDE: usize = 80;
+pub const MATERIAL_STRIDE: usize = 96;
+/// Bytes of the lights (`struct Lights` in shaders/lighting.wgsl): eye, count, ambient and
+/// [`oit_scene::MAX_LIGHTS`] lights of 64 bytes, after the matrix in the camera uniform.
+pub const LIGHTS_BYTES: u64 = 32 + 64 * oit_scene::MAX_LIGHTS as u64;
+/// Bytes of the camera uniform (`struct Camera` in shaders/common.wgsl): the view-projection
+/// matrix and the lights.
+pub const CAMERA_BYTES: u64 = 64 + LIGHTS_BYTES;
 /// Distance between two materials in the per-draw uniform buffer
 /// ([`GpuScene::draw_materials`]): 256, the largest dynamic-offset alignment WebGPU allows, so
 /// it is valid on every adapter.
@@ -27,11 +34,12 @@ pub const PER_DRAW_MATERIAL_MAX_AREA: f64 = 256.0;
 /// Bytes per texel of the texture store (RGBA f32).
 pub const TEXEL_BYTES: u64 = 16;
 
-const VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 4] = wgpu::vertex_attr_array![
+const VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 5] = wgpu::vertex_attr_array![
     0 => Float32x3,
     1 => Uint32,
     2 => Float32x4,
     3 => Float32x2,
+    4 => Float32x3,
 ];
 
 /// The vertex buffer layout of [`GpuScene::vertices`].
@@ -49,7 +57,10 @@ pub(crate) fn create_scene_layout(device: &wgpu::Device) -> wgpu::BindGroupLayou
         entries: &[
             // The camera's view-projection matrix, one material at least. Pipelines for draw
             // calls that mix materials read the table per vertex and pass it on flat.
-            bind::min_size(bind::uniform(0, wgpu::ShaderStages::VERTEX_FRAGMENT), 64),
+            bind::min_size(
+                bind::uniform(0, wgpu::ShaderStages::VERTEX_FRAGMENT),
+                CAMERA_BYTES,
+            ),
             bind::min_size(
                 bind::storage(1, wgpu::ShaderStages::VERTEX, true),
                 MATERIAL_STRIDE as u64,
@@ -85,8 +96,47 @@ fn texel_offsets(scene: &Scene) -> Vec<u32> {
     offsets
 }
 
-/// One material as the shader reads it (80 bytes, little-endian f32/u32 words).
-fn material_words(m: &Material, scene: &Scene, offsets: &[u32]) -> [u32; 20] {
+/// The specular code of shaders/lighting.wgsl: 0 unlit, 1 faded, 2 kept.
+fn specular_code(m: &Material) -> u32 {
+    match m.reflectance.map(|r| r.specular) {
+        None => 0,
+        Some(oit_scene::Specular::Faded) => 1,
+        Some(oit_scene::Specular::Kept) => 2,
+    }
+}
+
+/// The lights uniform (`struct Lights` of shaders/lighting.wgsl): eye, count, ambient, then
+/// every light, unused slots zero.
+fn light_words(scene: &Scene) -> Result<Vec<u32>, GpuError> {
+    let rig = &scene.lights;
+    if rig.lights.len() > oit_scene::MAX_LIGHTS {
+        return Err(GpuError::InvalidScene(format!(
+            "scene {:?}: {} lights; allowed: at most {} (oit_scene::MAX_LIGHTS)",
+            scene.name,
+            rig.lights.len(),
+            oit_scene::MAX_LIGHTS
+        )));
+    }
+    let mut words = Vec::with_capacity(LIGHTS_BYTES as usize / 4);
+    words.extend(scene.camera.eye.to_array().map(f32::to_bits));
+    words.push(rig.lights.len() as u32);
+    words.extend(rig.ambient.map(f32::to_bits));
+    words.push(0);
+    for l in &rig.lights {
+        words.extend(l.position.map(f32::to_bits));
+        words.push(l.kind.code());
+        words.extend(l.direction.map(f32::to_bits));
+        words.push(l.range.to_bits());
+        words.extend(l.radiance.map(f32::to_bits));
+        words.push(l.cone_scale.to_bits());
+        words.extend([l.cone_offset.to_bits(), 0, 0, 0]);
+    }
+    words.resize(LIGHTS_BYTES as usize / 4, 0);
+    Ok(words)
+}
+
+/// One material as the shader reads it (96 bytes, little-endian f32/u32 words).
+fn material_words(m: &Material, scene: &Scene, offsets: &[u32]) -> [u32; 24] {
     // (first texel, width | height << 16, wrap bits) of a texture slot; zeros for none.
     let slot = |t: Option<u32>| match t {
         Some(t) => {
@@ -122,8 +172,17 @@ fn material_words(m: &Material, scene: &Scene, offsets: &[u32]) -> [u32; 20] {
         m.transmission.to_bits(),
         0,
         0,
+        m.reflectance.map_or(0, |r| r.metallic.to_bits()),
+        m.reflectance.map_or(0, |r| r.roughness.to_bits()),
+        specular_code(m),
+        0,
     ]
 }
+
+const _: () = assert!(
+    MATERIAL_STRIDE == 24 * 4,
+    "material_words fills one table entry"
+);
 
 /// Checks what the loader guarantees but a hand-built scene may break: texture indices in
 /// range, texel arrays matching their sizes, the texel store addressable with u32 offsets.
@@ -263,6 +322,7 @@ impl GpuScene {
             words.push(*m);
             words.extend(v.color.map(f32::to_bits));
             words.extend(v.uv.map(f32::to_bits));
+            words.extend(v.normal.map(f32::to_bits));
         }
         // wgpu rejects zero-sized vertex bindings; an empty scene still gets one dummy vertex.
         if words.is_empty() {
@@ -283,9 +343,14 @@ impl GpuScene {
             contents: bytemuck::cast_slice(&words),
             usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::STORAGE,
         });
+        // The matrix, then the lights (`struct Camera` of shaders/common.wgsl).
+        let mut camera_words: Vec<u32> = (scene.camera.view_proj.to_cols_array())
+            .map(f32::to_bits)
+            .to_vec();
+        camera_words.extend(light_words(scene)?);
         let camera = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("camera"),
-            contents: bytemuck::cast_slice(&scene.camera.view_proj.to_cols_array()),
+            contents: bytemuck::cast_slice(&camera_words),
             usage: wgpu::BufferUsages::UNIFORM,
         });
         let texel_count = check_textures(scene)?;
@@ -596,6 +661,9 @@ pub fn depth_test(compare: wgpu::CompareFunction, write: bool) -> wgpu::DepthSte
 ///   behind a uniform branch);
 /// * override `MAY_DISCARD`: false where no fragment can be discarded (no cutoff, and back
 ///   faces culled or drawn), so the rasterizer may test depth before shading;
+/// * override `LIT` of shaders/lighting.wgsl: true only for lit materials
+///   ([`Material::is_lit`]), so unlit draws never run (or pay for) the lighting loop, and the
+///   world position and normal varyings their fragment stage does not read are dropped;
 /// * the material read per vertex or per draw ([`MaterialSource`],
 ///   [`GpuScene::reads_material_per_draw`]), from the module or its per-draw form.
 ///
@@ -633,16 +701,19 @@ struct Variant {
     may_discard: bool,
     /// Built from the module's per-draw form.
     per_draw: bool,
+    /// Override `LIT` of shaders/lighting.wgsl: lit materials only.
+    lit: bool,
 }
 
 impl Variant {
-    const COUNT: usize = 16;
+    const COUNT: usize = 32;
 
     fn index(self) -> usize {
         usize::from(self.double_sided)
             | usize::from(self.textured) << 1
             | usize::from(self.may_discard) << 2
             | usize::from(self.per_draw) << 3
+            | usize::from(self.lit) << 4
     }
 }
 
@@ -713,6 +784,7 @@ impl ScenePipelines {
             textured: m.is_textured(),
             may_discard: m.mode.uses_cutoff() || !(m.double_sided || culls_back),
             per_draw: per_draw && set.per_draw_form.is_some(),
+            lit: m.is_lit(),
         })
     }
 
@@ -725,6 +797,7 @@ impl ScenePipelines {
             textured: scene.materials.iter().any(Material::is_textured),
             may_discard: true,
             per_draw: false,
+            lit: scene.materials.iter().any(Material::is_lit),
         })
     }
 
@@ -739,6 +812,7 @@ impl ScenePipelines {
             let flag = |b: bool| if b { 1.0 } else { 0.0 };
             constants.push(("TEXTURED", flag(v.textured)));
             constants.push(("MAY_DISCARD", flag(v.may_discard)));
+            constants.push(("LIT", flag(v.lit)));
             let cull = match set.cull {
                 CullRule::ByMaterial if !v.double_sided => Some(wgpu::Face::Back),
                 CullRule::ByMaterial => None,

@@ -34,6 +34,8 @@ pub const SCENE_IO_VERTEX: &str = "scene_io/vertex.wgsl";
 pub const SCENE_IO_DRAW: &str = include_str!("../shaders/scene_io/draw.wgsl");
 /// [`SCENE_IO_DRAW`] without texture coordinates, for untextured materials.
 pub const SCENE_IO_DRAW_UNTEXTURED: &str = include_str!("../shaders/scene_io/draw_untextured.wgsl");
+/// Per-pixel lighting, included by common.wgsl.
+pub const LIGHTING: &str = include_str!("../shaders/lighting.wgsl");
 /// The module every scene pass includes.
 pub const COMMON: &str = include_str!("../shaders/common.wgsl");
 
@@ -51,6 +53,7 @@ pub const FLOOR: &str = include_str!("../shaders/floor.wgsl");
 /// Every WGSL file of this crate.
 pub const SHADERS: Library = &[
     ("common.wgsl", COMMON),
+    ("lighting.wgsl", LIGHTING),
     (
         SCENE_IO_VERTEX,
         include_str!("../shaders/scene_io/vertex.wgsl"),

@@ -126,10 +126,10 @@ impl ReferenceOptions {
     /// time.
     ///
     /// **Not counted** (proportional to the input or the resolution, bounded by the loader's
-    /// caps): the scene (36 bytes per vertex: 432 MB for 4 M triangles); the set-up triangles,
-    /// 296 bytes per triangle reaching the screen (clipping can make up to 7 of one) and 20
+    /// caps): the scene (48 bytes per vertex: 576 MB for 4 M triangles); the set-up triangles,
+    /// 384 bytes per triangle reaching the screen (clipping can make up to 7 of one) and 20
     /// for the binning order (id and bounding box), plus 8 per input triangle, and a 16-byte
-    /// sort key and a 16-byte copy of the bounding box while they are ordered: 1.3 GB, 1.4 GB
+    /// sort key and a 16-byte copy of the bounding box while they are ordered: 1.6 GB, 1.8 GB
     /// during setup, for 4 M unclipped triangles; the outputs, 29 bytes per pixel: 1.9 GB at
     /// 8192².
     ///
@@ -494,6 +494,10 @@ pub(crate) fn render_with(
     let ctx = raster::TileContext {
         triangles: &triangles,
         textures: &scene.textures,
+        lighting: raster::Lighting {
+            rig: &scene.lights,
+            eye: scene.camera.eye.to_array(),
+        },
         planes: &plane_depths,
         reverse_z: scene.camera.reverse_z,
         background: scene.background.map(f64::from),
@@ -727,6 +731,8 @@ pub(crate) fn set_up(scene: &Scene) -> Result<(raster::SetUp, u64), ReferenceErr
                         scene.camera.clip(glam::Vec3::from(v.position)),
                         v.color,
                         v.uv,
+                        v.position,
+                        v.normal,
                     )
                 });
                 let p = glam::Vec3::from(scene.vertices[v0].position).as_dvec3();

@@ -141,6 +141,14 @@ pub(crate) struct SetupTriangle {
     pub color: [[f32; 4]; 3],
     /// Texture coordinates per vertex (only read when the material is textured).
     pub uv: [[f32; 2]; 3],
+    /// World position and normal per vertex (only read when the material is lit).
+    pub world: [[f32; 3]; 3],
+    pub normal: [[f32; 3]; 3],
+    /// The material is lit: fragments are shaded with their interpolated world position and
+    /// normal (negated on back faces, as the shader does for `front_facing` false).
+    pub lit: bool,
+    /// The triangle faces the camera (counter-clockwise on screen).
+    pub front: bool,
     /// The material reads a texture: fragments sample it at their interpolated uv.
     pub textured: bool,
     /// When all three vertex colours are equal the fragment colour is constant: shade it once.
@@ -169,6 +177,8 @@ struct ClipVertex {
     p: Vec4,
     color: [f32; 4],
     uv: [f32; 2],
+    world: [f32; 3],
+    normal: [f32; 3],
     /// Made by clipping: lavapipe maps such a vertex to the window in its clipper, with other
     /// operations than its vertex stage (see [`to_window`]).
     new: bool,
@@ -228,6 +238,8 @@ fn intersect(prev: ClipVertex, cur: ClipVertex, d_prev: f32, d_cur: f32) -> Clip
         ),
         color: std::array::from_fn(|k| lerp(near.color[k], far.color[k])),
         uv: std::array::from_fn(|k| lerp(near.uv[k], far.uv[k])),
+        world: std::array::from_fn(|k| lerp(near.world[k], far.world[k])),
+        normal: std::array::from_fn(|k| lerp(near.normal[k], far.normal[k])),
         new: true,
     }
 }
@@ -280,6 +292,8 @@ struct WindowVertex {
     inv_w: f64,
     color: [f32; 4],
     uv: [f32; 2],
+    world: [f32; 3],
+    normal: [f32; 3],
 }
 
 /// Perspective divide and viewport transform in f32 (`x_f = (p_x/2)·x_d + o_x`; wgpu's y flip is
@@ -314,6 +328,8 @@ fn to_window(v: ClipVertex, width: u32, height: u32) -> Option<WindowVertex> {
         inv_w: 1.0 / f64::from(p.w),
         color: v.color,
         uv: v.uv,
+        world: v.world,
+        normal: v.normal,
     })
 }
 
@@ -346,6 +362,8 @@ pub(crate) fn setup_triangle(
         p: clip[i].0,
         color: clip[i].1,
         uv: clip[i].2,
+        world: clip[i].3,
+        normal: clip[i].4,
         new: false,
     });
     // A non-finite position cannot be rasterized meaningfully; the loader rejects them, a
@@ -382,6 +400,8 @@ pub(crate) fn setup_triangle(
         inv_w: 0.0,
         color: [0.0; 4],
         uv: [0.0; 2],
+        world: [0.0; 3],
+        normal: [0.0; 3],
     }; MAX_POLY];
     for (w, v) in win.iter_mut().zip(&poly.v[..poly.n]) {
         match to_window(*v, width, height) {
@@ -403,6 +423,7 @@ pub(crate) fn setup_triangle(
     }
     let transparent = material.mode.is_transparent();
     let textured = material.is_textured();
+    let lit = material.is_lit();
     for i in 1..poly.n - 1 {
         let (a, mut b, mut c) = (win[0], win[i], win[i + 1]);
         let mut area = signed_area2(&a, &b, &c);
@@ -425,8 +446,9 @@ pub(crate) fn setup_triangle(
             continue;
         };
         let color = [a.color, b.color, c.color];
-        // Textured colour varies with uv even where the vertex colours agree.
-        let constant = (!textured && color[0] == color[1] && color[0] == color[2])
+        // Textured colour varies with uv even where the vertex colours agree, lit colour with
+        // the position and normal.
+        let constant = (!textured && !lit && color[0] == color[1] && color[0] == color[2])
             .then(|| material.shade(color[0], Texels::UNTEXTURED));
         // A constant α over a triangle of constant w has zero gradients: every rasterizer gets
         // it back exactly. With varying w, perspective correction rounds (lavapipe returns
@@ -460,6 +482,10 @@ pub(crate) fn setup_triangle(
             inv_w: [a.inv_w, b.inv_w, c.inv_w],
             color,
             uv: [a.uv, b.uv, c.uv],
+            world: [a.world, b.world, c.world],
+            normal: [a.normal, b.normal, c.normal],
+            lit,
+            front,
             textured,
             constant,
             cutoff_rounds,
@@ -545,8 +571,8 @@ impl SetupTriangle {
     }
 }
 
-/// Clip-space position and colour of one input vertex.
-pub(crate) type ClipInput = (Vec4, [f32; 4], [f32; 2]);
+/// Clip-space position, colour, uv, world position and normal of one input vertex.
+pub(crate) type ClipInput = (Vec4, [f32; 4], [f32; 2], [f32; 3], [f32; 3]);
 
 #[cfg(test)]
 mod tests {
@@ -554,7 +580,7 @@ mod tests {
     /// README) is this size: a new field must update those figures.
     #[test]
     fn a_set_up_triangle_is_the_size_the_memory_docs_state() {
-        assert_eq!(std::mem::size_of::<super::SetupTriangle>(), 296);
+        assert_eq!(std::mem::size_of::<super::SetupTriangle>(), 384);
         // The binning order keeps an id and a bounding box per triangle, and ordering holds
         // one sort key and a copy of the bounding box per triangle beside them.
         assert_eq!(std::mem::size_of::<(u32, super::PixelBox)>(), 20);

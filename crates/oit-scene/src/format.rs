@@ -253,6 +253,35 @@ pub(crate) struct RawMaterial {
     pub intensity: f32,
     #[serde(default)]
     pub transmission: f32,
+    /// Lit per pixel by the scene's lights (docs/scene-format.md "Per-pixel lighting").
+    #[serde(default)]
+    pub lit: Option<RawLit>,
+}
+
+/// A JSON material's per-pixel lighting parameters.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawLit {
+    #[serde(default)]
+    pub metallic: f32,
+    #[serde(default = "half")]
+    pub roughness: f32,
+    #[serde(default = "faded")]
+    pub specular: crate::lighting::Specular,
+}
+
+fn faded() -> crate::lighting::Specular {
+    crate::lighting::Specular::Faded
+}
+
+/// How a `"kind": "gltf"` object's materials are lit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub(crate) enum RawGltfLighting {
+    /// Per pixel by the scene's lights (the default).
+    PerPixel,
+    /// Unlit: the scene's `lighting.directional`, if any, baked into vertex colours.
+    Unlit,
 }
 
 impl Default for RawMaterial {
@@ -266,6 +295,7 @@ impl Default for RawMaterial {
             premultiplied: false,
             intensity: 1.0,
             transmission: 0.0,
+            lit: None,
         }
     }
 }
@@ -288,6 +318,12 @@ pub(crate) struct GltfMeshRef {
     /// Scene index in the asset; the asset's default scene (else 0) when absent.
     #[serde(default)]
     pub scene: Option<usize>,
+    /// `"per-pixel"` (default) or `"unlit"`.
+    #[serde(default)]
+    pub lighting: Option<RawGltfLighting>,
+    /// Overrides every lit material's specular rule: `"faded"` or `"kept"`.
+    #[serde(default)]
+    pub specular: Option<crate::lighting::Specular>,
 }
 
 // ---- meshes: one struct per `kind`, parsed from the `mesh` object after reading `kind` ----

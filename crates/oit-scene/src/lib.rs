@@ -10,7 +10,8 @@
 mod animation;
 mod error;
 mod format;
-mod gltf;
+pub(crate) mod gltf;
+mod lighting;
 mod load;
 mod mesh;
 pub mod random;
@@ -24,6 +25,10 @@ pub use animation::{Animation, Frames, MAX_FRAMES};
 pub use error::{Problem, SceneError};
 pub use format::{DEFAULT_RESOLUTION, MAX_TRIANGLES};
 pub use gltf::{GLTF_BACKGROUND, GLTF_FPS, MAX_TEXELS};
+pub use lighting::{
+    LightKind, LightRig, MAX_LIGHTS, MIN_GGX_ALPHA, PunctualLight, Reflectance, Reflected,
+    Specular, SurfacePoint, reflect_lights,
+};
 pub use load::{
     LoadOptions, is_gltf_path, load, load_dir, load_dir_with, load_frames, load_with,
     load_with_inputs, parse, parse_frames, parse_gltf, scene_files,

@@ -10,10 +10,10 @@ use serde::de::DeserializeOwned;
 use crate::animation::Frames;
 use crate::error::{Problem, SceneError};
 use crate::format::{
-    DEFAULT_FOV_Y, GltfMeshRef, MAX_TRIANGLES, MESH_KINDS, RawCamera, RawLighting, RawMaterial,
-    RawMesh, RawObject, RawScene, RawTransform, ScatterMesh,
+    DEFAULT_FOV_Y, GltfMeshRef, MAX_TRIANGLES, MESH_KINDS, RawCamera, RawGltfLighting, RawLighting,
+    RawMaterial, RawMesh, RawObject, RawScene, RawTransform, ScatterMesh,
 };
-use crate::gltf::{Asset, Nodes, Placement};
+use crate::gltf::{Asset, GltfLighting, Nodes, Placement};
 use crate::mesh::{self, Facing, Geometry};
 use crate::scene::{Camera, Draw, Material, Projection, Resolution, Scene, Vertex};
 use crate::serde_errors::{json_kind, json_path};
@@ -28,6 +28,21 @@ pub struct LoadOptions {
     /// the asset's first camera in node order. Ignored for the JSON format, whose camera is
     /// part of the file.
     pub camera: Option<usize>,
+    /// glTF only: render every material unlit (base colour × texture + emission, as before
+    /// per-pixel lighting), instead of lit by the asset's `KHR_lights_punctual` lights or the
+    /// default rig ([`crate::LightRig::default_rig`]).
+    pub unlit: bool,
+}
+
+impl LoadOptions {
+    /// How a glTF file loaded on its own is lit.
+    pub(crate) fn gltf_lighting(&self) -> crate::gltf::GltfLighting {
+        if self.unlit {
+            crate::gltf::GltfLighting::Unlit
+        } else {
+            crate::gltf::GltfLighting::PerPixel(None)
+        }
+    }
 }
 
 /// Whether `path` names a glTF asset (`.gltf` or `.glb`, any case) rather than a JSON scene.
@@ -338,6 +353,19 @@ impl Ctx<'_> {
             credits: Vec::new(),
             frame: t,
             animation: prep.timeline.as_ref().map(|tl| tl.animation),
+            lights: match &prep.light {
+                // The directional light lights lit materials per pixel, with the same colour
+                // a Lambert bake gives: E = π·color against the BRDF's 1/π.
+                Some(l) => crate::LightRig {
+                    ambient: l.ambient.to_array(),
+                    lights: vec![crate::PunctualLight::directional(
+                        -l.to_light,
+                        (l.color * std::f32::consts::PI).to_array(),
+                    )],
+                    origin: "lighting.directional".into(),
+                },
+                None => crate::LightRig::none(),
+            },
         };
         scene.vertices.reserve(prep.total_triangles as usize * 3);
         for (i, (obj, p)) in raw.objects.iter().zip(&prep.objects).enumerate() {
@@ -360,6 +388,11 @@ impl Ctx<'_> {
             };
             let at = Placed { world, material };
             self.object(i, obj, p, &at, prep.light.as_ref(), &mut scene)?;
+        }
+        if scene.materials.iter().any(Material::is_lit) {
+            crate::lighting::complete_rig(&mut scene);
+        } else {
+            scene.lights = crate::LightRig::none();
         }
         Ok(scene)
     }
@@ -466,6 +499,30 @@ impl Ctx<'_> {
             return Err(self.err(format!("{p}.intensity"), Problem::DerivedNonFinite { what }));
         }
         let transmission = self.transmission(m, base, p)?;
+        let reflectance = match &m.lit {
+            None => None,
+            Some(l) => {
+                for (name, v) in [("metallic", l.metallic), ("roughness", l.roughness)] {
+                    let path = format!("{p}.lit.{name}");
+                    let v = self.finite(v, &path)?;
+                    if !(0.0..=1.0).contains(&v) {
+                        return Err(self.err(
+                            path,
+                            Problem::BadValue {
+                                what: name.into(),
+                                value: v.to_string(),
+                                allowed: "a factor in [0, 1]".into(),
+                            },
+                        ));
+                    }
+                }
+                Some(crate::Reflectance {
+                    metallic: l.metallic,
+                    roughness: l.roughness,
+                    specular: l.specular,
+                })
+            }
+        };
         Ok(Material {
             base_color: base.to_array(),
             alpha,
@@ -478,6 +535,7 @@ impl Ctx<'_> {
             emissive: [0.0; 3],
             emissive_texture: None,
             transmission,
+            reflectance,
         })
     }
 
@@ -775,6 +833,8 @@ impl Ctx<'_> {
             MeshSource::Procedural(mesh) => mesh,
             MeshSource::Gltf(g) => return self.place_gltf(&p, obj, g, prep, world, light, scene),
         };
+        // A material lit per pixel gets the scene's light from the rig, not baked.
+        let light = if material.is_lit() { None } else { light };
         let material_index = scene.materials.len() as u32;
         scene.materials.push(*material);
         let facing = match scene.camera.projection {
@@ -847,10 +907,28 @@ impl Ctx<'_> {
             self.err(format!("{p}.scene"), Problem::NoSuchItem { index, count })
         })?;
         let triangles = asset.triangle_count(&nodes)?;
+        let lighting = match r.lighting {
+            None | Some(RawGltfLighting::PerPixel) => GltfLighting::PerPixel(r.specular),
+            Some(RawGltfLighting::Unlit) => {
+                if let Some(specular) = r.specular {
+                    return Err(self.err(
+                        format!("{p}.specular"),
+                        Problem::BadValue {
+                            what: "specular".into(),
+                            value: format!("{specular:?} with lighting \"unlit\"").to_lowercase(),
+                            allowed: "specular only with lighting \"per-pixel\" (the default)"
+                                .into(),
+                        },
+                    ));
+                }
+                GltfLighting::Unlit
+            }
+        };
         Ok(GltfObject {
             asset,
             nodes,
             triangles,
+            lighting,
         })
     }
 
@@ -869,7 +947,12 @@ impl Ctx<'_> {
         light: Option<&Light>,
         scene: &mut Scene,
     ) -> Result<()> {
-        let materials = g.asset.add_materials(scene)?;
+        let materials = g.asset.add_materials(scene, g.lighting)?;
+        // Per-pixel lit assets take the scene's directional light as a light, not baked.
+        let light = match g.lighting {
+            GltfLighting::PerPixel(_) => None,
+            GltfLighting::Unlit => light,
+        };
         scene.ignored.extend(g.asset.unplayed_animations());
         self.note_inputs(g.asset.files_read());
         let derived_path = if obj.instances.is_some() {
@@ -978,6 +1061,11 @@ impl Ctx<'_> {
                     position: pos.to_array(),
                     color: color.to_array(),
                     uv: g.uvs[v].to_array(),
+                    normal: if normal.is_finite() {
+                        normal.to_array()
+                    } else {
+                        [0.0; 3]
+                    },
                 });
             }
             let centre = (lo + hi) * 0.5;
@@ -1054,6 +1142,7 @@ struct GltfObject {
     nodes: Nodes,
     /// Per instance of the object.
     triangles: u64,
+    lighting: GltfLighting,
 }
 
 impl std::fmt::Debug for GltfObject {

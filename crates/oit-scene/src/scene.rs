@@ -3,6 +3,7 @@
 //! baked lighting, transforms) is already applied here, so the two sides evaluate the same
 //! numbers and cannot disagree about what the scene is.
 
+use crate::lighting::{LightRig, Reflectance, Specular, SurfacePoint};
 use glam::{Mat4, Vec3, Vec4};
 
 /// Output size in pixels.
@@ -179,6 +180,9 @@ pub struct Material {
     /// the covered part, τ is a coloured filter (the unlit base colour term) and 1 − τ reflects.
     /// 0 is scalar alpha, bit for bit; above 0 only in the transparent modes, straight alpha.
     pub transmission: f32,
+    /// Lit per pixel by the scene's [`LightRig`] (`crate::lighting`); `None` is unlit: the
+    /// albedo is the colour, as before lighting existed, bit for bit.
+    pub reflectance: Option<Reflectance>,
 }
 
 /// The texture samples one fragment's material reads; `UNTEXTURED` where it has none.
@@ -232,6 +236,7 @@ impl Material {
             emissive: [0.0; 3],
             emissive_texture: None,
             transmission: 0.0,
+            reflectance: None,
         }
     }
 
@@ -265,15 +270,38 @@ impl Material {
         }
     }
 
-    /// Fragment colour from the interpolated vertex colour and the texture samples, in f32, as
-    /// the shader computes it: `lit = vertex.rgb · base · texel.rgb`, `c = lit · intensity ·
-    /// (1 − τ) + emissive · emissive_texel.rgb`, `α = vertex.a · alpha · texel.a`, `C = α·c` (or
-    /// `c` when the material is premultiplied). Mask modes discard when `α < cutoff`. A
-    /// transmissive material (τ > 0) also filters what is behind by `t = (1 − α) + α·τ·lit`
-    /// per channel, and its scalar opacity is `1 − mean(t)`. Untextured, the samples are 1 and
-    /// the emission 0; τ = 0 multiplies by 1: none of them changes a bit of the products.
+    /// Fragment colour from the interpolated vertex colour and the texture samples, unlit:
+    /// [`Material::shade_lit`] without a surface point.
     #[inline(always)]
     pub fn shade(&self, vertex_rgba: [f32; 4], texels: Texels) -> Shaded {
+        self.shade_lit(vertex_rgba, texels, None)
+    }
+
+    /// Whether the material is lit per pixel (fragments then need their world position and
+    /// normal, [`Material::shade_lit`]).
+    pub fn is_lit(&self) -> bool {
+        self.reflectance.is_some()
+    }
+
+    /// Fragment colour from the interpolated vertex colour, the texture samples and, for a lit
+    /// material, the surface point and the scene's lights, in f32, as the shader computes it:
+    /// `lit = vertex.rgb · base · texel.rgb` (the albedo); unlit, `diffuse = lit` and
+    /// `specular = 0`, lit, both from [`crate::lighting::reflect_lights`]; `c = diffuse ·
+    /// intensity · (1 − τ) + emissive · emissive_texel.rgb`, `s = specular · intensity ·
+    /// (1 − τ)`, `α = vertex.a · alpha · texel.a`, `C = α·(c + s)` ([`Specular::Faded`]) or
+    /// `α·c + s` ([`Specular::Kept`]), `c + s` when the material is premultiplied. Mask modes
+    /// discard when `α < cutoff`. A transmissive material (τ > 0) also filters what is behind
+    /// by `t = (1 − α) + α·τ·lit` per channel (the unlit albedo: transmitted light is not the
+    /// light reflected), and its scalar opacity is `1 − mean(t)`. Untextured, the samples are
+    /// 1 and the emission 0; τ = 0 multiplies by 1 and an unlit `s = 0` adds 0: none of them
+    /// changes a bit of the products.
+    #[inline(always)]
+    pub fn shade_lit(
+        &self,
+        vertex_rgba: [f32; 4],
+        texels: Texels,
+        surface: Option<(&LightRig, &SurfacePoint)>,
+    ) -> Shaded {
         let t = texels.base;
         let e = texels.emissive;
         let lit = [
@@ -281,23 +309,55 @@ impl Material {
             vertex_rgba[1] * self.base_color[1] * t[1],
             vertex_rgba[2] * self.base_color[2] * t[2],
         ];
+        let (reflected_light, kept) = match (&self.reflectance, surface) {
+            (Some(r), Some((rig, point))) => (
+                crate::lighting::reflect_lights(lit, r, rig, point),
+                r.specular == Specular::Kept,
+            ),
+            _ => (
+                crate::lighting::Reflected {
+                    diffuse: lit,
+                    specular: [0.0; 3],
+                },
+                false,
+            ),
+        };
+        let d = reflected_light.diffuse;
+        let sp = reflected_light.specular;
         let reflected = 1.0 - self.transmission;
         let c = [
-            lit[0] * self.intensity * reflected + self.emissive[0] * e[0],
-            lit[1] * self.intensity * reflected + self.emissive[1] * e[1],
-            lit[2] * self.intensity * reflected + self.emissive[2] * e[2],
+            d[0] * self.intensity * reflected + self.emissive[0] * e[0],
+            d[1] * self.intensity * reflected + self.emissive[1] * e[1],
+            d[2] * self.intensity * reflected + self.emissive[2] * e[2],
+        ];
+        let s = [
+            sp[0] * self.intensity * reflected,
+            sp[1] * self.intensity * reflected,
+            sp[2] * self.intensity * reflected,
         ];
         let alpha = vertex_rgba[3] * self.alpha * t[3];
         if self.mode.uses_cutoff() && alpha < self.cutoff {
             return Shaded::Discarded;
         }
         match self.mode {
-            AlphaMode::Opaque | AlphaMode::Mask => Shaded::Opaque(c),
+            AlphaMode::Opaque | AlphaMode::Mask => {
+                Shaded::Opaque([c[0] + s[0], c[1] + s[1], c[2] + s[2]])
+            }
             AlphaMode::Blend | AlphaMode::MaskBlend => {
                 let premultiplied = if self.premultiplied {
-                    c
+                    [c[0] + s[0], c[1] + s[1], c[2] + s[2]]
+                } else if kept {
+                    [
+                        alpha * c[0] + s[0],
+                        alpha * c[1] + s[1],
+                        alpha * c[2] + s[2],
+                    ]
                 } else {
-                    [alpha * c[0], alpha * c[1], alpha * c[2]]
+                    [
+                        alpha * (c[0] + s[0]),
+                        alpha * (c[1] + s[1]),
+                        alpha * (c[2] + s[2]),
+                    ]
                 };
                 if self.transmission > 0.0 {
                     let filtered = alpha * self.transmission;
@@ -333,6 +393,9 @@ pub struct Vertex {
     /// Linear RGBA; lighting is baked in here at load time.
     pub color: [f32; 4],
     pub uv: [f32; 2],
+    /// World-space unit normal (the glTF `NORMAL`, or the face normal where it has none);
+    /// read only by lit materials, zero where the loader had none to give.
+    pub normal: [f32; 3],
 }
 
 /// One draw call: a contiguous run of triangles with one material.
@@ -394,6 +457,9 @@ pub struct Scene {
     pub frame: u32,
     /// The animation this frame belongs to (`None` for a still scene).
     pub animation: Option<crate::Animation>,
+    /// The lights of lit materials ([`Material::reflectance`]); [`LightRig::none`] when no
+    /// material is lit.
+    pub lights: LightRig,
 }
 
 impl Camera {
@@ -609,6 +675,31 @@ impl Scene {
             // Hashed only when set, so scenes without transmission keep their hashes.
             if m.transmission != 0.0 {
                 h.f32(m.transmission);
+            }
+            // Likewise lighting: unlit scenes keep their hashes.
+            if let Some(r) = m.reflectance {
+                h.f32(r.metallic);
+                h.f32(r.roughness);
+                h.u32(r.specular as u32);
+            }
+        }
+        if self.materials.iter().any(Material::is_lit) {
+            for c in self.lights.ambient {
+                h.f32(c);
+            }
+            for l in &self.lights.lights {
+                h.u32(l.kind.code());
+                for x in l.position.iter().chain(&l.direction).chain(&l.radiance) {
+                    h.f32(*x);
+                }
+                h.f32(l.range);
+                h.f32(l.cone_scale);
+                h.f32(l.cone_offset);
+            }
+            for v in &self.vertices {
+                for x in v.normal {
+                    h.f32(x);
+                }
             }
         }
         for t in &self.textures {

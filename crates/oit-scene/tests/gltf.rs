@@ -178,11 +178,13 @@ fn alpha_blend_mode_test_loads_its_modes_and_textures() {
     assert_eq!(
         s.ignored,
         [
-            "AlphaBlendModeTest.glb: metallicRoughnessTexture on /materials/0 (MatBed): not modelled (no specular term)",
+            "AlphaBlendModeTest.glb: metallicRoughnessTexture on /materials/0 (MatBed): not modelled (metallicFactor and roughnessFactor light the material alone)",
             "AlphaBlendModeTest.glb: normalTexture on /materials/0 (MatBed): not modelled (geometric or vertex normals only)",
             "AlphaBlendModeTest.glb: occlusionTexture on /materials/0 (MatBed): not modelled",
         ]
     );
+    assert!(s.materials.iter().all(|m| m.is_lit()));
+    assert_eq!(s.lights, oit_scene::LightRig::default_rig());
     check_common(&s, &path);
 }
 
@@ -539,7 +541,7 @@ fn json_object_kind_gltf_places_the_asset() {
         "lighting": {"directional": {"direction": [0, 0, -1], "color": [0.5, 0.5, 0.5], "ambient": [0.25, 0.25, 0.25]}},
         "objects": [
             {"mesh": {"kind": "quad"}},
-            {"mesh": {"kind": "gltf", "file": "models/tri.gltf"}, "transform": {"translate": [5, 0, 0], "scale": [2, 2, 2]},
+            {"mesh": {"kind": "gltf", "file": "models/tri.gltf", "lighting": "unlit"}, "transform": {"translate": [5, 0, 0], "scale": [2, 2, 2]},
              "render_group": 3, "alpha_index": -2, "instances": {"counts": [1, 1, 2], "spacing": [0, 0, 1]}}
         ]
     });
@@ -642,7 +644,14 @@ fn cameras_from_the_asset() {
     );
     assert_eq!(s.camera.eye, Vec3::new(0.0, 0.0, 20.0));
     assert_eq!((s.camera.near, s.camera.far), (0.0, 50.0));
-    let s = oit_scene::load_with(&path, &LoadOptions { camera: Some(0) }).unwrap();
+    let s = oit_scene::load_with(
+        &path,
+        &LoadOptions {
+            camera: Some(0),
+            ..Default::default()
+        },
+    )
+    .unwrap();
     let oit_scene::Projection::Perspective { fov_y_degrees } = s.camera.projection else {
         panic!()
     };
@@ -655,7 +664,13 @@ fn cameras_from_the_asset() {
     });
     assert_eq!(s2.camera.eye, s.camera.eye);
     let e = problem_at(
-        oit_scene::load_with(&path, &LoadOptions { camera: Some(2) }),
+        oit_scene::load_with(
+            &path,
+            &LoadOptions {
+                camera: Some(2),
+                ..Default::default()
+            },
+        ),
         "/cameras",
     );
     assert_eq!(e, Problem::NoSuchItem { index: 2, count: 2 });
@@ -973,7 +988,7 @@ fn glass_vase_flowers_lists_its_unsampled_textures() {
     let s = oit_scene::load(&asset(GLASS_VASE)).unwrap();
     for want in [
         "GlassVaseFlowers.glb: normalTexture on /materials/0 (Flowers): not modelled (geometric or vertex normals only)",
-        "GlassVaseFlowers.glb: metallicRoughnessTexture on /materials/0 (Flowers): not modelled (no specular term)",
+        "GlassVaseFlowers.glb: metallicRoughnessTexture on /materials/0 (Flowers): not modelled (metallicFactor and roughnessFactor light the material alone)",
         "GlassVaseFlowers.glb: KHR_materials_volume on /materials/2 (GlassTransmission): not modelled (thin: no thickness, absorption or refraction)",
     ] {
         assert!(

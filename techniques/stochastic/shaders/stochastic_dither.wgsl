@@ -67,6 +67,9 @@ struct StochasticOut {
     @location(7) world: vec3<f32>,
     // Pattern seed: 0, the draw id's hash, or the hash of the draw id and triangle.
     @location(8) @interpolate(flat) seed: u32,
+    // `VertexOut.surface` and `VertexOut.normal` (lit materials; `world` above is its `world`).
+    @location(9) @interpolate(flat) surface: vec3<f32>,
+    @location(10) normal: vec3<f32>,
 }
 
 // PCG hash (Jarzynski & Olano 2020, "Hash Functions for GPU Rendering").
@@ -115,6 +118,8 @@ fn vs_stochastic(
     out.emissive = base.emissive;
     out.textures = base.textures;
     out.world = v.position;
+    out.surface = base.surface;
+    out.normal = base.normal;
     let object_seed = pcg(draw_id + 1u);
     if dither.seed_mode == SEED_NONE {
         out.seed = 0u;
@@ -200,6 +205,9 @@ fn fs_stochastic(v: StochasticOut, @builtin(front_facing) front_facing: bool) ->
     base.uv = v.uv;
     base.emissive = v.emissive;
     base.textures = v.textures;
+    base.surface = v.surface;
+    base.world = v.world;
+    base.normal = v.normal;
     let s = shade(base, front_facing);
     if !s.keep {
         discard;

@@ -84,7 +84,10 @@ impl RangeParams {
 /// its largest vertex colour times its largest vertex α, through the material). A power of two,
 /// so dividing by it and multiplying back is exact; 1 for colours in [0, 1], which leaves
 /// those scenes' sums bit for bit as they were. With it, Σ (C/scale)·w ≤ Σ w, which fp16 holds
-/// for 255 layers of the largest weight.
+/// for 255 layers of the largest weight. Lit materials (per-pixel lighting) are bounded here by
+/// their unlit colour; their specular reflection can exceed it (not bounded since 2026-12-07:
+/// a point light's radiance grows without limit near it), so only the fp16 range, 65504,
+/// guards their sums.
 pub fn color_scale(scene: &Scene) -> f32 {
     let mut largest = 1.0f32;
     let bounds: Vec<Texels> = (scene.materials.iter())

@@ -319,8 +319,10 @@ const CLAIMS: &[(&str, &[(&str, Claim)])] = {
             ],
         ),
         (
+            // Lit per pixel since 2026-12-07: the glass walls' order matters (unsorted was
+            // exact while the glass was unlit).
             "gltf-glass-vase",
-            &[("front-peel", Exact), ("unsorted", Exact)],
+            &[("front-peel", Exact), ("unsorted", Breaks)],
         ),
         (
             "hdr-emissive",

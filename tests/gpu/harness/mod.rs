@@ -4,6 +4,7 @@ mod counts;
 mod failures;
 mod goldens;
 mod growth;
+mod lighting;
 mod material_forms;
 mod motion;
 mod predictions;

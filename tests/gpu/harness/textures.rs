@@ -92,7 +92,7 @@ fn decided(reference: &oit_reference::Reference, p: usize) -> bool {
 
 /// Asserts that the GPU's per-pixel fragment counts equal the reference's, except by at most a
 /// pixel's undecided fragments; returns how many pixels needed that tolerance.
-fn counts_conform(
+pub(super) fn counts_conform(
     ctx: &oit_gpu::Context,
     scene: &Scene,
     reference: &oit_reference::Reference,
@@ -112,7 +112,7 @@ fn counts_conform(
 
 /// The largest per-channel error of `image` against the reference (relative above 1) over the
 /// pixels rounding does not decide, with its pixel; and how many pixels were compared.
-fn worst_decided_error(
+pub(super) fn worst_decided_error(
     image: &oit_scene::LinearImage,
     reference: &oit_reference::Reference,
 ) -> ((f32, usize), u64) {

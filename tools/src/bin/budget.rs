@@ -47,6 +47,7 @@ fn layers(count: u32, size: u32) -> Scene {
                 position: [x, y, z],
                 color,
                 uv: [0.0; 2],
+                normal: [0.0; 3],
             });
         }
     }
@@ -77,6 +78,7 @@ fn layers(count: u32, size: u32) -> Scene {
         credits: Vec::new(),
         frame: 0,
         animation: None,
+        lights: oit_scene::LightRig::none(),
     }
 }
 

@@ -89,6 +89,7 @@ fn layers_scene(n: usize, size: u32) -> Scene {
                 position: [x, y, z],
                 color: [1.0; 4],
                 uv: [0.0; 2],
+                normal: [0.0; 3],
             });
         }
         draws.push(Draw {
@@ -120,6 +121,7 @@ fn layers_scene(n: usize, size: u32) -> Scene {
         credits: Vec::new(),
         frame: 0,
         animation: None,
+        lights: oit_scene::LightRig::none(),
     }
 }
 

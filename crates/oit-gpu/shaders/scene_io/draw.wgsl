@@ -13,6 +13,9 @@ struct VertexOut {
     @invariant @builtin(position) clip: vec4<f32>,
     @location(0) color: vec4<f32>,
     @location(1) uv: vec2<f32>,
+    // World position and normal, read only by lit pipelines (`LIT`).
+    @location(2) world: vec3<f32>,
+    @location(3) normal: vec3<f32>,
 }
 
 // The vertex stage every scene pass shares (passes with their own vertex entry call it too).
@@ -20,6 +23,8 @@ fn scene_vertex(v: VertexIn) -> VertexOut {
     var out: VertexOut;
     out.clip = camera.view_proj * vec4<f32>(v.position, 1.0);
     out.color = v.color;
+    out.world = v.position;
+    out.normal = v.normal;
     out.uv = v.uv;
     return out;
 }
@@ -37,4 +42,13 @@ fn material_of(v: VertexOut) -> Material {
 // The interpolated texture coordinates.
 fn texcoord(v: VertexOut) -> vec2<f32> {
     return v.uv;
+}
+
+// The interpolated world position and normal of a lit fragment.
+fn surface_position(v: VertexOut) -> vec3<f32> {
+    return v.world;
+}
+
+fn surface_normal(v: VertexOut) -> vec3<f32> {
+    return v.normal;
 }

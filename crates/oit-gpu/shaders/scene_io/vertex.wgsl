@@ -18,6 +18,12 @@ struct VertexOut {
     @location(4) uv: vec2<f32>,
     @location(5) @interpolate(flat) emissive: vec3<f32>,
     @location(6) @interpolate(flat) textures: vec4<u32>,
+    // Lighting: x = metallic, y = roughness, z = the specular code; then the world position
+    // and normal, interpolated. Unlit pipelines (`LIT` false) never read them, and the
+    // pipeline's linker drops what its fragment stage does not read.
+    @location(7) @interpolate(flat) surface: vec3<f32>,
+    @location(8) world: vec3<f32>,
+    @location(9) normal: vec3<f32>,
 }
 
 fn material_flags(m: Material) -> u32 {
@@ -36,6 +42,9 @@ fn scene_vertex(v: VertexIn) -> VertexOut {
     out.uv = v.uv;
     out.emissive = m.emissive;
     out.textures = m.textures;
+    out.surface = vec3<f32>(m.metallic, m.roughness, f32(m.specular));
+    out.world = v.position;
+    out.normal = v.normal;
     return out;
 }
 
@@ -57,7 +66,19 @@ fn material_of(v: VertexOut) -> Material {
     m.double_sided = (v.flags >> 3u) & 1u;
     m.textures = v.textures;
     m.wrap = v.flags >> 4u;
+    m.metallic = v.surface.x;
+    m.roughness = v.surface.y;
+    m.specular = u32(v.surface.z);
     return m;
+}
+
+// The interpolated world position and normal of a lit fragment.
+fn surface_position(v: VertexOut) -> vec3<f32> {
+    return v.world;
+}
+
+fn surface_normal(v: VertexOut) -> vec3<f32> {
+    return v.normal;
 }
 
 // The interpolated texture coordinates.

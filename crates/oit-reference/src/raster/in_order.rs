@@ -723,6 +723,7 @@ pub(super) fn transparent_in_order<const COLOURED: bool, const MAY_UNDERFLOW: bo
             shade_span(
                 tri,
                 ctx.textures,
+                &ctx.lighting,
                 tile,
                 row,
                 first,

@@ -33,6 +33,7 @@ pub(crate) use in_order::*;
 pub use keys::PRECISION_TIE_ULPS;
 pub(crate) use keys::*;
 pub(crate) use scratch::*;
+pub(crate) use shading::Lighting;
 use shading::*;
 use sort::*;
 pub(crate) use spans::*;

@@ -3,6 +3,13 @@
 
 use super::*;
 
+/// What lit materials are shaded with: the scene's lights and the camera eye.
+#[derive(Clone, Copy)]
+pub(crate) struct Lighting<'a> {
+    pub(crate) rig: &'a oit_scene::LightRig,
+    pub(crate) eye: [f32; 3],
+}
+
 /// Pixels per batch of the shading kernel: the float arithmetic of neighbouring pixels is
 /// independent, so it is written over small arrays that the compiler turns into SIMD.
 pub(super) const LANES: usize = 4;
@@ -179,6 +186,7 @@ impl Fragments for TransparentFragments<'_> {
 pub(super) fn shade_span(
     tri: &SetupTriangle,
     textures: &[Texture],
+    lighting: &Lighting<'_>,
     tile: TileRect,
     row: u32,
     first: u32,
@@ -201,6 +209,7 @@ pub(super) fn shade_span(
             let (depth, rgba) = attributes(tri, &l);
             let (shaded, open) = match tri.constant {
                 Some(shaded) => (shaded, tri.constant_undecided),
+                None if tri.lit => shade_lit(tri, textures, lighting, rgba[0], &l, 0),
                 None if tri.textured => {
                     shade_textured(tri, &tri.material, textures, rgba[0], texcoords(tri, &l)[0])
                 }
@@ -232,6 +241,17 @@ pub(super) fn shade_span(
             let dkey = depth_keys(depths(tri, &weights(x)), reverse_z);
             let p = base + x as usize;
             for j in 0..((end - x) as usize).min(LANES) {
+                sink.fragment(p + j, dkey[j], shaded, open);
+            }
+        }
+    } else if tri.lit {
+        for x in (first..end).step_by(LANES) {
+            let l = weights(x);
+            let (depth, rgba) = attributes(tri, &l);
+            let dkey = depth_keys(depth, reverse_z);
+            let p = base + x as usize;
+            for j in 0..((end - x) as usize).min(LANES) {
+                let (shaded, open) = shade_lit(tri, textures, lighting, rgba[j], &l, j);
                 sink.fragment(p + j, dkey[j], shaded, open);
             }
         }
@@ -379,6 +399,71 @@ pub(super) fn shade_textured(
             None => undecided(material, rgba[3]),
         };
     (material.shade(rgba, texels), open)
+}
+
+/// One fragment of a lit triangle (pixel `j` of the batch of weights `l`): its texture samples
+/// (if textured), its perspective-correct world position and normal (negated on a back face),
+/// the material rule with the scene's lights, and whether α is in the cutoff's undecided band.
+#[inline(never)]
+pub(super) fn shade_lit<const N: usize>(
+    tri: &SetupTriangle,
+    textures: &[Texture],
+    lighting: &Lighting<'_>,
+    rgba: [f32; 4],
+    l: &[[f64; N]; 3],
+    j: usize,
+) -> (Shaded, bool) {
+    let material = &tri.material;
+    let (texels, open) = if tri.textured {
+        let uv = texcoords(tri, l)[j];
+        let texels = material.texels(textures, uv);
+        let open = tri.cutoff_rounds
+            && match material.base_texture {
+                Some(t) => {
+                    undecided_textured(material, &textures[t as usize], rgba[3], texels.base[3], uv)
+                }
+                None => undecided(material, rgba[3]),
+            };
+        (texels, open)
+    } else {
+        (
+            Texels::UNTEXTURED,
+            tri.cutoff_rounds && undecided(material, rgba[3]),
+        )
+    };
+    let position = interpolate3(tri, &tri.world, l, j);
+    let mut normal = interpolate3(tri, &tri.normal, l, j);
+    if !tri.front {
+        normal = normal.map(|c| -c);
+    }
+    let point = oit_scene::SurfacePoint {
+        position,
+        normal,
+        eye: lighting.eye,
+    };
+    (
+        material.shade_lit(rgba, texels, Some((lighting.rig, &point))),
+        open,
+    )
+}
+
+/// A perspective-correct per-vertex vector of pixel `j` (weights / w, f32 as the shader
+/// receives it), by the same steps as [`texcoords`].
+#[inline(always)]
+fn interpolate3<const N: usize>(
+    tri: &SetupTriangle,
+    values: &[[f32; 3]; 3],
+    l: &[[f64; N]; 3],
+    j: usize,
+) -> [f32; 3] {
+    let pw: [f64; 3] = std::array::from_fn(|i| l[i][j] * tri.inv_w[i]);
+    let sum = pw[0] + pw[1] + pw[2];
+    std::array::from_fn(|k| {
+        let weighted = pw[0] * f64::from(values[0][k])
+            + pw[1] * f64::from(values[1][k])
+            + pw[2] * f64::from(values[2][k]);
+        (weighted / sum) as f32
+    })
 }
 
 /// Perspective-correct texture coordinates (weights / w, f32 as the shader receives them), by

@@ -67,6 +67,8 @@ impl TileOutput<'_> {
 pub(crate) struct TileContext<'a> {
     pub triangles: &'a Triangles,
     pub textures: &'a [Texture],
+    /// The lights and eye of lit materials.
+    pub lighting: super::Lighting<'a>,
     pub planes: &'a [f64],
     pub reverse_z: bool,
     pub background: [f64; 3],
@@ -510,6 +512,7 @@ pub(super) fn render_rect(
     let TileContext {
         triangles,
         textures,
+        lighting,
         planes,
         reverse_z,
         background,
@@ -649,7 +652,9 @@ pub(super) fn render_rect(
             discarded: 0,
         };
         let (row, first, last) = (span.row.into(), span.first.into(), span.end.into());
-        shade_span(tri, textures, tile, row, first, last, reverse_z, &mut sink);
+        shade_span(
+            tri, textures, &lighting, tile, row, first, last, reverse_z, &mut sink,
+        );
         discarded += sink.discarded;
     }
     stats.transparent_fragments = slots as u64 - discarded;
@@ -824,6 +829,7 @@ pub(super) fn shade_opaque(
         shade_span(
             tri,
             ctx.textures,
+            &ctx.lighting,
             tile,
             row,
             first,

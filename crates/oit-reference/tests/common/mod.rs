@@ -70,6 +70,7 @@ impl SceneBuilder {
                 credits: Vec::new(),
                 frame: 0,
                 animation: None,
+                lights: oit_scene::LightRig::none(),
             },
         }
     }
@@ -115,6 +116,7 @@ impl SceneBuilder {
                     position: p.to_array(),
                     color: *c,
                     uv: [0.0; 2],
+                    normal: [0.0; 3],
                 });
             }
         }

@@ -184,8 +184,9 @@ impl GltfFrames {
             credits: Vec::new(),
             frame: 0,
             animation: None,
+            lights: crate::LightRig::none(),
         };
-        let materials = asset.add_materials(&mut template)?;
+        let materials = asset.add_materials(&mut template, options.gltf_lighting())?;
         template.ignored.extend(ignored);
         let animated = clip.is_some();
         let (view, camera_text) = match (options.camera, nodes.cameras.is_empty()) {
@@ -207,8 +208,12 @@ impl GltfFrames {
             .scene
             .map_or("all root nodes".to_string(), |s| format!("/scenes/{s}"));
         template.description = format!(
-            "glTF 2.0 asset {} ({scene_text}), viewed from {camera_text}, unlit",
-            asset.name
+            "glTF 2.0 asset {} ({scene_text}), viewed from {camera_text}, {}",
+            asset.name,
+            match options.gltf_lighting() {
+                GltfLighting::Unlit => "unlit",
+                GltfLighting::PerPixel(_) => "lit per pixel",
+            }
         );
         if let Some(c) = &clip {
             template.description.push_str(&format!(
@@ -233,6 +238,7 @@ impl GltfFrames {
             .asset
             .add_geometry(&nodes, &frames.materials, &PLACEMENT, &mut scene)
             .map_err(|e| frames.mark(0, e))?;
+        crate::lighting::complete_rig(&mut scene);
         let (centre, radius) = bounds(&scene.vertices);
         if let View::Fixed(c) = &mut frames.view {
             **c = framing_camera(centre, radius, resolution.aspect());
@@ -315,6 +321,7 @@ impl GltfFrames {
             scene.vertices.reserve(self.triangles as usize * 3);
             self.asset
                 .add_geometry(&nodes, &self.materials, &PLACEMENT, &mut scene)?;
+            crate::lighting::complete_rig(&mut scene);
             scene.camera = self.camera(&nodes, bounds(&scene.vertices))?;
             scene.frame = t;
             scene.animation = self.animation();

@@ -29,6 +29,7 @@ use gltf::mesh::Mode;
 
 use crate::error::{Problem, SceneError};
 use crate::format::{DEFAULT_RESOLUTION, MAX_TRIANGLES};
+use crate::lighting::{LightKind, PunctualLight, Reflectance, Specular};
 use crate::load::{Light, LoadOptions};
 use crate::scene::{AlphaMode, Camera, Draw, Material, Projection, Scene, Vertex};
 use crate::texture::{MAX_UV, Texture, Wrap};
@@ -43,6 +44,8 @@ const SUPPORTED_REQUIRED: &[&str] = &[
     "KHR_materials_emissive_strength",
     "KHR_materials_transmission",
     "KHR_texture_transform",
+    "KHR_lights_punctual",
+    "KHR_materials_unlit",
 ];
 
 /// Background of a glTF file loaded directly: linear 0.18, photographic middle grey, so both
@@ -114,6 +117,18 @@ pub(crate) struct Nodes {
     meshes: Vec<(usize, usize, Mat4)>,
     /// (node, camera, world matrix).
     cameras: Vec<(usize, usize, Mat4)>,
+    /// (node, `KHR_lights_punctual` light, world matrix).
+    lights: Vec<(usize, usize, Mat4)>,
+}
+
+/// How an asset's materials are lit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum GltfLighting {
+    /// Per pixel by the scene's lights (the default), with every material's specular rule
+    /// overridden when `Some`; `KHR_materials_unlit` materials stay unlit.
+    PerPixel(Option<Specular>),
+    /// Every material unlit (vertex colours may still carry a JSON scene's baked light).
+    Unlit,
 }
 
 /// Where and how an asset's geometry goes into a scene.
@@ -265,6 +280,7 @@ impl Asset {
             scene,
             meshes: Vec::new(),
             cameras: Vec::new(),
+            lights: Vec::new(),
         };
         // Depth-first, children in order, without recursion (deep chains cannot overflow the
         // stack) and with a visited set (cycles and shared children are errors, not hangs).
@@ -294,6 +310,9 @@ impl Asset {
             }
             if let Some(c) = node.camera() {
                 out.cameras.push((i, c.index(), world));
+            }
+            if let Some(l) = node.light() {
+                out.lights.push((i, l.index(), world));
             }
             let children: Vec<usize> = node.children().map(|c| c.index()).collect();
             for c in children.into_iter().rev() {
@@ -362,7 +381,11 @@ impl Asset {
     /// Converts every material of the asset (plus the glTF default material when a primitive
     /// has none) and the textures they use, appending to `scene`. Unmodelled extensions are
     /// listed in `scene.ignored`.
-    pub(crate) fn add_materials(&self, scene: &mut Scene) -> Result<Materials> {
+    pub(crate) fn add_materials(
+        &self,
+        scene: &mut Scene,
+        lighting: GltfLighting,
+    ) -> Result<Materials> {
         // The asset's credit line travels with the scene into every report (CC-BY asks for it).
         if let Some(c) = self.doc.as_json().asset.copyright.as_deref() {
             let credit = format!("{}: {c}", self.name);
@@ -374,6 +397,8 @@ impl Asset {
             "KHR_materials_emissive_strength",
             "KHR_materials_transmission",
             "KHR_texture_transform",
+            "KHR_lights_punctual",
+            "KHR_materials_unlit",
         ];
         for e in self.doc.extensions_used() {
             if !modelled.contains(&e) {
@@ -388,7 +413,7 @@ impl Asset {
         let mut notes = MaterialNotes::default();
         let mut uv_transforms = Vec::new();
         for m in self.doc.materials() {
-            let (material, uv) = self.material(&m, scene, &mut textures, &mut notes)?;
+            let (material, uv) = self.material(&m, scene, &mut textures, &mut notes, lighting)?;
             scene.materials.push(material);
             uv_transforms.push(uv);
         }
@@ -398,10 +423,16 @@ impl Asset {
             .meshes()
             .any(|mesh| mesh.primitives().any(|p| p.material().index().is_none()));
         let default = needs_default.then(|| {
-            // glTF's default material: white, opaque, single-sided, no emission.
-            scene
-                .materials
-                .push(Material::plain([1.0; 3], 1.0, AlphaMode::Opaque));
+            // glTF's default material: white, opaque, single-sided, no emission, metallic and
+            // roughness 1.
+            let mut m = Material::plain([1.0; 3], 1.0, AlphaMode::Opaque);
+            if let GltfLighting::PerPixel(specular) = lighting {
+                m.reflectance = Some(Reflectance {
+                    specular: specular.unwrap_or(Specular::Faded),
+                    ..Reflectance::GLTF_DEFAULT
+                });
+            }
+            scene.materials.push(m);
             scene.materials.len() as u32 - 1
         });
         Ok(Materials {
@@ -417,6 +448,7 @@ impl Asset {
         scene: &mut Scene,
         textures: &mut TextureCache,
         notes: &mut MaterialNotes,
+        lighting: GltfLighting,
     ) -> Result<(Material, Option<UvTransform>)> {
         let i = m.index().unwrap_or(0);
         let mp = format!("/materials/{i}");
@@ -656,6 +688,7 @@ impl Asset {
             }
         }
         notes::unread_properties(m, &label, metallic_texture_read, notes);
+        let reflectance = self.reflectance(m, &mp, lighting)?;
         if m.volume().is_some() {
             notes.add(
                 "KHR_materials_volume",
@@ -688,9 +721,148 @@ impl Asset {
                 emissive,
                 emissive_texture,
                 transmission,
+                reflectance,
             },
             uv,
         ))
+    }
+
+    /// The lighting parameters of material `m`: `None` when it is unlit (`KHR_materials_unlit`
+    /// or [`GltfLighting::Unlit`]), else its metallic and roughness factors (the
+    /// metallic-roughness texture is not read: `notes::unread_properties` lists it).
+    fn reflectance(
+        &self,
+        m: &gltf::Material,
+        mp: &str,
+        lighting: GltfLighting,
+    ) -> Result<Option<Reflectance>> {
+        let GltfLighting::PerPixel(specular) = lighting else {
+            return Ok(None);
+        };
+        if m.unlit() {
+            return Ok(None);
+        }
+        let pbr = m.pbr_metallic_roughness();
+        let factor = |v: f32, name: &str| -> Result<f32> {
+            if !v.is_finite() || !(0.0..=1.0).contains(&v) {
+                return Err(self.cx.bad(
+                    format!("{mp}/pbrMetallicRoughness/{name}"),
+                    name,
+                    v,
+                    "a finite value in [0, 1]",
+                ));
+            }
+            Ok(v)
+        };
+        let metallic = factor(pbr.metallic_factor(), "metallicFactor")?;
+        let roughness = factor(pbr.roughness_factor(), "roughnessFactor")?;
+        Ok(Some(Reflectance {
+            metallic,
+            roughness,
+            specular: specular.unwrap_or(Specular::Faded),
+        }))
+    }
+
+    /// Appends the `KHR_lights_punctual` lights the node instances place (through
+    /// `placement.transform`) to `scene.lights`, at most [`crate::MAX_LIGHTS`] in all.
+    pub(crate) fn add_lights(
+        &self,
+        nodes: &Nodes,
+        placement: &Placement,
+        scene: &mut Scene,
+    ) -> Result<()> {
+        let outer = Mat4::from(placement.transform);
+        for &(node, light, world) in &nodes.lights {
+            let Some(l) = self.doc.lights().and_then(|mut ls| ls.nth(light)) else {
+                continue;
+            };
+            let lp = format!("/extensions/KHR_lights_punctual/lights/{light}");
+            let w = outer * world;
+            let color = l.color();
+            let intensity = l.intensity();
+            if !intensity.is_finite() || intensity < 0.0 {
+                return Err(self.cx.bad(
+                    format!("{lp}/intensity"),
+                    "light intensity",
+                    intensity,
+                    "a finite value >= 0",
+                ));
+            }
+            for (k, c) in color.iter().enumerate() {
+                if !c.is_finite() || *c < 0.0 {
+                    return Err(self.cx.bad(
+                        format!("{lp}/color/{k}"),
+                        "light colour component",
+                        c,
+                        "finite values >= 0",
+                    ));
+                }
+            }
+            let range = l.range().unwrap_or(0.0);
+            if !range.is_finite() || range < 0.0 || (l.range().is_some() && range == 0.0) {
+                return Err(self.cx.bad(
+                    format!("{lp}/range"),
+                    "light range",
+                    range,
+                    "a finite value > 0 (absent: infinite)",
+                ));
+            }
+            let position = w.transform_point3(Vec3::ZERO);
+            let direction = w.transform_vector3(Vec3::NEG_Z).normalize_or_zero();
+            if !position.is_finite() || direction == Vec3::ZERO || !direction.is_finite() {
+                return Err(self.cx.err(
+                    placement.derived_path(node),
+                    Problem::DerivedNonFinite {
+                        what: format!("position or direction of the light of /nodes/{node}"),
+                    },
+                ));
+            }
+            let (kind, cone_scale, cone_offset) = match l.kind() {
+                gltf::khr_lights_punctual::Kind::Directional => (LightKind::Directional, 0.0, 1.0),
+                gltf::khr_lights_punctual::Kind::Point => (LightKind::Point, 0.0, 1.0),
+                gltf::khr_lights_punctual::Kind::Spot {
+                    inner_cone_angle,
+                    outer_cone_angle,
+                } => {
+                    let quarter = std::f32::consts::FRAC_PI_2;
+                    let ordered = (0.0..quarter).contains(&inner_cone_angle)
+                        && inner_cone_angle < outer_cone_angle
+                        && outer_cone_angle <= quarter;
+                    if !ordered {
+                        return Err(self.cx.bad(
+                            format!("{lp}/spot"),
+                            "spot cone angles (inner, outer)",
+                            format!("({inner_cone_angle}, {outer_cone_angle})"),
+                            "0 <= innerConeAngle < outerConeAngle <= π/2",
+                        ));
+                    }
+                    let (scale, offset) = PunctualLight::cone(inner_cone_angle, outer_cone_angle);
+                    (LightKind::Spot, scale, offset)
+                }
+            };
+            if scene.lights.lights.len() >= crate::MAX_LIGHTS {
+                return Err(self.cx.bad(
+                    format!("{lp} (placed by /nodes/{node})"),
+                    "lights in the scene",
+                    scene.lights.lights.len() + 1,
+                    &format!(
+                        "at most {} punctual lights per scene (one fixed-size GPU uniform array)",
+                        crate::MAX_LIGHTS
+                    ),
+                ));
+            }
+            scene.lights.lights.push(PunctualLight {
+                kind,
+                position: position.to_array(),
+                direction: direction.to_array(),
+                radiance: color.map(|c| c * intensity),
+                range,
+                cone_scale,
+                cone_offset,
+            });
+            scene.lights.origin = "KHR_lights_punctual".into();
+        }
+        Ok(())
     }
 
     /// Appends the triangles of every mesh instance in `nodes` to `scene`: one draw per
@@ -720,7 +892,7 @@ impl Asset {
                 self.primitive(node, m, &p, w, materials, placement, scene)?;
             }
         }
-        Ok(())
+        self.add_lights(nodes, placement, scene)
     }
 
     #[allow(
@@ -778,13 +950,10 @@ impl Asset {
                 v => Ok(v),
             }
         };
-        let normals = match placement.light {
-            Some(_) => same_count(
-                read(&gltf::Semantic::Normals, "NORMAL", &accessor::NORMAL)?,
-                "NORMAL",
-            )?,
-            None => None,
-        };
+        let normals = same_count(
+            read(&gltf::Semantic::Normals, "NORMAL", &accessor::NORMAL)?,
+            "NORMAL",
+        )?;
         let uvs = same_count(
             read(
                 &gltf::Semantic::TexCoords(0),
@@ -901,25 +1070,31 @@ impl Asset {
                         "finite components >= 0",
                     ));
                 }
-                if let Some(l) = placement.light {
-                    // Without NORMAL the face normal lights the triangle (flat shading); a
-                    // zero normal (degenerate triangle, zero NORMAL) receives ambient only.
-                    let normal = match &normals {
-                        Some(nv) => {
-                            let q = nv[i];
-                            let v = Vec3::new(q[0] as f32, q[1] as f32, q[2] as f32);
-                            if !v.is_finite() {
-                                return Err(cx.bad(
-                                    format!("{pp}/attributes/NORMAL"),
-                                    &format!("normal of vertex {i} is"),
-                                    format!("{:?}", v.to_array()),
-                                    "finite normals",
-                                ));
-                            }
-                            (normal_matrix * v).normalize_or_zero()
+                // Without NORMAL the face normal lights the triangle (flat shading, as the glTF
+                // spec asks); a zero normal (degenerate triangle, zero NORMAL) receives ambient
+                // only.
+                let normal = match &normals {
+                    Some(nv) => {
+                        let q = nv[i];
+                        let v = Vec3::new(q[0] as f32, q[1] as f32, q[2] as f32);
+                        if !v.is_finite() {
+                            return Err(cx.bad(
+                                format!("{pp}/attributes/NORMAL"),
+                                &format!("normal of vertex {i} is"),
+                                format!("{:?}", v.to_array()),
+                                "finite normals",
+                            ));
                         }
-                        None => face,
-                    };
+                        (normal_matrix * v).normalize_or_zero()
+                    }
+                    None => face,
+                };
+                let normal = if normal.is_finite() {
+                    normal
+                } else {
+                    Vec3::ZERO
+                };
+                if let Some(l) = placement.light {
                     let lit = l.ambient + l.color * normal.dot(l.to_light).max(0.0);
                     color = (color.truncate() * lit).extend(color.w);
                     if !color.is_finite() {
@@ -935,6 +1110,7 @@ impl Asset {
                     position: world_pos[k].to_array(),
                     color: color.to_array(),
                     uv: uv.to_array(),
+                    normal: normal.to_array(),
                 });
             }
         }

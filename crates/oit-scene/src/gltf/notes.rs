@@ -104,7 +104,7 @@ pub(crate) fn unread_properties(
         let why = if metallic_texture_read {
             "roughness and per-texel metalness not modelled (its mean metalness sets τ)"
         } else {
-            "not modelled (no specular term)"
+            "not modelled (metallicFactor and roughnessFactor light the material alone)"
         };
         notes.add("metallicRoughnessTexture", label, why);
     }
