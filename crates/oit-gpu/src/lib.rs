@@ -39,6 +39,7 @@ pub mod shaders;
 mod spec;
 mod targets;
 mod technique;
+pub mod texels;
 pub mod testing;
 mod timer;
 pub mod work;

@@ -202,7 +202,23 @@ pub(super) fn shade_span(
             let (shaded, open) = match tri.constant {
                 Some(shaded) => (shaded, tri.constant_undecided),
                 None if tri.textured => {
-                    shade_textured(tri, &tri.material, textures, rgba[0], texcoords(tri, &l)[0])
+                    // The quad neighbours in the row and in the column, as helper lanes
+                    // extrapolate them (see `quad_gradient`).
+                    let at = |qx: u32, qy: u32| {
+                        let px = i64::from(qx) * ONE + HALF;
+                        let pys = i64::from(qy) * ONE + HALF;
+                        let l: [[f64; 1]; 3] = std::array::from_fn(|i| {
+                            let (a, b) = ((i + 1) % 3, (i + 2) % 3);
+                            let e =
+                                (xs[b] - xs[a]) * (pys - ys[a]) - (ys[b] - ys[a]) * (px - xs[a]);
+                            [e as f64 * tri.inv_area2]
+                        });
+                        texcoords(tri, &l)[0]
+                    };
+                    let uv = texcoords(tri, &l)[0];
+                    let gx = tile.x0 + x;
+                    let grad = quad_gradient(uv, at(gx ^ 1, y), at(gx, y ^ 1));
+                    shade_textured(tri, &tri.material, textures, rgba[0], uv, grad)
                 }
                 None => (
                     tri.material.shade(rgba[0], Texels::UNTEXTURED),
@@ -237,14 +253,20 @@ pub(super) fn shade_span(
         }
     } else if tri.textured {
         let material = tri.material;
+        // The other row of each pixel's 2×2 quad, for the fine derivatives along y.
+        let other_row = RowWeights::at_row(tri, tile, y ^ 1);
         for x in (first..end).step_by(LANES) {
             let l = weights(x);
             let (depth, rgba) = attributes(tri, &l);
             let uv = texcoords(tri, &l);
+            let uv_x = texcoords(tri, &row_weights.at_quad_neighbours(x));
+            let uv_y = texcoords(tri, &other_row.at(x));
             let dkey = depth_keys(depth, reverse_z);
             let p = base + x as usize;
             for j in 0..((end - x) as usize).min(LANES) {
-                let (shaded, open) = shade_textured(tri, &material, textures, rgba[j], uv[j]);
+                let grad = quad_gradient(uv[j], uv_x[j], uv_y[j]);
+                let (shaded, open) =
+                    shade_textured(tri, &material, textures, rgba[j], uv[j], grad);
                 sink.fragment(p + j, dkey[j], shaded, open);
             }
         }
@@ -299,7 +321,13 @@ pub(super) struct RowWeights {
 impl RowWeights {
     #[inline(always)]
     pub(super) fn new(tri: &SetupTriangle, tile: TileRect, row: u32) -> Self {
-        let py = (tile.y0 + row) as f64 + 0.5;
+        Self::at_row(tri, tile, tile.y0 + row)
+    }
+
+    /// The weights along pixel row `y` (absolute), over the columns of `tile`.
+    #[inline(always)]
+    pub(super) fn at_row(tri: &SetupTriangle, tile: TileRect, y: u32) -> Self {
+        let py = y as f64 + 0.5;
         let (fx, fy) = tri.window();
         let mut w = RowWeights {
             along_row: [0.0; 3],
@@ -322,7 +350,19 @@ impl RowWeights {
     pub(super) fn at(&self, x: u32) -> [[f64; LANES]; 3] {
         // Pixel centres; small integers plus 0.5, so the sum is exact.
         let px0 = (self.x0 + x) as f64 + 0.5;
-        let px: [f64; LANES] = std::array::from_fn(|j| px0 + j as f64);
+        self.at_centres(std::array::from_fn(|j| px0 + j as f64))
+    }
+
+    /// The weights of the other pixel of each one's 2×2 quad in this row: columns
+    /// `(x0 + x + j) ^ 1` for `j` in `0..LANES`.
+    #[inline(always)]
+    pub(super) fn at_quad_neighbours(&self, x: u32) -> [[f64; LANES]; 3] {
+        let first = self.x0 + x;
+        self.at_centres(std::array::from_fn(|j| ((first + j as u32) ^ 1) as f64 + 0.5))
+    }
+
+    #[inline(always)]
+    fn at_centres(&self, px: [f64; LANES]) -> [[f64; LANES]; 3] {
         std::array::from_fn(|i| {
             std::array::from_fn(|j| {
                 (self.along_row[i] - self.dy[i] * (px[j] - self.xa[i])) * self.inv_farea2
@@ -360,8 +400,25 @@ pub(super) fn depth_key_bounds(tri: &SetupTriangle, reverse_z: bool) -> Option<(
     margin.is_finite().then_some((a.min(b), a.max(b)))
 }
 
-/// One fragment of a textured triangle: the material's texture samples at `uv`, the material
-/// rule, and whether α is in the cutoff's undecided band (widened by the texture's reach).
+/// The fine screen derivatives of the texture coordinate, (du/dx, dv/dx, du/dy, dv/dy), from
+/// the pixel's own `uv` and the texture coordinates of its 2×2 quad's other pixel in the row
+/// (`row`) and in the column (`column`), each evaluated like the pixel's own (helper lanes
+/// extrapolate the same plane equations). The GPU's `dpdxFine`/`dpdyFine` subtract the quad's
+/// left from its right pixel; here the sign may be the opposite, which no footprint sees (the
+/// f32 difference negates exactly and is squared).
+#[inline(always)]
+pub(super) fn quad_gradient(uv: [f32; 2], row: [f32; 2], column: [f32; 2]) -> [f32; 4] {
+    [
+        row[0] - uv[0],
+        row[1] - uv[1],
+        column[0] - uv[0],
+        column[1] - uv[1],
+    ]
+}
+
+/// One fragment of a textured triangle: the material's texture samples at `uv` with screen
+/// derivatives `grad`, the material rule, and whether α is in the cutoff's undecided band
+/// (widened by the texture's reach and the level of detail's).
 #[inline(always)]
 pub(super) fn shade_textured(
     tri: &SetupTriangle,
@@ -369,13 +426,19 @@ pub(super) fn shade_textured(
     textures: &[Texture],
     rgba: [f32; 4],
     uv: [f32; 2],
+    grad: [f32; 4],
 ) -> (Shaded, bool) {
-    let texels = material.texels(textures, uv);
+    let texels = material.texels(textures, uv, grad);
     let open = tri.cutoff_rounds
         && match material.base_texture {
-            Some(t) => {
-                undecided_textured(material, &textures[t as usize], rgba[3], texels.base[3], uv)
-            }
+            Some(t) => undecided_textured(
+                material,
+                &textures[t as usize],
+                rgba[3],
+                texels.base[3],
+                uv,
+                grad,
+            ),
             None => undecided(material, rgba[3]),
         };
     (material.shade(rgba, texels), open)
