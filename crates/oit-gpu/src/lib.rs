@@ -39,8 +39,8 @@ pub mod shaders;
 mod spec;
 mod targets;
 mod technique;
-pub mod texels;
 pub mod testing;
+pub mod texels;
 mod timer;
 pub mod work;
 

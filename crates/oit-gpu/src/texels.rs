@@ -34,7 +34,11 @@ pub fn store_extent(texels: u64) -> (u32, u32, u32) {
     let texels = texels.max(1);
     let layers = texels.div_ceil(TEXEL_PAGE_TEXELS);
     if layers > 1 {
-        return (TEXEL_PAGE_SIDE, TEXEL_PAGE_SIDE, layers.min(u64::from(u32::MAX)) as u32);
+        return (
+            TEXEL_PAGE_SIDE,
+            TEXEL_PAGE_SIDE,
+            layers.min(u64::from(u32::MAX)) as u32,
+        );
     }
     let side = u64::from(TEXEL_PAGE_SIDE);
     (texels.min(side) as u32, texels.div_ceil(side) as u32, 1)

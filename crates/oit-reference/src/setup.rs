@@ -536,6 +536,22 @@ pub(crate) fn undecided_textured(
     distance <= bound + scale * motion.at_most(range, range)
 }
 
+/// Whether the GPU's rounding of `uv` and its derivatives could make `texture`'s sample jump
+/// (another texel of a NEAREST filter, another level of a *_MIPMAP_NEAREST filter, or the
+/// other of differing magnification and minification filters): then rounding, not the scene,
+/// decides the fragment's colour, and the reference flags it undecided. Filters that are
+/// linear throughout are continuous and never jump.
+#[inline]
+pub(crate) fn sample_may_jump(texture: &Texture, uv: [f32; 2], grad: [f32; 4]) -> bool {
+    use oit_scene::{Filter, MipFilter};
+    let s = texture.sampler();
+    if s.mag == Filter::Linear && s.min == Filter::Linear && s.mip != MipFilter::Nearest {
+        return false;
+    }
+    let motion = texture_motion(texture, uv, grad);
+    motion.nearest_jump || motion.level_jump
+}
+
 /// How far the GPU's sample of `texture` can be from the reference's, in units of the alpha
 /// range of the texels involved ([`undecided_textured`]).
 struct TextureMotion {
@@ -590,8 +606,16 @@ fn texture_motion(texture: &Texture, uv: [f32; 2], grad: [f32; 4]) -> TextureMot
     let magnified = rho2_lo <= 1.0 + 1e-6;
     let minified = rho2_hi > 1.0 - 1e-6;
     let (lod_lo, lod_hi) = (
-        if magnified { 0.0 } else { (lod(rho2_lo) - slack).max(0.0) },
-        if minified { (lod(rho2_hi) + slack).min(last) } else { 0.0 },
+        if magnified {
+            0.0
+        } else {
+            (lod(rho2_lo) - slack).max(0.0)
+        },
+        if minified {
+            (lod(rho2_hi) + slack).min(last)
+        } else {
+            0.0
+        },
     );
     let mut level_jump = magnified && minified && sampler.mag != sampler.min;
     let mut nearest = (magnified && sampler.mag == Filter::Nearest)

@@ -249,8 +249,7 @@ impl Material {
     /// = (du/dx, dv/dx, du/dy, dv/dy) ([`crate::Texture::sample`]).
     #[inline]
     pub fn texels(&self, textures: &[crate::Texture], uv: [f32; 2], grad: [f32; 4]) -> Texels {
-        let sample =
-            |t: Option<u32>| t.map_or([1.0; 4], |t| textures[t as usize].sample(uv, grad));
+        let sample = |t: Option<u32>| t.map_or([1.0; 4], |t| textures[t as usize].sample(uv, grad));
         Texels {
             base: sample(self.base_texture),
             emissive: sample(self.emissive_texture),

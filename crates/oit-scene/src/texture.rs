@@ -113,7 +113,11 @@ impl Sampler {
         self.mag = match mag {
             None | Some(9729) => Filter::Linear,
             Some(9728) => Filter::Nearest,
-            Some(c) => return Err(format!("magFilter {c}; allowed: 9728 (NEAREST), 9729 (LINEAR)")),
+            Some(c) => {
+                return Err(format!(
+                    "magFilter {c}; allowed: 9728 (NEAREST), 9729 (LINEAR)"
+                ));
+            }
         };
         (self.min, self.mip) = match min {
             Some(9728) => (Filter::Nearest, MipFilter::None),
@@ -462,7 +466,8 @@ impl Texture {
         let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
         for dj in -1..=2 {
             for di in -1..=2 {
-                let a = self.texel_at(first, width, height, i.wrapping_add(di), j.wrapping_add(dj))[3];
+                let a =
+                    self.texel_at(first, width, height, i.wrapping_add(di), j.wrapping_add(dj))[3];
                 lo = lo.min(a);
                 hi = hi.max(a);
             }
@@ -555,7 +560,11 @@ mod tests {
         for c in 0..=255u8 {
             let code = pack_rgba8([c, c, c, c]);
             let linear = srgb_to_linear(f64::from(c) / 255.0);
-            assert_eq!(srgb.decode(code), [linear, linear, linear, unorm(c)], "code {c}");
+            assert_eq!(
+                srgb.decode(code),
+                [linear, linear, linear, unorm(c)],
+                "code {c}"
+            );
             assert_eq!(data.decode(code), [unorm(c); 4], "code {c}");
             assert_eq!(decode_tables()[c as usize].to_bits(), linear.to_bits());
         }
@@ -666,14 +675,20 @@ mod tests {
         let f = t.lod(t.footprint_squared(between)) - 1.0;
         assert_eq!(s, std::array::from_fn(|k| a[k] + (b[k] - a[k]) * f));
         // Beyond the last level: clamped to it.
-        assert_eq!(t.sample(uv, [64.0, 0.0, 0.0, 0.0]), t.filter_level(4, Filter::Linear, uv));
+        assert_eq!(
+            t.sample(uv, [64.0, 0.0, 0.0, 0.0]),
+            t.filter_level(4, Filter::Linear, uv)
+        );
         // ρ ≤ 1: magnification, here NEAREST, on level 0.
         let nearest_mag = Sampler {
             mag: Filter::Nearest,
             ..Sampler::default()
         };
         let n = ramp(16, 16, nearest_mag);
-        assert_eq!(n.sample([0.3, 0.6], [1.0 / 16.0, 0.0, 0.0, 0.0]), n.texel(9 * 16 + 4));
+        assert_eq!(
+            n.sample([0.3, 0.6], [1.0 / 16.0, 0.0, 0.0, 0.0]),
+            n.texel(9 * 16 + 4)
+        );
         // MIPMAP_NEAREST rounds the level: lod 1.4 → 1, 1.6 → 2.
         let nearest_mip = ramp(
             16,
@@ -738,7 +753,10 @@ mod tests {
         // At a level's texel centre the sample is that texel; the mirror of level 1's texel
         // (1, 1) across u = 0 is texel (0, 1)'s twin at u = −1.5/8, which reads texel 1.
         let level1 = |uv: [f32; 2]| mirrored.filter_level(1, Filter::Linear, uv);
-        assert_eq!(level1([-1.5 / 8.0, 1.5 / 4.0]), level1([1.5 / 8.0, 1.5 / 4.0]));
+        assert_eq!(
+            level1([-1.5 / 8.0, 1.5 / 4.0]),
+            level1([1.5 / 8.0, 1.5 / 4.0])
+        );
         let clamp = ramp(
             16,
             8,
@@ -748,7 +766,10 @@ mod tests {
                 ..Sampler::default()
             },
         );
-        assert_eq!(clamp.sample([3.0, 0.5], grad), clamp.sample([1.0, 0.5], grad));
+        assert_eq!(
+            clamp.sample([3.0, 0.5], grad),
+            clamp.sample([1.0, 0.5], grad)
+        );
     }
 
     #[test]
@@ -756,9 +777,15 @@ mod tests {
         let s = |mag, min| Sampler::default().with_gltf_filters(mag, min);
         assert_eq!(s(None, None).unwrap(), Sampler::default());
         let n = s(Some(9728), Some(9984)).unwrap();
-        assert_eq!((n.mag, n.min, n.mip), (Filter::Nearest, Filter::Nearest, MipFilter::Nearest));
+        assert_eq!(
+            (n.mag, n.min, n.mip),
+            (Filter::Nearest, Filter::Nearest, MipFilter::Nearest)
+        );
         let l = s(Some(9729), Some(9985)).unwrap();
-        assert_eq!((l.mag, l.min, l.mip), (Filter::Linear, Filter::Linear, MipFilter::Nearest));
+        assert_eq!(
+            (l.mag, l.min, l.mip),
+            (Filter::Linear, Filter::Linear, MipFilter::Nearest)
+        );
         assert_eq!(s(None, Some(9986)).unwrap().mip, MipFilter::Linear);
         assert_eq!(s(None, Some(9986)).unwrap().min, Filter::Nearest);
         assert_eq!(s(None, Some(9729)).unwrap().mip, MipFilter::None);

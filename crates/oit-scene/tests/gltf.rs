@@ -404,7 +404,9 @@ fn image_formats_decode_to_8_bit_codes() {
         assert_eq!(s.textures[0].texel(0), want, "case {k}");
         assert_eq!(s.textures[0].name, "asset.gltf /images/0");
         let quantised = s.ignored.iter().any(|i| {
-            i.contains("asset.gltf /images/0: 16-bit image stored as 8-bit codes (rounded to nearest")
+            i.contains(
+                "asset.gltf /images/0: 16-bit image stored as 8-bit codes (rounded to nearest",
+            )
         });
         assert_eq!(quantised, k >= 3, "case {k}: {:?}", s.ignored);
     }
@@ -429,11 +431,17 @@ fn textures_follow_samplers_and_are_shared() {
     // Same image, two wrap pairs: two textures; base and emissive of material 0 share one.
     assert_eq!(s.textures.len(), 2);
     assert_eq!(
-        (s.textures[0].sampler().wrap_u, s.textures[0].sampler().wrap_v),
+        (
+            s.textures[0].sampler().wrap_u,
+            s.textures[0].sampler().wrap_v
+        ),
         (Wrap::ClampToEdge, Wrap::MirroredRepeat)
     );
     assert_eq!(
-        (s.textures[1].sampler().wrap_u, s.textures[1].sampler().wrap_v),
+        (
+            s.textures[1].sampler().wrap_u,
+            s.textures[1].sampler().wrap_v
+        ),
         (Wrap::Repeat, Wrap::Repeat)
     );
     // The filters: NEAREST magnification, LINEAR_MIPMAP_NEAREST; no sampler is what engines

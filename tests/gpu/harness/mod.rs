@@ -4,6 +4,7 @@ mod counts;
 mod goldens;
 mod growth;
 mod material_forms;
+mod mipmaps;
 mod motion;
 mod predictions;
 mod robustness;

@@ -244,7 +244,8 @@ fn repo() -> std::path::PathBuf {
 }
 
 /// The bundled glTF scenes (real assets: textured MASK and BLEND, an OPAQUE texture whose α
-/// must be ignored, lighting through the asset's normals): fragment counts conform, and the
+/// must be ignored, lighting through the asset's normals; mipmapped MASK foliage, trilinear and
+/// nearest-mip): fragment counts conform, and the
 /// exact techniques equal the reference to 4e-3 outside the pixels rounding decides.
 #[test]
 fn bundled_gltf_scenes_are_exact_for_exact_techniques() {
@@ -256,7 +257,11 @@ fn bundled_gltf_scenes_are_exact_for_exact_techniques() {
         "dual-peel:passes=auto,depth=rg32f".into(),
     ])
     .expect("specs");
-    for name in ["gltf-alpha-blend-modes", "gltf-glass-vase"] {
+    for name in [
+        "gltf-alpha-blend-modes",
+        "gltf-glass-vase",
+        "gltf-foliage-mipmaps",
+    ] {
         let path = repo().join("scenes").join(format!("{name}.json"));
         let scene = oit_scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
         assert!(!scene.textures.is_empty(), "{name}: textures loaded");

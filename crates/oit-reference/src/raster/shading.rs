@@ -265,8 +265,7 @@ pub(super) fn shade_span(
             let p = base + x as usize;
             for j in 0..((end - x) as usize).min(LANES) {
                 let grad = quad_gradient(uv[j], uv_x[j], uv_y[j]);
-                let (shaded, open) =
-                    shade_textured(tri, &material, textures, rgba[j], uv[j], grad);
+                let (shaded, open) = shade_textured(tri, &material, textures, rgba[j], uv[j], grad);
                 sink.fragment(p + j, dkey[j], shaded, open);
             }
         }
@@ -358,7 +357,9 @@ impl RowWeights {
     #[inline(always)]
     pub(super) fn at_quad_neighbours(&self, x: u32) -> [[f64; LANES]; 3] {
         let first = self.x0 + x;
-        self.at_centres(std::array::from_fn(|j| ((first + j as u32) ^ 1) as f64 + 0.5))
+        self.at_centres(std::array::from_fn(|j| {
+            ((first + j as u32) ^ 1) as f64 + 0.5
+        }))
     }
 
     #[inline(always)]
@@ -417,8 +418,9 @@ pub(super) fn quad_gradient(uv: [f32; 2], row: [f32; 2], column: [f32; 2]) -> [f
 }
 
 /// One fragment of a textured triangle: the material's texture samples at `uv` with screen
-/// derivatives `grad`, the material rule, and whether α is in the cutoff's undecided band
-/// (widened by the texture's reach and the level of detail's).
+/// derivatives `grad`, the material rule, and whether it is undecided: α in the cutoff's
+/// undecided band (widened by the texture's reach and the level of detail's), or a sample that
+/// rounding could make jump (`sample_may_jump`).
 #[inline(always)]
 pub(super) fn shade_textured(
     tri: &SetupTriangle,
@@ -429,18 +431,22 @@ pub(super) fn shade_textured(
     grad: [f32; 4],
 ) -> (Shaded, bool) {
     let texels = material.texels(textures, uv, grad);
-    let open = tri.cutoff_rounds
-        && match material.base_texture {
-            Some(t) => undecided_textured(
-                material,
-                &textures[t as usize],
-                rgba[3],
-                texels.base[3],
-                uv,
-                grad,
-            ),
-            None => undecided(material, rgba[3]),
-        };
+    let jumps =
+        |t: Option<u32>| t.is_some_and(|t| sample_may_jump(&textures[t as usize], uv, grad));
+    let open = jumps(material.base_texture)
+        || jumps(material.emissive_texture)
+        || tri.cutoff_rounds
+            && match material.base_texture {
+                Some(t) => undecided_textured(
+                    material,
+                    &textures[t as usize],
+                    rgba[3],
+                    texels.base[3],
+                    uv,
+                    grad,
+                ),
+                None => undecided(material, rgba[3]),
+            };
     (material.shade(rgba, texels), open)
 }
 

@@ -536,7 +536,8 @@ impl Asset {
                     Some(s) => format!("/samplers/{s}"),
                     None => tp.clone(),
                 };
-                self.cx.bad(pointer, "sampler filter", message, "glTF filter codes")
+                self.cx
+                    .bad(pointer, "sampler filter", message, "glTF filter codes")
             })?;
             // Base colour and emission are colour: sRGB rgb.
             let key = (tex.source().index(), filters, Encoding::Srgb);
@@ -1107,8 +1108,12 @@ impl TextureCache {
         let name = format!("{} /images/{i}", asset.name);
         let note = match quantised {
             image::Quantised::Exact => None,
-            image::Quantised::From16Bit => Some("16-bit image stored as 8-bit codes (rounded to nearest, as engines store it)"),
-            image::Quantised::FromFloat => Some("float image stored as 8-bit codes (nearest sRGB code for colour, UNORM for alpha; clamped to [0, 1])"),
+            image::Quantised::From16Bit => {
+                Some("16-bit image stored as 8-bit codes (rounded to nearest, as engines store it)")
+            }
+            image::Quantised::FromFloat => Some(
+                "float image stored as 8-bit codes (nearest sRGB code for colour, UNORM for alpha; clamped to [0, 1])",
+            ),
         };
         if let Some(note) = note {
             let line = format!("{name}: {note}");
