@@ -44,8 +44,8 @@ pub fn store_extent(texels: u64) -> (u32, u32, u32) {
     (texels.min(side) as u32, texels.div_ceil(side) as u32, 1)
 }
 
-/// Bytes the store takes for `texels` texels (the last page's unused rows excluded, its last
-/// row's padding included).
+/// Bytes the store takes for `texels` texels: whole 16 MiB pages when there are several (the
+/// layers of an array share one size), else only the rows the texels need.
 pub fn store_bytes(texels: u64) -> u64 {
     let (w, h, layers) = store_extent(texels);
     u64::from(w) * u64::from(h) * u64::from(layers) * TEXEL_BYTES

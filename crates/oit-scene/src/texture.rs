@@ -435,6 +435,8 @@ impl Texture {
     #[inline]
     pub fn sample(&self, uv: [f32; 2], grad: [f32; 4]) -> [f32; 4] {
         let rho2 = self.footprint_squared(grad);
+        // Written as the shader writes it: NaN magnifies too.
+        #[allow(clippy::neg_cmp_op_on_partial_ord)]
         if !(rho2 > 1.0) {
             return self.filter_level(0, self.sampler.mag, uv);
         }
@@ -791,7 +793,8 @@ mod tests {
         assert_eq!(s(None, Some(9729)).unwrap().mip, MipFilter::None);
         assert!(s(Some(9984), None).unwrap_err().contains("magFilter 9984"));
         assert!(s(None, Some(1)).unwrap_err().contains("allowed"));
-        assert_eq!(Sampler::default().code(), 0b10_1_1_00_00);
+        // Mip linear (2) << 6 | min linear << 5 | mag linear << 4 | repeat, repeat.
+        assert_eq!(Sampler::default().code(), 0b1011_0000);
     }
 
     /// The in-range short cut of [`Wrap::apply`] changes no index: against the remainders
