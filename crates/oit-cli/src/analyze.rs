@@ -21,6 +21,9 @@ struct Entry {
     error: Option<String>,
     #[serde(skip_serializing_if = "Option::is_none")]
     analysis: Option<Analysis>,
+    /// What the loader read but does not model (`Scene::ignored`), one line each.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    not_modelled: Vec<String>,
 }
 
 /// The scene files of `paths` (a directory: every scene in it), in order.
@@ -28,7 +31,11 @@ fn files(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
     let mut out = Vec::new();
     for p in paths {
         if p.is_dir() {
-            out.extend(oit_scene::scene_files(p)?);
+            let (scenes, skipped) = oit_harness::scene_files::scene_files(p)?;
+            for s in &skipped {
+                eprintln!("note: {}", s.note());
+            }
+            out.extend(scenes);
         } else {
             out.push(p.clone());
         }
@@ -53,21 +60,22 @@ pub fn run(
         && !json
     {
         // One scene: its error is the command's, said once.
-        let a = analyze_file(file, resolution, memory_budget, load)?;
-        print!("{}", table(file, &a));
+        let (a, notes) = analyze_file(file, resolution, memory_budget, load)?;
+        print!("{}", table(file, &a, &notes));
         return Ok(());
     }
     let mut entries = Vec::new();
     for file in &files {
         let entry = match analyze_file(file, resolution, memory_budget, load) {
-            Ok(a) => {
+            Ok((a, notes)) => {
                 if !json {
-                    print!("{}", table(file, &a));
+                    print!("{}", table(file, &a, &notes));
                 }
                 Entry {
                     file: file.display().to_string(),
                     error: None,
                     analysis: Some(a),
+                    not_modelled: notes.ignored,
                 }
             }
             Err(e) => {
@@ -77,6 +85,7 @@ pub fn run(
                     file: file.display().to_string(),
                     error: Some(line),
                     analysis: None,
+                    not_modelled: Vec::new(),
                 }
             }
         };
@@ -98,8 +107,12 @@ fn analyze_file(
     resolution: Option<Resolution>,
     memory_budget: u64,
     load: &oit_scene::LoadOptions,
-) -> Result<Analysis> {
+) -> Result<(Analysis, Notes)> {
     let scene = oit_scene::load_with(file, load)?;
+    let notes = Notes {
+        lines: crate::notes::scene_lines(&scene),
+        ignored: scene.ignored.clone(),
+    };
     let scene = match resolution {
         Some(r) => scene.with_resolution(r),
         None => scene,
@@ -119,7 +132,14 @@ fn analyze_file(
     let analysis = oit_reference::analyze::analyze(&scene, &options)
         .map_err(|e| anyhow::anyhow!("{}: analysis: {e}", file.display()));
     bar.finish_and_clear();
-    analysis
+    Ok((analysis?, notes))
+}
+
+/// A scene's credit and "Not modelled" lines for the table, and the bare `ignored` lines for
+/// the JSON.
+struct Notes {
+    lines: Vec<String>,
+    ignored: Vec<String>,
 }
 
 fn range(r: Option<[f32; 2]>) -> String {
@@ -172,7 +192,7 @@ fn conflict_rows<T>(
 }
 
 /// The terminal table of one scene, wrapped to [`WIDTH`] columns.
-fn table(file: &Path, a: &Analysis) -> String {
+fn table(file: &Path, a: &Analysis, notes: &Notes) -> String {
     let l = &a.layers;
     let mut rows: Vec<(String, String)> = vec![
         (
@@ -290,6 +310,12 @@ fn table(file: &Path, a: &Analysis) -> String {
             let label = if first { label.as_str() } else { "" };
             out.push_str(&format!("  {label:<label_width$} {line}\n"));
             first = false;
+        }
+    }
+    for line in &notes.lines {
+        for (k, part) in wrap(&printable(line), WIDTH - 4).into_iter().enumerate() {
+            let indent = if k == 0 { "  " } else { "    " };
+            out.push_str(&format!("{indent}{part}\n"));
         }
     }
     out.push('\n');

@@ -1,7 +1,8 @@
 //! `oit`: compare order-independent transparency techniques against an exact CPU reference.
 //!
 //! Exit codes: 0 on success; 1 with one line on stderr otherwise; 2 for usage errors (clap);
-//! 3 when `recommend` finds no configuration within the budget; 130 when `compare` was
+//! 3 when `recommend` finds no configuration within the budget; 4 when `compare` wrote its
+//! results and report but some runs failed ([`RunsFailed`]); 130 when `compare` was
 //! interrupted (Ctrl-C) after writing what it finished.
 
 use std::path::{Path, PathBuf};
@@ -16,6 +17,7 @@ use oit_scene::{Resolution, Scene};
 mod analyze;
 mod cost_model;
 mod growth;
+mod notes;
 mod recommend;
 mod scenes;
 
@@ -355,6 +357,10 @@ fn main() -> ExitCode {
             eprintln!("oit: {e}");
             ExitCode::from(130)
         }
+        Err(e) if e.is::<RunsFailed>() => {
+            eprintln!("oit: {e}");
+            ExitCode::from(RUNS_FAILED_EXIT)
+        }
         Err(e) if e.is::<recommend::NotMet>() => {
             eprintln!("oit: {e}");
             ExitCode::from(recommend::NOT_MET_EXIT)
@@ -400,6 +406,22 @@ impl std::fmt::Display for Interrupted {
         f.write_str(&self.0)
     }
 }
+
+/// `compare` wrote every output, but some runs failed (a scene that did not load or fit, a
+/// technique the GPU refused): exit [`RUNS_FAILED_EXIT`], so scripts notice.
+#[derive(Debug)]
+struct RunsFailed(String);
+
+/// The exit code of [`RunsFailed`] (docs/outputs.md).
+const RUNS_FAILED_EXIT: u8 = 4;
+
+impl std::fmt::Display for RunsFailed {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for RunsFailed {}
 
 /// The tables `oit techniques --markdown` generates.
 #[derive(Debug, Clone, Copy, clap::ValueEnum)]
@@ -465,13 +487,18 @@ fn run(command: Command) -> Result<()> {
             load,
         } => {
             load.check(std::slice::from_ref(&scene))?;
-            for frame in frame_outputs(
+            let frames = frame_outputs(
                 &scene,
                 resolution,
                 animation_frames,
                 output,
                 &load.options(),
-            )? {
+            )?;
+            // Every frame is the same asset: its notes once.
+            if let Some(first) = frames.first() {
+                notes::print_scene(&first.scene);
+            }
+            for frame in frames {
                 reference(frame, mib(memory_budget))?;
             }
             Ok(())
@@ -615,11 +642,20 @@ fn load_some_scenes(
     paths: &[PathBuf],
     load: &oit_scene::LoadOptions,
 ) -> Result<Vec<oit_harness::SceneEntry>> {
-    let scenes = oit_harness::load_scenes_with(paths, load)?;
+    let (scenes, skipped) = oit_harness::load_scenes_noting(paths, load)?;
+    note_skipped(&skipped);
     if scenes.is_empty() {
         return Err(no_scene_files(paths));
     }
     Ok(scenes)
+}
+
+/// One line per JSON file of a scene folder that is not a scene (`metadata.json` beside a
+/// downloaded model).
+fn note_skipped(skipped: &[oit_harness::SkippedFile]) {
+    for s in skipped {
+        eprintln!("note: {}", oit_harness::report::printable(&s.note()));
+    }
 }
 
 /// Where `reference` and `render` write: `output` or the default name, refused when it is not
@@ -816,6 +852,9 @@ fn render(frames: Vec<FrameOutput>, spec: &str, gpu: &GpuArgs) -> Result<()> {
     }
     let ctx = oit_harness::open_context(&gpu.options())?;
     print_adapter(&ctx);
+    if let Some((scene, _, _)) = planned.first() {
+        notes::print_scene(scene);
+    }
     for (scene, output, png) in planned {
         // One call with no steps to count: a spinner with the time so far (a deep peel can
         // take minutes on a CPU adapter).
@@ -900,7 +939,8 @@ fn compare(
     let results = run_comparison(paths, &scenes, &unloadable, &specs, options, max_runs)?;
     print!("{}", oit_harness::report::terminal_table(&results));
     growth::print_tables(&results, metric, &growth.bound);
-    finish_comparison(&results, &options.out_dir, metric, growth.bound.break_at)
+    finish_comparison(&results, &options.out_dir, metric, growth.bound.break_at)?;
+    fail_on_failed_runs(&results, &options.out_dir)
 }
 
 /// The scenes of a comparison: one scene that does not load is reported as failed; the others
@@ -909,7 +949,8 @@ fn load_for_comparison(
     paths: &[PathBuf],
     load: &oit_scene::LoadOptions,
 ) -> Result<(Vec<oit_harness::SceneEntry>, Vec<oit_harness::Unloadable>)> {
-    let (scenes, unloadable) = oit_harness::load_scenes_lenient(paths, load)?;
+    let (scenes, unloadable, skipped) = oit_harness::load_scenes_lenient(paths, load)?;
+    note_skipped(&skipped);
     if scenes.is_empty() && unloadable.is_empty() {
         return Err(no_scene_files(paths));
     }
@@ -1045,6 +1086,22 @@ fn finish_comparison(
             "interrupted: {} runs are in {}; run the same command with --resume to finish the rest",
             results.runs.len(),
             out_dir.join("results.json").display()
+        ))
+        .into());
+    }
+    Ok(())
+}
+
+/// After `compare` wrote everything: [`RunsFailed`] when any run failed.
+fn fail_on_failed_runs(results: &oit_harness::results::Results, out_dir: &Path) -> Result<()> {
+    let failed = (results.runs.iter())
+        .filter(|r| r.status == oit_harness::results::RunStatus::Failed)
+        .count();
+    if failed > 0 {
+        return Err(RunsFailed(format!(
+            "{failed} of {} runs failed (each with its reason in results.md and report.html); the rest are in {}",
+            results.runs.len(),
+            out_dir.display()
         ))
         .into());
     }

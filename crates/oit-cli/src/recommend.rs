@@ -248,6 +248,7 @@ pub fn run(args: RecommendArgs) -> Result<()> {
         "{}",
         oit_report::recommend::recommendation_text(&answer, &oit_harness::report::short_spec)
     );
+    crate::notes::print_results(&results);
     if let Some(path) = &args.json {
         write_json(path, &answer)?;
         println!("wrote {}", path.display());

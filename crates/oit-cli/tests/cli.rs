@@ -1103,3 +1103,51 @@ fn merge_refuses_foreign_files_and_joins_shards_of_one_comparison() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("the merge never writes into its inputs"));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A downloaded model's folder holds `metadata.json` beside it: skipped with a note, not read
+/// as a broken scene; a file meant as a scene (it has `objects`) that is malformed still fails.
+/// `compare` on a folder with a broken scene writes everything for the good one and exits 4.
+#[test]
+fn non_scene_files_are_skipped_and_failed_runs_exit_4() {
+    let out = oit()
+        .args(["scenes", "assets/GlassVaseFlowers"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("note: skipped: not a scene: assets/GlassVaseFlowers/metadata.json"),
+        "{stderr}"
+    );
+    assert!(String::from_utf8_lossy(&out.stdout).contains("GlassVaseFlowers"));
+    let dir = temp_dir("non-scenes");
+    let scenes = dir.join("scenes");
+    std::fs::create_dir_all(&scenes).unwrap();
+    std::fs::copy("../../scenes/enderton.json", scenes.join("a-enderton.json")).unwrap();
+    std::fs::write(
+        scenes.join("b-broken.json"),
+        r#"{"name": "b", "objects": 3}"#,
+    )
+    .unwrap();
+    let out = oit().arg("scenes").arg(&scenes).output().unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("b-broken.json"));
+    if oit_gpu::testing::context_or_skip("cli failed runs").is_none() {
+        return;
+    }
+    let results = dir.join("out");
+    let out = oit()
+        .arg("compare")
+        .arg(&scenes)
+        .args(["--resolution", "16x16", "--frames", "1", "--warmup", "0"])
+        .args(["-t", "unsorted", "--no-cache", "--out"])
+        .arg(&results)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(4), "{stderr}");
+    assert!(stderr.contains("oit: 1 of 2 runs failed"), "{stderr}");
+    assert!(results.join("report.html").is_file());
+    assert!(results.join("enderton/unsorted.exr").is_file());
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -523,6 +523,27 @@ impl Context {
         Ok(module)
     }
 
+    /// Forgets the per-draw forms of every scene pass module made so far, and with them the
+    /// modules: the table holds each module it was given, so without this every module a
+    /// technique ever made stays alive (a comparison builds its techniques again for every
+    /// scene). Call it when no technique built on this context is alive, as a comparison does
+    /// between scenes: pipelines already built keep their own forms, but a module made before
+    /// and given to a new pipeline after would lose its per-draw form.
+    pub fn forget_shader_forms(&self) {
+        self.per_draw
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .clear();
+    }
+
+    /// How many scene pass modules the per-draw table holds ([`Context::forget_shader_forms`]).
+    pub fn shader_forms(&self) -> usize {
+        self.per_draw
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .len()
+    }
+
     /// The per-draw form of a scene pass module made by [`Context::shader_with`]
     /// (shaders/scene_io/draw.wgsl in place of the per-vertex interface); `None` for a module
     /// without the scene pass interface.

@@ -36,9 +36,18 @@ pub enum GpuError {
     RequestDevice { adapter: String, message: String },
     #[error(transparent)]
     Unsupported(#[from] Unsupported),
-    /// A size the device cannot hold (buffer or texture over the adapter's limits).
-    #[error("{what} needs {needed}, but this adapter allows at most {limit}")]
+    /// A size the device cannot hold (buffer or texture over the adapter's limits), in bytes
+    /// (stated in MiB).
+    #[error("{what} needs {}, but this adapter allows at most {}", crate::mib(*needed), crate::mib(*limit))]
     TooLarge {
+        what: String,
+        needed: u64,
+        limit: u64,
+    },
+    /// A count the device cannot hold (peel passes, u32 indices): like [`GpuError::TooLarge`]
+    /// for numbers that are not bytes.
+    #[error("{what} needs {needed}, but this adapter allows at most {limit}")]
+    TooMany {
         what: String,
         needed: u64,
         limit: u64,
@@ -68,6 +77,10 @@ pub enum GpuError {
     /// The run's time budget ([`crate::GpuTimer::set_budget`]) ran out before a submission.
     #[error("stopped after {}, the time budget of one run (oit compare --run-budget)", seconds_text(*seconds))]
     OverBudget { seconds: f64 },
+    /// The device reported an error (validation, out of memory, internal) or the work
+    /// panicked, caught by [`crate::Context::contain`].
+    #[error("{0}")]
+    Device(String),
     /// Caller passed inconsistent arguments (e.g. targets of another size than the scene).
     #[error("{0}")]
     Mismatch(String),
@@ -79,5 +92,32 @@ fn seconds_text(seconds: f64) -> String {
         format!("{seconds:.0} s")
     } else {
         format!("{:.0} ms", seconds * 1e3)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn byte_sizes_are_stated_in_mib_and_counts_as_numbers() {
+        let bytes = GpuError::TooLarge {
+            what: "the texel store".into(),
+            needed: 138_412_032,
+            limit: 134_217_728,
+        };
+        assert_eq!(
+            bytes.to_string(),
+            "the texel store needs 132.0 MiB, but this adapter allows at most 128.0 MiB"
+        );
+        let count = GpuError::TooMany {
+            what: "depth-peeling passes".into(),
+            needed: 300,
+            limit: 256,
+        };
+        assert_eq!(
+            count.to_string(),
+            "depth-peeling passes needs 300, but this adapter allows at most 256"
+        );
     }
 }

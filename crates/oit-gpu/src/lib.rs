@@ -35,6 +35,7 @@ mod pipeline;
 pub mod predict;
 mod readback;
 mod scene;
+mod scope;
 pub mod shaders;
 mod spec;
 mod targets;
@@ -60,6 +61,7 @@ pub use scene::{
     CullRule, GpuScene, MATERIAL_STRIDE, MATERIAL_UNIFORM_STRIDE, MaterialSource, SceneBytes,
     ScenePipelineDesc, ScenePipelines, VERTEX_STRIDE, depth_test, vertex_layout,
 };
+pub use scope::ContainedError;
 pub use spec::{
     Allowed, Bounded, Family, Param, ParamInfo, ParamValue, SpecError, TechniqueInfo, TechniqueSpec,
 };

@@ -4,26 +4,32 @@
 //! The registry of techniques lives here, and only here: technique crates never know about
 //! each other, the harness concatenates their `techniques()` lists.
 
+pub mod budget;
 pub mod cache;
 pub mod candidates;
 mod clip;
 mod counts;
 pub mod goldens;
 pub mod inputs;
+mod isolate;
 pub mod listing;
 pub mod merge;
 pub mod motion;
+mod peak;
 pub mod predict;
 pub mod report;
 pub mod results;
 mod resume;
 mod run;
+pub mod scene_files;
 pub mod shard;
 mod timing;
 pub mod vary;
 
+pub use budget::{MemoryPlan, RUN_BYTES_PER_PIXEL};
 pub use listing::{MarkdownTable, techniques_help, techniques_json, techniques_markdown};
 pub use merge::merge;
+pub use scene_files::SkippedFile;
 pub use shard::Shard;
 pub use timing::time_technique;
 
@@ -39,8 +45,7 @@ use oit_scene::{Resolution, Scene};
 
 pub use run::{
     APPROXIMATE_TRANSMISSION, CompareOptions, DEFAULT_MEMORY_BUDGET, DEFAULT_RUN_BUDGET, Event,
-    LOCK_FILE, MAX_WARMUP, MemoryPlan, RUN_BYTES_PER_PIXEL, ReferenceCache, RenderedFrame, compare,
-    compare_all, render_once,
+    LOCK_FILE, MAX_WARMUP, ReferenceCache, RenderedFrame, compare, compare_all, render_once,
 };
 
 /// Errors of the harness. Each names the file it concerns.
@@ -54,6 +59,9 @@ pub enum HarnessError {
     },
     #[error("{}: {message}", path.display())]
     Invalid { path: PathBuf, message: String },
+    /// More memory than `--memory-budget` allows (the message says what needs it, in MiB).
+    #[error("{0}")]
+    OverMemoryBudget(String),
     /// Options that make no comparison (e.g. zero timed frames, a sweep too large).
     #[error("{0}")]
     Options(String),
@@ -273,31 +281,52 @@ pub fn load_scenes_with(
     paths: &[PathBuf],
     options: &oit_scene::LoadOptions,
 ) -> Result<Vec<SceneEntry>, HarnessError> {
+    Ok(load_scenes_noting(paths, options)?.0)
+}
+
+/// [`load_scenes_with`], and the JSON files of the folders given that are not scenes
+/// ([`scene_files::not_a_scene`]): skipped, for the caller to note. A file named on its own
+/// is always loaded as a scene.
+pub fn load_scenes_noting(
+    paths: &[PathBuf],
+    options: &oit_scene::LoadOptions,
+) -> Result<(Vec<SceneEntry>, Vec<SkippedFile>), HarnessError> {
     let mut out = Vec::new();
+    let mut skipped = Vec::new();
     for path in paths {
         if path.is_dir() {
-            for file in oit_scene::scene_files(path)? {
+            let (files, not_scenes) = scene_files::scene_files(path)?;
+            skipped.extend(not_scenes);
+            for file in files {
                 out.push(SceneEntry::load(&file, options)?);
             }
         } else {
             out.push(SceneEntry::load(path, options)?);
         }
     }
-    Ok(out)
+    Ok((out, skipped))
 }
 
-/// Like [`load_scenes_with`], but a scene file that fails to load is returned as
+/// What [`load_scenes_lenient`] found: the scenes that loaded, the scene files that did not,
+/// and the JSON files of the folders that are not scenes.
+pub type LenientScenes = (Vec<SceneEntry>, Vec<Unloadable>, Vec<SkippedFile>);
+
+/// Like [`load_scenes_noting`], but a scene file that fails to load is returned as
 /// [`Unloadable`] instead of ending the load: one bad scene never ends a comparison. A path
 /// that does not exist, or a folder that cannot be listed, is still an error (a typo on the
-/// command line, not a bad scene).
+/// command line, not a bad scene). Returns the loaded scenes, the unloadable ones and the
+/// JSON files of the folders that are not scenes.
 pub fn load_scenes_lenient(
     paths: &[PathBuf],
     options: &oit_scene::LoadOptions,
-) -> Result<(Vec<SceneEntry>, Vec<Unloadable>), HarnessError> {
+) -> Result<LenientScenes, HarnessError> {
     let mut files = Vec::new();
+    let mut skipped = Vec::new();
     for path in paths {
         if path.is_dir() {
-            files.extend(oit_scene::scene_files(path)?);
+            let (scenes, not_scenes) = scene_files::scene_files(path)?;
+            files.extend(scenes);
+            skipped.extend(not_scenes);
         } else if path.exists() {
             files.push(path.clone());
         } else {
@@ -316,7 +345,7 @@ pub fn load_scenes_lenient(
             }),
         }
     }
-    Ok((entries, unloadable))
+    Ok((entries, unloadable, skipped))
 }
 
 /// Applies an optional resolution override.

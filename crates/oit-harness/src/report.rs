@@ -115,6 +115,7 @@ mod tests {
             texture_bytes: 0,
             credits: Vec::new(),
             ignored: Vec::new(),
+            peak_memory_bytes: Some(987_654_321_000),
         });
         let table = terminal_table(&results);
         for line in table.lines() {

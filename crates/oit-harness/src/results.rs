@@ -19,6 +19,7 @@ pub fn scene_json(scene: &oit_scene::Scene, scene_file: &str) -> SceneJson {
         },
         credits: scene.credits.clone(),
         ignored: scene.ignored.clone(),
+        peak_memory_bytes: None,
     }
 }
 

@@ -47,7 +47,7 @@ pub struct CompareOptions {
     /// and a reference larger than this is not cached ([`crate::cache`]).
     pub cache_cap: u64,
     /// Host memory one scene may take, in bytes: the images of one run
-    /// ([`RUN_BYTES_PER_PIXEL`] a pixel) and the reference's fragments (the rest). A scene
+    /// ([`crate::RUN_BYTES_PER_PIXEL`] a pixel) and the reference's fragments (the rest). A scene
     /// that cannot fit fails before anything is computed, and the comparison goes on.
     pub memory_budget: u64,
     /// Wall-clock time one run may take (all its frames): a technique's own pass estimate
@@ -290,21 +290,24 @@ pub fn compare_all(
         let earlier_floor = earlier_floors
             .iter()
             .find(|f| f.scene == scene.name && f.resolution == res(&scene));
-        let scene_done = run_scene(
-            ctx,
-            &scene,
-            &scene_file,
-            specs,
-            &reusable_runs,
-            earlier_floor,
-            &inputs,
-            cache_dir.as_deref(),
-            options,
-            &mut results,
-            &mut resume,
-            &cancelled,
-            on_event,
-        );
+        let peak = crate::peak::ScenePeak::start();
+        let scene_done = crate::isolate::contained(ctx, "the scene", || {
+            run_scene(
+                ctx,
+                &scene,
+                &scene_file,
+                specs,
+                &reusable_runs,
+                earlier_floor,
+                &inputs,
+                cache_dir.as_deref(),
+                options,
+                &mut results,
+                &mut resume,
+                &cancelled,
+                on_event,
+            )
+        });
         if let Err(e) = scene_done {
             if matches!(e, HarnessError::Io { .. }) && is_under(&e, out) {
                 // The output folder itself failed: nothing more can be written.
@@ -339,6 +342,7 @@ pub fn compare_all(
                 });
             }
             crate::vary::tag(&mut results.runs[first_run..], entry);
+            crate::isolate::finish_scene(ctx, &mut results, peak);
             write_outputs(out, &mut results)?;
             continue;
         }
@@ -374,6 +378,7 @@ pub fn compare_all(
         }
         fill_costs(&mut results.runs[first_run..], || None);
         crate::vary::tag(&mut results.runs[first_run..], entry);
+        crate::isolate::finish_scene(ctx, &mut results, peak);
         write_outputs(out, &mut results)?;
     }
     let done = !cancelled();
@@ -461,9 +466,11 @@ fn motion_runs(
         return Ok(());
     }
     let scene_dir = options.out_dir.join(file_stem(&scene.name));
-    let measured = crate::motion::measure(
-        ctx, frames, &wanted, options, cache_dir, &scene_dir, on_event,
-    );
+    let measured = crate::isolate::contained(ctx, "the motion measurements", || {
+        crate::motion::measure(
+            ctx, frames, &wanted, options, cache_dir, &scene_dir, on_event,
+        )
+    });
     match measured {
         Ok(measured) => {
             for (canonical, temporal) in measured {
@@ -519,6 +526,7 @@ fn run_scene(
     let out = &options.out_dir;
     let reference = reference_of(scene, options, cache_dir, on_event)?;
     let lists = crate::predict::lists_for(scene, options, on_event);
+    let mut held = crate::budget::scene_memory(scene, options, lists.as_ref())?;
     let scene_dir = out.join(file_stem(&scene.name));
     std::fs::create_dir_all(&scene_dir).map_err(|e| HarnessError::io(&scene_dir, e))?;
     oit_metrics::remove_stale_temporaries(&scene_dir);
@@ -533,6 +541,7 @@ fn run_scene(
     let forward = GpuScene::upload(ctx, scene)?;
     let reversed = GpuScene::upload(ctx, &scene.with_reversed_order())?;
     let targets = Targets::new(ctx, scene.resolution, ColorFormat::Rgba16Float)?;
+    held.targets = targets.memory_bytes();
     let first_run = results.runs.len();
 
     let reused: Vec<&Run> = specs
@@ -584,10 +593,21 @@ fn run_scene(
             }
             None => {
                 resume.made += 1;
-                let mut run = run_one(
-                    ctx, scene, scene_file, &forward, &reversed, &targets, spec, &reference,
-                    options, out, floor_ms,
-                )
+                let mut run = crate::isolate::contained(ctx, "the run", || {
+                    run_one(
+                        ctx,
+                        scene,
+                        scene_file,
+                        &forward,
+                        &reversed,
+                        &targets,
+                        spec,
+                        &reference,
+                        options,
+                        out,
+                        (floor_ms, held),
+                    )
+                })
                 .unwrap_or_else(|e| {
                     Run::not_rendered(
                         &scene.name,
@@ -626,7 +646,7 @@ pub(crate) fn reference_of(
     cache_dir: Option<&Path>,
     on_event: &dyn Fn(Event<'_>),
 ) -> Result<oit_reference::Reference, HarnessError> {
-    let memory = MemoryPlan::of(scene, options.memory_budget)?;
+    let memory = crate::MemoryPlan::of(scene, options.memory_budget)?;
     let compute = || {
         Ok(oit_reference::try_render(
             scene,
@@ -646,50 +666,6 @@ pub(crate) fn reference_of(
             Ok(reference)
         }
         None => compute(),
-    }
-}
-
-/// How a scene's memory budget is shared: the images of one run (render, reference, reversed
-/// render, differences, FLIP's working images) first, the reference's fragments get the rest.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct MemoryPlan {
-    /// Host bytes of one run's images at the scene's resolution.
-    pub image_bytes: u64,
-    /// What the reference may hold for fragments.
-    pub reference_bytes: u64,
-}
-
-/// Host bytes per pixel that one run holds besides the reference's fragments: reference
-/// (RGBA f32 and four counts), render and reversed render read back (RGBA f32), the difference
-/// and its heat map, and FLIP's working images. Measured as the peak resident memory of
-/// `oit compare -t unsorted` at 2048² minus that at 256², per pixel, and rounded up.
-pub const RUN_BYTES_PER_PIXEL: u64 = 160;
-
-/// The least the reference keeps for fragments whatever the images take (a scene whose
-/// fragments arrive in depth order needs almost nothing).
-const MIN_REFERENCE_BYTES: u64 = 1 << 20;
-
-impl MemoryPlan {
-    /// The plan for `scene` under `budget` bytes, or an error naming what it would need.
-    pub fn of(scene: &Scene, budget: u64) -> Result<MemoryPlan, HarnessError> {
-        let pixels = scene.resolution.pixel_count() as u64;
-        let image_bytes = pixels.saturating_mul(RUN_BYTES_PER_PIXEL);
-        let needed = image_bytes.saturating_add(MIN_REFERENCE_BYTES);
-        if needed > budget {
-            let mib = |b: u64| b.div_ceil(1 << 20);
-            return Err(HarnessError::Options(format!(
-                "{} at {} needs about {} MiB for the images of one run ({RUN_BYTES_PER_PIXEL} bytes a pixel) and {} MiB for the reference's fragments, more than --memory-budget {} MiB; raise it or lower --resolution",
-                scene.name,
-                scene.resolution,
-                mib(image_bytes),
-                mib(MIN_REFERENCE_BYTES),
-                mib(budget)
-            )));
-        }
-        Ok(MemoryPlan {
-            image_bytes,
-            reference_bytes: budget - image_bytes,
-        })
     }
 }
 
@@ -900,7 +876,7 @@ fn run_one(
     reference: &oit_reference::Reference,
     options: &CompareOptions,
     out: &Path,
-    floor_ms: f64,
+    (floor_ms, held): (f64, crate::budget::RunMemory),
 ) -> Result<Run, HarnessError> {
     let canonical = spec.canonical();
     let mut technique = build(spec)?;
@@ -933,7 +909,15 @@ fn run_one(
         ));
     }
     let deadline = std::time::Instant::now() + options.run_budget;
-    let (gpu_ms, passes, frame) = time_frames(ctx, forward, technique.as_mut(), targets, options)?;
+    let timed = time_frames(
+        ctx,
+        forward,
+        technique.as_mut(),
+        targets,
+        options,
+        Some(held),
+    );
+    let (gpu_ms, passes, frame) = timed?;
     let image = read_color(ctx, targets)?;
     let counts = crate::counts::frame(ctx, forward, technique.as_mut(), targets, deadline)?;
 

@@ -15,18 +15,25 @@ use crate::{CompareOptions, HarnessError, interference};
 ///
 /// The whole run stays within `options.run_budget`: every submission after it has passed
 /// fails, and a run whose first frame shows that its frames would not fit stops before them.
+/// With `held` (what the scene holds besides the technique), the technique's buffers, built in
+/// the first frame, must fit `--memory-budget` with it ([`crate::budget`]).
 pub(crate) fn time_frames(
     ctx: &Context,
     scene: &GpuScene,
     technique: &mut dyn Technique,
     targets: &Targets,
     options: &CompareOptions,
+    held: Option<crate::budget::RunMemory>,
 ) -> Result<(GpuMs, Vec<PassMs>, oit_gpu::RenderStats), HarnessError> {
     let mut timer = GpuTimer::new(ctx);
     timer.set_budget(Some(options.run_budget));
     let started = std::time::Instant::now();
     render_frame(ctx, scene, technique, targets, &mut timer)?;
     let first = started.elapsed();
+    if let Some(held) = held {
+        let name = &scene.scene.name;
+        crate::budget::check_technique(held, technique, name, options.memory_budget)?;
+    }
     time_after_first_frame(
         ctx,
         scene,
@@ -109,7 +116,7 @@ pub fn time_technique(
     targets: &Targets,
     options: &CompareOptions,
 ) -> Result<(GpuMs, Vec<PassMs>, oit_gpu::RenderStats), HarnessError> {
-    time_frames(ctx, scene, technique, targets, options)
+    time_frames(ctx, scene, technique, targets, options, None)
 }
 
 /// A technique's own count of the geometry passes it will make on a scene

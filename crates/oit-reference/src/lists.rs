@@ -204,6 +204,15 @@ impl PixelLists {
         self.behind.len()
     }
 
+    /// Host bytes the lists hold (their arrays' lengths, not spare capacity): what a
+    /// comparison keeps beside its runs while it predicts them.
+    pub fn heap_bytes(&self) -> u64 {
+        (self.offsets.len() * std::mem::size_of::<u32>()
+            + self.layers.len() * std::mem::size_of::<Layer>()
+            + self.behind.len() * std::mem::size_of::<[f64; 3]>()
+            + self.rounding.len()) as u64
+    }
+
     /// Pixel `p` (row-major from the top-left).
     pub fn pixel(&self, p: usize) -> Pixel<'_> {
         Pixel {
@@ -354,6 +363,8 @@ mod tests {
             // A budget whose quarter is one byte short of what these lists hold.
             let need =
                 lists.fragment_count() * LAYER_BYTES + lists.pixel_count() as u64 * PIXEL_BYTES;
+            // What a comparison counts as held is what the check priced (one more offset).
+            assert_eq!(lists.heap_bytes(), need + 4, "seed {seed}");
             let short = ReferenceOptions {
                 memory_budget: 4 * need - 4,
                 ..Default::default()

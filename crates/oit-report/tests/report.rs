@@ -128,6 +128,7 @@ fn results() -> Results {
             ignored: vec![
                 "beta.glb: KHR_materials_transmission in /extensionsUsed: not modelled".into(),
             ],
+            peak_memory_bytes: Some(300 << 20),
         }],
         shard: None,
         merged: Vec::new(),
@@ -453,6 +454,7 @@ fn report_page_lists_every_run_and_notes_missing_images() {
     ));
     assert!(html.contains("Credits: beta.glb: model by A. Modeller, CC0."));
     assert!(html.contains("Not modelled: beta.glb: KHR_materials_transmission"));
+    assert!(html.contains("Peak memory: 300 MiB resident while this scene ran"));
     assert!(html.contains("<td class=\"note\">dropped layers on 3 px</td>"));
     // Pareto members are bold (class "front"): 5 in alpha, 2 in beta.
     assert_eq!(html.matches("<tr class=\"front\">").count(), 7);

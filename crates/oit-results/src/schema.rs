@@ -119,6 +119,10 @@ pub struct SceneJson {
     /// What the loader read but does not model (e.g. glTF extensions), one line each.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub ignored: Vec<String>,
+    /// Peak resident memory of the comparison's process while this scene ran (reference,
+    /// uploads, every run, motion), in bytes; absent off Linux and in older files.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub peak_memory_bytes: Option<u64>,
 }
 
 impl SceneJson {
@@ -139,10 +143,24 @@ impl SceneJson {
                 mib(self.scene_bytes)
             )
         }];
-        out.extend((self.credits.iter()).map(|c| format!("Credits: {}", c.trim_end_matches('.'))));
-        out.extend(self.ignored.iter().map(|i| format!("Not modelled: {i}")));
+        if let Some(peak) = self.peak_memory_bytes {
+            out.push(format!(
+                "Peak memory: {:.0} MiB resident while this scene ran (reference, uploads and every run)",
+                mib(peak)
+            ));
+        }
+        out.extend(note_lines(&self.credits, &self.ignored));
         out
     }
+}
+
+/// A scene's credit lines and what its loader read but does not model, as every command that
+/// renders prints them (`Credits: …`, `Not modelled: …`).
+pub fn note_lines(credits: &[String], ignored: &[String]) -> Vec<String> {
+    (credits.iter())
+        .map(|c| format!("Credits: {}", c.trim_end_matches('.')))
+        .chain(ignored.iter().map(|i| format!("Not modelled: {i}")))
+        .collect()
 }
 
 /// The floor of one scene in this run.

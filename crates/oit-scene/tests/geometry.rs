@@ -558,6 +558,31 @@ fn reversed_order_reverses_triangles_within_draws_and_keeps_winding() {
     assert_ne!(r.vertices, s.vertices, "a real reordering");
 }
 
+/// On generated content (soups, billboards, crossing planes, mask cards): the reversed scene is
+/// the same triangles with their winding, each draw's in reverse, draws in reverse, and
+/// reversing twice gives the scene back.
+#[test]
+fn reversed_order_on_random_scenes_is_an_involution_that_keeps_every_triangle() {
+    for seed in 0..12u64 {
+        let (text, about) = oit_scene::random::random_scene_json(seed);
+        let s = oit_scene::parse(&text, &format!("random-{seed}")).unwrap();
+        let r = s.with_reversed_order();
+        assert_eq!(r.with_reversed_order(), s, "{about:?}");
+        let ids: Vec<u32> = r.draws.iter().rev().map(|d| d.id).collect();
+        assert_eq!(ids, s.draws.iter().map(|d| d.id).collect::<Vec<_>>());
+        let mut reordered = false;
+        for draw in &s.draws {
+            let ours: Vec<_> = s.vertices[draw.vertex_range()].chunks(3).collect();
+            let theirs: Vec<_> = r.vertices[draw.vertex_range()].chunks(3).rev().collect();
+            assert_eq!(ours, theirs, "{} of {about:?}", draw.name);
+            reordered |= ours.len() > 1 && ours.first() != ours.last();
+        }
+        if reordered {
+            assert_ne!(r.vertices, s.vertices, "{about:?}");
+        }
+    }
+}
+
 #[test]
 fn ids_are_draw_indices_in_file_order() {
     for (_, s) in oit_scene::load_dir(&common_scenes_dir()).unwrap() {

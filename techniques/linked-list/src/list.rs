@@ -201,7 +201,7 @@ impl LinkedList {
         let capacity = u32::try_from(nodes)
             .ok()
             .filter(|&n| n < u32::MAX)
-            .ok_or_else(|| GpuError::TooLarge {
+            .ok_or_else(|| GpuError::TooMany {
                 what: "the node pool's indices (u32)".into(),
                 needed: nodes,
                 limit: u64::from(u32::MAX - 1),

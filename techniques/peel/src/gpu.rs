@@ -614,7 +614,7 @@ impl Control {
         }
         let (max, limit) = self.max_slots;
         if slots > max {
-            return Err(GpuError::TooLarge {
+            return Err(GpuError::TooMany {
                 what: format!("depth-peeling passes (adapter limit: {limit})"),
                 needed: u64::from(slots),
                 limit: u64::from(max),

@@ -1,6 +1,7 @@
 mod calibration;
 mod compare;
 mod counts;
+mod failures;
 mod goldens;
 mod growth;
 mod material_forms;

@@ -12,11 +12,13 @@ mod accessor;
 mod animation;
 mod file;
 mod image;
+mod notes;
 mod source;
 
 pub use animation::GLTF_FPS;
 use file::read;
 pub(crate) use file::{GltfFrames, load_bytes, load_file_frames, load_file_with_inputs};
+use notes::MaterialNotes;
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -384,12 +386,14 @@ impl Asset {
         }
         let first = scene.materials.len() as u32;
         let mut textures = TextureCache::default();
+        let mut notes = MaterialNotes::default();
         let mut uv_transforms = Vec::new();
         for m in self.doc.materials() {
-            let (material, uv) = self.material(&m, scene, &mut textures)?;
+            let (material, uv) = self.material(&m, scene, &mut textures, &mut notes)?;
             scene.materials.push(material);
             uv_transforms.push(uv);
         }
+        notes.finish(&self.name, scene);
         let needs_default = self
             .doc
             .meshes()
@@ -413,6 +417,7 @@ impl Asset {
         m: &gltf::Material,
         scene: &mut Scene,
         textures: &mut TextureCache,
+        notes: &mut MaterialNotes,
     ) -> Result<(Material, Option<UvTransform>)> {
         let i = m.index().unwrap_or(0);
         let mp = format!("/materials/{i}");
@@ -484,10 +489,11 @@ impl Asset {
                 .and_then(|t| t.tex_coord())
                 .unwrap_or(info.tex_coord());
             if set != 0 {
-                scene.ignored.push(format!(
-                    "{}: texCoord {set} on {tp}: ignored (TEXCOORD_0 used)",
-                    self.name
-                ));
+                notes.add(
+                    format!("texCoord {set} of {which}"),
+                    &label,
+                    "ignored (TEXCOORD_0 used)",
+                );
             }
             if let Some(t) = transform {
                 let parts = [
@@ -509,10 +515,11 @@ impl Asset {
                 match uv {
                     None => uv = Some(this),
                     Some(first) if first == this => {}
-                    Some(_) => scene.ignored.push(format!(
-                        "{}: KHR_texture_transform on {tp}: ignored (differs from the base colour texture's; one uv per vertex)",
-                        self.name
-                    )),
+                    Some(_) => notes.add(
+                        format!("KHR_texture_transform of {which}"),
+                        &label,
+                        "ignored (differs from the base colour texture's; one uv per vertex)",
+                    ),
                 }
             }
             let tex = info.texture();
@@ -554,18 +561,25 @@ impl Asset {
             AlphaMode::Mask => "MASK",
             _ => "BLEND",
         };
-        let unmodelled = |ext: &str, scene: &mut Scene| {
-            scene.ignored.push(format!(
-                "{}: {ext} on {label}: not modelled; the material renders with its alphaMode ({mode_name} here)",
-                self.name
-            ));
-        };
+        let alpha_mode_note =
+            format!("not modelled; the material renders with its alphaMode ({mode_name} here)");
         // KHR_materials_transmission, thin and unlit (docs/scene-format.md): τ = factor ×
-        // (1 − metallic) filters by the base colour term; the alphaMode stays coverage, and
-        // OPAQUE becomes BLEND with coverage 1 (α ignored, as OPAQUE ignores it).
+        // (1 − metallic) filters by the base colour term (glTF: transmission is the dielectric
+        // part's); the alphaMode stays coverage, and OPAQUE becomes BLEND with coverage 1 (α
+        // ignored, as OPAQUE ignores it).
+        let metallic_factor = pbr.metallic_factor();
+        if !metallic_factor.is_finite() || !(0.0..=1.0).contains(&metallic_factor) {
+            return Err(self.cx.bad(
+                format!("{mp}/pbrMetallicRoughness/metallicFactor"),
+                "metallic factor",
+                metallic_factor,
+                "a finite value in [0, 1]",
+            ));
+        }
         let mut transmission = 0.0;
         let mut alpha = factor[3];
         let mut mode = mode;
+        let mut metallic_texture_read = false;
         if let Some(t) = m.transmission() {
             let tp = format!("{mp}/extensions/KHR_materials_transmission");
             let f = t.transmission_factor();
@@ -577,21 +591,55 @@ impl Asset {
                     "a finite value in [0, 1]",
                 ));
             }
-            let metallic = pbr.metallic_factor();
-            if !metallic.is_finite() || !(0.0..=1.0).contains(&metallic) {
-                return Err(self.cx.bad(
-                    format!("{mp}/pbrMetallicRoughness/metallicFactor"),
-                    "metallic factor",
-                    metallic,
-                    "a finite value in [0, 1]",
-                ));
-            }
+            let metallic = match pbr.metallic_roughness_texture() {
+                Some(info) if f > 0.0 && metallic_factor > 0.0 => {
+                    metallic_texture_read = true;
+                    let i = info.texture().source().index();
+                    let Some((lo, hi, mean)) = notes::blue_channel_stats(textures.image(self, i)?)
+                    else {
+                        return Err(self.cx.bad(
+                            format!("/images/{i}"),
+                            "metallic-roughness image (blue channel, metalness)",
+                            "pixels out of [0, 1] or not matching the format",
+                            "values in [0, 1]",
+                        ));
+                    };
+                    let exact = if lo == hi {
+                        "exact: the channel is uniform".to_owned()
+                    } else {
+                        format!(
+                            "approximated: per-texel metalness not modelled, the channel spans {lo:.3}..{hi:.3}"
+                        )
+                    };
+                    notes.add(
+                        "metallicRoughnessTexture (metalness) with KHR_materials_transmission",
+                        &label,
+                        format!("metallic = metallicFactor {metallic_factor} × mean blue of /images/{i} {mean:.4} ({exact})"),
+                    );
+                    (f64::from(metallic_factor) * mean) as f32
+                }
+                _ => metallic_factor,
+            };
             transmission = f * (1.0 - metallic);
+            if f > 0.0 && metallic > 0.0 {
+                // glTF: a metal does not transmit; its part reflects the base colour here.
+                let given = if metallic_texture_read || metallic_factor < 1.0 {
+                    ""
+                } else {
+                    " (metallicFactor 1, also glTF's default when absent)"
+                };
+                notes.add(
+                    "metallic transmission",
+                    &label,
+                    format!("transmissionFactor {f} applies to the dielectric part only: τ = {f} × (1 − metallic {metallic}) = {transmission}{given}; the metallic part renders as the base colour, unlit"),
+                );
+            }
             if t.transmission_texture().is_some() {
-                scene.ignored.push(format!(
-                    "{}: transmissionTexture on {label}: not modelled; transmissionFactor used alone",
-                    self.name
-                ));
+                notes.add(
+                    "transmissionTexture",
+                    &label,
+                    "not modelled; transmissionFactor used alone",
+                );
             }
             if transmission > 0.0 {
                 match mode {
@@ -599,30 +647,47 @@ impl Asset {
                         mode = AlphaMode::Blend;
                         alpha = 1.0;
                         if base_texture.is_some() {
-                            scene.ignored.push(format!(
-                                "{}: KHR_materials_transmission on {label} (OPAQUE): the base colour texture's alpha still scales coverage",
-                                self.name
-                            ));
+                            notes.add(
+                                "KHR_materials_transmission (OPAQUE)",
+                                &label,
+                                "the base colour texture's alpha still scales coverage",
+                            );
                         }
                     }
                     AlphaMode::Mask => mode = AlphaMode::MaskBlend,
                     _ => {}
                 }
-                scene.ignored.push(format!(
-                    "{}: KHR_materials_transmission on {label}: modelled thin and unlit (τ = {transmission}, filter = base colour term); roughness, IOR and refraction ignored",
-                    self.name
-                ));
+                notes.add(
+                    "KHR_materials_transmission",
+                    &label,
+                    format!("modelled thin and unlit (τ = {transmission}, filter = base colour term); roughness, IOR and refraction ignored"),
+                );
+            } else {
+                notes.add(
+                    "KHR_materials_transmission",
+                    &label,
+                    format!("τ = 0: {alpha_mode_note}"),
+                );
             }
         }
+        notes::unread_properties(m, &label, metallic_texture_read, notes);
         if m.volume().is_some() {
-            unmodelled("KHR_materials_volume", scene);
+            notes.add(
+                "KHR_materials_volume",
+                &label,
+                "not modelled (thin: no thickness, absorption or refraction)",
+            );
         }
         if m.ior().is_some() {
-            unmodelled("KHR_materials_ior", scene);
+            notes.add(
+                "KHR_materials_ior",
+                &label,
+                "not modelled (no refraction or Fresnel term)",
+            );
         }
         if let Some(others) = m.extensions() {
             for ext in others.keys() {
-                unmodelled(ext, scene);
+                notes.add(ext.as_str(), &label, alpha_mode_note.clone());
             }
         }
         Ok((
@@ -1068,19 +1133,11 @@ struct TextureCache {
 }
 
 impl TextureCache {
-    fn get(
-        &mut self,
-        asset: &Asset,
-        key: (usize, Sampler, Encoding),
-        scene: &mut Scene,
-    ) -> Result<u32> {
-        if let Some(&t) = self.textures.get(&key) {
-            return Ok(t);
-        }
-        let (i, sampler, encoding) = key;
-        let data = match self.images.get(&i) {
-            Some(d) => d,
-            None => {
+    /// Image `i` decoded (once per asset).
+    fn image(&mut self, asset: &Asset, i: usize) -> Result<&gltf::image::Data> {
+        match self.images.entry(i) {
+            std::collections::hash_map::Entry::Occupied(e) => Ok(e.into_mut()),
+            std::collections::hash_map::Entry::Vacant(e) => {
                 let Some(img) = asset.doc.images().nth(i) else {
                     return Err(asset.cx.err(
                         format!("/images/{i}"),
@@ -1091,9 +1148,22 @@ impl TextureCache {
                     ));
                 };
                 let decoded = image::decode(&asset.cx, &img, &asset.base, &asset.buffers)?;
-                self.images.entry(i).or_insert(decoded)
+                Ok(e.insert(decoded))
             }
-        };
+        }
+    }
+
+    fn get(
+        &mut self,
+        asset: &Asset,
+        key: (usize, Sampler, Encoding),
+        scene: &mut Scene,
+    ) -> Result<u32> {
+        if let Some(&t) = self.textures.get(&key) {
+            return Ok(t);
+        }
+        let (i, sampler, encoding) = key;
+        let data = self.image(asset, i)?;
         let used: u64 = (scene.textures.iter())
             .map(|t| u64::from(t.width()) * u64::from(t.height()))
             .sum();
