@@ -144,15 +144,16 @@ pub(super) fn scene(s: &Scene) -> Vec<Violation> {
 
     let mut texels = 0u64;
     for t in &s.textures {
-        texels += t.texels.len() as u64;
-        let ok = (1..=MAX_TEXTURE_DIMENSION).contains(&t.width)
-            && (1..=MAX_TEXTURE_DIMENSION).contains(&t.height)
-            && t.texels.len() as u64 == u64::from(t.width) * u64::from(t.height)
-            && t.texels.iter().all(|x| x.iter().all(|c| c.is_finite()));
+        let level0 = u64::from(t.width()) * u64::from(t.height());
+        texels += level0;
+        let ok = (1..=MAX_TEXTURE_DIMENSION).contains(&t.width())
+            && (1..=MAX_TEXTURE_DIMENSION).contains(&t.height())
+            && t.is_consistent()
+            && t.level_codes(0).len() as u64 == level0;
         ensure(
             ok,
             "texture out of range",
-            format!("{} {}x{}", t.name, t.width, t.height),
+            format!("{} {}x{}", t.name, t.width(), t.height()),
         );
     }
     ensure(

@@ -34,11 +34,12 @@ struct Material {
     premultiplied: u32,
     intensity: f32,
     double_sided: u32,
-    // Base colour texture, emissive texture: (first texel in `texels`, width | height << 16);
-    // a size of 0 means none (samples as 1).
+    // Base colour texture, emissive texture: (first texel of level 0 in `texel_pages`,
+    // width | height << 16); a size of 0 means none (samples as 1).
     textures: vec4<u32>,
-    // Wrap codes (0 repeat, 1 mirrored repeat, 2 clamp to edge): base u | base v << 2 |
-    // emissive u << 4 | emissive v << 6.
+    // The two slots' samplers, 12 bits each (base in bits 0..12, emissive in 12..24):
+    // `Sampler::code` (wrap u | wrap v << 2 | mag linear << 4 | min linear << 5 | mip filter << 6,
+    // 0 none, 1 nearest, 2 linear) | UNORM rgb << 9 (0: sRGB colour).
     wrap: u32,
     // Thin-surface transmission factor τ (0: scalar alpha).
     transmission: f32,
@@ -59,9 +60,14 @@ const MODE_MASK_BLEND: u32 = 3u;
 
 @group(0) @binding(0) var<uniform> camera: Camera;
 @group(0) @binding(1) var<storage, read> materials: array<Material>;
-// Every texture's level 0, linear RGBA f32 (sRGB decoded on the CPU), row-major from the
-// image's top-left, one after the other. One dummy texel when the scene has no textures.
-@group(0) @binding(2) var<storage, read> texels: array<vec4<f32>>;
+// The decode tables of `oit_scene::decode_tables`, computed once on the CPU: [0, 256) sRGB →
+// linear, [256, 512) UNORM code / 255. Both sides decode codes through the same f32 values.
+@group(0) @binding(2) var<storage, read> texel_decode: array<f32, 512>;
+// Every texture's 8-bit RGBA codes (r | g << 8 | b << 16 | a << 24), all mip levels, level 0
+// first, each row-major from the image's top-left, one texture after the other, in pages of
+// 2048 × 2048 texels (`oit_gpu::scene::TEXEL_PAGE_SIDE`): texel n is at (n % 2048, n / 2048 %
+// 2048) of layer n / 2^22. Read with `textureLoad`: exact integer fetches, no sampler.
+@group(0) @binding(4) var texel_pages: texture_2d_array<u32>;
 
 struct VertexIn {
     @location(0) position: vec3<f32>,
@@ -96,20 +102,50 @@ fn wrap_texel(i: i32, size: i32, mode: u32) -> i32 {
     return clamp(i, 0, size - 1);
 }
 
-fn texel_at(first: u32, width: i32, height: i32, wrap: u32, i: i32, j: i32) -> vec4<f32> {
-    let x = wrap_texel(i, width, wrap & 3u);
-    let y = wrap_texel(j, height, (wrap >> 2u) & 3u);
-    return texels[first + u32(y * width + x)];
+fn texel_code(n: u32) -> u32 {
+    return textureLoad(texel_pages, vec2<u32>(n & 2047u, (n >> 11u) & 2047u), n >> 22u, 0).x;
 }
 
-// `Texture::sample` (crates/oit-scene/src/texture.rs): bilinear on level 0, f32, same order.
-// `size` = width | height << 16, 0 for no texture (samples as 1).
-fn sample_texture(first: u32, size: u32, wrap: u32, uv: vec2<f32>) -> vec4<f32> {
-    if size == 0u {
-        return vec4<f32>(1.0);
+// `Texture::decode` (crates/oit-scene/src/texture.rs): rgb through the sRGB or UNORM table,
+// alpha through the UNORM table.
+fn decode_texel(code: u32, bits: u32) -> vec4<f32> {
+    let rgb = select(0u, 256u, ((bits >> 9u) & 1u) != 0u);
+    return vec4<f32>(
+        texel_decode[rgb + (code & 0xffu)],
+        texel_decode[rgb + ((code >> 8u) & 0xffu)],
+        texel_decode[rgb + ((code >> 16u) & 0xffu)],
+        texel_decode[256u + (code >> 24u)],
+    );
+}
+
+// `Texture::texel_at`.
+fn texel_at(first: u32, width: i32, height: i32, bits: u32, i: i32, j: i32) -> vec4<f32> {
+    let x = wrap_texel(i, width, bits & 3u);
+    let y = wrap_texel(j, height, (bits >> 2u) & 3u);
+    return decode_texel(texel_code(first + u32(y * width + x)), bits);
+}
+
+// `Texture::level_offset`: the first texel of level `k`, levels halving down to 1.
+fn level_first(first: u32, width: u32, height: u32, k: u32) -> u32 {
+    var n = first;
+    for (var l = 0u; l < k; l++) {
+        n += max(width >> l, 1u) * max(height >> l, 1u);
     }
-    let width = i32(size & 0xffffu);
-    let height = i32(size >> 16u);
+    return n;
+}
+
+// `Texture::filter_level`: nearest or bilinear on one level, f32, same order.
+fn filter_level(first: u32, size: u32, bits: u32, level: u32, linear: bool, uv: vec2<f32>) -> vec4<f32> {
+    let width0 = size & 0xffffu;
+    let height0 = size >> 16u;
+    let width = i32(max(width0 >> level, 1u));
+    let height = i32(max(height0 >> level, 1u));
+    let base = level_first(first, width0, height0, level);
+    if !linear {
+        let i = i32(floor(uv.x * f32(width)));
+        let j = i32(floor(uv.y * f32(height)));
+        return texel_at(base, width, height, bits, i, j);
+    }
     let x = uv.x * f32(width) - 0.5;
     let y = uv.y * f32(height) - 0.5;
     let x0 = floor(x);
@@ -118,13 +154,58 @@ fn sample_texture(first: u32, size: u32, wrap: u32, uv: vec2<f32>) -> vec4<f32> 
     let fy = y - y0;
     let i = i32(x0);
     let j = i32(y0);
-    let t00 = texel_at(first, width, height, wrap, i, j);
-    let t10 = texel_at(first, width, height, wrap, i + 1, j);
-    let t01 = texel_at(first, width, height, wrap, i, j + 1);
-    let t11 = texel_at(first, width, height, wrap, i + 1, j + 1);
+    let t00 = texel_at(base, width, height, bits, i, j);
+    let t10 = texel_at(base, width, height, bits, i + 1, j);
+    let t01 = texel_at(base, width, height, bits, i, j + 1);
+    let t11 = texel_at(base, width, height, bits, i + 1, j + 1);
     let top = t00 + (t10 - t00) * fx;
     let bottom = t01 + (t11 - t01) * fx;
     return top + (bottom - top) * fy;
+}
+
+// `Texture::footprint_squared`: ρ² of Vulkan's isotropic rule from (du/dx, dv/dx, du/dy, dv/dy).
+fn footprint_squared(size: u32, grad: vec4<f32>) -> f32 {
+    let w = f32(size & 0xffffu);
+    let h = f32(size >> 16u);
+    let xu = grad.x * w;
+    let xv = grad.y * h;
+    let yu = grad.z * w;
+    let yv = grad.w * h;
+    let x = xu * xu + xv * xv;
+    let y = yu * yu + yv * yv;
+    return max(x, y);
+}
+
+// `Texture::sample` (crates/oit-scene/src/texture.rs), its twin: magnification on level 0 where
+// ρ² ≤ 1, else minification on level 0, the nearest level or the two around the level of
+// detail blended. `size` = width | height << 16, 0 for no texture (samples as 1); `bits` is the
+// slot's 12 sampler bits (see `Material::wrap`); `grad` the fine derivatives of `uv`.
+fn sample_texture(first: u32, size: u32, bits: u32, uv: vec2<f32>, grad: vec4<f32>) -> vec4<f32> {
+    if size == 0u {
+        return vec4<f32>(1.0);
+    }
+    let rho2 = footprint_squared(size, grad);
+    if !(rho2 > 1.0) {
+        return filter_level(first, size, bits, 0u, ((bits >> 4u) & 1u) != 0u, uv);
+    }
+    let mip = (bits >> 6u) & 3u;
+    // `Texture::levels`: the full chain with mipmaps, else level 0 alone.
+    let levels = select(1u, firstLeadingBit(max(size & 0xffffu, size >> 16u)) + 1u, mip != 0u);
+    // `Texture::lod`.
+    let lod = min(0.5 * log2(rho2), f32(levels - 1u));
+    let min_linear = ((bits >> 5u) & 1u) != 0u;
+    if mip == 0u {
+        return filter_level(first, size, bits, 0u, min_linear, uv);
+    }
+    if mip == 1u {
+        return filter_level(first, size, bits, u32(floor(lod + 0.5)), min_linear, uv);
+    }
+    let l0 = floor(lod);
+    let f = lod - l0;
+    let l1 = min(u32(l0) + 1u, levels - 1u);
+    let a = filter_level(first, size, bits, u32(l0), min_linear, uv);
+    let b = filter_level(first, size, bits, l1, min_linear, uv);
+    return a + (b - a) * f;
 }
 
 // What a fragment contributes (the WGSL twin of `oit_scene::Shaded`).
@@ -157,8 +238,12 @@ fn shade(v: VertexOut, front_facing: bool) -> Shaded {
     var t = vec4<f32>(1.0);
     var e = vec4<f32>(1.0);
     if TEXTURED {
-        t = sample_texture(m.textures.x, m.textures.y, m.wrap, texcoord(v));
-        e = sample_texture(m.textures.z, m.textures.w, m.wrap >> 4u, texcoord(v));
+        // Fine derivatives first, in uniform control flow (TEXTURED is a constant): the level
+        // of detail of both slots (`quad_gradient` in crates/oit-reference/src/raster/shading.rs).
+        let uv = texcoord(v);
+        let grad = vec4<f32>(dpdxFine(uv), dpdyFine(uv));
+        t = sample_texture(m.textures.x, m.textures.y, m.wrap & 0xfffu, uv, grad);
+        e = sample_texture(m.textures.z, m.textures.w, m.wrap >> 12u, uv, grad);
     }
     let lit = v.color.rgb * m.base_alpha.rgb * t.rgb;
     // Unlit: the albedo is the colour. Lit: `reflect_lights` (shaders/lighting.wgsl).

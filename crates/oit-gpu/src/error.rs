@@ -61,6 +61,10 @@ pub enum GpuError {
         cap: u64,
         cap_name: String,
     },
+    /// The scene's textures exceed the adapter's texture array (the message gives both sizes
+    /// in MiB; see crates/oit-gpu/src/texels.rs).
+    #[error("{0}")]
+    TexturesTooLarge(String),
     #[error("shader {shader}: {message}")]
     Shader { shader: String, message: String },
     #[error("reading back {what} from the GPU failed: {message}")]

@@ -41,6 +41,7 @@ mod spec;
 mod targets;
 mod technique;
 pub mod testing;
+pub mod texels;
 mod timer;
 pub mod work;
 

@@ -31,8 +31,6 @@ pub const MATERIAL_UNIFORM_STRIDE: u64 = 256;
 /// triangle, the uniform about 1.8 ns per fragment, so they break even near 400 fragments per
 /// triangle. Both give the same image; only the time differs.
 pub const PER_DRAW_MATERIAL_MAX_AREA: f64 = 256.0;
-/// Bytes per texel of the texture store (RGBA f32).
-pub const TEXEL_BYTES: u64 = 16;
 
 const VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 5] = wgpu::vertex_attr_array![
     0 => Float32x3,
@@ -65,13 +63,24 @@ pub(crate) fn create_scene_layout(device: &wgpu::Device) -> wgpu::BindGroupLayou
                 bind::storage(1, wgpu::ShaderStages::VERTEX, true),
                 MATERIAL_STRIDE as u64,
             ),
-            // Every texture's texels, read by `shade()` (shaders/common.wgsl).
+            // The texel decode table, read by `shade()` (shaders/common.wgsl).
             bind::min_size(
                 bind::storage(2, wgpu::ShaderStages::FRAGMENT, true),
-                TEXEL_BYTES,
+                crate::texels::DECODE_TABLE_BYTES,
             ),
             // The draw's material, a uniform at its dynamic offset ([`GpuScene::use_draw`]).
             bind::dynamic_uniform(3, wgpu::ShaderStages::FRAGMENT, MATERIAL_STRIDE as u64),
+            // Every texture's codes in pages (crate::texels).
+            wgpu::BindGroupLayoutEntry {
+                binding: 4,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Uint,
+                    view_dimension: wgpu::TextureViewDimension::D2Array,
+                    multisampled: false,
+                },
+                count: None,
+            },
         ],
     })
 }
@@ -91,7 +100,7 @@ fn texel_offsets(scene: &Scene) -> Vec<u32> {
     let mut next = 0u64;
     for t in &scene.textures {
         offsets.push(next as u32);
-        next += t.texels.len() as u64;
+        next += t.codes().len() as u64;
     }
     offsets
 }
@@ -137,14 +146,15 @@ fn light_words(scene: &Scene) -> Result<Vec<u32>, GpuError> {
 
 /// One material as the shader reads it (96 bytes, little-endian f32/u32 words).
 fn material_words(m: &Material, scene: &Scene, offsets: &[u32]) -> [u32; 24] {
-    // (first texel, width | height << 16, wrap bits) of a texture slot; zeros for none.
+    // (first texel, width | height << 16, sampler bits) of a texture slot; zeros for none.
     let slot = |t: Option<u32>| match t {
         Some(t) => {
             let tex = &scene.textures[t as usize];
+            let unorm = u32::from(tex.encoding() == oit_scene::Encoding::Unorm);
             (
                 offsets[t as usize],
-                tex.width | tex.height << 16,
-                tex.wrap_u.code() | tex.wrap_v.code() << 2,
+                tex.width() | tex.height() << 16,
+                tex.sampler().code() | unorm << 9,
             )
         }
         None => (0, 0, 0),
@@ -168,7 +178,7 @@ fn material_words(m: &Material, scene: &Scene, offsets: &[u32]) -> [u32; 24] {
         base_size,
         emissive_first,
         emissive_size,
-        base_wrap | emissive_wrap << 4,
+        base_wrap | emissive_wrap << 12,
         m.transmission.to_bits(),
         0,
         0,
@@ -185,21 +195,12 @@ const _: () = assert!(
 );
 
 /// Checks what the loader guarantees but a hand-built scene may break: texture indices in
-/// range, texel arrays matching their sizes, the texel store addressable with u32 offsets.
+/// range, the texel store addressable with u32 offsets (sizes and codes agree by
+/// construction, see `oit_scene::Texture::new`).
 fn check_textures(scene: &Scene) -> Result<u64, GpuError> {
     let mut total = 0u64;
-    for (i, t) in scene.textures.iter().enumerate() {
-        if !t.is_consistent() {
-            return Err(GpuError::InvalidScene(format!(
-                "texture {i} ({}): {}x{} with {} texels; allowed: 1..={} per side, width·height texels",
-                t.name,
-                t.width,
-                t.height,
-                t.texels.len(),
-                oit_scene::MAX_TEXTURE_DIMENSION
-            )));
-        }
-        total += t.texels.len() as u64;
+    for t in &scene.textures {
+        total += t.codes().len() as u64;
     }
     for (i, m) in scene.materials.iter().enumerate() {
         for t in [m.base_texture, m.emissive_texture].into_iter().flatten() {
@@ -226,19 +227,20 @@ pub struct SceneBytes {
     pub vertices: u64,
     /// The material table and its per-draw uniform copy.
     pub materials: u64,
-    /// The texel store (RGBA f32 per texel).
+    /// The texel store (8-bit RGBA codes of every mip level, in pages: crate::texels) and its
+    /// decode table.
     pub textures: u64,
 }
 
 impl SceneBytes {
     /// What [`GpuScene::upload`] allocates for `scene` (dummy entries of empty tables included).
     pub fn of(scene: &Scene) -> SceneBytes {
-        let texels: u64 = scene.textures.iter().map(|t| t.texels.len() as u64).sum();
+        let texels = crate::texels::texel_count(scene);
         SceneBytes {
             vertices: scene.vertices.len().max(1) as u64 * VERTEX_STRIDE,
             materials: scene.materials.len().max(1) as u64
                 * (MATERIAL_STRIDE as u64 + MATERIAL_UNIFORM_STRIDE),
-            textures: texels.max(1) * TEXEL_BYTES,
+            textures: crate::texels::store_bytes(texels) + crate::texels::DECODE_TABLE_BYTES,
         }
     }
 
@@ -292,8 +294,10 @@ pub struct GpuScene {
     /// The same materials [`MATERIAL_UNIFORM_STRIDE`] apart, bound per draw as a uniform at
     /// the draw's dynamic offset (shaders/common.wgsl `draw_material`).
     pub draw_materials: wgpu::Buffer,
-    /// Every texture's texels (see shaders/common.wgsl `texels`).
-    pub texels: wgpu::Buffer,
+    /// Every texture's codes in pages (see shaders/common.wgsl `texel_pages`, crate::texels).
+    pub texel_pages: wgpu::Texture,
+    /// The 512-entry decode table (shaders/common.wgsl `texel_decode`).
+    pub texel_decode: wgpu::Buffer,
     /// Group 0 of every scene pipeline.
     pub bind_group: wgpu::BindGroup,
     /// Per draw: whether it reads its material per draw (small triangles), see
@@ -353,16 +357,8 @@ impl GpuScene {
             contents: bytemuck::cast_slice(&camera_words),
             usage: wgpu::BufferUsages::UNIFORM,
         });
-        let texel_count = check_textures(scene)?;
-        let texel_bytes = texel_count.max(1) * TEXEL_BYTES;
-        let binding_limit = ctx.caps.max_storage_buffer_binding_size.min(limit);
-        if texel_bytes > binding_limit {
-            return Err(GpuError::TooLarge {
-                what: format!("the textures of scene {:?}", scene.name),
-                needed: texel_bytes,
-                limit: binding_limit,
-            });
-        }
+        check_textures(scene)?;
+        let store = crate::texels::upload(ctx, scene)?;
         let offsets = texel_offsets(scene);
         let mut mat_words: Vec<u32> = scene
             .materials
@@ -405,18 +401,6 @@ impl GpuScene {
             contents: &uniform_bytes,
             usage: wgpu::BufferUsages::UNIFORM,
         });
-        let mut texel_words: Vec<u32> = Vec::with_capacity(texel_count as usize * 4);
-        for t in &scene.textures {
-            texel_words.extend(t.texels.iter().flatten().map(|c| c.to_bits()));
-        }
-        if texel_words.is_empty() {
-            texel_words.resize(4, 0);
-        }
-        let texels = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("texels"),
-            contents: bytemuck::cast_slice(&texel_words),
-            usage: wgpu::BufferUsages::STORAGE,
-        });
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("scene"),
             layout: ctx.scene_layout(),
@@ -431,7 +415,11 @@ impl GpuScene {
                 },
                 wgpu::BindGroupEntry {
                     binding: 2,
-                    resource: texels.as_entire_binding(),
+                    resource: store.decode.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: wgpu::BindingResource::TextureView(&store.view),
                 },
                 wgpu::BindGroupEntry {
                     binding: 3,
@@ -450,7 +438,8 @@ impl GpuScene {
             camera,
             materials,
             draw_materials,
-            texels,
+            texel_pages: store.pages,
+            texel_decode: store.decode,
             bind_group,
             per_draw_material: scene
                 .draws

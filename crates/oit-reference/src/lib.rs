@@ -55,8 +55,9 @@ pub use setup::CUTOFF_UNDECIDED_BOUND;
 /// Changes whenever any output bit of [`render`] changes for some scene (rules, arithmetic),
 /// so that caches of references made by an older build are never reused. 2: vertex
 /// arithmetic and viewport clipping as lavapipe does them. 3: fragments exactly on the far
-/// plane are never visible; undecided-cutoff and precision-tie outputs.
-pub const OUTPUT_VERSION: u32 = 3;
+/// plane are never visible; undecided-cutoff and precision-tie outputs. 4: textures as 8-bit
+/// codes with mip chains, sampled at the level of detail of fine derivatives.
+pub const OUTPUT_VERSION: u32 = 4;
 
 /// Fewest triangles in a tile's bin for it to be rendered alone on every thread when it holds
 /// a thread's part of all binned triangles (below this it is quick anyway).
@@ -165,8 +166,11 @@ pub struct Reference {
     /// fragment-shader invocations with the same coverage rules would count).
     pub fragments: Vec<u32>,
     /// Per pixel: fragments (opaque or transparent, kept or discarded) whose α lies within
-    /// [`CUTOFF_UNDECIDED_BOUND`] of their material's cutoff: a GPU's interpolation rounding may
-    /// decide them the other way, so `fragments` may differ from a GPU's count by up to this.
+    /// [`CUTOFF_UNDECIDED_BOUND`] of their material's cutoff (widened where α is textured): a
+    /// GPU's interpolation rounding may decide them the other way, so `fragments` may differ
+    /// from a GPU's count by up to this. Also fragments whose texture sample rounding could
+    /// make jump (a NEAREST texel, a *_MIPMAP_NEAREST level, or a switch between differing
+    /// magnification and minification filters): their colour is rounding's to decide.
     pub undecided: Vec<u32>,
     /// Per pixel: whether the composite depends on two surfaces whose window depths are within
     /// [`PRECISION_TIE_ULPS`] of each other (or of the far plane), so that rounding, not

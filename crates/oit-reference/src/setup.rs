@@ -517,9 +517,20 @@ pub(crate) fn undecided(material: &Material, vertex_alpha: f32) -> bool {
 /// interpolation error as for colours (the same f32 plane equations), 2^-16 of max(1, |uv|).
 pub const UV_UNDECIDED_BOUND: f32 = CUTOFF_UNDECIDED_BOUND;
 
+/// Slack on a level of detail for the GPU's `log2` (WGSL allows 3 ulp, 2^-21 absolute near 1)
+/// and the order of the footprint's f32 products: far above both.
+pub const LOD_UNDECIDED_SLACK: f32 = 1.0 / 4096.0;
+
 /// [`undecided`] for a material whose α is also multiplied by a texture sample (`texel_alpha`
-/// at `uv`): the GPU's uv may be off by [`UV_UNDECIDED_BOUND`], which moves the bilinear sample
-/// by at most twice that many texels times the alpha range of the texels it can reach.
+/// at `uv`, screen derivatives `grad`). The GPU's uv may be off by [`UV_UNDECIDED_BOUND`] and
+/// its derivatives (differences of two such coordinates) by twice that, so:
+/// - within a level, a bilinear sample moves by at most twice that many texels times the alpha
+///   range of the texels it can reach; a nearest sample may become any of them when the
+///   coordinate is that close to a texel edge;
+/// - the level of detail lies between those of the smallest and largest footprints the
+///   derivatives allow (plus [`LOD_UNDECIDED_SLACK`]); trilinear α changes by at most that
+///   interval times the alpha range of every level it touches; a nearest level, or a switch
+///   between different magnification and minification filters, may give any of them.
 #[inline]
 pub(crate) fn undecided_textured(
     material: &Material,
@@ -527,6 +538,7 @@ pub(crate) fn undecided_textured(
     vertex_alpha: f32,
     texel_alpha: f32,
     uv: [f32; 2],
+    grad: [f32; 4],
 ) -> bool {
     let scale = f64::from(vertex_alpha) * f64::from(material.alpha);
     let alpha = vertex_alpha * material.alpha * texel_alpha;
@@ -535,16 +547,140 @@ pub(crate) fn undecided_textured(
     if distance <= bound {
         return true;
     }
-    let reach = |c: f32, size: u32| {
-        f64::from(UV_UNDECIDED_BOUND) * f64::from(c.abs().max(1.0)) * f64::from(size)
-    };
-    // Texels the sample can move by; a texture's alpha range is at most 1 (8/16-bit images).
-    let texels = 2.0 * reach(uv[0], texture.width).max(reach(uv[1], texture.height));
-    if distance > bound + scale * texels {
+    let motion = texture_motion(texture, uv, grad);
+    // A texture's alpha range is at most 1: decided without looking at texels.
+    if distance > bound + scale * motion.at_most(1.0, 1.0) {
         return false;
     }
-    let (lo, hi) = texture.alpha_range_near(uv);
-    distance <= bound + scale * texels * f64::from(hi - lo)
+    let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+    for level in motion.levels.clone() {
+        let (l, h) = texture.alpha_range_near(level, uv);
+        lo = lo.min(l);
+        hi = hi.max(h);
+    }
+    let range = f64::from(hi - lo);
+    distance <= bound + scale * motion.at_most(range, range)
+}
+
+/// Whether the GPU's rounding of `uv` and its derivatives could make `texture`'s sample jump
+/// (another texel of a NEAREST filter, another level of a *_MIPMAP_NEAREST filter, or the
+/// other of differing magnification and minification filters): then rounding, not the scene,
+/// decides the fragment's colour, and the reference flags it undecided. Filters that are
+/// linear throughout are continuous and never jump.
+#[inline]
+pub(crate) fn sample_may_jump(texture: &Texture, uv: [f32; 2], grad: [f32; 4]) -> bool {
+    use oit_scene::{Filter, MipFilter};
+    let s = texture.sampler();
+    if s.mag == Filter::Linear && s.min == Filter::Linear && s.mip != MipFilter::Nearest {
+        return false;
+    }
+    let motion = texture_motion(texture, uv, grad);
+    motion.nearest_jump || motion.level_jump
+}
+
+/// How far the GPU's sample of `texture` can be from the reference's, in units of the alpha
+/// range of the texels involved ([`undecided_textured`]).
+struct TextureMotion {
+    /// Texels of level 0 the coordinate may move (coarser levels move less).
+    reach: f64,
+    /// Whether a nearest filter in play may pick another texel.
+    nearest_jump: bool,
+    /// Level-of-detail interval the GPU may land in (clamped to the stored levels).
+    lod_span: f64,
+    /// Whether the level choice may jump (nearest level, or the magnification switch).
+    level_jump: bool,
+    /// The levels the sample may read.
+    levels: std::ops::RangeInclusive<u32>,
+}
+
+impl TextureMotion {
+    fn at_most(&self, level_range: f64, jump_range: f64) -> f64 {
+        let within = if self.nearest_jump {
+            jump_range
+        } else {
+            2.0 * self.reach * level_range
+        };
+        let across = if self.level_jump {
+            jump_range
+        } else {
+            self.lod_span * level_range
+        };
+        within + across
+    }
+}
+
+fn texture_motion(texture: &Texture, uv: [f32; 2], grad: [f32; 4]) -> TextureMotion {
+    use oit_scene::{Filter, MipFilter};
+    let sampler = texture.sampler();
+    let (w, h) = (f64::from(texture.width()), f64::from(texture.height()));
+    let err = |c: f32| f64::from(UV_UNDECIDED_BOUND) * f64::from(c.abs().max(1.0));
+    let (eu, ev) = (err(uv[0]), err(uv[1]));
+    let reach = (eu * w).max(ev * h);
+    // Footprint bounds from derivatives each off by up to twice the coordinate's error.
+    let axis = |du: f32, dv: f32| {
+        let (du, dv) = (f64::from(du).abs() * w, f64::from(dv).abs() * h);
+        let (mu, mv) = (2.0 * eu * w, 2.0 * ev * h);
+        let lo = (du - mu).max(0.0).powi(2) + (dv - mv).max(0.0).powi(2);
+        let hi = (du + mu).powi(2) + (dv + mv).powi(2);
+        (lo, hi)
+    };
+    let (x, y) = (axis(grad[0], grad[1]), axis(grad[2], grad[3]));
+    let (rho2_lo, rho2_hi) = (x.0.max(y.0), x.1.max(y.1));
+    let last = f64::from(texture.levels() - 1);
+    let slack = f64::from(LOD_UNDECIDED_SLACK);
+    let lod = |rho2: f64| (0.5 * rho2.log2()).clamp(0.0, last);
+    let magnified = rho2_lo <= 1.0 + 1e-6;
+    let minified = rho2_hi > 1.0 - 1e-6;
+    let (lod_lo, lod_hi) = (
+        if magnified {
+            0.0
+        } else {
+            (lod(rho2_lo) - slack).max(0.0)
+        },
+        if minified {
+            (lod(rho2_hi) + slack).min(last)
+        } else {
+            0.0
+        },
+    );
+    let mut level_jump = magnified && minified && sampler.mag != sampler.min;
+    let mut nearest = (magnified && sampler.mag == Filter::Nearest)
+        || (minified && sampler.min == Filter::Nearest);
+    let levels = match sampler.mip {
+        MipFilter::None => 0..=0,
+        MipFilter::Nearest => {
+            let (a, b) = ((lod_lo + 0.5).floor(), (lod_hi + 0.5).floor());
+            level_jump |= a != b;
+            a as u32..=b as u32
+        }
+        MipFilter::Linear => lod_lo.floor() as u32..=lod_hi.ceil() as u32,
+    };
+    let lod_span = match sampler.mip {
+        MipFilter::Linear => lod_hi - lod_lo,
+        _ => 0.0,
+    };
+    // A nearest filter moves only when the coordinate is within its reach of a texel edge of
+    // some level it reads.
+    if nearest {
+        nearest = levels.clone().chain(std::iter::once(0)).any(|k| {
+            let (lw, lh) = oit_scene::level_size(texture.width(), texture.height(), k);
+            let near_edge = |c: f32, size: u32, e: f64| {
+                let t = f64::from(c) * f64::from(size);
+                let f = t - t.floor();
+                let r = e * f64::from(size) + 1e-6;
+                f <= r || f >= 1.0 - r
+            };
+            near_edge(uv[0], lw, eu) || near_edge(uv[1], lh, ev)
+        });
+    }
+    TextureMotion {
+        reach,
+        nearest_jump: nearest,
+        lod_span,
+        level_jump,
+        // Level 0 too where the magnification filter may apply.
+        levels: if magnified { 0 } else { *levels.start() }..=*levels.end(),
+    }
 }
 
 /// Whether two [`SetupTriangle::plane_depth`]s are the same plane: equal to 1e-12 relative

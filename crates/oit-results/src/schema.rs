@@ -506,7 +506,7 @@ pub fn caveats(undecided_pixels: u64, precision_tie_pixels: u64) -> Vec<String> 
     let mut out = Vec::new();
     if undecided_pixels > 0 {
         out.push(format!(
-            "{undecided_pixels} px hold a fragment on its cutoff's knife edge (|α − cutoff| ≤ 2^-16, wider where textured α moves with a rounded uv): rounding keeps or discards it"
+            "{undecided_pixels} px hold a fragment on its cutoff's knife edge (|α − cutoff| ≤ 2^-16, wider where textured α moves with a rounded uv) or a nearest-filtered texel or mip level a rounded uv can change: rounding keeps or discards it, or picks its texel"
         ));
     }
     if precision_tie_pixels > 0 {

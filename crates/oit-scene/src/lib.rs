@@ -35,4 +35,7 @@ pub use load::{
 };
 pub use rng::SplitMix64;
 pub use scene::*;
-pub use texture::{MAX_TEXTURE_DIMENSION, MAX_UV, Texture, Wrap, srgb_to_linear};
+pub use texture::{
+    Encoding, Filter, MAX_TEXTURE_DIMENSION, MAX_UV, MipFilter, Sampler, Texture, UNORM_TABLE,
+    Wrap, decode_tables, level_size, linear_to_srgb_code, pack_rgba8, srgb_to_linear,
+};

@@ -250,10 +250,11 @@ impl Material {
         self.base_texture.is_some() || self.emissive_texture.is_some()
     }
 
-    /// The textures this material reads, sampled at `uv`.
+    /// The textures this material reads, sampled at `uv` whose screen derivatives are `grad`
+    /// = (du/dx, dv/dx, du/dy, dv/dy) ([`crate::Texture::sample`]).
     #[inline]
-    pub fn texels(&self, textures: &[crate::Texture], uv: [f32; 2]) -> Texels {
-        let sample = |t: Option<u32>| t.map_or([1.0; 4], |t| textures[t as usize].sample(uv));
+    pub fn texels(&self, textures: &[crate::Texture], uv: [f32; 2], grad: [f32; 4]) -> Texels {
+        let sample = |t: Option<u32>| t.map_or([1.0; 4], |t| textures[t as usize].sample(uv, grad));
         Texels {
             base: sample(self.base_texture),
             emissive: sample(self.emissive_texture),
@@ -444,7 +445,7 @@ pub struct Scene {
     /// In draw order.
     pub draws: Vec<Draw>,
     pub vertices: Vec<Vertex>,
-    /// Textures that materials index (decoded, linear).
+    /// Textures that materials index (8-bit codes with their mip chains, see [`crate::Texture`]).
     pub textures: Vec<crate::Texture>,
     /// What the loader read but does not model (e.g. a glTF extension), one line each, for
     /// `oit scenes` and reports. Empty for the JSON format.
@@ -703,13 +704,11 @@ impl Scene {
             }
         }
         for t in &self.textures {
-            h.u32(t.width);
-            h.u32(t.height);
-            h.u32(t.wrap_u.code() | t.wrap_v.code() << 2);
-            for texel in &t.texels {
-                for c in texel {
-                    h.f32(*c);
-                }
+            h.u32(t.width());
+            h.u32(t.height());
+            h.u32(t.sampler().code() | (t.encoding() as u32) << 16);
+            for code in t.codes() {
+                h.u32(*code);
             }
         }
         for d in &self.draws {

@@ -25,7 +25,7 @@ fn suite() -> BTreeMap<String, Scene> {
         .collect()
 }
 
-const NAMES: [&str; 21] = [
+const NAMES: [&str; 22] = [
     "alpha-099-stack",
     "alpha-extremes",
     "coplanar",
@@ -36,6 +36,7 @@ const NAMES: [&str; 21] = [
     "foliage-cards",
     "gltf-alpha-blend-modes",
     "gltf-glass-vase",
+    "gltf-foliage-mipmaps",
     "hdr-emissive",
     "intersecting-quads",
     "many-layers-64",

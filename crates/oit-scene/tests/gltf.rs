@@ -4,7 +4,9 @@
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
-use oit_scene::{AlphaMode, LoadOptions, Problem, Scene, SceneError, Wrap, srgb_to_linear};
+use oit_scene::{
+    AlphaMode, Filter, LoadOptions, MipFilter, Problem, Scene, SceneError, Wrap, srgb_to_linear,
+};
 use serde_json::json;
 
 mod common;
@@ -107,13 +109,14 @@ fn check_common(s: &Scene, path: &Path) {
     for t in &s.textures {
         let i: usize = t.name.rsplit('/').next().unwrap().parse().unwrap();
         let img = &images[i];
-        assert_eq!((t.width, t.height), (img.width, img.height));
+        assert_eq!((t.width(), t.height()), (img.width, img.height));
+        let count = (t.width() * t.height()) as usize;
         let n = match img.format {
             gltf::image::Format::R8G8B8A8 => 4,
             gltf::image::Format::R8G8B8 => 3,
             other => panic!("test expects RGB8 or RGBA8, got {other:?}"),
         };
-        for k in [0usize, 1, (t.texels.len() / 2) + 7, t.texels.len() - 1] {
+        for k in [0usize, 1, (count / 2) + 7, count - 1] {
             let px = &img.pixels[n * k..n * k + n];
             let alpha = if n == 4 {
                 (f64::from(px[3]) / 255.0) as f32
@@ -126,7 +129,7 @@ fn check_common(s: &Scene, path: &Path) {
                 srgb_to_linear(f64::from(px[2]) / 255.0),
                 alpha,
             ];
-            assert_eq!(t.texels[k], want, "{} texel {k}", t.name);
+            assert_eq!(t.texel(k), want, "{} texel {k}", t.name);
         }
     }
 }
@@ -163,7 +166,8 @@ fn alpha_blend_mode_test_loads_its_modes_and_textures() {
     assert_eq!(s.materials.iter().filter(|m| m.double_sided).count(), 5);
     // MatOpaque samples a texture with alpha, which the Opaque mode ignores.
     let opaque_tex = by_name("MatOpaque").base_texture.unwrap() as usize;
-    assert!(s.textures[opaque_tex].texels.iter().any(|t| t[3] < 1.0));
+    let t = &s.textures[opaque_tex];
+    assert!((0..(t.width() * t.height()) as usize).any(|k| t.texel(k)[3] < 1.0));
     assert!(
         s.materials
             .iter()
@@ -172,7 +176,7 @@ fn alpha_blend_mode_test_loads_its_modes_and_textures() {
     assert!(
         s.textures
             .iter()
-            .all(|t| t.wrap_u == Wrap::Repeat && t.is_consistent())
+            .all(|t| t.sampler().wrap_u == Wrap::Repeat && t.is_consistent())
     );
     // MatBed's textures that are not sampled, one line each.
     assert_eq!(
@@ -352,7 +356,7 @@ fn textured(
 }
 
 #[test]
-fn image_formats_decode_to_linear_rgba() {
+fn image_formats_decode_to_8_bit_codes() {
     let srgb = |c: f64, max: f64| srgb_to_linear(c / max);
     let cases: Vec<(Vec<u8>, [f32; 4])> = vec![
         // RGBA8: sRGB colour, linear alpha.
@@ -380,15 +384,21 @@ fn image_formats_decode_to_linear_rgba() {
                 (100.0f64 / 255.0) as f32,
             ],
         ),
-        // 16-bit grey: c / 65535.
+        // 16-bit grey: rounded to the nearest 8-bit code (32768 → 127.502 → 128), as engines
+        // store it; the scene says so.
         (
             png(1, 1, 0, 16, &[0x80, 0x00]),
             [
-                srgb(32768.0, 65535.0),
-                srgb(32768.0, 65535.0),
-                srgb(32768.0, 65535.0),
+                srgb(128.0, 255.0),
+                srgb(128.0, 255.0),
+                srgb(128.0, 255.0),
                 1.0,
             ],
+        ),
+        // 16-bit grey+alpha: alpha 16384 → 63.75 → 64.
+        (
+            png(1, 1, 4, 16, &[0xff, 0xff, 0x40, 0x00]),
+            [1.0, 1.0, 1.0, (64.0f64 / 255.0) as f32],
         ),
     ];
     for (k, (image, want)) in cases.into_iter().enumerate() {
@@ -400,9 +410,15 @@ fn image_formats_decode_to_linear_rgba() {
         );
         let s = load_text(&format!("img{k}"), &text).unwrap();
         assert_eq!(s.textures.len(), 1);
-        assert_eq!((s.textures[0].width, s.textures[0].height), (1, 1));
-        assert_eq!(s.textures[0].texels[0], want, "case {k}");
+        assert_eq!((s.textures[0].width(), s.textures[0].height()), (1, 1));
+        assert_eq!(s.textures[0].texel(0), want, "case {k}");
         assert_eq!(s.textures[0].name, "asset.gltf /images/0");
+        let quantised = s.ignored.iter().any(|i| {
+            i.contains(
+                "asset.gltf /images/0: 16-bit image stored as 8-bit codes (rounded to nearest",
+            )
+        });
+        assert_eq!(quantised, k >= 3, "case {k}: {:?}", s.ignored);
     }
 }
 
@@ -417,7 +433,7 @@ fn textures_follow_samplers_and_are_shared() {
         {"pbrMetallicRoughness": {"baseColorTexture": {"index": 1, "texCoord": 1}}, "alphaMode": "BLEND"}
     ]);
     let textures = json!([{"source": 0, "sampler": 0}, {"source": 0}]);
-    let samplers = json!([{"wrapS": 33071, "wrapT": 33648}]);
+    let samplers = json!([{"wrapS": 33071, "wrapT": 33648, "magFilter": 9728, "minFilter": 9985}]);
     let mut doc: serde_json::Value =
         serde_json::from_str(&textured(&[image], materials, textures, samplers)).unwrap();
     doc["extensionsUsed"] = json!(["KHR_materials_emissive_strength"]);
@@ -425,13 +441,31 @@ fn textures_follow_samplers_and_are_shared() {
     // Same image, two wrap pairs: two textures; base and emissive of material 0 share one.
     assert_eq!(s.textures.len(), 2);
     assert_eq!(
-        (s.textures[0].wrap_u, s.textures[0].wrap_v),
+        (
+            s.textures[0].sampler().wrap_u,
+            s.textures[0].sampler().wrap_v
+        ),
         (Wrap::ClampToEdge, Wrap::MirroredRepeat)
     );
     assert_eq!(
-        (s.textures[1].wrap_u, s.textures[1].wrap_v),
+        (
+            s.textures[1].sampler().wrap_u,
+            s.textures[1].sampler().wrap_v
+        ),
         (Wrap::Repeat, Wrap::Repeat)
     );
+    // The filters: NEAREST magnification, LINEAR_MIPMAP_NEAREST; no sampler is what engines
+    // use, LINEAR and LINEAR_MIPMAP_LINEAR. Both build the 2×1 image's chain (2 levels).
+    let (nearest, default) = (s.textures[0].sampler(), s.textures[1].sampler());
+    assert_eq!(
+        (nearest.mag, nearest.min, nearest.mip),
+        (Filter::Nearest, Filter::Linear, MipFilter::Nearest)
+    );
+    assert_eq!(
+        (default.mag, default.min, default.mip),
+        (Filter::Linear, Filter::Linear, MipFilter::Linear)
+    );
+    assert_eq!((s.textures[0].levels(), s.textures[1].levels()), (2, 2));
     let m = s.materials[0];
     assert_eq!((m.base_texture, m.emissive_texture), (Some(0), Some(0)));
     assert_eq!(m.base_color, [1.0, 0.5, 0.25]);

@@ -6,6 +6,7 @@ mod goldens;
 mod growth;
 mod lighting;
 mod material_forms;
+mod mipmaps;
 mod motion;
 mod predictions;
 mod robustness;

@@ -1,5 +1,7 @@
 //! Textured content: every GPU pass samples textures with the rule the reference mirrors
-//! (`Texture::sample` / `sample_texture`: bilinear on level 0, wrap modes, f32 in one order), so
+//! (`Texture::sample` / `sample_texture`: 8-bit codes decoded through shared tables, nearest,
+//! bilinear or trilinear with the level of detail from fine derivatives, wrap modes, f32 in
+//! one order), so
 //! fragment counts and exact techniques agree with the reference on textured scenes too, with
 //! the undecided class widened by the texture's reach where a cutoff reads textured alpha.
 //!
@@ -9,7 +11,7 @@
 use oit_gpu::GpuScene;
 use oit_gpu::testing::context_or_skip;
 use oit_harness::{render_once, resolve_specs};
-use oit_scene::{Scene, Texture, Wrap};
+use oit_scene::{Encoding, Filter, MipFilter, Sampler, Scene, Texture, Wrap};
 
 /// A small deterministic generator (xorshift64*), enough to vary test content.
 struct Rng(u64);
@@ -37,26 +39,40 @@ fn random_texture(rng: &mut Rng, i: usize) -> Texture {
         1 => Wrap::MirroredRepeat,
         _ => Wrap::ClampToEdge,
     };
-    // Texel values as an 8-bit image decodes them: sRGB colour, linear alpha.
-    let texels = (0..width * height)
-        .map(|_| {
-            let mut code = || rng.below(256) as f64 / 255.0;
-            [
-                oit_scene::srgb_to_linear(code()),
-                oit_scene::srgb_to_linear(code()),
-                oit_scene::srgb_to_linear(code()),
-                code() as f32,
-            ]
-        })
-        .collect();
-    Texture {
-        name: format!("random texture {i}"),
-        width,
-        height,
-        texels,
+    let filter = |r: &mut Rng| {
+        if r.below(3) == 0 {
+            Filter::Nearest
+        } else {
+            Filter::Linear
+        }
+    };
+    let sampler = Sampler {
         wrap_u: wrap(rng),
         wrap_v: wrap(rng),
-    }
+        mag: filter(rng),
+        min: filter(rng),
+        mip: match rng.below(4) {
+            0 => MipFilter::None,
+            1 => MipFilter::Nearest,
+            _ => MipFilter::Linear,
+        },
+    };
+    // Random 8-bit codes, as an image stores them: sRGB colour or UNORM data, UNORM alpha.
+    let codes = (0..width * height).map(|_| rng.next() as u32).collect();
+    let encoding = if rng.below(4) == 0 {
+        Encoding::Unorm
+    } else {
+        Encoding::Srgb
+    };
+    Texture::new(
+        format!("random texture {i}"),
+        width,
+        height,
+        codes,
+        encoding,
+        sampler,
+    )
+    .expect("valid texture")
 }
 
 /// Random scene `seed` with textures on most materials, emission on some, and each draw's
@@ -182,7 +198,16 @@ fn exact_techniques_match_the_reference_on_textured_scenes() {
         let reference = oit_reference::render(&scene, &Default::default());
         let mut white = scene.clone();
         for t in &mut white.textures {
-            t.texels.fill([1.0; 4]);
+            let texels = (t.width() * t.height()) as usize;
+            *t = Texture::new(
+                "white",
+                t.width(),
+                t.height(),
+                vec![u32::MAX; texels],
+                t.encoding(),
+                t.sampler(),
+            )
+            .expect("valid texture");
         }
         let plain = oit_reference::render(&white, &Default::default());
         assert_ne!(
@@ -219,7 +244,8 @@ fn repo() -> std::path::PathBuf {
 }
 
 /// The bundled glTF scenes (real assets: textured MASK and BLEND, an OPAQUE texture whose α
-/// must be ignored, lighting through the asset's normals): fragment counts conform, and the
+/// must be ignored, lighting through the asset's normals; mipmapped MASK foliage, trilinear and
+/// nearest-mip): fragment counts conform, and the
 /// exact techniques equal the reference to 4e-3 outside the pixels rounding decides.
 #[test]
 fn bundled_gltf_scenes_are_exact_for_exact_techniques() {
@@ -231,7 +257,11 @@ fn bundled_gltf_scenes_are_exact_for_exact_techniques() {
         "dual-peel:passes=auto,depth=rg32f".into(),
     ])
     .expect("specs");
-    for name in ["gltf-alpha-blend-modes", "gltf-glass-vase"] {
+    for name in [
+        "gltf-alpha-blend-modes",
+        "gltf-glass-vase",
+        "gltf-foliage-mipmaps",
+    ] {
         let path = repo().join("scenes").join(format!("{name}.json"));
         let scene = oit_scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
         assert!(!scene.textures.is_empty(), "{name}: textures loaded");

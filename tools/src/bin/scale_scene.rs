@@ -395,8 +395,10 @@ mod tests {
         );
         // Foliage atlases are alpha-tested: texels fully transparent and fully opaque.
         let foliage = scene.materials[OPAQUE].base_texture.unwrap() as usize;
-        let texels = &scene.textures[foliage].texels;
-        assert!(texels.iter().any(|t| t[3] == 0.0) && texels.iter().any(|t| t[3] == 1.0));
+        let alpha: Vec<u32> = (scene.textures[foliage].level_codes(0).iter())
+            .map(|c| c >> 24)
+            .collect();
+        assert!(alpha.contains(&0) && alpha.contains(&255));
         // Full size: 60 textures of 1024² or 2048².
         let full: Vec<u32> = info.sides.iter().map(|s| s * 64).collect();
         assert!(full.iter().all(|&s| s == 1024 || s == 2048));

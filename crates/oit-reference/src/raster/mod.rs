@@ -16,7 +16,8 @@ use oit_scene::{Material, Shaded, Texels, Texture};
 
 use crate::composite::{composite_coloured_iter, composite_iter, over_step, over_step_coloured};
 use crate::setup::{
-    HALF, ONE, PixelBox, SetupTriangle, Triangles, same_plane, undecided, undecided_textured,
+    HALF, ONE, PixelBox, SetupTriangle, Triangles, same_plane, sample_may_jump, undecided,
+    undecided_textured,
 };
 
 mod in_order;

@@ -209,9 +209,32 @@ pub(super) fn shade_span(
             let (depth, rgba) = attributes(tri, &l);
             let (shaded, open) = match tri.constant {
                 Some(shaded) => (shaded, tri.constant_undecided),
-                None if tri.lit => shade_lit(tri, textures, lighting, rgba[0], &l, 0),
-                None if tri.textured => {
-                    shade_textured(tri, &tri.material, textures, rgba[0], texcoords(tri, &l)[0])
+                None if tri.lit || tri.textured => {
+                    // The quad neighbours in the row and in the column, as helper lanes
+                    // extrapolate them (see `quad_gradient`).
+                    let at = |qx: u32, qy: u32| {
+                        let px = i64::from(qx) * ONE + HALF;
+                        let pys = i64::from(qy) * ONE + HALF;
+                        let l: [[f64; 1]; 3] = std::array::from_fn(|i| {
+                            let (a, b) = ((i + 1) % 3, (i + 2) % 3);
+                            let e =
+                                (xs[b] - xs[a]) * (pys - ys[a]) - (ys[b] - ys[a]) * (px - xs[a]);
+                            [e as f64 * tri.inv_area2]
+                        });
+                        texcoords(tri, &l)[0]
+                    };
+                    let sample = tri.textured.then(|| {
+                        let uv = texcoords(tri, &l)[0];
+                        let gx = tile.x0 + x;
+                        (uv, quad_gradient(uv, at(gx ^ 1, y), at(gx, y ^ 1)))
+                    });
+                    // Not lit means textured here, so `sample` is there.
+                    match sample {
+                        Some((uv, grad)) if !tri.lit => {
+                            shade_textured(tri, &tri.material, textures, rgba[0], uv, grad)
+                        }
+                        _ => shade_lit(tri, textures, lighting, rgba[0], &l, 0, sample),
+                    }
                 }
                 None => (
                     tri.material.shade(rgba[0], Texels::UNTEXTURED),
@@ -245,26 +268,42 @@ pub(super) fn shade_span(
             }
         }
     } else if tri.lit {
+        // The other row of each pixel's 2×2 quad, for the fine derivatives along y.
+        let other_row = RowWeights::at_row(tri, tile, y ^ 1);
         for x in (first..end).step_by(LANES) {
             let l = weights(x);
             let (depth, rgba) = attributes(tri, &l);
+            let samples = tri.textured.then(|| {
+                let uv = texcoords(tri, &l);
+                let uv_x = texcoords(tri, &row_weights.at_quad_neighbours(x));
+                let uv_y = texcoords(tri, &other_row.at(x));
+                let grads: [[f32; 4]; LANES] =
+                    std::array::from_fn(|j| quad_gradient(uv[j], uv_x[j], uv_y[j]));
+                (uv, grads)
+            });
             let dkey = depth_keys(depth, reverse_z);
             let p = base + x as usize;
             for j in 0..((end - x) as usize).min(LANES) {
-                let (shaded, open) = shade_lit(tri, textures, lighting, rgba[j], &l, j);
+                let sample = samples.map(|(uv, grads)| (uv[j], grads[j]));
+                let (shaded, open) = shade_lit(tri, textures, lighting, rgba[j], &l, j, sample);
                 sink.fragment(p + j, dkey[j], shaded, open);
             }
         }
     } else if tri.textured {
         let material = tri.material;
+        // The other row of each pixel's 2×2 quad, for the fine derivatives along y.
+        let other_row = RowWeights::at_row(tri, tile, y ^ 1);
         for x in (first..end).step_by(LANES) {
             let l = weights(x);
             let (depth, rgba) = attributes(tri, &l);
             let uv = texcoords(tri, &l);
+            let uv_x = texcoords(tri, &row_weights.at_quad_neighbours(x));
+            let uv_y = texcoords(tri, &other_row.at(x));
             let dkey = depth_keys(depth, reverse_z);
             let p = base + x as usize;
             for j in 0..((end - x) as usize).min(LANES) {
-                let (shaded, open) = shade_textured(tri, &material, textures, rgba[j], uv[j]);
+                let grad = quad_gradient(uv[j], uv_x[j], uv_y[j]);
+                let (shaded, open) = shade_textured(tri, &material, textures, rgba[j], uv[j], grad);
                 sink.fragment(p + j, dkey[j], shaded, open);
             }
         }
@@ -319,7 +358,13 @@ pub(super) struct RowWeights {
 impl RowWeights {
     #[inline(always)]
     pub(super) fn new(tri: &SetupTriangle, tile: TileRect, row: u32) -> Self {
-        let py = (tile.y0 + row) as f64 + 0.5;
+        Self::at_row(tri, tile, tile.y0 + row)
+    }
+
+    /// The weights along pixel row `y` (absolute), over the columns of `tile`.
+    #[inline(always)]
+    pub(super) fn at_row(tri: &SetupTriangle, tile: TileRect, y: u32) -> Self {
+        let py = y as f64 + 0.5;
         let (fx, fy) = tri.window();
         let mut w = RowWeights {
             along_row: [0.0; 3],
@@ -342,7 +387,21 @@ impl RowWeights {
     pub(super) fn at(&self, x: u32) -> [[f64; LANES]; 3] {
         // Pixel centres; small integers plus 0.5, so the sum is exact.
         let px0 = (self.x0 + x) as f64 + 0.5;
-        let px: [f64; LANES] = std::array::from_fn(|j| px0 + j as f64);
+        self.at_centres(std::array::from_fn(|j| px0 + j as f64))
+    }
+
+    /// The weights of the other pixel of each one's 2×2 quad in this row: columns
+    /// `(x0 + x + j) ^ 1` for `j` in `0..LANES`.
+    #[inline(always)]
+    pub(super) fn at_quad_neighbours(&self, x: u32) -> [[f64; LANES]; 3] {
+        let first = self.x0 + x;
+        self.at_centres(std::array::from_fn(|j| {
+            ((first + j as u32) ^ 1) as f64 + 0.5
+        }))
+    }
+
+    #[inline(always)]
+    fn at_centres(&self, px: [f64; LANES]) -> [[f64; LANES]; 3] {
         std::array::from_fn(|i| {
             std::array::from_fn(|j| {
                 (self.along_row[i] - self.dy[i] * (px[j] - self.xa[i])) * self.inv_farea2
@@ -380,8 +439,26 @@ pub(super) fn depth_key_bounds(tri: &SetupTriangle, reverse_z: bool) -> Option<(
     margin.is_finite().then_some((a.min(b), a.max(b)))
 }
 
-/// One fragment of a textured triangle: the material's texture samples at `uv`, the material
-/// rule, and whether α is in the cutoff's undecided band (widened by the texture's reach).
+/// The fine screen derivatives of the texture coordinate, (du/dx, dv/dx, du/dy, dv/dy), from
+/// the pixel's own `uv` and the texture coordinates of its 2×2 quad's other pixel in the row
+/// (`row`) and in the column (`column`), each evaluated like the pixel's own (helper lanes
+/// extrapolate the same plane equations). The GPU's `dpdxFine`/`dpdyFine` subtract the quad's
+/// left from its right pixel; here the sign may be the opposite, which no footprint sees (the
+/// f32 difference negates exactly and is squared).
+#[inline(always)]
+pub(super) fn quad_gradient(uv: [f32; 2], row: [f32; 2], column: [f32; 2]) -> [f32; 4] {
+    [
+        row[0] - uv[0],
+        row[1] - uv[1],
+        column[0] - uv[0],
+        column[1] - uv[1],
+    ]
+}
+
+/// One fragment of a textured triangle: the material's texture samples at `uv` with screen
+/// derivatives `grad`, the material rule, and whether it is undecided: α in the cutoff's
+/// undecided band (widened by the texture's reach and the level of detail's), or a sample that
+/// rounding could make jump (`sample_may_jump`).
 #[inline(always)]
 pub(super) fn shade_textured(
     tri: &SetupTriangle,
@@ -389,20 +466,45 @@ pub(super) fn shade_textured(
     textures: &[Texture],
     rgba: [f32; 4],
     uv: [f32; 2],
+    grad: [f32; 4],
 ) -> (Shaded, bool) {
-    let texels = material.texels(textures, uv);
-    let open = tri.cutoff_rounds
-        && match material.base_texture {
-            Some(t) => {
-                undecided_textured(material, &textures[t as usize], rgba[3], texels.base[3], uv)
-            }
-            None => undecided(material, rgba[3]),
-        };
+    let (texels, open) = sample_textured(tri, material, textures, rgba[3], uv, grad);
     (material.shade(rgba, texels), open)
 }
 
+/// The texture samples of a textured fragment at `uv` with screen derivatives `grad`, and
+/// whether it is undecided (see [`shade_textured`]); shared by the unlit and lit rules.
+#[inline(always)]
+fn sample_textured(
+    tri: &SetupTriangle,
+    material: &Material,
+    textures: &[Texture],
+    alpha: f32,
+    uv: [f32; 2],
+    grad: [f32; 4],
+) -> (Texels, bool) {
+    let texels = material.texels(textures, uv, grad);
+    let jumps =
+        |t: Option<u32>| t.is_some_and(|t| sample_may_jump(&textures[t as usize], uv, grad));
+    let open = jumps(material.base_texture)
+        || jumps(material.emissive_texture)
+        || tri.cutoff_rounds
+            && match material.base_texture {
+                Some(t) => undecided_textured(
+                    material,
+                    &textures[t as usize],
+                    alpha,
+                    texels.base[3],
+                    uv,
+                    grad,
+                ),
+                None => undecided(material, alpha),
+            };
+    (texels, open)
+}
+
 /// One fragment of a lit triangle (pixel `j` of the batch of weights `l`): its texture samples
-/// (if textured), its perspective-correct world position and normal (negated on a back face),
+/// (`sample`: uv and quad derivatives, if textured), its perspective-correct world position and normal (negated on a back face),
 /// the material rule with the scene's lights, and whether α is in the cutoff's undecided band.
 #[inline(never)]
 pub(super) fn shade_lit<const N: usize>(
@@ -412,24 +514,15 @@ pub(super) fn shade_lit<const N: usize>(
     rgba: [f32; 4],
     l: &[[f64; N]; 3],
     j: usize,
+    sample: Option<([f32; 2], [f32; 4])>,
 ) -> (Shaded, bool) {
     let material = &tri.material;
-    let (texels, open) = if tri.textured {
-        let uv = texcoords(tri, l)[j];
-        let texels = material.texels(textures, uv);
-        let open = tri.cutoff_rounds
-            && match material.base_texture {
-                Some(t) => {
-                    undecided_textured(material, &textures[t as usize], rgba[3], texels.base[3], uv)
-                }
-                None => undecided(material, rgba[3]),
-            };
-        (texels, open)
-    } else {
-        (
+    let (texels, open) = match sample {
+        Some((uv, grad)) => sample_textured(tri, material, textures, rgba[3], uv, grad),
+        None => (
             Texels::UNTEXTURED,
             tri.cutoff_rounds && undecided(material, rgba[3]),
-        )
+        ),
     };
     let position = interpolate3(tri, &tri.world, l, j);
     let mut normal = interpolate3(tri, &tri.normal, l, j);

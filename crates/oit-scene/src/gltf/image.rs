@@ -1,4 +1,4 @@
-//! Decoding glTF images into linear RGBA f32 [`Texture`]s. Images are decoded one at a time
+//! Decoding glTF images into the 8-bit codes [`crate::Texture`]s store. Images are decoded one at a time
 //! (`gltf::import` fails the whole asset on one undecodable image and gives no index), with the
 //! format checked first so an unsupported one is named with its pointer.
 
@@ -9,7 +9,7 @@ use gltf::image::{Data, Format, Source};
 use super::source::relative_path;
 use super::{Cx, Result};
 use crate::error::Problem;
-use crate::texture::{MAX_TEXTURE_DIMENSION, srgb_to_linear};
+use crate::texture::{MAX_TEXTURE_DIMENSION, linear_to_srgb_code, pack_rgba8};
 
 /// Decodes image `image` of the document. Only PNG and JPEG are accepted (what the crate's
 /// `image` dependency is built with); the mime type or file extension decides, as in glTF.
@@ -116,11 +116,22 @@ pub(super) fn decode(
     })
 }
 
-/// Decoded pixels as linear RGBA f32, row-major from the top-left. Colour channels of 8- and
-/// 16-bit images are sRGB-decoded from their exact code value (c/255 or c/65535, in f64);
-/// alpha is linear. Grey is replicated to rgb; grey+alpha keeps alpha in the second channel;
-/// missing alpha is 1. Float images are taken as linear and must be finite.
-pub(super) fn texels(cx: &Cx, image_index: usize, data: &Data) -> Result<Vec<[f32; 4]>> {
+/// How [`codes`] had to approximate an image, for `Scene::ignored`.
+pub(super) enum Quantised {
+    /// 8-bit codes: stored as they are.
+    Exact,
+    /// 16-bit codes rounded to the nearest 8-bit code, as engines store them.
+    From16Bit,
+    /// Float texels (taken as linear) rounded to the nearest 8-bit code: sRGB for colour,
+    /// UNORM for alpha; values outside [0, 1] are clamped.
+    FromFloat,
+}
+
+/// The image's pixels as packed 8-bit RGBA codes ([`crate::texture::pack_rgba8`]), row-major
+/// from the top-left. Grey is replicated to rgb; grey+alpha keeps alpha in the second channel;
+/// missing alpha is 255. 16-bit codes are rounded to 8 bits (`(c·255 + 32767) / 65535`); float
+/// images must be finite and are re-encoded (see [`Quantised`]).
+pub(super) fn codes(cx: &Cx, image_index: usize, data: &Data) -> Result<(Vec<u32>, Quantised)> {
     let pointer = format!("/images/{image_index}");
     let (w, h) = (data.width, data.height);
     if w == 0 || h == 0 || w > MAX_TEXTURE_DIMENSION || h > MAX_TEXTURE_DIMENSION {
@@ -158,67 +169,60 @@ pub(super) fn texels(cx: &Cx, image_index: usize, data: &Data) -> Result<Vec<[f3
             },
         ));
     }
-    // 8-bit codes are decoded through a table (same f64 arithmetic, once per code).
-    let srgb8: Vec<f32> = (0..256).map(|c| srgb_to_linear(c as f64 / 255.0)).collect();
     let mut out = Vec::with_capacity(count);
     for (p, px) in data.pixels.chunks_exact(pixel).enumerate() {
-        let raw: [f64; 4] = std::array::from_fn(|k| {
-            if k >= channels {
-                return 1.0;
-            }
+        // Each present channel as an 8-bit code; `colour` says whether it is sRGB-encoded.
+        let code = |k: usize, colour: bool| -> Result<u8> {
             let b = &px[k * bytes_per..(k + 1) * bytes_per];
-            match bytes_per {
-                1 => f64::from(b[0]),
-                2 => f64::from(u16::from_ne_bytes([b[0], b[1]])),
-                _ => f64::from(f32::from_ne_bytes([b[0], b[1], b[2], b[3]])),
-            }
-        });
-        let texel = match (bytes_per, channels) {
-            (4, _) => {
-                let t = raw.map(|c| c as f32);
-                if let Some(c) = t.iter().find(|c| !c.is_finite()) {
-                    return Err(cx.err(
-                        &pointer,
-                        Problem::BadValue {
-                            what: format!("texel {p} has component"),
-                            value: c.to_string(),
-                            allowed: "finite float texels".into(),
-                        },
-                    ));
+            Ok(match bytes_per {
+                1 => b[0],
+                2 => {
+                    let c = u32::from(u16::from_ne_bytes([b[0], b[1]]));
+                    ((c * 255 + 32767) / 65535) as u8
                 }
-                t
-            }
-            (1, _) => {
-                let colour = |c: f64| srgb8[c as usize & 0xff];
-                let grey = channels <= 2;
-                let (r, g, b) = if grey {
-                    (raw[0], raw[0], raw[0])
-                } else {
-                    (raw[0], raw[1], raw[2])
-                };
-                let a = match channels {
-                    2 => raw[1] / 255.0,
-                    4 => raw[3] / 255.0,
-                    _ => 1.0,
-                };
-                [colour(r), colour(g), colour(b), a as f32]
-            }
-            _ => {
-                let colour = |c: f64| srgb_to_linear(c / 65535.0);
-                let (r, g, b) = if channels <= 2 {
-                    (raw[0], raw[0], raw[0])
-                } else {
-                    (raw[0], raw[1], raw[2])
-                };
-                let a = match channels {
-                    2 => raw[1] / 65535.0,
-                    4 => raw[3] / 65535.0,
-                    _ => 1.0,
-                };
-                [colour(r), colour(g), colour(b), a as f32]
-            }
+                _ => {
+                    let f = f32::from_ne_bytes([b[0], b[1], b[2], b[3]]);
+                    if !f.is_finite() {
+                        return Err(cx.err(
+                            &pointer,
+                            Problem::BadValue {
+                                what: format!("texel {p} has component"),
+                                value: f.to_string(),
+                                allowed: "finite float texels".into(),
+                            },
+                        ));
+                    }
+                    if colour {
+                        linear_to_srgb_code(f64::from(f))
+                    } else {
+                        (f64::from(f).clamp(0.0, 1.0) * 255.0).round() as u8
+                    }
+                }
+            })
         };
-        out.push(texel);
+        let texel = match channels {
+            1 => {
+                let g = code(0, true)?;
+                [g, g, g, 255]
+            }
+            2 => {
+                let g = code(0, true)?;
+                [g, g, g, code(1, false)?]
+            }
+            3 => [code(0, true)?, code(1, true)?, code(2, true)?, 255],
+            _ => [
+                code(0, true)?,
+                code(1, true)?,
+                code(2, true)?,
+                code(3, false)?,
+            ],
+        };
+        out.push(pack_rgba8(texel));
     }
-    Ok(out)
+    let quantised = match bytes_per {
+        1 => Quantised::Exact,
+        2 => Quantised::From16Bit,
+        _ => Quantised::FromFloat,
+    };
+    Ok((out, quantised))
 }

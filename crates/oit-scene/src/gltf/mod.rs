@@ -32,11 +32,12 @@ use crate::format::{DEFAULT_RESOLUTION, MAX_TRIANGLES};
 use crate::lighting::{LightKind, PunctualLight, Reflectance, Specular};
 use crate::load::{Light, LoadOptions};
 use crate::scene::{AlphaMode, Camera, Draw, Material, Projection, Scene, Vertex};
-use crate::texture::{MAX_UV, Texture, Wrap};
+use crate::texture::{Encoding, MAX_UV, Sampler, Texture, Wrap};
 
 type Result<T> = std::result::Result<T, SceneError>;
 
-/// Cap on decoded texels per scene: 64 Mi texels are 1 GiB as RGBA f32.
+/// Cap on level-0 texels per scene: 64 Mi texels are 256 MiB of 8-bit RGBA codes (341 MiB
+/// with mip chains).
 pub const MAX_TEXELS: u64 = 64 * 1024 * 1024;
 
 /// Extensions an asset may list in `extensionsRequired`: the ones modelled here.
@@ -560,11 +561,25 @@ impl Asset {
                 gltf::texture::WrappingMode::ClampToEdge => Wrap::ClampToEdge,
             };
             let sampler = tex.sampler();
-            let key = (
-                tex.source().index(),
-                wrap(sampler.wrap_s()),
-                wrap(sampler.wrap_t()),
-            );
+            let filters = Sampler {
+                wrap_u: wrap(sampler.wrap_s()),
+                wrap_v: wrap(sampler.wrap_t()),
+                ..Sampler::default()
+            }
+            .with_gltf_filters(
+                sampler.mag_filter().map(|f| f.as_gl_enum()),
+                sampler.min_filter().map(|f| f.as_gl_enum()),
+            )
+            .map_err(|message| {
+                let pointer = match sampler.index() {
+                    Some(s) => format!("/samplers/{s}"),
+                    None => tp.clone(),
+                };
+                self.cx
+                    .bad(pointer, "sampler filter", message, "glTF filter codes")
+            })?;
+            // Base colour and emission are colour: sRGB rgb.
+            let key = (tex.source().index(), filters, Encoding::Srgb);
             textures.get(self, key, scene).map(Some)
         };
         let base_texture = slot(
@@ -1285,11 +1300,12 @@ fn triangle_list(mode: Mode, idx: &[u32]) -> Vec<[u32; 3]> {
     }
 }
 
-/// Decoded images and the textures made from them, so each (image, wrap) pair is one texture.
+/// Decoded images and the textures made from them, so each (image, sampler, encoding) is one
+/// texture.
 #[derive(Default)]
 struct TextureCache {
     images: HashMap<usize, gltf::image::Data>,
-    textures: HashMap<(usize, Wrap, Wrap), u32>,
+    textures: HashMap<(usize, Sampler, Encoding), u32>,
 }
 
 impl TextureCache {
@@ -1313,13 +1329,20 @@ impl TextureCache {
         }
     }
 
-    fn get(&mut self, asset: &Asset, key: (usize, Wrap, Wrap), scene: &mut Scene) -> Result<u32> {
+    fn get(
+        &mut self,
+        asset: &Asset,
+        key: (usize, Sampler, Encoding),
+        scene: &mut Scene,
+    ) -> Result<u32> {
         if let Some(&t) = self.textures.get(&key) {
             return Ok(t);
         }
-        let (i, wrap_u, wrap_v) = key;
+        let (i, sampler, encoding) = key;
         let data = self.image(asset, i)?;
-        let used: u64 = scene.textures.iter().map(|t| t.texels.len() as u64).sum();
+        let used: u64 = (scene.textures.iter())
+            .map(|t| u64::from(t.width()) * u64::from(t.height()))
+            .sum();
         let total = used + u64::from(data.width) * u64::from(data.height);
         if total > MAX_TEXELS {
             return Err(asset.cx.err(
@@ -1327,15 +1350,30 @@ impl TextureCache {
                 Problem::TooManyTexels { texels: total },
             ));
         }
-        let texels = image::texels(&asset.cx, i, data)?;
-        scene.textures.push(Texture {
-            name: format!("{} /images/{i}", asset.name),
-            width: data.width,
-            height: data.height,
-            texels,
-            wrap_u,
-            wrap_v,
-        });
+        let (codes, quantised) = image::codes(&asset.cx, i, data)?;
+        let name = format!("{} /images/{i}", asset.name);
+        let note = match quantised {
+            image::Quantised::Exact => None,
+            image::Quantised::From16Bit => {
+                Some("16-bit image stored as 8-bit codes (rounded to nearest, as engines store it)")
+            }
+            image::Quantised::FromFloat => Some(
+                "float image stored as 8-bit codes (nearest sRGB code for colour, UNORM for alpha; clamped to [0, 1])",
+            ),
+        };
+        if let Some(note) = note {
+            let line = format!("{name}: {note}");
+            if !scene.ignored.contains(&line) {
+                scene.ignored.push(line);
+            }
+        }
+        let texture = Texture::new(name, data.width, data.height, codes, encoding, sampler)
+            .map_err(|message| {
+                asset
+                    .cx
+                    .err(format!("/images/{i}"), Problem::ImageDecode { message })
+            })?;
+        scene.textures.push(texture);
         let t = scene.textures.len() as u32 - 1;
         self.textures.insert(key, t);
         Ok(t)
