@@ -12,8 +12,11 @@ mod accessor;
 mod animation;
 mod file;
 mod image;
+mod lights;
 mod notes;
 mod source;
+mod texture_cache;
+use texture_cache::TextureCache;
 
 pub use animation::GLTF_FPS;
 use file::read;
@@ -36,9 +39,10 @@ use crate::texture::{Encoding, MAX_UV, Sampler, Texture, Wrap};
 
 type Result<T> = std::result::Result<T, SceneError>;
 
-/// Cap on level-0 texels per scene: 64 Mi texels are 256 MiB of 8-bit RGBA codes (341 MiB
-/// with mip chains).
-pub const MAX_TEXELS: u64 = 64 * 1024 * 1024;
+/// Cap on level-0 texels per scene: 128 Mi texels are 512 MiB of 8-bit RGBA codes (683 MiB
+/// with mip chains, 43 of lavapipe's 256 texel pages), room for a Sponza-class asset; what a
+/// comparison may hold beyond that is `--memory-budget`'s to refuse.
+pub const MAX_TEXELS: u64 = 128 * 1024 * 1024;
 
 /// Extensions an asset may list in `extensionsRequired`: the ones modelled here.
 const SUPPORTED_REQUIRED: &[&str] = &[
@@ -742,144 +746,6 @@ impl Asset {
         ))
     }
 
-    /// The lighting parameters of material `m`: `None` when it is unlit (`KHR_materials_unlit`
-    /// or [`GltfLighting::Unlit`]), else its metallic and roughness factors (the
-    /// metallic-roughness texture is not read: `notes::unread_properties` lists it).
-    fn reflectance(
-        &self,
-        m: &gltf::Material,
-        mp: &str,
-        lighting: GltfLighting,
-    ) -> Result<Option<Reflectance>> {
-        let GltfLighting::PerPixel(specular) = lighting else {
-            return Ok(None);
-        };
-        if m.unlit() {
-            return Ok(None);
-        }
-        let pbr = m.pbr_metallic_roughness();
-        let factor = |v: f32, name: &str| -> Result<f32> {
-            if !v.is_finite() || !(0.0..=1.0).contains(&v) {
-                return Err(self.cx.bad(
-                    format!("{mp}/pbrMetallicRoughness/{name}"),
-                    name,
-                    v,
-                    "a finite value in [0, 1]",
-                ));
-            }
-            Ok(v)
-        };
-        let metallic = factor(pbr.metallic_factor(), "metallicFactor")?;
-        let roughness = factor(pbr.roughness_factor(), "roughnessFactor")?;
-        Ok(Some(Reflectance {
-            metallic,
-            roughness,
-            specular: specular.unwrap_or(Specular::Faded),
-        }))
-    }
-
-    /// Appends the `KHR_lights_punctual` lights the node instances place (through
-    /// `placement.transform`) to `scene.lights`, at most [`crate::MAX_LIGHTS`] in all.
-    pub(crate) fn add_lights(
-        &self,
-        nodes: &Nodes,
-        placement: &Placement,
-        scene: &mut Scene,
-    ) -> Result<()> {
-        let outer = Mat4::from(placement.transform);
-        for &(node, light, world) in &nodes.lights {
-            let Some(l) = self.doc.lights().and_then(|mut ls| ls.nth(light)) else {
-                continue;
-            };
-            let lp = format!("/extensions/KHR_lights_punctual/lights/{light}");
-            let w = outer * world;
-            let color = l.color();
-            let intensity = l.intensity();
-            if !intensity.is_finite() || intensity < 0.0 {
-                return Err(self.cx.bad(
-                    format!("{lp}/intensity"),
-                    "light intensity",
-                    intensity,
-                    "a finite value >= 0",
-                ));
-            }
-            for (k, c) in color.iter().enumerate() {
-                if !c.is_finite() || *c < 0.0 {
-                    return Err(self.cx.bad(
-                        format!("{lp}/color/{k}"),
-                        "light colour component",
-                        c,
-                        "finite values >= 0",
-                    ));
-                }
-            }
-            let range = l.range().unwrap_or(0.0);
-            if !range.is_finite() || range < 0.0 || (l.range().is_some() && range == 0.0) {
-                return Err(self.cx.bad(
-                    format!("{lp}/range"),
-                    "light range",
-                    range,
-                    "a finite value > 0 (absent: infinite)",
-                ));
-            }
-            let position = w.transform_point3(Vec3::ZERO);
-            let direction = w.transform_vector3(Vec3::NEG_Z).normalize_or_zero();
-            if !position.is_finite() || direction == Vec3::ZERO || !direction.is_finite() {
-                return Err(self.cx.err(
-                    placement.derived_path(node),
-                    Problem::DerivedNonFinite {
-                        what: format!("position or direction of the light of /nodes/{node}"),
-                    },
-                ));
-            }
-            let (kind, cone_scale, cone_offset) = match l.kind() {
-                gltf::khr_lights_punctual::Kind::Directional => (LightKind::Directional, 0.0, 1.0),
-                gltf::khr_lights_punctual::Kind::Point => (LightKind::Point, 0.0, 1.0),
-                gltf::khr_lights_punctual::Kind::Spot {
-                    inner_cone_angle,
-                    outer_cone_angle,
-                } => {
-                    let quarter = std::f32::consts::FRAC_PI_2;
-                    let ordered = (0.0..quarter).contains(&inner_cone_angle)
-                        && inner_cone_angle < outer_cone_angle
-                        && outer_cone_angle <= quarter;
-                    if !ordered {
-                        return Err(self.cx.bad(
-                            format!("{lp}/spot"),
-                            "spot cone angles (inner, outer)",
-                            format!("({inner_cone_angle}, {outer_cone_angle})"),
-                            "0 <= innerConeAngle < outerConeAngle <= π/2",
-                        ));
-                    }
-                    let (scale, offset) = PunctualLight::cone(inner_cone_angle, outer_cone_angle);
-                    (LightKind::Spot, scale, offset)
-                }
-            };
-            if scene.lights.lights.len() >= crate::MAX_LIGHTS {
-                return Err(self.cx.bad(
-                    format!("{lp} (placed by /nodes/{node})"),
-                    "lights in the scene",
-                    scene.lights.lights.len() + 1,
-                    &format!(
-                        "at most {} punctual lights per scene (one fixed-size GPU uniform array)",
-                        crate::MAX_LIGHTS
-                    ),
-                ));
-            }
-            scene.lights.lights.push(PunctualLight {
-                kind,
-                position: position.to_array(),
-                direction: direction.to_array(),
-                radiance: color.map(|c| c * intensity),
-                range,
-                cone_scale,
-                cone_offset,
-            });
-            scene.lights.origin = "KHR_lights_punctual".into();
-        }
-        Ok(())
-    }
-
     /// Appends the triangles of every mesh instance in `nodes` to `scene`: one draw per
     /// primitive instance, vertices in world space, lit when `placement.light` is set.
     pub(crate) fn add_geometry(
@@ -1297,85 +1163,5 @@ fn triangle_list(mode: Mode, idx: &[u32]) -> Vec<[u32; 3]> {
             None => Vec::new(),
         },
         _ => Vec::new(),
-    }
-}
-
-/// Decoded images and the textures made from them, so each (image, sampler, encoding) is one
-/// texture.
-#[derive(Default)]
-struct TextureCache {
-    images: HashMap<usize, gltf::image::Data>,
-    textures: HashMap<(usize, Sampler, Encoding), u32>,
-}
-
-impl TextureCache {
-    /// Image `i` decoded (once per asset).
-    fn image(&mut self, asset: &Asset, i: usize) -> Result<&gltf::image::Data> {
-        match self.images.entry(i) {
-            std::collections::hash_map::Entry::Occupied(e) => Ok(e.into_mut()),
-            std::collections::hash_map::Entry::Vacant(e) => {
-                let Some(img) = asset.doc.images().nth(i) else {
-                    return Err(asset.cx.err(
-                        format!("/images/{i}"),
-                        Problem::NoSuchItem {
-                            index: i,
-                            count: asset.doc.images().len(),
-                        },
-                    ));
-                };
-                let decoded = image::decode(&asset.cx, &img, &asset.base, &asset.buffers)?;
-                Ok(e.insert(decoded))
-            }
-        }
-    }
-
-    fn get(
-        &mut self,
-        asset: &Asset,
-        key: (usize, Sampler, Encoding),
-        scene: &mut Scene,
-    ) -> Result<u32> {
-        if let Some(&t) = self.textures.get(&key) {
-            return Ok(t);
-        }
-        let (i, sampler, encoding) = key;
-        let data = self.image(asset, i)?;
-        let used: u64 = (scene.textures.iter())
-            .map(|t| u64::from(t.width()) * u64::from(t.height()))
-            .sum();
-        let total = used + u64::from(data.width) * u64::from(data.height);
-        if total > MAX_TEXELS {
-            return Err(asset.cx.err(
-                format!("/images/{i}"),
-                Problem::TooManyTexels { texels: total },
-            ));
-        }
-        let (codes, quantised) = image::codes(&asset.cx, i, data)?;
-        let name = format!("{} /images/{i}", asset.name);
-        let note = match quantised {
-            image::Quantised::Exact => None,
-            image::Quantised::From16Bit => {
-                Some("16-bit image stored as 8-bit codes (rounded to nearest, as engines store it)")
-            }
-            image::Quantised::FromFloat => Some(
-                "float image stored as 8-bit codes (nearest sRGB code for colour, UNORM for alpha; clamped to [0, 1])",
-            ),
-        };
-        if let Some(note) = note {
-            let line = format!("{name}: {note}");
-            if !scene.ignored.contains(&line) {
-                scene.ignored.push(line);
-            }
-        }
-        let texture = Texture::new(name, data.width, data.height, codes, encoding, sampler)
-            .map_err(|message| {
-                asset
-                    .cx
-                    .err(format!("/images/{i}"), Problem::ImageDecode { message })
-            })?;
-        scene.textures.push(texture);
-        let t = scene.textures.len() as u32 - 1;
-        self.textures.insert(key, t);
-        Ok(t)
     }
 }
