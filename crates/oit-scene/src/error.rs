@@ -206,7 +206,7 @@ pub enum Problem {
     ImageDecode { message: String },
     #[error("{width}x{height} texels; allowed: 1 to {max} texels per side", max = crate::texture::MAX_TEXTURE_DIMENSION)]
     TextureTooLarge { width: u32, height: u32 },
-    #[error("{texels} texels of decoded textures in total; allowed: at most {max} level-0 texels per scene (512 MiB of 8-bit RGBA codes)", max = crate::gltf::MAX_TEXELS)]
+    #[error("{texels} texels of decoded textures in total; allowed: at most {max} level-0 texels per scene (1 GiB of 8-bit RGBA codes)", max = crate::gltf::MAX_TEXELS)]
     TooManyTexels { texels: u64 },
     #[error(
         "index {index} is not below the vertex count {count}; allowed: indices < the POSITION accessor's count"

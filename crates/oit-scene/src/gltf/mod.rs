@@ -39,10 +39,10 @@ use crate::texture::{Encoding, MAX_UV, Sampler, Texture, Wrap};
 
 type Result<T> = std::result::Result<T, SceneError>;
 
-/// Cap on level-0 texels per scene: 128 Mi texels are 512 MiB of 8-bit RGBA codes (683 MiB
-/// with mip chains, 43 of lavapipe's 256 texel pages), room for a Sponza-class asset; what a
-/// comparison may hold beyond that is `--memory-budget`'s to refuse.
-pub const MAX_TEXELS: u64 = 128 * 1024 * 1024;
+/// Cap on level-0 texels per scene: 256 Mi texels are 1 GiB of 8-bit RGBA codes (1.33 GiB
+/// with mip chains, 86 of the 256 texel pages every adapter allows), room for a Sponza-class
+/// asset; what a comparison may hold beyond that is `--memory-budget`'s to refuse.
+pub const MAX_TEXELS: u64 = 256 * 1024 * 1024;
 
 /// Extensions an asset may list in `extensionsRequired`: the ones modelled here.
 const SUPPORTED_REQUIRED: &[&str] = &[
