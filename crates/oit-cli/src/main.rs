@@ -183,9 +183,10 @@ enum Command {
         /// Refuse comparisons of more runs (scenes × techniques) than this.
         #[arg(long, default_value_t = 2000)]
         max_runs: u64,
-        /// Host memory one scene may take, in MiB: the images of one run (about 160 bytes a
-        /// pixel) and the reference's fragments (the rest). A scene that cannot fit fails
-        /// with what it needs, and the others run.
+        /// Memory one scene may take, in MiB: the reference's fragments, one run's images,
+        /// the predictions' lists, the scene's GPU upload (textures included), the targets
+        /// and the technique's buffers. What cannot fit fails with its need in MiB; the
+        /// others run.
         #[arg(long, value_name = "MIB", default_value_t = oit_harness::DEFAULT_MEMORY_BUDGET >> 20, value_parser = clap::value_parser!(u64).range(1..))]
         memory_budget: u64,
         /// Seconds one run (all its frames) may take: a peeling technique whose pass count for
