@@ -195,7 +195,7 @@ fn depth_prepass_is_exact_with_one_transparent_layer() {
 /// lavapipe (llvmpipe 15, Mesa 22.3). A run may exceed its value by 25 % plus 2e-5 (binary16
 /// rounding of the target): enough for another adapter's rounding, far too little for a changed
 /// technique (cull-split without back faces: foliage-cards 1.9e-4 → 4.1e-2).
-const MEASURED_RMSE: [(&str, [f64; 5]); 17] = [
+const MEASURED_RMSE: [(&str, [f64; 5]); 18] = [
     (
         "alpha-099-stack",
         [8.340e-1, 9.378e-5, 9.378e-5, 5.462e-3, 9.378e-5],
@@ -233,8 +233,14 @@ const MEASURED_RMSE: [(&str, [f64; 5]); 17] = [
         [5.564e-3, 5.564e-3, 5.564e-3, 2.747e-2, 5.564e-3],
     ),
     (
+        "gltf-foliage-mipmaps",
+        [1.683e-4, 1.683e-4, 1.683e-4, 1.683e-4, 1.683e-4],
+    ),
+    (
+        // Lit per pixel since 2026-12-07: draw order and per-object sorting now show on the
+        // glass (2.507e-4 unlit), per-triangle sorting stays exact.
         "gltf-glass-vase",
-        [2.507e-4, 2.507e-4, 2.507e-4, 2.798e-2, 2.507e-4],
+        [1.410e-3, 1.410e-3, 2.768e-4, 3.232e-2, 1.410e-3],
     ),
     (
         "hdr-emissive",
