@@ -143,18 +143,7 @@ pub(super) fn codes(cx: &Cx, image_index: usize, data: &Data) -> Result<(Vec<u32
             },
         ));
     }
-    let (channels, bytes_per) = match data.format {
-        Format::R8 => (1, 1),
-        Format::R8G8 => (2, 1),
-        Format::R8G8B8 => (3, 1),
-        Format::R8G8B8A8 => (4, 1),
-        Format::R16 => (1, 2),
-        Format::R16G16 => (2, 2),
-        Format::R16G16B16 => (3, 2),
-        Format::R16G16B16A16 => (4, 2),
-        Format::R32G32B32FLOAT => (3, 4),
-        Format::R32G32B32A32FLOAT => (4, 4),
-    };
+    let (channels, bytes_per) = layout(data.format);
     let pixel = channels * bytes_per;
     let count = w as usize * h as usize;
     if data.pixels.len() != count * pixel {
@@ -225,4 +214,20 @@ pub(super) fn codes(cx: &Cx, image_index: usize, data: &Data) -> Result<(Vec<u32
         _ => Quantised::FromFloat,
     };
     Ok((out, quantised))
+}
+
+/// Channels per pixel and bytes per channel of a decoded glTF image format.
+pub(crate) fn layout(format: Format) -> (usize, usize) {
+    match format {
+        Format::R8 => (1, 1),
+        Format::R8G8 => (2, 1),
+        Format::R8G8B8 => (3, 1),
+        Format::R8G8B8A8 => (4, 1),
+        Format::R16 => (1, 2),
+        Format::R16G16 => (2, 2),
+        Format::R16G16B16 => (3, 2),
+        Format::R16G16B16A16 => (4, 2),
+        Format::R32G32B32FLOAT => (3, 4),
+        Format::R32G32B32A32FLOAT => (4, 4),
+    }
 }

@@ -2,7 +2,7 @@
 //! one line per property and explanation, naming the file and every material it applies to,
 //! so an asset of fifty materials with normal maps gets one line, not fifty.
 
-use gltf::image::{Data, Format};
+use gltf::image::Data;
 
 use crate::Scene;
 
@@ -51,18 +51,7 @@ impl MaterialNotes {
 /// Grey images carry metalness in their one colour channel. `None` when the pixel data does
 /// not match the format or a value is outside [0, 1] (a float image).
 pub(crate) fn blue_channel_stats(data: &Data) -> Option<(f64, f64, f64)> {
-    let (channels, bytes) = match data.format {
-        Format::R8 => (1, 1),
-        Format::R8G8 => (2, 1),
-        Format::R8G8B8 => (3, 1),
-        Format::R8G8B8A8 => (4, 1),
-        Format::R16 => (1, 2),
-        Format::R16G16 => (2, 2),
-        Format::R16G16B16 => (3, 2),
-        Format::R16G16B16A16 => (4, 2),
-        Format::R32G32B32FLOAT => (3, 4),
-        Format::R32G32B32A32FLOAT => (4, 4),
-    };
+    let (channels, bytes) = super::image::layout(data.format);
     let channel = if channels <= 2 { 0 } else { 2 };
     let pixel = channels * bytes;
     let count = data.width as usize * data.height as usize;
