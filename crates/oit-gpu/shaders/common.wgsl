@@ -43,7 +43,8 @@ struct Material {
     wrap: u32,
     // Thin-surface transmission factor τ (0: scalar alpha).
     transmission: f32,
-    pad1: u32,
+    // `oit_scene::BlendOperator::code`: 0 over, 1 add, 2 subtract, 3 multiply.
+    blend_operator: u32,
     pad2: u32,
     // Lighting (`oit_scene::Reflectance`): metallic and roughness factors, and the specular
     // rule, 0 unlit, 1 faded by α, 2 kept (shaders/lighting.wgsl).
@@ -57,6 +58,11 @@ const MODE_OPAQUE: u32 = 0u;
 const MODE_MASK: u32 = 1u;
 const MODE_BLEND: u32 = 2u;
 const MODE_MASK_BLEND: u32 = 3u;
+
+const OPERATOR_OVER: u32 = 0u;
+const OPERATOR_ADD: u32 = 1u;
+const OPERATOR_SUBTRACT: u32 = 2u;
+const OPERATOR_MULTIPLY: u32 = 3u;
 
 @group(0) @binding(0) var<uniform> camera: Camera;
 @group(0) @binding(1) var<storage, read> materials: array<Material>;
@@ -279,6 +285,21 @@ fn shade(v: VertexOut, front_facing: bool) -> Shaded {
             // Scalar-alpha techniques composite the mean transmittance (exact for grey
             // filters): `opacity` of `Shaded::Transmissive`.
             let tt = s.transmittance;
+            s.alpha = 1.0 - (tt.r + tt.g + tt.b) * (1.0 / 3.0);
+        }
+        // `BlendOperator`: add and subtract leave what is behind undimmed (t = 1, α = 0),
+        // multiply is the filter t = (1 − α) + P with no colour of its own.
+        if m.blend_operator == OPERATOR_ADD {
+            s.alpha = 0.0;
+            s.transmittance = vec3<f32>(1.0);
+        } else if m.blend_operator == OPERATOR_SUBTRACT {
+            s.color = -s.color;
+            s.alpha = 0.0;
+            s.transmittance = vec3<f32>(1.0);
+        } else if m.blend_operator == OPERATOR_MULTIPLY {
+            let tt = vec3<f32>(1.0 - alpha) + s.color;
+            s.color = vec3<f32>(0.0);
+            s.transmittance = tt;
             s.alpha = 1.0 - (tt.r + tt.g + tt.b) * (1.0 / 3.0);
         }
     } else {

@@ -180,7 +180,7 @@ fn material_words(m: &Material, scene: &Scene, offsets: &[u32]) -> [u32; 24] {
         emissive_size,
         base_wrap | emissive_wrap << 12,
         m.transmission.to_bits(),
-        0,
+        m.operator.code(),
         0,
         m.reflectance.map_or(0, |r| r.metallic.to_bits()),
         m.reflectance.map_or(0, |r| r.roughness.to_bits()),

@@ -192,7 +192,7 @@ impl TechniqueOrders {
             if !scene.material_of(d).mode.is_transparent() {
                 continue;
             }
-            let g = groups.entry(d.render_group).or_default();
+            let g = groups.entry(d.ordering.group).or_default();
             let first = ranks.first_rank(i);
             for t in 0..d.triangle_count() {
                 let v = (d.first_vertex + 3 * t) as usize;

@@ -128,7 +128,7 @@ impl ReferenceOptions {
     ///
     /// **Not counted** (proportional to the input or the resolution, bounded by the loader's
     /// caps): the scene (48 bytes per vertex: 576 MB for 4 M triangles); the set-up triangles,
-    /// 384 bytes per triangle reaching the screen (clipping can make up to 7 of one) and 20
+    /// 392 bytes per triangle reaching the screen (clipping can make up to 7 of one) and 20
     /// for the binning order (id and bounding box), plus 8 per input triangle, and a 16-byte
     /// sort key and a 16-byte copy of the bounding box while they are ordered: 1.6 GB, 1.8 GB
     /// during setup, for 4 M unclipped triangles; the outputs, 29 bytes per pixel: 1.9 GB at

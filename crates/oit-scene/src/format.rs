@@ -182,10 +182,20 @@ pub(crate) struct RawObject {
     /// Absent means the default material; must be absent for `"kind": "gltf"` meshes.
     #[serde(default)]
     pub material: Option<RawMaterial>,
+    /// Babylon's renderingGroupId.
     #[serde(default)]
     pub render_group: u32,
+    /// pygfx's and Unity's render queue (1–4999); absent derives it.
     #[serde(default)]
-    pub alpha_index: i32,
+    pub render_queue: Option<u16>,
+    /// Within a queue, lower first; `alpha_index` is Babylon's name for the same key.
+    #[serde(default)]
+    pub render_order: Option<i32>,
+    #[serde(default)]
+    pub alpha_index: Option<i32>,
+    /// The object's transparency method for the `per-object` renderer.
+    #[serde(default)]
+    pub method: Option<crate::ObjectMethod>,
     #[serde(default)]
     pub instances: Option<RawInstances>,
     /// Animated transform and alpha by frame (crate::animation); empty for a still object.
@@ -256,6 +266,11 @@ pub(crate) struct RawMaterial {
     /// Lit per pixel by the scene's lights (docs/scene-format.md "Per-pixel lighting").
     #[serde(default)]
     pub lit: Option<RawLit>,
+    /// docs/scene-format.md "Blend operators".
+    #[serde(default)]
+    pub operator: crate::BlendOperator,
+    #[serde(default)]
+    pub depth_write: bool,
 }
 
 /// A JSON material's per-pixel lighting parameters.
@@ -296,6 +311,8 @@ impl Default for RawMaterial {
             intensity: 1.0,
             transmission: 0.0,
             lit: None,
+            operator: crate::BlendOperator::Over,
+            depth_write: false,
         }
     }
 }

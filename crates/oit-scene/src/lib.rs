@@ -8,6 +8,7 @@
 //! (fuzz/) fuzzes both loaders against their documented invariants.
 
 mod animation;
+mod blending;
 mod error;
 mod format;
 pub(crate) mod gltf;
@@ -22,6 +23,7 @@ mod strict;
 mod texture;
 
 pub use animation::{Animation, Frames, MAX_FRAMES};
+pub use blending::{BlendOperator, ObjectMethod, Ordering, RenderQueue};
 pub use error::{Problem, SceneError};
 pub use format::{DEFAULT_RESOLUTION, MAX_TRIANGLES};
 pub use gltf::{GLTF_BACKGROUND, GLTF_FPS, MAX_TEXELS};

@@ -499,6 +499,7 @@ impl Ctx<'_> {
             return Err(self.err(format!("{p}.intensity"), Problem::DerivedNonFinite { what }));
         }
         let transmission = self.transmission(m, base, p)?;
+        self.check_blending(m, p)?;
         let reflectance = match &m.lit {
             None => None,
             Some(l) => {
@@ -536,6 +537,90 @@ impl Ctx<'_> {
             emissive_texture: None,
             transmission,
             reflectance,
+            operator: m.operator,
+            depth_write: m.depth_write,
+        })
+    }
+
+    /// The operator and depth write of a material: both only where they mean something, a
+    /// transparent mode, and the operator only with scalar alpha (transmission 0).
+    fn check_blending(&self, m: &RawMaterial, p: &str) -> Result<()> {
+        let bad = |field: &str, value: String, allowed: &str| {
+            self.err(
+                format!("{p}.{field}"),
+                Problem::BadValue {
+                    what: field.into(),
+                    value,
+                    allowed: allowed.into(),
+                },
+            )
+        };
+        if m.operator != crate::BlendOperator::Over {
+            let name = m.operator.name();
+            if !m.mode.is_transparent() {
+                return Err(bad(
+                    "operator",
+                    format!("\"{name}\" with mode {:?}", m.mode),
+                    "add, subtract and multiply only with mode \"blend\" or \"mask-blend\" (opaque and mask fragments replace what is behind)",
+                ));
+            }
+            if m.transmission > 0.0 {
+                return Err(bad(
+                    "operator",
+                    format!("\"{name}\" with transmission {}", m.transmission),
+                    "add, subtract and multiply only with transmission 0 (a transmissive material composites with over)",
+                ));
+            }
+        }
+        if m.depth_write && !m.mode.is_transparent() {
+            return Err(bad(
+                "depth_write",
+                format!("true with mode {:?}", m.mode),
+                "depth_write only with mode \"blend\" or \"mask-blend\" (opaque and mask materials always write depth)",
+            ));
+        }
+        Ok(())
+    }
+
+    /// An object's place in engines' draw orders (`crate::Ordering`): `render_order` and
+    /// Babylon's `alpha_index` name the same key, so at most one may be given.
+    fn ordering(&self, obj: &RawObject, p: &str) -> Result<crate::Ordering> {
+        let order = match (obj.render_order, obj.alpha_index) {
+            (Some(_), Some(_)) => {
+                return Err(self.err(
+                    format!("{p}.alpha_index"),
+                    Problem::BadValue {
+                        what: "alpha_index".into(),
+                        value: "given with render_order".into(),
+                        allowed: "one of render_order (pygfx, Unity) and alpha_index (Babylon): they are the same key".into(),
+                    },
+                ));
+            }
+            (Some(o), None) | (None, Some(o)) => o,
+            (None, None) => 0,
+        };
+        let queue = match obj.render_queue {
+            None => None,
+            Some(q) => Some(crate::RenderQueue::new(q).ok_or_else(|| {
+                self.err(
+                    format!("{p}.render_queue"),
+                    Problem::BadValue {
+                        what: "render_queue".into(),
+                        value: q.to_string(),
+                        allowed: format!(
+                            "an integer in {}..={} (pygfx: 1000 background, 2000 opaque, 2400 alpha-tested, 2600 depth-writing transparent, 3000 transparent, 4000 overlay)",
+                            crate::RenderQueue::MIN,
+                            crate::RenderQueue::MAX
+                        ),
+                    },
+                )
+            })?),
+        };
+        Ok(crate::Ordering {
+            group: obj.render_group,
+            queue,
+            order,
+            method: obj.method,
         })
     }
 
@@ -801,10 +886,12 @@ impl Ctx<'_> {
                 },
             ));
         }
+        let ordering = self.ordering(obj, &p)?;
         Ok(Prepared {
             source,
             world,
             material,
+            ordering,
             counts,
             spacing,
         })
@@ -878,7 +965,7 @@ impl Ctx<'_> {
                         &derived_path,
                         &base,
                         named_parts,
-                        obj,
+                        prep.ordering,
                         material_index,
                         scene,
                     )?;
@@ -981,8 +1068,7 @@ impl Ctx<'_> {
                         transform: Affine3A::from_translation(offset) * *world,
                         transform_path: Some(derived_path.clone()),
                         light,
-                        render_group: obj.render_group,
-                        alpha_index: obj.alpha_index,
+                        ordering: prep.ordering,
                         name_prefix,
                     };
                     g.asset
@@ -1008,7 +1094,7 @@ impl Ctx<'_> {
         derived_path: &str,
         base_name: &str,
         named_parts: bool,
-        obj: &RawObject,
+        ordering: crate::Ordering,
         material: u32,
         scene: &mut Scene,
     ) -> Result<()> {
@@ -1092,8 +1178,7 @@ impl Ctx<'_> {
                 material,
                 first_vertex: first as u32,
                 vertex_count: (scene.vertices.len() - first) as u32,
-                render_group: obj.render_group,
-                alpha_index: obj.alpha_index,
+                ordering,
                 bounds_center: centre,
                 bounds_radius: radius,
             });
@@ -1108,6 +1193,8 @@ struct Prepared {
     source: MeshSource,
     world: Affine3A,
     material: Material,
+    /// Where engines draw it (render group, queue, order, method).
+    ordering: crate::Ordering,
     counts: [u32; 3],
     spacing: Vec3,
 }

@@ -3,6 +3,7 @@
 //! baked lighting, transforms) is already applied here, so the two sides evaluate the same
 //! numbers and cannot disagree about what the scene is.
 
+use crate::blending::{BlendOperator, Ordering, RenderQueue};
 use crate::lighting::{LightRig, Reflectance, Specular, SurfacePoint};
 use glam::{Mat4, Vec3, Vec4};
 
@@ -183,6 +184,13 @@ pub struct Material {
     /// Lit per pixel by the scene's [`LightRig`] (`crate::lighting`); `None` is unlit: the
     /// albedo is the colour, as before lighting existed, bit for bit.
     pub reflectance: Option<Reflectance>,
+    /// How a transparent fragment combines with what is behind it ([`BlendOperator`]); `Over`
+    /// for opaque and mask modes.
+    pub operator: BlendOperator,
+    /// A transparent material whose fragments also write depth (pygfx's `auto` and "glowy
+    /// opaque" additive objects): they hide fragments of later render queues behind them.
+    /// Opaque and mask materials always write depth; this is false for them.
+    pub depth_write: bool,
 }
 
 /// The texture samples one fragment's material reads; `UNTEXTURED` where it has none.
@@ -237,12 +245,16 @@ impl Material {
             emissive_texture: None,
             transmission: 0.0,
             reflectance: None,
+            operator: BlendOperator::Over,
+            depth_write: false,
         }
     }
 
-    /// Whether fragments carry a coloured transmittance ([`Shaded::Transmissive`]).
+    /// Whether fragments carry a coloured transmittance ([`Shaded::Transmissive`]): a
+    /// transmission factor above 0, or the `multiply` operator (a filter that adds nothing).
     pub fn is_transmissive(&self) -> bool {
-        self.mode.is_transparent() && self.transmission > 0.0
+        self.mode.is_transparent()
+            && (self.transmission > 0.0 || self.operator == BlendOperator::Multiply)
     }
 
     /// Whether any texture is read (fragments then need their uv).
@@ -295,7 +307,10 @@ impl Material {
     /// by `t = (1 − α) + α·τ·lit` per channel (the unlit albedo: transmitted light is not the
     /// light reflected), and its scalar opacity is `1 − mean(t)`. Untextured, the samples are
     /// 1 and the emission 0; τ = 0 multiplies by 1 and an unlit `s = 0` adds 0: none of them
-    /// changes a bit of the products.
+    /// changes a bit of the products. Transparent fragments then apply the material's
+    /// [`BlendOperator`] to the premultiplied `P` above: `add` keeps `P` with α 0 (nothing
+    /// behind is dimmed), `subtract` negates it, `multiply` becomes the filter
+    /// `t = (1 − α) + P` with no colour of its own.
     #[inline(always)]
     pub fn shade_lit(
         &self,
@@ -360,6 +375,42 @@ impl Material {
                         alpha * (c[2] + s[2]),
                     ]
                 };
+                match self.operator {
+                    BlendOperator::Over => {}
+                    // What is behind is not dimmed: t = 1, so the scalar alpha is 0.
+                    BlendOperator::Add => {
+                        return Shaded::Transparent {
+                            premultiplied,
+                            alpha: 0.0,
+                        };
+                    }
+                    BlendOperator::Subtract => {
+                        return Shaded::Transparent {
+                            premultiplied: [
+                                -premultiplied[0],
+                                -premultiplied[1],
+                                -premultiplied[2],
+                            ],
+                            alpha: 0.0,
+                        };
+                    }
+                    // A filter: t = (1 − α) + P, which is (1 − α) + α·c for straight colour.
+                    BlendOperator::Multiply => {
+                        let transmittance = [
+                            (1.0 - alpha) + premultiplied[0],
+                            (1.0 - alpha) + premultiplied[1],
+                            (1.0 - alpha) + premultiplied[2],
+                        ];
+                        let opacity = 1.0
+                            - (transmittance[0] + transmittance[1] + transmittance[2])
+                                * (1.0 / 3.0);
+                        return Shaded::Transmissive {
+                            premultiplied: [0.0; 3],
+                            opacity,
+                            transmittance,
+                        };
+                    }
+                }
                 if self.transmission > 0.0 {
                     let filtered = alpha * self.transmission;
                     let transmittance = [
@@ -412,10 +463,8 @@ pub struct Draw {
     /// Range in `Scene::vertices`; a multiple of 3.
     pub first_vertex: u32,
     pub vertex_count: u32,
-    /// Babylon's rendering group: lower groups are drawn first.
-    pub render_group: u32,
-    /// Babylon's alphaIndex: within a group, lower first.
-    pub alpha_index: i32,
+    /// Where an engine draws it ([`Ordering`]: render group, queue, order, method).
+    pub ordering: Ordering,
     /// Bounding sphere (world space) for per-object sorting.
     pub bounds_center: Vec3,
     pub bounds_radius: f32,
@@ -522,28 +571,46 @@ impl Scene {
         self.draws.iter().map(|d| d.triangle_count() as usize).sum()
     }
 
-    /// Transparent draws (indices into `draws`) in the order Babylon renders them: render
-    /// group ascending, then `alpha_index` ascending, then distance from the eye to the
-    /// bounding sphere centre descending (far first). The sort is stable: draws that tie on all
-    /// three keep their draw order, so the later-drawn one lands on top, which is the
-    /// reference's tie-break for coplanar fragments in natural draw order.
+    /// The render queue a draw is in: the file's, or the one pygfx derives from the object's
+    /// method and the material ([`RenderQueue::derived`]).
+    pub fn queue_of(&self, draw: &Draw) -> RenderQueue {
+        let m = self.material_of(draw);
+        draw.ordering
+            .queue
+            .unwrap_or_else(|| RenderQueue::derived(m.mode, m.depth_write, draw.ordering.method))
+    }
+
+    /// Transparent draws (indices into `draws`) in the order engines draw them
+    /// ([`Ordering`]): render group ascending, then render queue, then render order (Babylon's
+    /// alphaIndex), then distance from the eye to the bounding sphere centre, far first (near
+    /// first in queues 1501–2500). The sort is stable: draws that tie on every key keep their
+    /// draw order, so the later-drawn one lands on top, which is the reference's tie-break for
+    /// coplanar fragments in natural draw order.
     pub fn babylon_object_order(&self) -> Vec<usize> {
+        self.engine_order(|d| self.material_of(d).mode.is_transparent())
+    }
+
+    /// The draws `keep` selects, in the engine order of [`Scene::babylon_object_order`].
+    pub fn engine_order(&self, keep: impl Fn(&Draw) -> bool) -> Vec<usize> {
         let eye = self.camera.eye;
-        let mut order: Vec<(usize, u32, i32, f32)> = self
+        let mut order: Vec<(usize, (u32, RenderQueue, i32), f32)> = self
             .draws
             .iter()
             .enumerate()
-            .filter(|(_, d)| self.material_of(d).mode.is_transparent())
+            .filter(|(_, d)| keep(d))
             .map(|(i, d)| {
-                (
-                    i,
-                    d.render_group,
-                    d.alpha_index,
-                    d.bounds_center.distance(eye),
-                )
+                let queue = self.queue_of(d);
+                let distance = d.bounds_center.distance(eye);
+                // Far first, except in the front-to-back queues.
+                let key = if queue.front_to_back() {
+                    distance
+                } else {
+                    -distance
+                };
+                (i, (d.ordering.group, queue, d.ordering.order), key)
             })
             .collect();
-        order.sort_by(|a, b| a.1.cmp(&b.1).then(a.2.cmp(&b.2)).then(b.3.total_cmp(&a.3)));
+        order.sort_by(|a, b| a.1.cmp(&b.1).then(a.2.total_cmp(&b.2)));
         order.into_iter().map(|(i, ..)| i).collect()
     }
 

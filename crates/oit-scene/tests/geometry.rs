@@ -39,7 +39,7 @@ fn defaults_are_applied() {
     assert_eq!(m.intensity, 1.0);
     let d = &s.draws[0];
     assert_eq!(
-        (d.id, d.name.as_str(), d.render_group, d.alpha_index),
+        (d.id, d.name.as_str(), d.ordering.group, d.ordering.order),
         (0, "objects[0]", 0, 0)
     );
     assert_eq!(d.vertex_count, 6);
@@ -74,7 +74,10 @@ fn explicit_fields_are_kept() {
         (0.25, AlphaMode::MaskBlend, 0.1, 30.0)
     );
     assert!(m.double_sided && m.premultiplied);
-    assert_eq!((s.draws[0].render_group, s.draws[0].alpha_index), (3, -7));
+    assert_eq!(
+        (s.draws[0].ordering.group, s.draws[0].ordering.order),
+        (3, -7)
+    );
     assert!(!s.camera.reverse_z);
     assert_eq!(s.background, [0.1, 0.2, 0.3]);
     assert_eq!(

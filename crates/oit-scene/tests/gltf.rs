@@ -587,7 +587,7 @@ fn json_object_kind_gltf_places_the_asset() {
         g.name,
         "objects[1].instances[0] tri.gltf /nodes/0 mesh 0 primitive 0"
     );
-    assert_eq!((g.render_group, g.alpha_index), (3, -2));
+    assert_eq!((g.ordering.group, g.ordering.order), (3, -2));
     let v = &s.vertices[g.vertex_range()];
     assert_eq!(v[1].position, [7.0, 0.0, 0.0]);
     assert_eq!(

@@ -155,7 +155,7 @@ fn triangle_positions(scene: &Scene) -> Vec<Vec<u64>> {
         if !scene.material_of(d).mode.is_transparent() {
             continue;
         }
-        let g = groups.entry(d.render_group).or_default();
+        let g = groups.entry(d.ordering.group).or_default();
         for t in 0..d.triangle_count() {
             let v = (d.first_vertex + 3 * t) as usize;
             let p = |k: usize| scene.vertices[v + k].position;

@@ -276,7 +276,7 @@ impl Blended {
             let mut groups: BTreeMap<u32, (Vec<u32>, Vec<glam::Vec3>)> = BTreeMap::new();
             for i in scene.transparent_draws() {
                 let d = &s.draws[i];
-                let g = groups.entry(d.render_group).or_default();
+                let g = groups.entry(d.ordering.group).or_default();
                 for t in 0..d.triangle_count() {
                     let v = d.first_vertex + 3 * t;
                     let p = |k: u32| s.vertices[(v + k) as usize].position;

@@ -98,8 +98,7 @@ fn layers_scene(n: usize, size: u32) -> Scene {
             material: i as u32,
             first_vertex: first,
             vertex_count: 6,
-            render_group: 0,
-            alpha_index: 0,
+            ordering: Default::default(),
             bounds_center: Vec3::new(0.0, 0.0, z),
             bounds_radius: 2.2,
         });

@@ -13,7 +13,8 @@ struct VertexOut {
     @location(1) @interpolate(flat) base_alpha: vec4<f32>,
     // x = cutoff, y = intensity, z = transmission.
     @location(2) @interpolate(flat) factors: vec3<f32>,
-    // mode | premultiplied << 2 | double_sided << 3 | wrap << 4 (see `material_flags`).
+    // mode | premultiplied << 2 | double_sided << 3 | wrap << 4 (24 bits) | blend operator << 28
+    // (see `material_flags`).
     @location(3) @interpolate(flat) flags: u32,
     @location(4) uv: vec2<f32>,
     @location(5) @interpolate(flat) emissive: vec3<f32>,
@@ -27,7 +28,8 @@ struct VertexOut {
 }
 
 fn material_flags(m: Material) -> u32 {
-    return m.mode | (m.premultiplied << 2u) | (m.double_sided << 3u) | (m.wrap << 4u);
+    return m.mode | (m.premultiplied << 2u) | (m.double_sided << 3u) | (m.wrap << 4u)
+        | (m.blend_operator << 28u);
 }
 
 // The vertex stage every scene pass shares (passes with their own vertex entry call it too).
@@ -65,7 +67,8 @@ fn material_of(v: VertexOut) -> Material {
     m.transmission = v.factors.z;
     m.double_sided = (v.flags >> 3u) & 1u;
     m.textures = v.textures;
-    m.wrap = v.flags >> 4u;
+    m.wrap = (v.flags >> 4u) & 0xffffffu;
+    m.blend_operator = v.flags >> 28u;
     m.metallic = v.surface.x;
     m.roughness = v.surface.y;
     m.specular = u32(v.surface.z);

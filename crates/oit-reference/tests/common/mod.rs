@@ -127,8 +127,7 @@ impl SceneBuilder {
             material: material_index,
             first_vertex: first,
             vertex_count: 3 * triangles.len() as u32,
-            render_group: 0,
-            alpha_index: 0,
+            ordering: Default::default(),
             bounds_center: (lo + hi) * 0.5,
             bounds_radius: (hi - lo).length() * 0.5,
         });

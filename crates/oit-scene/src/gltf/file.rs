@@ -144,8 +144,12 @@ const PLACEMENT: Placement<'static> = Placement {
     transform: Affine3A::IDENTITY,
     transform_path: None,
     light: None,
-    render_group: 0,
-    alpha_index: 0,
+    ordering: crate::Ordering {
+        group: 0,
+        queue: None,
+        order: 0,
+        method: None,
+    },
     name_prefix: String::new(),
 };
 

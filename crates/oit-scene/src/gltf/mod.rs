@@ -144,8 +144,8 @@ pub(crate) struct Placement<'a> {
     /// object's `transform`/`instances`); `None` reports the node's pointer instead.
     pub transform_path: Option<String>,
     pub light: Option<&'a Light>,
-    pub render_group: u32,
-    pub alpha_index: i32,
+    /// The JSON object's place in engines' draw orders, for every draw of the asset.
+    pub ordering: crate::Ordering,
     /// Prepended to draw names (e.g. `objects[2] `).
     pub name_prefix: String,
 }
@@ -741,6 +741,8 @@ impl Asset {
                 emissive_texture,
                 transmission,
                 reflectance,
+                operator: crate::BlendOperator::Over,
+                depth_write: false,
             },
             uv,
         ))
@@ -1024,8 +1026,7 @@ impl Asset {
             material,
             first_vertex: first as u32,
             vertex_count: (scene.vertices.len() - first) as u32,
-            render_group: placement.render_group,
-            alpha_index: placement.alpha_index,
+            ordering: placement.ordering,
             bounds_center: centre,
             bounds_radius: radius,
         });
