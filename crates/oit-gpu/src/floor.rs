@@ -14,7 +14,7 @@ use crate::predict::{PixelLists, Prediction};
 use crate::scene::{GpuScene, MaterialSource, ScenePipelineDesc, ScenePipelines, depth_test};
 use crate::spec::TechniqueSpec;
 use crate::targets::Targets;
-use crate::technique::TransmissionSupport;
+use crate::technique::Support;
 use crate::technique::{RenderStats, Technique};
 use crate::timer::GpuTimer;
 
@@ -171,8 +171,12 @@ impl Technique for DrawOrderBlend {
         ])
     }
 
-    fn transmission(&self, _caps: &Caps) -> TransmissionSupport {
+    fn transmission(&self, _caps: &Caps) -> Support {
         // Runs on every scene: it is a timing yardstick whose image is never compared.
-        TransmissionSupport::Approximate("a timing yardstick: vertex colour and scalar OVER")
+        Support::Approximate("a timing yardstick: vertex colour and scalar OVER")
+    }
+
+    fn operator(&self, _operator: oit_scene::BlendOperator, _caps: &Caps) -> Support {
+        Support::Approximate("a timing yardstick: vertex colour and scalar OVER")
     }
 }

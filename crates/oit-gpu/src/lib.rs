@@ -66,7 +66,7 @@ pub use spec::{
     Allowed, Bounded, Family, Param, ParamInfo, ParamValue, SpecError, TechniqueInfo, TechniqueSpec,
 };
 pub use targets::{ColorFormat, Targets, f16_to_f32, read_color};
-pub use technique::{RenderStats, Technique, TransmissionSupport, check_scene};
+pub use technique::{RenderStats, Support, Technique, check_scene};
 pub use timer::{
     FrameTimings, GpuTimer, PASSES_PER_QUERY_SET, PassFragments, PassTimestamps, PassTiming,
     TimingSource, occlusion_counts_samples,

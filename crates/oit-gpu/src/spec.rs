@@ -558,8 +558,11 @@ mod tests {
         fn memory_bytes(&self) -> u64 {
             0
         }
-        fn transmission(&self, _caps: &Caps) -> crate::TransmissionSupport {
-            crate::TransmissionSupport::Unsupported("draws no transparent geometry")
+        fn transmission(&self, _caps: &Caps) -> crate::Support {
+            crate::Support::Unsupported("draws no transparent geometry")
+        }
+        fn operator(&self, _: oit_scene::BlendOperator, _caps: &Caps) -> crate::Support {
+            crate::Support::Unsupported("draws no transparent geometry")
         }
     }
 

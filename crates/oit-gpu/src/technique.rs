@@ -7,7 +7,7 @@ use crate::scene::GpuScene;
 use crate::spec::TechniqueSpec;
 use crate::targets::Targets;
 use crate::timer::GpuTimer;
-use oit_scene::Scene;
+use oit_scene::{BlendOperator, Scene};
 
 /// What a technique did in one frame (results.json `"stats"`, plus `cpu_ms` which the harness
 /// reports at the top level of a run).
@@ -51,7 +51,12 @@ pub trait Technique: std::fmt::Debug {
     fn memory_bytes(&self) -> u64;
     /// What the technique does with coloured transmittance ([`Scene::has_transmission`]) on
     /// an adapter with `caps` (e.g. dual-source blending).
-    fn transmission(&self, caps: &Caps) -> TransmissionSupport;
+    fn transmission(&self, caps: &Caps) -> Support;
+    /// How it composites fragments of a non-`over` [`BlendOperator`] on an adapter with `caps`
+    /// (README "Blend operators"): `Exact` applies the operator's `(P, t)` per fragment as the
+    /// reference does; `Approximate` says what it does instead (reported per run); `Unsupported`
+    /// skips scenes that use the operator, with the reason.
+    fn operator(&self, operator: BlendOperator, caps: &Caps) -> Support;
     /// Whether this configuration is exact on `scene`, and why, from a model of what it does
     /// to each pixel's transparent list (`lists`, the exact reference's) on an adapter with
     /// `caps` ([`crate::predict`]). The harness checks it against the measured error of every
@@ -77,10 +82,11 @@ pub trait Technique: std::fmt::Debug {
     }
 }
 
-/// How a technique treats fragments whose transmittance is coloured (`t` per channel rather
-/// than `1 − α`), README "Coloured transmission".
+/// How exactly a technique composites a kind of fragment: coloured transmittance (`t` per
+/// channel rather than `1 − α`, README "Coloured transmission") or a blend operator (README
+/// "Blend operators").
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum TransmissionSupport {
+pub enum Support {
     /// Composites `C + t ⊙ behind` per channel as the reference does (up to its storage).
     Exact,
     /// Per channel, by the stated approximation.
@@ -89,27 +95,36 @@ pub enum TransmissionSupport {
     Unsupported(&'static str),
 }
 
-impl TransmissionSupport {
+impl Support {
     /// The short word for tables: exact, approximate or no.
     pub fn label(self) -> &'static str {
         match self {
-            TransmissionSupport::Exact => "exact",
-            TransmissionSupport::Approximate(_) => "approximate",
-            TransmissionSupport::Unsupported(_) => "no",
+            Support::Exact => "exact",
+            Support::Approximate(_) => "approximate",
+            Support::Unsupported(_) => "no",
         }
     }
 }
 
 /// Whether `technique` can render `scene` on this adapter: its own [`Technique::check`], then,
-/// on a scene with coloured transmission, its [`TransmissionSupport`].
+/// on a scene with coloured transmission, its [`Support`].
 pub fn check_scene(
     technique: &dyn Technique,
     caps: &Caps,
     scene: &Scene,
 ) -> Result<(), Unsupported> {
     technique.check(caps)?;
+    for operator in scene.operators_used() {
+        if let Support::Unsupported(reason) = technique.operator(operator, caps) {
+            return Err(Unsupported::new(format!(
+                "the scene blends with `{}`, which {} does not composite: {reason}",
+                operator.name(),
+                technique.spec().name()
+            )));
+        }
+    }
     if scene.has_transmission()
-        && let TransmissionSupport::Unsupported(reason) = technique.transmission(caps)
+        && let Support::Unsupported(reason) = technique.transmission(caps)
     {
         return Err(Unsupported::new(format!(
             "the scene has coloured transmission, which {} does not composite: {reason}",

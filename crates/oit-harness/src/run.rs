@@ -1000,10 +1000,14 @@ fn inexact(
     caps: &oit_gpu::Caps,
 ) -> Vec<String> {
     let mut phrases = stats.inexact();
-    if scene.has_coloured_transmission()
-        && technique.transmission(caps) != oit_gpu::TransmissionSupport::Exact
+    if scene.has_coloured_transmission() && technique.transmission(caps) != oit_gpu::Support::Exact
     {
         phrases.push(APPROXIMATE_TRANSMISSION.to_owned());
+    }
+    for operator in scene.operators_used() {
+        if let oit_gpu::Support::Approximate(_) = technique.operator(operator, caps) {
+            phrases.push(format!("approximate {}", operator.name()));
+        }
     }
     phrases
 }

@@ -614,6 +614,21 @@ impl Scene {
         order.into_iter().map(|(i, ..)| i).collect()
     }
 
+    /// The blend operators other than `over` that some transparent draw composites with, each
+    /// once, in [`BlendOperator::ALL`] order.
+    pub fn operators_used(&self) -> Vec<BlendOperator> {
+        BlendOperator::ALL
+            .into_iter()
+            .filter(|&op| op != BlendOperator::Over)
+            .filter(|&op| {
+                self.draws.iter().any(|d| {
+                    let m = self.material_of(d);
+                    m.mode.is_transparent() && m.operator == op
+                })
+            })
+            .collect()
+    }
+
     /// Whether any draw's fragments carry coloured transmittance: techniques that composite
     /// scalar alpha only are skipped on such scenes, with the reason.
     pub fn has_transmission(&self) -> bool {

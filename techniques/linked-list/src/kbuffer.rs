@@ -11,9 +11,10 @@ use oit_gpu::wgpu;
 use oit_gpu::{
     AutoSizes, Bounded, Caps, Context, FullscreenDesc, GpuError, GpuScene, GpuTimer, LayerCounter,
     MemoryLedger, PREMULTIPLIED_OVER, Param, ParamInfo, RenderStats, ScenePipelineDesc,
-    ScenePipelines, SpecError, Targets, Technique, TechniqueSpec, TransmissionSupport, Unsupported,
-    bind, blend, fullscreen_pipeline, pass,
+    ScenePipelines, SpecError, Support, Targets, Technique, TechniqueSpec, Unsupported, bind,
+    blend, fullscreen_pipeline, pass,
 };
+use oit_scene::BlendOperator;
 use oit_scene::Resolution;
 
 /// shaders/kbuffer64.wgsl.
@@ -651,15 +652,24 @@ impl Technique for KBuffer {
         self.ledger.total() + self.counter.memory_bytes()
     }
 
-    fn transmission(&self, caps: &Caps) -> TransmissionSupport {
+    fn transmission(&self, caps: &Caps) -> Support {
         if !caps.dual_source_blending {
-            return TransmissionSupport::Approximate(
+            return Support::Approximate(
                 "composites 1 − mean(t) as scalar α, exact for grey filters only (the per-channel resolve dst = C + T ⊙ dst needs dual-source blending, which the adapter lacks)",
             );
         }
         // A second chain of opacity slots (unorm10 per channel) sorted like the colour slots;
         // the averaged tail stays an approximation, per channel, and is reported per pixel.
-        TransmissionSupport::Exact
+        Support::Exact
+    }
+
+    fn operator(&self, operator: BlendOperator, caps: &Caps) -> Support {
+        match operator {
+            // (P, t) with t = 1: what is behind is not dimmed.
+            BlendOperator::Over | BlendOperator::Add | BlendOperator::Subtract => Support::Exact,
+            // A filter without colour: coloured transmittance with P = 0.
+            BlendOperator::Multiply => self.transmission(caps),
+        }
     }
 }
 

@@ -8,9 +8,10 @@ use oit_gpu::wgpu;
 use oit_gpu::{
     AutoSizes, Caps, Context, FullscreenDesc, GpuError, GpuScene, GpuTimer, LayerCount,
     LayerCounter, MemoryLedger, PREMULTIPLIED_OVER, RenderStats, ScenePipelineDesc, ScenePipelines,
-    SpecError, Targets, Technique, TechniqueSpec, TransmissionSupport, Unsupported, bind,
-    fullscreen_pipeline, pass,
+    SpecError, Support, Targets, Technique, TechniqueSpec, Unsupported, bind, fullscreen_pipeline,
+    pass,
 };
+use oit_scene::BlendOperator;
 use oit_scene::Resolution;
 
 /// shaders/linked_list.wgsl and its node module.
@@ -527,15 +528,24 @@ impl Technique for LinkedList {
         self.ledger.total() + self.pool_ledger.total() + self.counter.memory_bytes()
     }
 
-    fn transmission(&self, caps: &Caps) -> TransmissionSupport {
+    fn transmission(&self, caps: &Caps) -> Support {
         if !caps.dual_source_blending {
-            return TransmissionSupport::Approximate(
+            return Support::Approximate(
                 "composites 1 − mean(t) as scalar α, exact for grey filters only (the per-channel resolve dst = C + T ⊙ dst needs dual-source blending, which the adapter lacks)",
             );
         }
         // Nodes store rgb opacity: binary16 (f32 nodes) or unorm10 (packed), as they store α.
         // An averaged tail stays an approximation, per channel, and is reported per pixel.
-        TransmissionSupport::Exact
+        Support::Exact
+    }
+
+    fn operator(&self, operator: BlendOperator, caps: &Caps) -> Support {
+        match operator {
+            // (P, t) with t = 1: what is behind is not dimmed.
+            BlendOperator::Over | BlendOperator::Add | BlendOperator::Subtract => Support::Exact,
+            // A filter without colour: coloured transmittance with P = 0.
+            BlendOperator::Multiply => self.transmission(caps),
+        }
     }
 }
 

@@ -6,9 +6,10 @@ use crate::math::{self, MomentKind, Resolve, Storage};
 use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, Param, ParamInfo, RenderStats,
-    ScenePipelineDesc, ScenePipelines, SpecError, Targets, Technique, TechniqueSpec,
-    TransmissionSupport, Unsupported, bind, blend, depth_test, pass,
+    ScenePipelineDesc, ScenePipelines, SpecError, Support, Targets, Technique, TechniqueSpec,
+    Unsupported, bind, blend, depth_test, pass,
 };
+use oit_scene::BlendOperator;
 use oit_scene::{Resolution, Scene};
 
 /// The reconstruction (shaders/mboit_math.wgsl; no bindings, no includes).
@@ -582,10 +583,23 @@ impl Technique for Mboit {
             + self.pixels.as_ref().map_or(0, |p| p.ledger.total())
     }
 
-    fn transmission(&self, _caps: &Caps) -> TransmissionSupport {
+    fn transmission(&self, _caps: &Caps) -> Support {
         // Scalar alpha: the shader's `Shaded.alpha` is 1 − mean(t) for transmissive fragments.
-        TransmissionSupport::Approximate(
+        Support::Approximate(
             "composites 1 − mean(t) as scalar α, exact for grey filters only (its moments are of the scalar absorbance −ln(1 − α); a per-channel set of moments is not implemented)",
         )
+    }
+
+    fn operator(&self, operator: BlendOperator, caps: &Caps) -> Support {
+        match operator {
+            // (P, t) with t = 1: what is behind is not dimmed.
+            BlendOperator::Over | BlendOperator::Add | BlendOperator::Subtract => {
+                Support::Approximate(
+                    "an additive fragment has absorbance 0: its colour is scaled by the transmittance the moments estimate in front of it, and normalised with the rest",
+                )
+            }
+            // A filter without colour: coloured transmittance with P = 0.
+            BlendOperator::Multiply => self.transmission(caps),
+        }
     }
 }

@@ -3,9 +3,10 @@
 use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, PREMULTIPLIED_OVER, RenderStats,
-    ScenePipelineDesc, ScenePipelines, SpecError, Targets, Technique, TechniqueSpec,
-    TransmissionSupport, Unsupported, bind, depth_test, pass,
+    ScenePipelineDesc, ScenePipelines, SpecError, Support, Targets, Technique, TechniqueSpec,
+    Unsupported, bind, depth_test, pass,
 };
+use oit_scene::BlendOperator;
 
 /// The pass file (includes common.wgsl).
 pub(crate) const SHADER: &str = include_str!("../shaders/opaque_copy.wgsl");
@@ -243,9 +244,22 @@ impl Technique for OpaqueCopy {
         self.ledger.total()
     }
 
-    fn transmission(&self, _caps: &Caps) -> TransmissionSupport {
-        TransmissionSupport::Approximate(
+    fn transmission(&self, _caps: &Caps) -> Support {
+        Support::Approximate(
             "exact for the nearest transmissive surface over opaque content and for transparent surfaces in front of it; what is transparent or transmissive behind it is missing from the copy",
         )
+    }
+
+    fn operator(&self, operator: BlendOperator, caps: &Caps) -> Support {
+        match operator {
+            // (P, t) with t = 1: what is behind is not dimmed.
+            BlendOperator::Over | BlendOperator::Add | BlendOperator::Subtract => {
+                Support::Approximate(
+                    "additive fragments behind the nearest transmissive surface are missing from the copy, as every transparent fragment there is",
+                )
+            }
+            // A filter without colour: coloured transmittance with P = 0.
+            BlendOperator::Multiply => self.transmission(caps),
+        }
     }
 }

@@ -24,9 +24,10 @@ use oit_gpu::pass;
 use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, PREMULTIPLIED_OVER, RenderStats,
-    ScenePipelineDesc, ScenePipelines, SpecError, Targets, Technique, TechniqueSpec,
-    TransmissionSupport, Unsupported, depth_test,
+    ScenePipelineDesc, ScenePipelines, SpecError, Support, Targets, Technique, TechniqueSpec,
+    Unsupported, depth_test,
 };
+use oit_scene::BlendOperator;
 use oit_scene::Resolution;
 use oit_wboit::tail as wboit;
 
@@ -917,20 +918,29 @@ impl Technique for DualPeel {
         })
     }
 
-    fn transmission(&self, caps: &Caps) -> TransmissionSupport {
+    fn transmission(&self, caps: &Caps) -> Support {
         if let Some(reason) = per_channel_unsupported(caps) {
-            return TransmissionSupport::Approximate(reason);
+            return Support::Approximate(reason);
         }
         // Peeled layers are per channel; the WBOIT tail (oit_wboit::tail) composites scalar
         // α. With `passes=auto` the tail runs only where the adapter's pass bound
         // (`max_dual_passes`, 16 777 214 on lavapipe) cut peeling short, and those pixels are
         // reported as dropped layers.
         if self.config.tail == Tail::Wboit && self.config.passes != PassCount::Auto {
-            return TransmissionSupport::Approximate(
+            return Support::Approximate(
                 "peeled layers per channel, but the layers left after the last pass go to the WBOIT tail, which composites 1 − mean(t) as scalar α (exact for grey filters only)",
             );
         }
-        TransmissionSupport::Exact
+        Support::Exact
+    }
+
+    fn operator(&self, operator: BlendOperator, caps: &Caps) -> Support {
+        match operator {
+            // (P, t) with t = 1: what is behind is not dimmed.
+            BlendOperator::Over | BlendOperator::Add | BlendOperator::Subtract => Support::Exact,
+            // A filter without colour: coloured transmittance with P = 0.
+            BlendOperator::Multiply => self.transmission(caps),
+        }
     }
 }
 

@@ -28,9 +28,9 @@ use oit_gpu::pass;
 use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, RenderStats, ScenePipelineDesc,
-    ScenePipelines, SpecError, Targets, Technique, TechniqueSpec, TransmissionSupport, Unsupported,
-    depth_test,
+    ScenePipelines, SpecError, Support, Targets, Technique, TechniqueSpec, Unsupported, depth_test,
 };
+use oit_scene::BlendOperator;
 use oit_scene::Resolution;
 
 /// Front-to-back depth peeling.
@@ -830,11 +830,20 @@ impl Technique for FrontPeel {
         })
     }
 
-    fn transmission(&self, caps: &Caps) -> TransmissionSupport {
+    fn transmission(&self, caps: &Caps) -> Support {
         // Per channel: one under accumulator per colour channel (`Under::PerChannel`).
         match per_channel_unsupported(caps) {
-            None => TransmissionSupport::Exact,
-            Some(reason) => TransmissionSupport::Approximate(reason),
+            None => Support::Exact,
+            Some(reason) => Support::Approximate(reason),
+        }
+    }
+
+    fn operator(&self, operator: BlendOperator, caps: &Caps) -> Support {
+        match operator {
+            // (P, t) with t = 1: what is behind is not dimmed.
+            BlendOperator::Over | BlendOperator::Add | BlendOperator::Subtract => Support::Exact,
+            // A filter without colour: coloured transmittance with P = 0.
+            BlendOperator::Multiply => self.transmission(caps),
         }
     }
 }

@@ -7,9 +7,9 @@ use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, CullRule, GpuError, GpuScene, GpuTimer, MaterialSource, MemoryLedger,
     PREMULTIPLIED_OVER, PassDraws, PassWork, RenderStats, ScenePipelineDesc, ScenePipelines,
-    SpecError, Targets, Technique, TechniqueSpec, TransmissionSupport, Unsupported, Work,
-    depth_test,
+    SpecError, Support, Targets, Technique, TechniqueSpec, Unsupported, Work, depth_test,
 };
+use oit_scene::BlendOperator;
 use std::collections::BTreeMap;
 use std::time::Instant;
 
@@ -494,14 +494,23 @@ impl Technique for Blended {
         self.ledger.total()
     }
 
-    fn transmission(&self, caps: &Caps) -> TransmissionSupport {
+    fn transmission(&self, caps: &Caps) -> Support {
         if caps.dual_source_blending {
             // blend_transmit.wgsl: dst = src0 + src1 ⊙ dst, per channel.
-            TransmissionSupport::Exact
+            Support::Exact
         } else {
-            TransmissionSupport::Approximate(
+            Support::Approximate(
                 "composites 1 − mean(t) as scalar α, exact for grey filters only (the adapter has no dual-source blending for dst = C + t ⊙ dst)",
             )
+        }
+    }
+
+    fn operator(&self, operator: BlendOperator, caps: &Caps) -> Support {
+        match operator {
+            // (P, t) with t = 1: what is behind is not dimmed.
+            BlendOperator::Over | BlendOperator::Add | BlendOperator::Subtract => Support::Exact,
+            // A filter without colour: coloured transmittance with P = 0.
+            BlendOperator::Multiply => self.transmission(caps),
         }
     }
 }

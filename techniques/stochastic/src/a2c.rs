@@ -18,8 +18,9 @@ use oit_gpu::pass;
 use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, RenderStats, ScenePipelineDesc,
-    ScenePipelines, SpecError, Targets, Technique, TechniqueSpec, TransmissionSupport, Unsupported,
+    ScenePipelines, SpecError, Support, Targets, Technique, TechniqueSpec, Unsupported,
 };
+use oit_scene::BlendOperator;
 use oit_scene::Resolution;
 
 /// WGSL of the alpha-to-coverage pass.
@@ -306,10 +307,23 @@ impl Technique for AlphaToCoverage {
         self.ledger.total()
     }
 
-    fn transmission(&self, _caps: &Caps) -> TransmissionSupport {
+    fn transmission(&self, _caps: &Caps) -> Support {
         // Scalar alpha: the shader's `Shaded.alpha` is 1 − mean(t) for transmissive fragments.
-        TransmissionSupport::Approximate(
+        Support::Approximate(
             "composites 1 − mean(t) as scalar α, exact for grey filters only (coverage samples are decided by the scalar α; no per-channel scheme is implemented)",
         )
+    }
+
+    fn operator(&self, operator: BlendOperator, caps: &Caps) -> Support {
+        match operator {
+            // (P, t) with t = 1: what is behind is not dimmed.
+            BlendOperator::Over | BlendOperator::Add | BlendOperator::Subtract => {
+                Support::Approximate(
+                    "an additive fragment has coverage 0, so no sample keeps it: its colour is missing",
+                )
+            }
+            // A filter without colour: coloured transmittance with P = 0.
+            BlendOperator::Multiply => self.transmission(caps),
+        }
     }
 }

@@ -8,9 +8,10 @@ use oit_gpu::pass;
 use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, GpuError, GpuScene, GpuTimer, MaterialSource, MemoryLedger, RenderStats,
-    ScenePipelineDesc, ScenePipelines, SpecError, Targets, Technique, TechniqueSpec,
-    TransmissionSupport, Unsupported,
+    ScenePipelineDesc, ScenePipelines, SpecError, Support, Targets, Technique, TechniqueSpec,
+    Unsupported,
 };
+use oit_scene::BlendOperator;
 use oit_scene::Resolution;
 
 /// WGSL of the dither pass.
@@ -700,10 +701,23 @@ impl Technique for Stochastic {
         self.ledger.total()
     }
 
-    fn transmission(&self, _caps: &Caps) -> TransmissionSupport {
+    fn transmission(&self, _caps: &Caps) -> Support {
         // Per channel in expectation, as its scalar compositing is: one dither pass per colour
         // channel, where a fragment survives with that channel's opacity 1 − t_c.
-        TransmissionSupport::Exact
+        Support::Exact
+    }
+
+    fn operator(&self, operator: BlendOperator, caps: &Caps) -> Support {
+        match operator {
+            // (P, t) with t = 1: what is behind is not dimmed.
+            BlendOperator::Over | BlendOperator::Add | BlendOperator::Subtract => {
+                Support::Approximate(
+                    "an additive fragment has coverage 0, so no sample keeps it: its colour is missing",
+                )
+            }
+            // A filter without colour: coloured transmittance with P = 0.
+            BlendOperator::Multiply => self.transmission(caps),
+        }
     }
 }
 

@@ -8,9 +8,10 @@ use oit_gpu::pass;
 use oit_gpu::wgpu;
 use oit_gpu::{
     Caps, Context, GpuError, GpuScene, GpuTimer, MemoryLedger, Param, ParamInfo, RenderStats,
-    ScenePipelineDesc, ScenePipelines, SpecError, Targets, Technique, TechniqueSpec,
-    TransmissionSupport, Unsupported, depth_test,
+    ScenePipelineDesc, ScenePipelines, SpecError, Support, Targets, Technique, TechniqueSpec,
+    Unsupported, depth_test,
 };
+use oit_scene::BlendOperator;
 
 /// The accumulation pass (shaders/wboit_accum.wgsl; includes common.wgsl and the tail).
 pub const ACCUM_WGSL: &str = include_str!("../shaders/wboit_accum.wgsl");
@@ -431,14 +432,27 @@ impl Technique for Wboit {
         self.ledger.total() + self.accum.as_ref().map_or(0, AccumTargets::memory_bytes)
     }
 
-    fn transmission(&self, caps: &Caps) -> TransmissionSupport {
+    fn transmission(&self, caps: &Caps) -> Support {
         match self.config.modulation_unsupported(caps, WIDEST_COLOR) {
-            None => TransmissionSupport::Approximate(
+            None => Support::Approximate(
                 "McGuire & Mara 2015: what lies behind is multiplied by the exact per-channel product of the layers' transmittances (a third, modulated target); the layers' own radiance is the weighted average under the scalar coverage 1 − mean(t)",
             ),
-            Some(_) => TransmissionSupport::Approximate(
+            Some(_) => Support::Approximate(
                 "composites 1 − mean(t) as scalar α, exact for grey filters only (McGuire & Mara's per-channel modulation target does not fit this adapter's colour attachments with these formats)",
             ),
+        }
+    }
+
+    fn operator(&self, operator: BlendOperator, caps: &Caps) -> Support {
+        match operator {
+            // (P, t) with t = 1: what is behind is not dimmed.
+            BlendOperator::Over | BlendOperator::Add | BlendOperator::Subtract => {
+                Support::Approximate(
+                    "an additive fragment has coverage 0: its colour joins the weighted sum without weight in the normaliser, and the sum is scaled by the pixel's total coverage rather than by what lies in front of it",
+                )
+            }
+            // A filter without colour: coloured transmittance with P = 0.
+            BlendOperator::Multiply => self.transmission(caps),
         }
     }
 }

@@ -56,8 +56,11 @@ impl Technique for OpaqueOnly {
     fn memory_bytes(&self) -> u64 {
         0
     }
-    fn transmission(&self, _caps: &Caps) -> oit_gpu::TransmissionSupport {
-        oit_gpu::TransmissionSupport::Unsupported("draws no transparent geometry")
+    fn transmission(&self, _caps: &Caps) -> oit_gpu::Support {
+        oit_gpu::Support::Unsupported("draws no transparent geometry")
+    }
+    fn operator(&self, _: oit_scene::BlendOperator, _caps: &Caps) -> oit_gpu::Support {
+        oit_gpu::Support::Unsupported("draws no transparent geometry")
     }
 }
 

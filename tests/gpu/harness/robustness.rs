@@ -475,8 +475,11 @@ impl oit_gpu::Technique for HeavyFirstFrame {
     fn memory_bytes(&self) -> u64 {
         self.inner.memory_bytes()
     }
-    fn transmission(&self, caps: &oit_gpu::Caps) -> oit_gpu::TransmissionSupport {
+    fn transmission(&self, caps: &oit_gpu::Caps) -> oit_gpu::Support {
         self.inner.transmission(caps)
+    }
+    fn operator(&self, op: oit_scene::BlendOperator, caps: &oit_gpu::Caps) -> oit_gpu::Support {
+        self.inner.operator(op, caps)
     }
 }
 

@@ -52,7 +52,7 @@ fn bundled_names(ctx: &Context, technique: &dyn Technique) -> Vec<String> {
     // transmission is approximate by design (flagged `approximate transmission` in every
     // report) and not an exactness case; grey filters (gltf-glass-vase) always stay in.
     let support = technique.transmission(&ctx.caps);
-    if support != oit_gpu::TransmissionSupport::Exact {
+    if support != oit_gpu::Support::Exact {
         names.retain(|name| {
             let coloured = scene(name).has_coloured_transmission();
             if coloured {

@@ -6,7 +6,7 @@
 //! scenes are in `linked_list::gpu`.
 
 use oit_gpu::testing::context_or_skip;
-use oit_gpu::{ColorFormat, Context, Technique, TransmissionSupport};
+use oit_gpu::{ColorFormat, Context, Support, Technique};
 use oit_linked_list::kbuffer::{self, KBuffer, KBufferConfig};
 use oit_linked_list::node::{self, NodeFormat};
 use oit_linked_list::{LinkedList, LinkedListConfig, TailRule};
@@ -113,7 +113,7 @@ fn rgb_opacity_nodes_equal_the_reference_up_to_their_precision_in_both_draw_orde
             tail: TailRule::Drop,
         };
         let mut list = LinkedList::new(config);
-        assert_eq!(list.transmission(&ctx.caps), TransmissionSupport::Exact);
+        assert_eq!(list.transmission(&ctx.caps), Support::Exact);
         let image = render(&ctx, &scene, &mut list);
         let reversed = render(
             &ctx,
@@ -250,11 +250,11 @@ fn support_follows_dual_source_blending() {
     let list = LinkedList::new(LinkedListConfig::default());
     let mut caps = ctx.caps.clone();
     caps.dual_source_blending = true;
-    assert_eq!(list.transmission(&caps), TransmissionSupport::Exact);
+    assert_eq!(list.transmission(&caps), Support::Exact);
     caps.dual_source_blending = false;
     assert!(matches!(
         list.transmission(&caps),
-        TransmissionSupport::Approximate(r) if r.contains("1 − mean(t)") && r.contains("dual-source")
+        Support::Approximate(r) if r.contains("1 − mean(t)") && r.contains("dual-source")
     ));
 }
 
@@ -292,7 +292,7 @@ fn kbuffer_opacity_slots_equal_the_reference_up_to_their_packing_in_both_draw_or
             tail: TailRule::Drop,
         };
         let mut kb = KBuffer::new(config);
-        assert_eq!(kb.transmission(&ctx.caps), TransmissionSupport::Exact);
+        assert_eq!(kb.transmission(&ctx.caps), Support::Exact);
         let image = render(&ctx, &scene, &mut kb);
         let reversed = render(
             &ctx,
@@ -387,6 +387,6 @@ fn the_kbuffer_per_channel_resolve_matches_its_cpu_twin() {
     caps.dual_source_blending = false;
     assert!(matches!(
         KBuffer::new(KBufferConfig::default()).transmission(&caps),
-        TransmissionSupport::Approximate(r) if r.contains("dual-source")
+        Support::Approximate(r) if r.contains("dual-source")
     ));
 }

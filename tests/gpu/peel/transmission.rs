@@ -6,7 +6,7 @@
 //! needs its tail, and `Technique::transmission` per adapter and configuration.
 
 use super::common::*;
-use oit_gpu::{GpuScene, Technique, TransmissionSupport};
+use oit_gpu::{GpuScene, Support, Technique};
 use oit_peel::{DualPeel, DualPeelConfig, FrontPeel, FrontPeelConfig, Options, PassCount};
 
 const SCENES: [&str; 4] = [
@@ -62,11 +62,7 @@ fn per_channel_peeling_is_exact_up_to_the_half_float_target() {
             "dual-peel:passes=auto,depth=rg32f",
         ] {
             let mut technique = build(spec);
-            assert_eq!(
-                technique.transmission(&ctx.caps),
-                TransmissionSupport::Exact,
-                "{spec}"
-            );
+            assert_eq!(technique.transmission(&ctx.caps), Support::Exact, "{spec}");
             let image = render_f16(&ctx, &gpu, technique.as_mut());
             let e = errors(&image, &reference.image);
             println!(
@@ -167,15 +163,11 @@ fn the_wboit_tail_is_the_approximate_part() {
     assert!(et.rmse > 10.0 * e.rmse, "{few}: {et:?}");
     for (spec, exact) in [(enough.as_str(), false), (few, false), (auto, true)] {
         let support = build(spec).transmission(&ctx.caps);
-        assert_eq!(
-            support == TransmissionSupport::Exact,
-            exact,
-            "{spec}: {support:?}"
-        );
+        assert_eq!(support == Support::Exact, exact, "{spec}: {support:?}");
     }
     assert_eq!(
         build("dual-peel:passes=4,depth=rg32f,tail=drop").transmission(&ctx.caps),
-        TransmissionSupport::Exact
+        Support::Exact
     );
 }
 
@@ -189,19 +181,20 @@ fn support_follows_the_adapters_colour_attachments() {
     };
     let front = build("front-peel:layers=auto");
     let dual = build("dual-peel:passes=auto");
-    assert_eq!(front.transmission(&ctx.caps), TransmissionSupport::Exact);
-    assert_eq!(dual.transmission(&ctx.caps), TransmissionSupport::Exact);
+    assert_eq!(front.transmission(&ctx.caps), Support::Exact);
+    assert_eq!(dual.transmission(&ctx.caps), Support::Exact);
     let with = |attachments: u32, bytes: u32| {
         let mut caps = ctx.caps.clone();
         caps.max_color_attachments = attachments;
         caps.max_color_attachment_bytes_per_sample = bytes;
         caps
     };
-    let approximate = |s: TransmissionSupport| matches!(s, TransmissionSupport::Approximate(r) if r.contains("1 − mean(t)"));
-    assert_eq!(front.transmission(&with(3, 48)), TransmissionSupport::Exact);
+    let approximate =
+        |s: Support| matches!(s, Support::Approximate(r) if r.contains("1 − mean(t)"));
+    assert_eq!(front.transmission(&with(3, 48)), Support::Exact);
     assert!(approximate(front.transmission(&with(2, 48))));
     assert!(approximate(front.transmission(&with(8, 47))));
-    assert_eq!(dual.transmission(&with(7, 80)), TransmissionSupport::Exact);
+    assert_eq!(dual.transmission(&with(7, 80)), Support::Exact);
     assert!(approximate(dual.transmission(&with(6, 128))));
     assert!(approximate(dual.transmission(&with(8, 79))));
 }

@@ -3,7 +3,7 @@
 //! not (the complementary panes multiply to nearly black).
 
 use oit_gpu::testing::context_or_skip;
-use oit_gpu::{ColorFormat, GpuScene, GpuTimer, Targets, TechniqueSpec, TransmissionSupport};
+use oit_gpu::{ColorFormat, GpuScene, GpuTimer, Support, Targets, TechniqueSpec};
 
 fn bundled(name: &str) -> oit_scene::Scene {
     let path = crate::kit::scenes_dir().join(format!("{name}.json"));
@@ -21,15 +21,12 @@ fn sorted_object_equals_the_reference_on_tinted_panes() {
         // The fallback is stated, not silent.
         assert!(matches!(
             technique.transmission(&ctx.caps),
-            TransmissionSupport::Approximate(_)
+            Support::Approximate(_)
         ));
         println!("sorted_object_transmission: no dual-source blending on this adapter, skipped");
         return;
     }
-    assert_eq!(
-        technique.transmission(&ctx.caps),
-        TransmissionSupport::Exact
-    );
+    assert_eq!(technique.transmission(&ctx.caps), Support::Exact);
     // Measured on lavapipe with f32 targets: 6.0e-8 (complementary), 4.8e-7 (32 panes),
     // 1.2e-7 (glTF); bounds about 10× above.
     for (name, bound) in [

@@ -5,8 +5,8 @@
 
 use oit_gpu::testing::context_or_skip;
 use oit_gpu::{
-    ColorFormat, Context, GpuScene, GpuTimer, RenderStats, Targets, Technique, TransmissionSupport,
-    read_color, render_frame,
+    ColorFormat, Context, GpuScene, GpuTimer, RenderStats, Support, Targets, Technique, read_color,
+    render_frame,
 };
 use oit_scene::{LinearImage, Scene};
 
@@ -120,11 +120,11 @@ fn scalar_scenes_keep_one_pass_per_frame() {
     assert_eq!(stats.geometry_passes, 3);
     assert_eq!(
         build("stochastic:pattern=blue").transmission(&ctx.caps),
-        TransmissionSupport::Exact
+        Support::Exact
     );
     assert!(matches!(
         build("a2c:samples=4").transmission(&ctx.caps),
-        TransmissionSupport::Approximate(_)
+        Support::Approximate(_)
     ));
 }
 

@@ -5,8 +5,7 @@
 
 use oit_gpu::testing::context_or_skip;
 use oit_gpu::{
-    ColorFormat, Context, GpuScene, GpuTimer, Targets, Technique, TransmissionSupport, read_color,
-    render_frame,
+    ColorFormat, Context, GpuScene, GpuTimer, Support, Targets, Technique, read_color, render_frame,
 };
 use oit_scene::{LinearImage, Scene};
 use oit_wboit::tail::{self, AccumFormat, RevealFormat};
@@ -217,8 +216,10 @@ fn support_follows_the_adapters_colour_attachments() {
         caps.max_color_attachment_bytes_per_sample = bytes;
         caps
     };
-    let coloured = |s: TransmissionSupport| matches!(s, TransmissionSupport::Approximate(r) if r.contains("per-channel product"));
-    let scalar = |s: TransmissionSupport| matches!(s, TransmissionSupport::Approximate(r) if r.contains("1 − mean(t) as scalar"));
+    let coloured =
+        |s: Support| matches!(s, Support::Approximate(r) if r.contains("per-channel product"));
+    let scalar =
+        |s: Support| matches!(s, Support::Approximate(r) if r.contains("1 − mean(t) as scalar"));
     let default = Wboit::new(Config::DEFAULT);
     let wide = Wboit::new(weighted(
         Weight::Range,
