@@ -14,6 +14,7 @@ mod format;
 pub(crate) mod gltf;
 mod lighting;
 mod load;
+mod load_blending;
 mod mesh;
 pub mod random;
 mod rng;
