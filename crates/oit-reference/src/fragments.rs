@@ -29,7 +29,9 @@ pub struct PixelFragment {
     pub premultiplied: [f32; 3],
 }
 
-/// The sorted transparent lists of one rectangle of pixels, nearest fragment first.
+/// The sorted transparent lists of one rectangle of pixels, nearest fragment first (in a scene
+/// with render queue effects: in compositing order, level descending then nearest first, and
+/// without the fragments depth writers of lower levels hide).
 pub struct RectFragments<'a> {
     /// Frame coordinates of the top-left pixel.
     pub x0: u32,

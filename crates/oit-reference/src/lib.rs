@@ -22,6 +22,12 @@
 //! bit-identical for any permutation of the draw list (given unique ids, which the loader
 //! guarantees; draws sharing an id are ranked by their position in the list).
 //!
+//! **Render queues** (docs/scene-format.md "Render queues"): where transparent draws span
+//! several (render group, queue) levels, a pixel's fragments are ordered by level, highest
+//! first, then as above, and a fragment behind a depth-writing transparent fragment of a lower
+//! level is dropped (`raster::queues`); such scenes take the stored path only. Scenes in one
+//! level render as without queues, bit for bit.
+//!
 //! **Overflow bound.** Clipping to the viewport keeps every window coordinate inside it (up to
 //! rounding); snapped coordinates are clamped to `±2^29` sub-pixel units regardless, so edge
 //! functions stay below 2^61 and i64 never overflows.
@@ -56,8 +62,10 @@ pub use setup::CUTOFF_UNDECIDED_BOUND;
 /// so that caches of references made by an older build are never reused. 2: vertex
 /// arithmetic and viewport clipping as lavapipe does them. 3: fragments exactly on the far
 /// plane are never visible; undecided-cutoff and precision-tie outputs. 4: textures as 8-bit
-/// codes with mip chains, sampled at the level of detail of fine derivatives.
-pub const OUTPUT_VERSION: u32 = 4;
+/// codes with mip chains, sampled at the level of detail of fine derivatives. 5: render queues
+/// (transparent draws in several (group, queue) levels composite by level, then depth; depth
+/// writers hide later levels; scenes in one level are unchanged).
+pub const OUTPUT_VERSION: u32 = 5;
 
 /// Fewest triangles in a tile's bin for it to be rendered alone on every thread when it holds
 /// a thread's part of all binned triangles (below this it is quick anyway).
@@ -393,8 +401,9 @@ pub(crate) fn render_with(
     visit: Option<(&FragmentVisitor<'_>, &fragments::Ranks)>,
 ) -> Result<Reference, ReferenceError> {
     let start = Instant::now();
-    let in_order = options.in_order && visit.is_none();
     validate(scene, options)?;
+    let queues = raster::QueueTable::new(scene);
+    let in_order = options.in_order && visit.is_none() && queues.is_none();
     let (width, height) = (scene.resolution.width, scene.resolution.height);
     let tile = options.tile_size;
 
@@ -508,6 +517,7 @@ pub(crate) fn render_with(
         coloured: scene.has_transmission(),
         in_order,
         visit,
+        queues: queues.as_ref(),
     };
     let done = AtomicUsize::new(0);
     let tile_rect = |t: usize, band_height: u32| TileRect {

@@ -16,6 +16,7 @@ mod lighting;
 mod load;
 mod load_blending;
 mod mesh;
+mod queues;
 pub mod random;
 mod rng;
 mod scene;
@@ -36,6 +37,7 @@ pub use load::{
     LoadOptions, is_gltf_path, load, load_dir, load_dir_with, load_frames, load_with,
     load_with_inputs, parse, parse_frames, parse_gltf, scene_files,
 };
+pub use queues::QueueLevel;
 pub use rng::SplitMix64;
 pub use scene::*;
 pub use texture::{

@@ -394,6 +394,7 @@ impl Ctx<'_> {
         } else {
             scene.lights = crate::LightRig::none();
         }
+        self.check_queue_order(&scene)?;
         Ok(scene)
     }
 

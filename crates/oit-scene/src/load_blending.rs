@@ -91,3 +91,44 @@ impl Ctx<'_> {
         })
     }
 }
+
+impl Ctx<'_> {
+    /// Refuses an opaque or mask draw that an engine would draw after a transparent one (a
+    /// higher render group, or queue, than the lowest transparent draw's): it would replace the
+    /// transparent fragments in front of it, which the exact reference does not model
+    /// (`Scene::opaque_after_transparent`).
+    pub(crate) fn check_queue_order(&self, scene: &crate::Scene) -> Result<()> {
+        let Some((opaque, transparent)) = scene.opaque_after_transparent() else {
+            return Ok(());
+        };
+        let (o, t) = (&scene.draws[opaque], &scene.draws[transparent]);
+        let (lo, lt) = (scene.queue_level(o), scene.queue_level(t));
+        let object = |name: &str| {
+            name.split(['.', ' '])
+                .next()
+                .unwrap_or_default()
+                .to_string()
+        };
+        let field = if lo.group > lt.group {
+            "render_group"
+        } else {
+            "render_queue"
+        };
+        Err(self.err(
+            format!("{}.{field}", object(&o.name)),
+            Problem::BadValue {
+                what: field.into(),
+                value: format!(
+                    "opaque draw {} in render group {}, queue {}, after transparent draw {} in render group {}, queue {}",
+                    o.name,
+                    lo.group,
+                    lo.queue.get(),
+                    t.name,
+                    lt.group,
+                    lt.queue.get()
+                ),
+                allowed: "opaque and mask objects in a render group and queue at or below every transparent object's (drawn later, they would replace transparent fragments in front of them)".into(),
+            },
+        ))
+    }
+}

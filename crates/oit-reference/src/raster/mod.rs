@@ -2,7 +2,7 @@
 //! sized by the tile, never by the frame. By subject: [`scratch`] (storage and its budget),
 //! [`keys`] (depth keys, ties, binning order), [`spans`] (coverage), [`shading`] (fragments),
 //! [`tiles`] (a tile, its stored path and bands), [`in_order`] (compositing as fragments
-//! arrive), [`sort`] (a pixel's fragments). Each module uses the others through this one.
+//! arrive), [`sort`] (a pixel's fragments), [`queues`] (render queues' order and depth writes). Each module uses the others through this one.
 
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
@@ -22,6 +22,7 @@ use crate::setup::{
 
 mod in_order;
 mod keys;
+mod queues;
 mod scratch;
 mod shading;
 mod sort;
@@ -33,6 +34,8 @@ mod tiles;
 pub(crate) use in_order::*;
 pub use keys::PRECISION_TIE_ULPS;
 pub(crate) use keys::*;
+pub(crate) use queues::QueueTable;
+use queues::order_by_queue;
 pub(crate) use scratch::*;
 pub(crate) use shading::Lighting;
 use shading::*;

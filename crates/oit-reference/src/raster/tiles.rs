@@ -78,6 +78,9 @@ pub(crate) struct TileContext<'a> {
     pub in_order: bool,
     /// Called by [`render_rect`] with each rectangle's sorted lists ([`crate::render_visiting`]).
     pub visit: Option<(&'a crate::FragmentVisitor<'a>, &'a crate::fragments::Ranks)>,
+    /// Render queue levels of a scene where they change the answer ([`QueueTable::new`]);
+    /// such scenes take the stored path only.
+    pub queues: Option<&'a QueueTable>,
 }
 
 /// Why [`render_tile`] did not render a tile.
@@ -519,6 +522,7 @@ pub(super) fn render_rect(
         coloured,
         in_order: _,
         visit,
+        queues,
     } = *ctx;
     let t_start = Instant::now();
     let n = (tile.width * tile.height) as usize;
@@ -694,6 +698,11 @@ pub(super) fn render_rect(
             transmittance,
         );
     }
+    if let Some(table) = queues {
+        for p in 0..n {
+            order_by_queue(table, s, p, planes);
+        }
+    }
     let t_sort = Instant::now();
 
     let (mut out_row, mut column) = (out.x_offset, 0);
@@ -710,7 +719,8 @@ pub(super) fn render_rect(
         let mut previous = (u32::MAX - PRECISION_TIE_ULPS * 2, 0usize);
         let mut visit = |slot: usize| {
             let depth = (s.keys[slot] >> 32) as u32;
-            if close(previous.0, depth) {
+            // With queues, `order_by_queue` found the ties (neighbours here may differ in level).
+            if queues.is_none() && close(previous.0, depth) {
                 tie |= transparent_tie(
                     &s.keys,
                     &s.colors,
