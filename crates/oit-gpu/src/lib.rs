@@ -33,6 +33,7 @@ pub mod memory;
 pub mod pass;
 mod pipeline;
 pub mod predict;
+pub mod queues;
 mod readback;
 mod scene;
 mod scope;
@@ -56,6 +57,7 @@ pub use memory::MemoryLedger;
 pub use pass::CountedPass;
 pub use pipeline::{FullscreenDesc, fullscreen_pipeline};
 pub use predict::{Prediction, Verdict};
+pub use queues::{Queues, predict_with_queues};
 pub use readback::{read_buffer, read_buffer_u32, read_texture};
 pub use scene::{
     CullRule, GpuScene, MATERIAL_STRIDE, MATERIAL_UNIFORM_STRIDE, MaterialSource, SceneBytes,

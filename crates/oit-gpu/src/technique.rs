@@ -57,6 +57,12 @@ pub trait Technique: std::fmt::Debug {
     /// reference does; `Approximate` says what it does instead (reported per run); `Unsupported`
     /// skips scenes that use the operator, with the reason.
     fn operator(&self, operator: BlendOperator, caps: &Caps) -> Support;
+    /// What it does with render queues on a scene where they change the answer
+    /// ([`Scene::has_queue_effects`], docs/scene-format.md "Render queues"): by default it
+    /// composites by depth alone ([`crate::Queues::Ignored`]).
+    fn queues(&self) -> crate::Queues {
+        crate::Queues::Ignored
+    }
     /// Whether this configuration is exact on `scene`, and why, from a model of what it does
     /// to each pixel's transparent list (`lists`, the exact reference's) on an adapter with
     /// `caps` ([`crate::predict`]). The harness checks it against the measured error of every

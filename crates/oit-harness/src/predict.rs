@@ -25,7 +25,13 @@ pub fn predict(
     lists: &PixelLists,
     caps: &Caps,
 ) -> Result<Prediction, HarnessError> {
-    Ok(crate::run::build(spec)?.predict(scene, lists, caps))
+    let technique = crate::run::build(spec)?;
+    Ok(oit_gpu::predict_with_queues(
+        technique.as_ref(),
+        scene,
+        lists,
+        caps,
+    ))
 }
 
 /// Whether a run measured exact: its largest channel error, relative above 1, within

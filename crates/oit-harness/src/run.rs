@@ -1009,6 +1009,7 @@ fn inexact(
             phrases.push(format!("approximate {}", operator.name()));
         }
     }
+    phrases.extend(technique.queues().inexact(scene));
     phrases
 }
 

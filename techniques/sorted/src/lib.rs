@@ -7,7 +7,7 @@
 //! - `unsorted`: transparent draws in draw order. The baseline every cost is divided by.
 //! - `sorted-object`: draws sorted as Babylon does ([`object_order`]).
 //! - `sorted-triangle`: every transparent triangle sorted back to front by the view depth of its
-//!   centroid, each frame, on the CPU ([`DepthSorter`]); render groups first.
+//!   centroid, each frame, on the CPU ([`DepthSorter`]); (render group, queue) levels first.
 //! - `depth-prepass`: a depth-only pass of the transparent geometry (writes depth; mask-blend
 //!   discards honoured), then an EQUAL-depth blended pass: only the nearest transparent layer.
 //! - `cull-split`: in sorted-object order, each double-sided object's back faces, then its

@@ -138,11 +138,11 @@ fn triangle_facing(scene: &Scene) -> Vec<Vec<bool>> {
         .collect()
 }
 
-/// One render group's transparent triangles, as (draw, triangle index), and their centroids.
+/// One (render group, queue) level's transparent triangles, as (draw, triangle index), and their centroids.
 type Group = (Vec<(usize, u32)>, Vec<glam::Vec3>);
 
 /// Per draw, per triangle: its position in `sorted-triangle`'s stream, built as `render`
-/// builds it (render groups ascending; in each, the transparent draws' triangles in draw order,
+/// builds it ((render group, queue) levels ascending; in each, the transparent draws' triangles in draw order,
 /// sorted back to front by centroid view depth, stable).
 fn triangle_positions(scene: &Scene) -> Vec<Vec<u64>> {
     let mut position: Vec<Vec<u64>> = scene
@@ -150,12 +150,12 @@ fn triangle_positions(scene: &Scene) -> Vec<Vec<u64>> {
         .iter()
         .map(|d| vec![u64::MAX; d.triangle_count() as usize])
         .collect();
-    let mut groups: BTreeMap<u32, Group> = BTreeMap::new();
+    let mut groups: BTreeMap<oit_scene::QueueLevel, Group> = BTreeMap::new();
     for (i, d) in scene.draws.iter().enumerate() {
         if !scene.material_of(d).mode.is_transparent() {
             continue;
         }
-        let g = groups.entry(d.ordering.group).or_default();
+        let g = groups.entry(scene.queue_level(d)).or_default();
         for t in 0..d.triangle_count() {
             let v = (d.first_vertex + 3 * t) as usize;
             let p = |k: usize| scene.vertices[v + k].position;

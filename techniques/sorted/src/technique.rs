@@ -96,7 +96,8 @@ struct Pipelines {
 #[derive(Debug)]
 struct TriangleStream {
     scene_id: u64,
-    /// Per render group (ascending): first vertex of each transparent triangle and its centroid.
+    /// Per (render group, queue) level (ascending): first vertex of each transparent triangle
+    /// and its centroid.
     groups: Vec<(Vec<u32>, Vec<glam::Vec3>)>,
     triangles: usize,
     indices: Vec<u32>,
@@ -273,10 +274,12 @@ impl Blended {
     fn stream(&mut self, ctx: &Context, scene: &GpuScene) -> Result<&mut TriangleStream, GpuError> {
         if self.stream.as_ref().is_none_or(|s| s.scene_id != scene.id) {
             let s = &scene.scene;
-            let mut groups: BTreeMap<u32, (Vec<u32>, Vec<glam::Vec3>)> = BTreeMap::new();
+            // Per (render group, queue) level, as the reference composites them.
+            let mut groups: BTreeMap<oit_scene::QueueLevel, (Vec<u32>, Vec<glam::Vec3>)> =
+                BTreeMap::new();
             for i in scene.transparent_draws() {
                 let d = &s.draws[i];
-                let g = groups.entry(d.ordering.group).or_default();
+                let g = groups.entry(s.queue_level(d)).or_default();
                 for t in 0..d.triangle_count() {
                     let v = d.first_vertex + 3 * t;
                     let p = |k: u32| s.vertices[(v + k) as usize].position;
@@ -502,6 +505,15 @@ impl Technique for Blended {
             Support::Approximate(
                 "composites 1 − mean(t) as scalar α, exact for grey filters only (the adapter has no dual-source blending for dst = C + t ⊙ dst)",
             )
+        }
+    }
+
+    fn queues(&self) -> oit_gpu::Queues {
+        // Object orders follow the engine's (group, queue) order, the triangle stream is
+        // grouped by level; no transparent draw writes depth.
+        match self.kind {
+            Kind::SortedObject | Kind::SortedTriangle | Kind::CullSplit => oit_gpu::Queues::Ordered,
+            Kind::Unsorted | Kind::DepthPrepass => oit_gpu::Queues::Ignored,
         }
     }
 

@@ -56,7 +56,7 @@ fn check(ctx: &oit_gpu::Context, scene: &Scene, label: &str, extra: &[&str], tal
         if oit_gpu::check_scene(technique.as_ref(), &ctx.caps, scene).is_err() {
             continue;
         }
-        let prediction = technique.predict(scene, &lists, &ctx.caps);
+        let prediction = oit_gpu::predict_with_queues(technique.as_ref(), scene, &lists, &ctx.caps);
         let frame = match render_once(ctx, scene, spec) {
             Ok(f) => f,
             Err(e) => panic!("{label} {}: {e}", spec.canonical()),

@@ -90,8 +90,17 @@ fn sorted_object_draws_in_group_and_alpha_index_order() {
                 "x {x}: sorted-object {p:?}, drawn in group/alpha-index order {expected:?}"
             );
         }
-        // The hints, not the distances, decided: the exact answer differs.
         let apart = (0..3).map(|c| (p[c] - r[c]).abs()).fold(0.0, f32::max);
-        assert!(apart > 0.05, "x {x}: equals the reference ({apart})");
+        if x == 16 {
+            // Render groups are levels of the exact answer too (docs/scene-format.md "Render
+            // queues"): group 1 is drawn over group 0, in the reference as in sorted-object.
+            assert!(
+                apart < 2e-3,
+                "x {x}: the reference ignores the groups ({apart})"
+            );
+        } else {
+            // alpha_index, not the distances, decided: the exact answer differs.
+            assert!(apart > 0.05, "x {x}: equals the reference ({apart})");
+        }
     }
 }
