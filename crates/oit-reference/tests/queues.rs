@@ -317,10 +317,17 @@ fn bundled_queue_scenes_do_what_their_descriptions_say() {
             .zip(&f.image.pixels)
             .filter(|(a, b)| (0..3).any(|k| (a[k] - b[k]).abs() > 1e-3))
             .count();
+        let largest = q
+            .image
+            .pixels
+            .iter()
+            .zip(&f.image.pixels)
+            .flat_map(|(a, b)| (0..3).map(move |k| (a[k] - b[k]).abs()))
+            .fold(0.0f32, f32::max);
         let hidden: u64 = f.layers.iter().map(|&l| u64::from(l)).sum::<u64>()
             - q.layers.iter().map(|&l| u64::from(l)).sum::<u64>();
         eprintln!(
-            "{}: {changed} of {} pixels change by more than 1e-3 with queues; {hidden} layers hidden",
+            "{}: {changed} of {} pixels change by more than 1e-3 with queues (largest {largest}); {hidden} layers hidden",
             scene.name,
             q.image.pixels.len()
         );
