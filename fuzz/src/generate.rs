@@ -165,13 +165,19 @@ fn object(r: &mut Rng) -> Value {
         maybe(r, &mut t, 0.6, "scale", scale);
         o.insert("transform".into(), Value::Object(t));
     }
+    let mut transparent = false;
     if kind != "gltf" && r.chance(0.7) {
-        o.insert("material".into(), material(r));
+        let mut m = material(r);
+        transparent = matches!(
+            m.get("mode").and_then(Value::as_str),
+            Some("blend" | "mask-blend")
+        );
+        if transparent {
+            blending(r, &mut m);
+        }
+        o.insert("material".into(), m);
     }
-    let group = json!(r.below(4));
-    maybe(r, &mut o, 0.2, "render_group", group);
-    let index = json!(r.below(7) as i64 - 3);
-    maybe(r, &mut o, 0.2, "alpha_index", index);
+    ordering(r, &mut o, kind, transparent);
     if r.chance(0.2) {
         let counts = json!([1 + r.below(3), 1 + r.below(3), 1 + r.below(3)]);
         let spacing = r.vec(3, -1.0, 1.0);
@@ -181,6 +187,42 @@ fn object(r: &mut Rng) -> Value {
         );
     }
     Value::Object(o)
+}
+
+/// The blending fields of a transparent material (an object of `material`).
+fn blending(r: &mut Rng, m: &mut Value) {
+    let Some(m) = m.as_object_mut() else {
+        return;
+    };
+    let operator = json!(r.pick(&["over", "add", "subtract", "multiply"]));
+    maybe(r, m, 0.3, "operator", operator);
+    let depth_write = json!(r.chance(0.5));
+    maybe(r, m, 0.3, "depth_write", depth_write);
+}
+
+/// Where the object goes in engines' draw orders. Valid documents keep every opaque or mask
+/// object at or below every transparent one in (render group, queue): opaque and mask objects
+/// (and glTF objects, whose modes come from the asset) stay in group 0, the first at queues up
+/// to 2400 (the others at their derived queue), transparent ones at 2600 and above.
+fn ordering(r: &mut Rng, o: &mut Map<String, Value>, kind: &str, transparent: bool) {
+    if transparent {
+        let group = json!(r.below(4));
+        maybe(r, o, 0.2, "render_group", group);
+        let queue = json!(r.pick(&[2600, 3000, 3500, 4000]));
+        maybe(r, o, 0.2, "render_queue", queue);
+    } else if kind != "gltf" {
+        let queue = json!(r.pick(&[1000, 1500, 2000, 2400]));
+        maybe(r, o, 0.15, "render_queue", queue);
+    }
+    let index = json!(r.below(7) as i64 - 3);
+    let key = if r.chance(0.5) {
+        "alpha_index"
+    } else {
+        "render_order"
+    };
+    maybe(r, o, 0.2, key, index);
+    let method = json!(r.pick(&["opaque", "stochastic", "blended", "weighted"]));
+    maybe(r, o, 0.15, "method", method);
 }
 
 fn material(r: &mut Rng) -> Value {
