@@ -250,6 +250,12 @@ impl Technique for OpaqueCopy {
         )
     }
 
+    fn queues(&self) -> oit_gpu::Queues {
+        // Objects are drawn in the engine's (group, queue, order, distance) order; no
+        // transparent draw writes depth.
+        oit_gpu::Queues::Ordered
+    }
+
     fn operator(&self, operator: BlendOperator, caps: &Caps) -> Support {
         match operator {
             // (P, t) with t = 1: what is behind is not dimmed.
