@@ -590,7 +590,8 @@ impl Scene {
         self.engine_order(|d| self.material_of(d).mode.is_transparent())
     }
 
-    /// The draws `keep` selects, in the engine order of [`Scene::babylon_object_order`].
+    /// The draws `keep` selects, in the engine order of [`Scene::babylon_object_order`]
+    /// (queues from [`Scene::exact_queue_of`]: the per-object method is not read).
     pub fn engine_order(&self, keep: impl Fn(&Draw) -> bool) -> Vec<usize> {
         let eye = self.camera.eye;
         let mut order: Vec<(usize, (u32, RenderQueue, i32), f32)> = self
@@ -599,7 +600,9 @@ impl Scene {
             .enumerate()
             .filter(|(_, d)| keep(d))
             .map(|(i, d)| {
-                let queue = self.queue_of(d);
+                // Whole-scene techniques draw every object with their own method, so the
+                // per-object method does not move an object between queues here.
+                let queue = self.exact_queue_of(d);
                 let distance = d.bounds_center.distance(eye);
                 // Far first, except in the front-to-back queues.
                 let key = if queue.front_to_back() {

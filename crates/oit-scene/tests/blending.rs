@@ -95,7 +95,7 @@ fn queues_are_derived_as_pygfx_derives_them_unless_given() {
     let order = s.babylon_object_order();
     let order_queues: Vec<u16> = order
         .iter()
-        .map(|&i| s.queue_of(&s.draws[i]).get())
+        .map(|&i| s.exact_queue_of(&s.draws[i]).get())
         .collect();
     assert!(
         order_queues.windows(2).all(|w| w[0] <= w[1]),

@@ -25,7 +25,7 @@ fn suite() -> BTreeMap<String, Scene> {
         .collect()
 }
 
-const NAMES: [&str; 22] = [
+const NAMES: [&str; 27] = [
     "alpha-099-stack",
     "alpha-extremes",
     "coplanar",
@@ -41,6 +41,11 @@ const NAMES: [&str; 22] = [
     "intersecting-quads",
     "many-layers-64",
     "opaque-interleaved",
+    "ops-additive-depth-write",
+    "ops-background-overlay",
+    "ops-multiply-tint",
+    "ops-pygfx-mixed",
+    "ops-sparks-smoke-glass",
     "particles",
     "quad-through-sphere",
     "sorted-quads",
