@@ -138,7 +138,12 @@ pub fn draw_order(config: Config, scene: &Scene) -> Vec<(usize, ObjectMethod)> {
             } else {
                 -d.bounds_center.distance(eye)
             };
-            (i, method, (d.ordering.group, queue, d.ordering.order), distance)
+            (
+                i,
+                method,
+                (d.ordering.group, queue, d.ordering.order),
+                distance,
+            )
         })
         .collect();
     keyed.sort_by(|a, b| a.2.cmp(&b.2).then(a.3.total_cmp(&b.3)));
@@ -193,7 +198,10 @@ mod tests {
         let transparent: Vec<usize> = (0..scene.draws.len())
             .filter(|&i| scene.material_of(&scene.draws[i]).mode.is_transparent())
             .collect();
-        assert!(transparent.len() >= 2, "the random scene has transparent draws");
+        assert!(
+            transparent.len() >= 2,
+            "the random scene has transparent draws"
+        );
         for m in &mut scene.materials {
             m.operator = BlendOperator::Over;
         }
@@ -221,7 +229,11 @@ mod tests {
         let material = scene.draws[i].material as usize;
         for op in BlendOperator::ALL {
             scene.materials[material].operator = op;
-            for force in ForcedMethod::ALL.iter().copied().filter(|f| f.method().is_some()) {
+            for force in ForcedMethod::ALL
+                .iter()
+                .copied()
+                .filter(|f| f.method().is_some())
+            {
                 let got = effective_method(
                     config(DefaultMethod::Blended, force),
                     &scene,
@@ -239,7 +251,13 @@ mod tests {
     #[test]
     fn runs_group_consecutive_methods() {
         use ObjectMethod::*;
-        let order = [(4, Opaque), (2, Opaque), (0, Blended), (1, Weighted), (3, Blended)];
+        let order = [
+            (4, Opaque),
+            (2, Opaque),
+            (0, Blended),
+            (1, Weighted),
+            (3, Blended),
+        ];
         assert_eq!(
             runs(&order),
             vec![

@@ -20,7 +20,12 @@ struct DrawModel {
     writes_depth: bool,
 }
 
-pub(crate) fn predict(config: Config, scene: &Scene, lists: &PixelLists, caps: &Caps) -> Prediction {
+pub(crate) fn predict(
+    config: Config,
+    scene: &Scene,
+    lists: &PixelLists,
+    caps: &Caps,
+) -> Prediction {
     let order = draw_order(config, scene);
     for method in [ObjectMethod::Stochastic, ObjectMethod::Weighted] {
         if order.iter().any(|&(_, m)| m == method) {

@@ -158,11 +158,7 @@ impl PerObject {
             .device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("per-object dither seeds"),
-                entries: &[oit_gpu::bind::storage(
-                    0,
-                    wgpu::ShaderStages::VERTEX,
-                    true,
-                )],
+                entries: &[oit_gpu::bind::storage(0, wgpu::ShaderStages::VERTEX, true)],
             });
         let dither_layout = ctx
             .device
@@ -228,15 +224,15 @@ impl PerObject {
             )
         };
         let resolve_module = ctx.shader("per_object_resolve.wgsl", RESOLVE_WGSL)?;
-        let resolve_layout = ctx
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("per-object weighted resolve"),
-                entries: &[
-                    oit_gpu::bind::float_texture(0, wgpu::ShaderStages::FRAGMENT),
-                    oit_gpu::bind::float_texture(1, wgpu::ShaderStages::FRAGMENT),
-                ],
-            });
+        let resolve_layout =
+            ctx.device
+                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                    label: Some("per-object weighted resolve"),
+                    entries: &[
+                        oit_gpu::bind::float_texture(0, wgpu::ShaderStages::FRAGMENT),
+                        oit_gpu::bind::float_texture(1, wgpu::ShaderStages::FRAGMENT),
+                    ],
+                });
         let resolve_pipeline_layout =
             ctx.device
                 .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {

@@ -102,7 +102,12 @@ fn force_opaque_writes_straight_colours_with_alpha_one() {
     // Pixel centres: x = -0.6 (red only), 0 (both: red in front), 0.6 (blue only), 0.95 (wall).
     let px = |x: f32| (((x + 1.0) * 16.0) as u32).min(31);
     assert_close(image.get(px(-0.6), 16), [1.0, 0.2, 0.1], 1e-6, "red alone");
-    assert_close(image.get(px(0.0), 16), [1.0, 0.2, 0.1], 1e-6, "red over blue");
+    assert_close(
+        image.get(px(0.0), 16),
+        [1.0, 0.2, 0.1],
+        1e-6,
+        "red over blue",
+    );
     assert_close(image.get(px(0.6), 16), [0.1, 0.3, 1.0], 1e-6, "blue alone");
     assert_close(image.get(px(0.95), 16), [0.2, 0.2, 0.2], 1e-6, "the wall");
     // The blended default differs: the opaque colours are not a composite.
@@ -115,7 +120,10 @@ fn stochastic_keeps_about_alpha_of_a_flat_quad() {
     let Some(ctx) = context_or_skip("per_object_stochastic_fraction") else {
         return;
     };
-    let s = scene(64, &quad(0.0, 0.0, 0.0, 4.0, 4.0, [1.0, 1.0, 1.0], 0.5, "stochastic"));
+    let s = scene(
+        64,
+        &quad(0.0, 0.0, 0.0, 4.0, 4.0, [1.0, 1.0, 1.0], 0.5, "stochastic"),
+    );
     let image = render(&ctx, &s, "per-object");
     let mut kept = 0usize;
     for p in &image.pixels {
@@ -128,11 +136,21 @@ fn stochastic_keeps_about_alpha_of_a_flat_quad() {
     let fraction = kept as f64 / image.pixels.len() as f64;
     assert!((fraction - 0.5).abs() <= 0.03, "kept fraction {fraction}");
     // α = 0.25 keeps about a quarter: the threshold is uniform.
-    let quarter = scene(64, &quad(0.0, 0.0, 0.0, 4.0, 4.0, [1.0, 1.0, 1.0], 0.25, "stochastic"));
+    let quarter = scene(
+        64,
+        &quad(0.0, 0.0, 0.0, 4.0, 4.0, [1.0, 1.0, 1.0], 0.25, "stochastic"),
+    );
     let image = render(&ctx, &quarter, "per-object");
-    let kept = image.pixels.iter().filter(|p| (p[0] - 1.0).abs() <= 1e-6).count();
+    let kept = image
+        .pixels
+        .iter()
+        .filter(|p| (p[0] - 1.0).abs() <= 1e-6)
+        .count();
     let fraction = kept as f64 / image.pixels.len() as f64;
-    assert!((fraction - 0.25).abs() <= 0.03, "kept fraction at α = 0.25: {fraction}");
+    assert!(
+        (fraction - 0.25).abs() <= 0.03,
+        "kept fraction at α = 0.25: {fraction}"
+    );
 }
 
 #[test]
@@ -140,14 +158,22 @@ fn weighted_on_one_layer_equals_over() {
     let Some(ctx) = context_or_skip("per_object_weighted_one_layer") else {
         return;
     };
-    let s = scene(32, &quad(0.0, 0.0, 0.0, 1.0, 1.0, [0.9, 0.5, 0.1], 0.4, "weighted"));
+    let s = scene(
+        32,
+        &quad(0.0, 0.0, 0.0, 1.0, 1.0, [0.9, 0.5, 0.1], 0.4, "weighted"),
+    );
     let reference = oit_reference::render(&s, &Default::default());
     let image = render(&ctx, &s, "per-object");
     // The r8unorm revealage rounds 1 − α to 1/255 (an error up to 0.5/255 times |c − wall|)
     // and the accumulation is f16.
     let err = crate::kit::max_abs_rgb(&image, &reference.image);
     assert!(err <= 3e-3, "one weighted layer against OVER: {err:e}");
-    assert_close(image.get(16, 16), [0.48, 0.32, 0.16], 3e-3, "the quad over the wall");
+    assert_close(
+        image.get(16, 16),
+        [0.48, 0.32, 0.16],
+        3e-3,
+        "the quad over the wall",
+    );
     // Two overlapping weighted layers are a weighted average, not OVER.
     let two = scene(
         32,
@@ -180,11 +206,26 @@ fn a_mixed_scene_draws_each_method_in_its_pass() {
     let px = |x: f32| (((x + 1.0) * 16.0) as u32).min(31);
     let (low, high) = (24, 4); // y = -0.5 and y = +0.75 in image rows (top is +1)
     // Blue and red overlap at x = 0.1 (lower half): blue alone, solid.
-    assert_close(image.get(px(0.1), low), [0.0, 0.0, 1.0], 1e-6, "blue hides red");
+    assert_close(
+        image.get(px(0.1), low),
+        [0.0, 0.0, 1.0],
+        1e-6,
+        "blue hides red",
+    );
     // Red alone over the wall at x = 0.75.
-    assert_close(image.get(px(0.75), low), [0.6, 0.1, 0.1], 1e-6, "red over the wall");
+    assert_close(
+        image.get(px(0.75), low),
+        [0.6, 0.1, 0.1],
+        1e-6,
+        "red over the wall",
+    );
     // Green over blue at x = -0.5, upper half.
-    assert_close(image.get(px(-0.5), high), [0.0, 0.5, 0.5], 1e-6, "green over blue");
+    assert_close(
+        image.get(px(-0.5), high),
+        [0.0, 0.5, 0.5],
+        1e-6,
+        "green over blue",
+    );
     // The exact answer shows red through the blue quad: the opaque method is not exact there.
     let reference = oit_reference::render(&s, &Default::default());
     assert!(reference.image.get(px(0.1), low)[0] > 0.05);
