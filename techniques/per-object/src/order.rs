@@ -112,6 +112,9 @@ pub fn effective_method(config: Config, scene: &Scene, draw: &Draw) -> ObjectMet
     }
 }
 
+/// (render group, render queue, render order): the draw-order key before distance.
+type QueueKey = (u32, RenderQueue, i32);
+
 /// The transparent draws in pygfx's draw order, each with its effective method: the key of
 /// [`Scene::engine_order`] (render group, queue, render order, distance to the bounding-sphere
 /// centre; near first in queues 1501–2500, far first elsewhere), with the queue derived from
@@ -119,7 +122,7 @@ pub fn effective_method(config: Config, scene: &Scene, draw: &Draw) -> ObjectMet
 /// does not sort them). Stable: ties keep draw order.
 pub fn draw_order(config: Config, scene: &Scene) -> Vec<(usize, ObjectMethod)> {
     let eye = scene.camera.eye;
-    let mut keyed: Vec<(usize, ObjectMethod, (u32, RenderQueue, i32), f32)> = scene
+    let mut keyed: Vec<(usize, ObjectMethod, QueueKey, f32)> = scene
         .draws
         .iter()
         .enumerate()
