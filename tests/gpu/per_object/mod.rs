@@ -24,8 +24,10 @@ fn scene(size: u32, objects: &str) -> Scene {
     oit_scene::parse(&json, "per-object-test.json").unwrap()
 }
 
-/// A `w` × `h` quad centred at (x, y, z), colour `rgb`, alpha `a`, with `method` ("" for none).
-fn quad(x: f32, y: f32, z: f32, w: f32, h: f32, rgb: [f32; 3], a: f32, method: &str) -> String {
+/// A `size` quad centred at `centre`, colour `rgb`, alpha `a`, with `method` ("" for none).
+fn quad(centre: [f32; 3], size: [f32; 2], rgb: [f32; 3], a: f32, method: &str) -> String {
+    let [x, y, z] = centre;
+    let [w, h] = size;
     let method = if method.is_empty() {
         String::new()
     } else {
@@ -57,9 +59,15 @@ fn all_blended_sortable_objects_match_the_reference_like_sorted_object() {
         return;
     };
     let objects = [
-        quad(-0.3, 0.0, -1.0, 1.2, 1.2, [1.0, 0.2, 0.1], 0.5, "blended"),
-        quad(0.2, 0.2, 0.0, 1.2, 1.2, [0.1, 0.9, 0.2], 0.4, "blended"),
-        quad(0.0, -0.3, 1.0, 1.2, 1.2, [0.2, 0.3, 1.0], 0.6, ""),
+        quad(
+            [-0.3, 0.0, -1.0],
+            [1.2, 1.2],
+            [1.0, 0.2, 0.1],
+            0.5,
+            "blended",
+        ),
+        quad([0.2, 0.2, 0.0], [1.2, 1.2], [0.1, 0.9, 0.2], 0.4, "blended"),
+        quad([0.0, -0.3, 1.0], [1.2, 1.2], [0.2, 0.3, 1.0], 0.6, ""),
     ]
     .concat();
     let s = scene(32, &objects);
@@ -93,8 +101,8 @@ fn force_opaque_writes_straight_colours_with_alpha_one() {
     };
     // Red in front of blue, overlapping in the middle; neither object names a method.
     let objects = [
-        quad(-0.3, 0.0, 0.0, 1.0, 1.0, [1.0, 0.2, 0.1], 0.3, ""),
-        quad(0.3, 0.0, -1.0, 1.0, 1.0, [0.1, 0.3, 1.0], 0.6, ""),
+        quad([-0.3, 0.0, 0.0], [1.0, 1.0], [1.0, 0.2, 0.1], 0.3, ""),
+        quad([0.3, 0.0, -1.0], [1.0, 1.0], [0.1, 0.3, 1.0], 0.6, ""),
     ]
     .concat();
     let s = scene(32, &objects);
@@ -122,7 +130,13 @@ fn stochastic_keeps_about_alpha_of_a_flat_quad() {
     };
     let s = scene(
         64,
-        &quad(0.0, 0.0, 0.0, 4.0, 4.0, [1.0, 1.0, 1.0], 0.5, "stochastic"),
+        &quad(
+            [0.0, 0.0, 0.0],
+            [4.0, 4.0],
+            [1.0, 1.0, 1.0],
+            0.5,
+            "stochastic",
+        ),
     );
     let image = render(&ctx, &s, "per-object");
     let mut kept = 0usize;
@@ -138,7 +152,13 @@ fn stochastic_keeps_about_alpha_of_a_flat_quad() {
     // α = 0.25 keeps about a quarter: the threshold is uniform.
     let quarter = scene(
         64,
-        &quad(0.0, 0.0, 0.0, 4.0, 4.0, [1.0, 1.0, 1.0], 0.25, "stochastic"),
+        &quad(
+            [0.0, 0.0, 0.0],
+            [4.0, 4.0],
+            [1.0, 1.0, 1.0],
+            0.25,
+            "stochastic",
+        ),
     );
     let image = render(&ctx, &quarter, "per-object");
     let kept = image
@@ -160,7 +180,13 @@ fn weighted_on_one_layer_equals_over() {
     };
     let s = scene(
         32,
-        &quad(0.0, 0.0, 0.0, 1.0, 1.0, [0.9, 0.5, 0.1], 0.4, "weighted"),
+        &quad(
+            [0.0, 0.0, 0.0],
+            [1.0, 1.0],
+            [0.9, 0.5, 0.1],
+            0.4,
+            "weighted",
+        ),
     );
     let reference = oit_reference::render(&s, &Default::default());
     let image = render(&ctx, &s, "per-object");
@@ -178,8 +204,20 @@ fn weighted_on_one_layer_equals_over() {
     let two = scene(
         32,
         &[
-            quad(0.0, 0.0, 0.0, 1.0, 1.0, [0.9, 0.5, 0.1], 0.4, "weighted"),
-            quad(0.0, 0.0, -1.0, 1.0, 1.0, [0.1, 0.2, 1.0], 0.8, "weighted"),
+            quad(
+                [0.0, 0.0, 0.0],
+                [1.0, 1.0],
+                [0.9, 0.5, 0.1],
+                0.4,
+                "weighted",
+            ),
+            quad(
+                [0.0, 0.0, -1.0],
+                [1.0, 1.0],
+                [0.1, 0.2, 1.0],
+                0.8,
+                "weighted",
+            ),
         ]
         .concat(),
     );
@@ -196,9 +234,21 @@ fn a_mixed_scene_draws_each_method_in_its_pass() {
     // Blue opaque-method quad at z = 0 hides the red blended quad behind it (z = −1) where they
     // overlap; a green blended quad in front (z = 1) composites over the blue one.
     let objects = [
-        quad(0.3, 0.0, -1.0, 1.2, 2.0, [1.0, 0.0, 0.0], 0.5, "blended"),
-        quad(-0.3, 0.0, 0.0, 1.2, 2.0, [0.0, 0.0, 1.0], 0.5, "opaque"),
-        quad(-0.5, 0.5, 1.0, 1.0, 1.0, [0.0, 1.0, 0.0], 0.5, "blended"),
+        quad(
+            [0.3, 0.0, -1.0],
+            [1.2, 2.0],
+            [1.0, 0.0, 0.0],
+            0.5,
+            "blended",
+        ),
+        quad([-0.3, 0.0, 0.0], [1.2, 2.0], [0.0, 0.0, 1.0], 0.5, "opaque"),
+        quad(
+            [-0.5, 0.5, 1.0],
+            [1.0, 1.0],
+            [0.0, 1.0, 0.0],
+            0.5,
+            "blended",
+        ),
     ]
     .concat();
     let s = scene(32, &objects);
