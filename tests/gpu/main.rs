@@ -15,6 +15,7 @@ mod linked_list;
 mod mboit;
 mod opaque_copy;
 mod peel;
+mod per_object;
 mod sorted;
 mod stochastic;
 mod wboit;

@@ -99,6 +99,7 @@ pub const FAMILIES: &[Family] = &[
     oit_mboit::FAMILY,
     oit_linked_list::FAMILY,
     oit_opaque_copy::FAMILY,
+    oit_per_object::FAMILY,
 ];
 
 /// Every technique the project implements, in the order reports list them. `unsorted` comes
