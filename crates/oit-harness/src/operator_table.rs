@@ -7,7 +7,8 @@ use oit_results::report::md_cell;
 use oit_scene::BlendOperator;
 
 /// An adapter with every feature the techniques ask for (float32 blending, 64-bit atomics,
-/// every probed format renderable and blendable), with or without dual-source blending: the
+/// every probed format renderable and blendable, 8 colour attachments of 128 bytes a sample),
+/// with or without dual-source blending: the
 /// one feature on which an operator's support turns.
 fn table_caps(dual_source_blending: bool) -> Caps {
     let full = FormatCaps {
@@ -28,7 +29,7 @@ fn table_caps(dual_source_blending: bool) -> Caps {
         int64_atomics: true,
         max_texture_dimension_2d: 16384,
         max_color_attachments: 8,
-        max_color_attachment_bytes_per_sample: 64,
+        max_color_attachment_bytes_per_sample: 128,
         max_storage_buffers_per_shader_stage: 16,
         max_buffer_size: 1 << 32,
         max_storage_buffer_binding_size: 1 << 31,
