@@ -8,8 +8,7 @@ use oit_scene::BlendOperator;
 
 /// An adapter with every feature the techniques ask for (float32 blending, 64-bit atomics,
 /// every probed format renderable and blendable, 8 colour attachments of 128 bytes a sample),
-/// with or without dual-source blending: the
-/// one feature on which an operator's support turns.
+/// with or without dual-source blending: the one feature on which an operator's support turns.
 fn table_caps(dual_source_blending: bool) -> Caps {
     let full = FormatCaps {
         renderable: true,
