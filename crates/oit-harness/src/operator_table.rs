@@ -130,7 +130,7 @@ mod tests {
             "{table}"
         );
         assert_eq!(
-            table.lines().nth(0),
+            table.lines().next(),
             Some("| technique | `add` | `subtract` | `multiply` |")
         );
     }
