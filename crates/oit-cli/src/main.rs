@@ -430,6 +430,7 @@ impl std::error::Error for RunsFailed {}
 enum MarkdownArg {
     Techniques,
     Transmission,
+    Operators,
 }
 
 impl From<MarkdownArg> for oit_harness::MarkdownTable {
@@ -437,6 +438,7 @@ impl From<MarkdownArg> for oit_harness::MarkdownTable {
         match arg {
             MarkdownArg::Techniques => oit_harness::MarkdownTable::Techniques,
             MarkdownArg::Transmission => oit_harness::MarkdownTable::Transmission,
+            MarkdownArg::Operators => oit_harness::MarkdownTable::Operators,
         }
     }
 }

@@ -236,6 +236,28 @@ fn uses_cutoff(mode: u32) -> bool {
     return mode == MODE_MASK || mode == MODE_MASK_BLEND;
 }
 
+// `BlendOperator` on a transparent fragment shaded for `over` (premultiplied colour, coverage
+// `alpha`): add and subtract leave what is behind undimmed (t = 1, α = 0), subtract negating
+// the colour; multiply is the filter t = (1 − α) + P with no colour of its own. The twin of
+// the operator arms of `Material::shade_lit` (tests/gpu/harness/operators.rs evaluates both).
+fn apply_operator(over: Shaded, alpha: f32, blend_operator: u32) -> Shaded {
+    var s = over;
+    if blend_operator == OPERATOR_ADD {
+        s.alpha = 0.0;
+        s.transmittance = vec3<f32>(1.0);
+    } else if blend_operator == OPERATOR_SUBTRACT {
+        s.color = -s.color;
+        s.alpha = 0.0;
+        s.transmittance = vec3<f32>(1.0);
+    } else if blend_operator == OPERATOR_MULTIPLY {
+        let tt = vec3<f32>(1.0 - alpha) + s.color;
+        s.color = vec3<f32>(0.0);
+        s.transmittance = tt;
+        s.alpha = 1.0 - (tt.r + tt.g + tt.b) * (1.0 / 3.0);
+    }
+    return s;
+}
+
 // `Material::shade`, plus back-face culling for single-sided materials. Pipelines also cull in
 // fixed function; the test here makes passes with culling disabled (one pipeline for a globally
 // sorted triangle stream) obey the same rule.
@@ -287,21 +309,7 @@ fn shade(v: VertexOut, front_facing: bool) -> Shaded {
             let tt = s.transmittance;
             s.alpha = 1.0 - (tt.r + tt.g + tt.b) * (1.0 / 3.0);
         }
-        // `BlendOperator`: add and subtract leave what is behind undimmed (t = 1, α = 0),
-        // multiply is the filter t = (1 − α) + P with no colour of its own.
-        if m.blend_operator == OPERATOR_ADD {
-            s.alpha = 0.0;
-            s.transmittance = vec3<f32>(1.0);
-        } else if m.blend_operator == OPERATOR_SUBTRACT {
-            s.color = -s.color;
-            s.alpha = 0.0;
-            s.transmittance = vec3<f32>(1.0);
-        } else if m.blend_operator == OPERATOR_MULTIPLY {
-            let tt = vec3<f32>(1.0 - alpha) + s.color;
-            s.color = vec3<f32>(0.0);
-            s.transmittance = tt;
-            s.alpha = 1.0 - (tt.r + tt.g + tt.b) * (1.0 / 3.0);
-        }
+        s = apply_operator(s, alpha, m.blend_operator);
     } else {
         s.color = c + sp;
         s.alpha = 1.0;

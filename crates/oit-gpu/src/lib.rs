@@ -47,7 +47,9 @@ mod timer;
 pub mod work;
 
 pub use blend::PREMULTIPLIED_OVER;
-pub use context::{AdapterSummary, Backend, Caps, Context, ContextOptions, FormatCaps};
+pub use context::{
+    AdapterSummary, Backend, Caps, Context, ContextOptions, FormatCaps, PROBED_FORMATS,
+};
 pub use count::count_fragments;
 pub use error::{GpuError, Unsupported};
 pub use floor::{BlendShading, DrawOrderBlend, FLOOR_NAME, Floor};

@@ -73,6 +73,9 @@ pub enum MarkdownTable {
     /// What each technique does with coloured transmittance (docs/coloured-transmission.md);
     /// neighbours that do the same share a row.
     Transmission,
+    /// What each technique does with `add`, `subtract` and `multiply`, from its
+    /// `Technique::operator` declarations ([`crate::operators_markdown`]).
+    Operators,
 }
 
 /// `oit techniques --markdown TABLE`: a Markdown table generated from the registry, with
@@ -101,6 +104,7 @@ pub fn techniques_markdown(table: MarkdownTable) -> String {
                 ));
             }
         }
+        MarkdownTable::Operators => out.push_str(&crate::operators_markdown()),
         MarkdownTable::Transmission => {
             out.push_str("| technique | coloured transmittance |\n|---|---|\n");
             let registry = crate::registry();

@@ -149,6 +149,70 @@ pub fn random_animated_scene_json(seed: u64) -> (String, RandomSceneInfo) {
     )
 }
 
+/// What [`random_mixed_operator_scene_json`] gave the transparent materials, for test messages
+/// and for tests that need a scene to use an operator.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MixedOperatorInfo {
+    pub scene: RandomSceneInfo,
+    /// The operator of each object's material in file order (`None`: no transparent material).
+    pub operators: Vec<Option<crate::BlendOperator>>,
+    /// Objects whose material is lit per pixel.
+    pub lit: usize,
+}
+
+/// Random scene `seed` (the geometry, camera and modes of [`random_scene_json`]) with every
+/// transparent material given one of the four blend operators (`over`, `add`, `subtract`,
+/// `multiply`, a quarter each), `add` often above intensity 1, and about a third of the
+/// materials lit per pixel; the resolution is fixed to 48²–64² so many seeds run in seconds.
+/// Content for tests that the exact techniques stay exact whatever operators a pixel's layers
+/// mix. [`random_scene_json`] itself is unchanged: its seeds keep their scenes.
+pub fn random_mixed_operator_scene_json(seed: u64) -> (String, MixedOperatorInfo) {
+    let (text, mut info) = random_scene_json(seed);
+    let mut scene: Value = serde_json::from_str(&text).expect("the generator writes valid JSON");
+    let mut r = SplitMix64::new(seed ^ 0x0b1e_4d0b_5ca7);
+    let side = 48 + (r.next_u64() % 17) as u32;
+    let other = 48 + (r.next_u64() % 17) as u32;
+    scene["resolution"] = json!([side, other]);
+    info.resolution = [side, other];
+    let (mut operators, mut lit) = (Vec::new(), 0);
+    if let Some(objects) = scene["objects"].as_array_mut() {
+        for object in objects {
+            let material = &mut object["material"];
+            let transparent = matches!(material["mode"].as_str(), Some("blend" | "mask-blend"));
+            if r.next_f32() < 0.35 {
+                material["lit"] = json!({
+                    "metallic": round(r.range(0.0, 1.0)),
+                    "roughness": round(r.range(0.1, 0.9)),
+                    "specular": if r.next_f32() < 0.5 { "faded" } else { "kept" },
+                });
+                lit += 1;
+            }
+            if !transparent {
+                operators.push(None);
+                continue;
+            }
+            let operator = match r.next_u64() % 4 {
+                0 => crate::BlendOperator::Over,
+                1 => crate::BlendOperator::Add,
+                2 => crate::BlendOperator::Subtract,
+                _ => crate::BlendOperator::Multiply,
+            };
+            material["operator"] = json!(operator.name());
+            if operator == crate::BlendOperator::Add && r.next_f32() < 0.6 {
+                material["intensity"] = json!(round(r.range(1.0, 4.0)));
+            }
+            operators.push(Some(operator));
+        }
+    }
+    let text = serde_json::to_string_pretty(&scene).expect("a JSON value serializes");
+    let info = MixedOperatorInfo {
+        scene: info,
+        operators,
+        lit,
+    };
+    (text, info)
+}
+
 /// Six decimals: the file is what the loader reads, so the values must survive the round trip.
 fn round(x: f32) -> f64 {
     (f64::from(x) * 1e6).round() / 1e6
@@ -287,6 +351,42 @@ mod tests {
         // Every kind of content and both conventions appear in a few hundred seeds.
         assert_eq!(kinds.len(), 6, "{kinds:?}");
         assert!((50..250).contains(&ortho) && (100..200).contains(&reverse));
+    }
+
+    #[test]
+    fn mixed_operator_seeds_load_and_mix_every_operator() {
+        use crate::BlendOperator;
+        let mut seen = std::collections::BTreeMap::new();
+        let (mut lit, mut mixed_scenes) = (0, 0);
+        for seed in 0..200 {
+            let (text, info) = random_mixed_operator_scene_json(seed);
+            assert_eq!(text, random_mixed_operator_scene_json(seed).0);
+            let scene = crate::parse(&text, &format!("random-ops-{seed}"))
+                .unwrap_or_else(|e| panic!("seed {seed}: {e}\n{text}"));
+            let [w, h] = info.scene.resolution;
+            assert!((48..=64).contains(&w) && (48..=64).contains(&h));
+            assert_eq!([scene.resolution.width, scene.resolution.height], [w, h]);
+            for op in info.operators.iter().flatten() {
+                *seen.entry(op.name()).or_insert(0) += 1;
+            }
+            let used = scene.operators_used();
+            assert!(
+                info.operators
+                    .iter()
+                    .flatten()
+                    .all(|op| *op == BlendOperator::Over || used.contains(op)),
+                "seed {seed}: {used:?} vs {:?}",
+                info.operators
+            );
+            mixed_scenes += usize::from(used.len() >= 2);
+            lit += usize::from(scene.materials.iter().any(crate::Material::is_lit));
+            // Same geometry as the plain generator's seed: only materials and size differ.
+            let plain = crate::parse(&random_scene_json(seed).0, "plain").expect("plain seed");
+            assert_eq!(plain.vertices.len(), scene.vertices.len(), "seed {seed}");
+        }
+        assert_eq!(seen.len(), 4, "{seen:?}");
+        assert!(seen.values().all(|&n| n >= 40), "{seen:?}");
+        assert!(mixed_scenes >= 50 && lit >= 50, "{mixed_scenes} {lit}");
     }
 
     #[test]

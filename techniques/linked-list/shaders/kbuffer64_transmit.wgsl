@@ -6,6 +6,9 @@ enable dual_source_blending;
 // set: the tail sums (Σ C and a count from the colour chain, Σ a and Π(1 − a) from the opacity
 // chain) are sums over one set. The resolve composites per channel and puts the stack over the
 // final colour with dual-source blending, dst = C + T ⊙ dst (blend One, Src1).
+//
+// Scenes that `subtract` take this layout too: rgb9e5 holds no sign, so a colour slot stores
+// |C| and its opacity slot's bit 31 (`NEGATED`, unused by the three unorm10) says C < 0.
 #include "kbuffer64.wgsl"
 
 // Resolve only: Σ a (rgb) of the tail.
@@ -20,6 +23,12 @@ fn transmit_high(z: f32, color_word: u32, opacity_word: u32) -> u32 {
     }
     let h = ((color_word * 0x9E3779B1u) ^ (opacity_word * 0x85EBCA77u)) >> 24u;
     return (bitcast<u32>(d) & 0xFFFFFF00u) | h;
+}
+
+// The colour of an rgb9e5 word, negated where the opacity word `flags` has `NEGATED`.
+fn signed_color(color_word: u32, flags: u32) -> vec3<f32> {
+    let c = unpack_rgb9e5(color_word);
+    return select(c, -c, (flags & NEGATED) != 0u);
 }
 
 struct TransmitTailOut {
@@ -40,8 +49,9 @@ fn fs_insert_transmit(v: VertexOut, @builtin(front_facing) front_facing: bool) -
         discard;
     }
     let base = pixel_base(px);
-    let color_word = pack_rgb9e5(s.color);
-    let opacity_word = pack_opacity(1.0 - s.transmittance);
+    let negated = is_negated(s.color);
+    let color_word = pack_rgb9e5(select(s.color, -s.color, negated));
+    let opacity_word = pack_opacity(1.0 - s.transmittance) | select(0u, NEGATED, negated);
     let high = u64(transmit_high(z, color_word, opacity_word)) << 32u;
     let out_color = insert_chain(base, high | u64(color_word));
     let out_opacity = insert_chain(base + params.k, high | u64(opacity_word));
@@ -50,7 +60,9 @@ fn fs_insert_transmit(v: VertexOut, @builtin(front_facing) front_facing: bool) -
     out.opacity = vec4<f32>(0.0);
     out.transmittance = vec4<f32>(0.0);
     if out_color != 0lu {
-        out.sum = vec4<f32>(unpack_rgb9e5(u32(out_color & 0xFFFFFFFFlu)), 1.0);
+        // Both chains push out the same fragment: its sign is in the opacity slot.
+        let flags = u32(out_opacity & 0xFFFFFFFFlu);
+        out.sum = vec4<f32>(signed_color(u32(out_color & 0xFFFFFFFFlu), flags), 1.0);
     }
     if out_opacity != 0lu {
         let a = unpack_opacity(u32(out_opacity & 0xFFFFFFFFlu));
@@ -79,7 +91,7 @@ fn fs_resolve_transmit(@builtin(position) position: vec4<f32>) -> TransmitOut {
             break;
         }
         let opacity_slot = atomicLoad(&slots[base + params.k + i]);
-        c += t * unpack_rgb9e5(u32(color_slot & 0xFFFFFFFFlu));
+        c += t * signed_color(u32(color_slot & 0xFFFFFFFFlu), u32(opacity_slot & 0xFFFFFFFFlu));
         t *= 1.0 - unpack_opacity(u32(opacity_slot & 0xFFFFFFFFlu));
     }
     let sum = textureLoad(tail_sum, px, 0);

@@ -14,6 +14,11 @@
 //   c2 = half(a.g) | half(a.b) << 16.
 // packed (16 B): key as packed (its α byte is unorm8(1 − mean(t)), a tie-break only), c0 =
 //   rgb9e5(C), c1 = unorm10(a.r) | unorm10(a.g) << 10 | unorm10(a.b) << 20.
+//
+// rgb9e5 holds no sign: a packed TRANSMIT node stores |C| and sets bit 31 of c1 (unused by
+// the unorm10) when C is negative (`subtract`, whose colour is −α·c in every channel). The
+// 12-byte scalar node has no spare bit, so packed nodes take the TRANSMIT layout on scenes
+// that subtract (`oit_linked_list::list::node_layout`).
 
 // Set per pipeline: 12-byte packed nodes instead of 16-byte f32 nodes.
 override PACKED: bool = false;
@@ -62,6 +67,16 @@ fn unpack_rgb9e5(w: u32) -> vec3<f32> {
 
 const UNORM10_MAX: f32 = 1023.0;
 
+// Bit 31 of a packed node's c1 (and of a k-buffer opacity slot's low word): the colour is
+// negated (`subtract`).
+const NEGATED: u32 = 0x80000000u;
+
+// Whether a shaded colour is negative: every channel of a `subtract` fragment is −α·c ≤ 0,
+// every other fragment's is ≥ 0.
+fn is_negated(c: vec3<f32>) -> bool {
+    return c.r + c.g + c.b < 0.0;
+}
+
 fn unorm10(x: f32) -> u32 {
     return u32(clamp(x, 0.0, 1.0) * UNORM10_MAX + 0.5);
 }
@@ -91,7 +106,9 @@ fn pack_node(color: vec3<f32>, alpha: f32, opacity: vec3<f32>, z: f32, reverse_z
         n.c0 = pack_rgb9e5(color);
         n.c1 = 0u;
         if TRANSMIT {
-            n.c1 = pack_opacity(opacity);
+            let negated = is_negated(color);
+            n.c0 = pack_rgb9e5(select(color, -color, negated));
+            n.c1 = pack_opacity(opacity) | select(0u, NEGATED, negated);
         }
     } else {
         // +0 for -0: the sign bit would sort it farthest.
@@ -115,6 +132,9 @@ fn unpack_node(n: Node) -> Fragment {
     var f: Fragment;
     if PACKED {
         f.color = unpack_rgb9e5(n.c0);
+        if (n.c1 & NEGATED) != 0u {
+            f.color = -f.color;
+        }
         if TRANSMIT {
             f.opacity = unpack_opacity(n.c1);
         } else {

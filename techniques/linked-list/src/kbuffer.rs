@@ -111,17 +111,27 @@ pub fn from_slot(s: u64) -> Fragment {
 /// [`to_slot`] with a hash of the two low words in place of α.
 pub fn to_transmit_slots(color: [f32; 3], opacity: [f32; 3], z: f32, reverse_z: bool) -> [u64; 2] {
     let d = if reverse_z { z } else { 1.0 - z };
-    let color_word = pack_rgb9e5(color);
-    let opacity_word = pack_opacity(opacity);
+    let (color_word, sign) = crate::node::pack_signed_rgb9e5(color);
+    let opacity_word = pack_opacity(opacity) | sign;
     let h = (color_word.wrapping_mul(0x9E37_79B1) ^ opacity_word.wrapping_mul(0x85EB_CA77)) >> 24;
     let high = u64::from((d.to_bits() & 0xFFFF_FF00) | h) << 32;
     [high | u64::from(color_word), high | u64::from(opacity_word)]
 }
 
+/// Whether the k-buffer keeps two chains (colour and opacity slots, kbuffer64_transmit.wgsl) on
+/// `scene`: coloured transmission, or `subtract`, whose negative colour needs the opacity
+/// slot's sign bit ([`crate::node::NEGATED`]); both resolve per channel with dual-source
+/// blending.
+pub fn two_chains(scene: &oit_scene::Scene, caps: &Caps) -> bool {
+    caps.dual_source_blending
+        && (scene.has_coloured_transmission()
+            || scene.operators_used().contains(&BlendOperator::Subtract))
+}
+
 /// What a pair of transmit slots decodes to.
 pub fn from_transmit_slots(s: [u64; 2]) -> Fragment {
     Fragment {
-        color: unpack_rgb9e5(s[0] as u32),
+        color: crate::node::unpack_signed_rgb9e5(s[0] as u32, s[1] as u32),
         opacity: unpack_opacity(s[1] as u32),
     }
 }
@@ -519,7 +529,7 @@ impl Technique for KBuffer {
         targets: &Targets,
         timer: &mut GpuTimer,
     ) -> Result<RenderStats, GpuError> {
-        let transmit = crate::list::per_channel(&scene.scene, &ctx.caps);
+        let transmit = two_chains(&scene.scene, &ctx.caps);
         // Count → size → build, as the list does: the count pass is in the frame's GPU time,
         // the wait for its summary in the wall time only.
         let count = if self.config.k == Sizing::Auto {
@@ -666,7 +676,13 @@ impl Technique for KBuffer {
     fn operator(&self, operator: BlendOperator, caps: &Caps) -> Support {
         match operator {
             // (P, t) with t = 1: what is behind is not dimmed.
-            BlendOperator::Over | BlendOperator::Add | BlendOperator::Subtract => Support::Exact,
+            BlendOperator::Over | BlendOperator::Add => Support::Exact,
+            // The rgb9e5 colour word holds no sign: the sign bit sits in the opacity slot of
+            // the two-chain layout, whose per-channel resolve needs dual-source blending.
+            BlendOperator::Subtract if caps.dual_source_blending => Support::Exact,
+            BlendOperator::Subtract => Support::Unsupported(
+                "its rgb9e5 colour slots hold no sign; the opacity slots that carry it resolve with dual-source blending, which the adapter lacks",
+            ),
             // A filter without colour: coloured transmittance with P = 0.
             BlendOperator::Multiply => self.transmission(caps),
         }

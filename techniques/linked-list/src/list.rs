@@ -74,6 +74,20 @@ pub(crate) fn per_channel(scene: &oit_scene::Scene, caps: &Caps) -> bool {
     scene.has_coloured_transmission() && caps.dual_source_blending
 }
 
+/// Whether the list stores nodes in the transmit layout on `scene`: the per-channel path, or
+/// packed nodes on a scene that subtracts, whose sign only the 16-byte packed node has a bit
+/// for (`NEGATED` of linked_list_node.wgsl); both resolve with dual-source blending.
+pub(crate) fn node_layout_transmits(
+    config: &LinkedListConfig,
+    scene: &oit_scene::Scene,
+    caps: &Caps,
+) -> bool {
+    per_channel(scene, caps)
+        || (config.node == NodeFormat::Packed
+            && caps.dual_source_blending
+            && scene.operators_used().contains(&BlendOperator::Subtract))
+}
+
 /// Per-pixel linked lists with a bounded sort window.
 #[derive(Debug)]
 pub struct LinkedList {
@@ -385,7 +399,7 @@ impl Technique for LinkedList {
         targets: &Targets,
         timer: &mut GpuTimer,
     ) -> Result<RenderStats, GpuError> {
-        let transmit = per_channel(&scene.scene, &ctx.caps);
+        let transmit = node_layout_transmits(&self.config, &scene.scene, &ctx.caps);
         // Count → size → build: the count pass is one more geometry pass in the frame's GPU
         // time; the wait for its 16-byte summary is in the wall time only.
         let count = if self.config.counts() {
@@ -542,7 +556,17 @@ impl Technique for LinkedList {
     fn operator(&self, operator: BlendOperator, caps: &Caps) -> Support {
         match operator {
             // (P, t) with t = 1: what is behind is not dimmed.
-            BlendOperator::Over | BlendOperator::Add | BlendOperator::Subtract => Support::Exact,
+            BlendOperator::Over | BlendOperator::Add => Support::Exact,
+            // binary16 holds the sign; rgb9e5 does not, and only the 16-byte packed node (the
+            // transmit layout, resolved with dual-source blending) has a bit for it.
+            BlendOperator::Subtract
+                if self.config.node == NodeFormat::F32 || caps.dual_source_blending =>
+            {
+                Support::Exact
+            }
+            BlendOperator::Subtract => Support::Unsupported(
+                "packed nodes store rgb9e5 colour, which holds no sign; the 16-byte node that carries it resolves with dual-source blending, which the adapter lacks",
+            ),
             // A filter without colour: coloured transmittance with P = 0.
             BlendOperator::Multiply => self.transmission(caps),
         }

@@ -96,6 +96,36 @@ pub fn unpack_opacity(w: u32) -> [f32; 3] {
     [w & 1023, (w >> 10) & 1023, (w >> 20) & 1023].map(|q| q as f32 / UNORM10_MAX)
 }
 
+/// Bit 31 of a packed transmit node's `c1` and of a k-buffer opacity slot's low word (unused
+/// by the unorm10 opacities): the colour is negated. rgb9e5 holds no sign, so `subtract`'s colour
+/// (−α·c in every channel) is stored as its magnitude and this bit.
+pub const NEGATED: u32 = 0x8000_0000;
+
+/// Whether a shaded colour is negative (`is_negated` of linked_list_node.wgsl): every channel
+/// of a `subtract` fragment is ≤ 0, every other fragment's ≥ 0.
+pub fn is_negated(c: [f32; 3]) -> bool {
+    c[0] + c[1] + c[2] < 0.0
+}
+
+/// rgb9e5 of `|c|` and [`NEGATED`] or 0.
+pub fn pack_signed_rgb9e5(c: [f32; 3]) -> (u32, u32) {
+    if is_negated(c) {
+        (pack_rgb9e5(c.map(|x| -x)), NEGATED)
+    } else {
+        (pack_rgb9e5(c), 0)
+    }
+}
+
+/// The colour of an rgb9e5 word, negated where `flags` has [`NEGATED`].
+pub fn unpack_signed_rgb9e5(w: u32, flags: u32) -> [f32; 3] {
+    let c = unpack_rgb9e5(w);
+    if flags & NEGATED != 0 {
+        c.map(|x| -x)
+    } else {
+        c
+    }
+}
+
 /// `opacity` (`1 − t` per channel) is stored only when `transmit`; scalar nodes store `alpha`.
 pub fn pack_node(
     format: NodeFormat,
@@ -113,10 +143,17 @@ pub fn pack_node(
             if reverse_z {
                 d = 16_777_215 - d;
             }
+            // Only the 16-byte transmit layout has a spare bit for the sign.
+            let (c0, c1) = if transmit {
+                let (c0, sign) = pack_signed_rgb9e5(color);
+                (c0, pack_opacity(opacity) | sign)
+            } else {
+                (pack_rgb9e5(color), 0)
+            };
             Node {
                 key: (d << 8) | (alpha.clamp(0.0, 1.0) * 255.0 + 0.5) as u32,
-                c0: pack_rgb9e5(color),
-                c1: if transmit { pack_opacity(opacity) } else { 0 },
+                c0,
+                c1,
                 c2: 0,
             }
         }
@@ -148,7 +185,7 @@ pub fn pack_node(
 pub fn unpack_node(format: NodeFormat, transmit: bool, n: Node) -> Fragment {
     match format {
         NodeFormat::Packed => Fragment {
-            color: unpack_rgb9e5(n.c0),
+            color: unpack_signed_rgb9e5(n.c0, n.c1),
             opacity: if transmit {
                 unpack_opacity(n.c1)
             } else {

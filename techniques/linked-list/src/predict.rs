@@ -46,7 +46,9 @@ pub(crate) fn predict_list(
     lists: &PixelLists,
     caps: &Caps,
 ) -> Prediction {
-    let transmit = transmit(scene, caps);
+    // Packed nodes on a scene that subtracts take the transmit layout, as the GPU does.
+    let transmit =
+        transmit(scene, caps) || crate::list::node_layout_transmits(&config, scene, caps);
     let reverse_z = scene.camera.reverse_z;
     let layers = lists.max_layers();
     let window = match per_pixel(
@@ -113,7 +115,8 @@ pub(crate) fn predict_kbuffer(
     lists: &PixelLists,
     caps: &Caps,
 ) -> Prediction {
-    let transmit = transmit(scene, caps);
+    // Two chains also for `subtract` (its sign sits in the opacity slot), as the GPU keeps.
+    let transmit = transmit(scene, caps) || kbuffer::two_chains(scene, caps);
     let reverse_z = scene.camera.reverse_z;
     let layers = lists.max_layers();
     let k = match per_pixel(config.k, layers, MAX_K, "k", "k's") {

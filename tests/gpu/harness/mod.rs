@@ -8,6 +8,7 @@ mod lighting;
 mod material_forms;
 mod mipmaps;
 mod motion;
+mod operators;
 mod predictions;
 mod robustness;
 mod shaders;

@@ -35,7 +35,7 @@ const MAX_KBUFFER_PACKING: f64 = 7e-3;
 /// nearness key, or have keys one step apart (the top 24 bits of `kbuffer::to_slot`: the
 /// depth to 2^-15 of its distance from the far plane). The slot orders such fragments by α and colour, not depth: the
 /// k-buffer's storage precision, whatever k is.
-fn reference_and_key_ties(scene: &Scene) -> (oit_reference::Reference, Vec<bool>) {
+pub(crate) fn reference_and_key_ties(scene: &Scene) -> (oit_reference::Reference, Vec<bool>) {
     let width = scene.resolution.width as usize;
     let reverse_z = scene.camera.reverse_z;
     let ties = std::sync::Mutex::new(vec![false; scene.resolution.pixel_count()]);

@@ -1,4 +1,5 @@
 mod auto;
+pub(crate) use auto::reference_and_key_ties;
 mod gpu;
 mod transmission;
 mod twins;
