@@ -242,9 +242,10 @@ impl Stochastic {
             immediate_size: 0,
         });
         let dither_pipelines = |label, write_mask, channel: u32, additive: bool| {
-            let (entry, blend, depth_write) = match additive {
-                false => ("fs_stochastic", None, true),
-                true => ("fs_additive", Some(oit_gpu::blend::ADDITIVE), false),
+            let (entry, blend, depth_write) = if additive {
+                ("fs_additive", Some(oit_gpu::blend::ADDITIVE), false)
+            } else {
+                ("fs_stochastic", None, true)
             };
             ScenePipelines::with_layout(
                 ctx,
