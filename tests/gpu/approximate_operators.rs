@@ -118,8 +118,7 @@ fn a_lone_additive_fragment_shows_its_full_colour_in_every_approximate_technique
 
 /// `wboit` (default `range` weight) behind a 50 % pane: the spark gets the visibility the
 /// composite gives an over layer at its depth, w(z)·(1 − T)/Σαw with the weight at α = 1,
-/// computed here from the weight's CPU twin; the range weight's fall is the pane's one bit of
-/// absorbance, so that is the exact 0.5.
+/// computed here from the weight's CPU twin.
 #[test]
 fn wboit_dims_an_additive_fragment_by_the_composites_visibility_at_its_depth() {
     let Some(ctx) = context_or_skip("approximate_operators_wboit") else {
@@ -133,7 +132,9 @@ fn wboit_dims_an_additive_fragment_by_the_composites_visibility_at_its_depth() {
     let w = |z_world: f32, alpha: f32| Weight::Range.eval(5.0 - z_world, 0.0, alpha, &range);
     let rule = (w(-0.5, 1.0) * (1.0 - (1.0 - PANE_ALPHA)) / (PANE_ALPHA * w(0.5, PANE_ALPHA)))
         .min(1.0) as f64;
-    assert!((rule - 0.5).abs() < 1e-3, "the range weight's rule: {rule}");
+    // 2^(−fall) of the scene's range weight (fall 1.66 bits here: about 0.32 where the exact
+    // transmittance is 0.5): dimmed, by WBOIT's estimate.
+    assert!(rule > 0.2 && rule < 0.6, "the range weight's rule: {rule}");
     for (c, v) in visibility(&image).into_iter().enumerate() {
         assert!(
             (v - rule).abs() < 2e-3,
@@ -244,7 +245,7 @@ fn approximate_techniques_stay_within_their_measured_errors_on_the_operator_scen
         let reference = oit_reference::render(&scene, &oit_reference::ReferenceOptions::default());
         for &(spec, rmse) in techniques {
             let image = render(&ctx, &scene, spec);
-            let e = oit_metrics::compare(&image, &reference).expect("same size");
+            let e = oit_metrics::compare(&image, &reference.image).expect("same size");
             assert!(
                 e.rmse <= rmse * 1.25 + 1e-3,
                 "{name} {spec}: RMSE {} where {rmse} was measured",
