@@ -200,6 +200,7 @@ mod tests {
             transparent: 100,
             transparent_double_sided: 40,
             transmissive: 10,
+            additive: 30,
             opaque: 7,
             pixels: 64,
         }
@@ -256,5 +257,21 @@ mod tests {
         assert_eq!(c.triangle_passes, 100);
         assert_eq!(c.fragments, 3);
         assert!(c.undeclared_passes.is_empty());
+    }
+
+    #[test]
+    fn additive_passes_price_the_additive_triangles_only() {
+        let work = Work::new(vec![
+            PassWork::new("over", PassDraws::NotAdditive),
+            PassWork::new("add", PassDraws::Additive),
+        ]);
+        let c = price(
+            &[counted("over", Some(1)), counted("add", Some(2))],
+            &work,
+            &triangles(),
+        );
+        assert_eq!(c.triangle_passes, 70 + 30);
+        assert_eq!(c.passes[1].triangles, 30);
+        assert_eq!(c.passes[1].draws.as_deref(), Some("additive"));
     }
 }
