@@ -105,9 +105,9 @@ fn a_lone_additive_fragment_shows_its_full_colour_in_every_approximate_technique
         "opaque-copy",
     ] {
         let image = render(&ctx, &scene, spec);
-        for c in 0..3 {
+        for (c, background) in BACKGROUND.into_iter().enumerate() {
             let got = centre_mean(&image, c);
-            let want = f64::from(BACKGROUND[c]) + spark(c);
+            let want = f64::from(background) + spark(c);
             assert!(
                 (got - want).abs() < 1e-4,
                 "{spec} channel {c}: {got} where background + P = {want}"
