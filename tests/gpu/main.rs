@@ -9,6 +9,7 @@
 
 mod kit;
 
+mod approximate_operators;
 mod gpu;
 mod harness;
 mod linked_list;

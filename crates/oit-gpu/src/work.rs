@@ -21,6 +21,11 @@ pub enum PassDraws {
     Transmissive,
     /// The transparent draws without coloured transmission only.
     NotTransmissive,
+    /// The transparent draws that add or subtract their colour (`BlendOperator::Add` or
+    /// `Subtract`) only: the passes approximate techniques give them.
+    Additive,
+    /// The transparent draws that neither add nor subtract their colour.
+    NotAdditive,
     /// The opaque and mask draws (the shared opaque pass, and copies of it).
     Opaque,
     /// One full-screen triangle per draw call (a composite, resolve or seed): its fragments

@@ -49,6 +49,7 @@ pub(crate) struct Triangles {
     pub transparent: u64,
     pub transparent_double_sided: u64,
     pub transmissive: u64,
+    pub additive: u64,
     pub opaque: u64,
     pub pixels: u64,
 }
@@ -71,6 +72,12 @@ impl Triangles {
                 if m.is_transmissive() {
                     t.transmissive += n;
                 }
+                if matches!(
+                    m.operator,
+                    oit_scene::BlendOperator::Add | oit_scene::BlendOperator::Subtract
+                ) {
+                    t.additive += n;
+                }
             } else {
                 t.opaque += n;
             }
@@ -86,6 +93,8 @@ impl Triangles {
             }
             PassDraws::Transmissive => self.transmissive,
             PassDraws::NotTransmissive => self.transparent - self.transmissive,
+            PassDraws::Additive => self.additive,
+            PassDraws::NotAdditive => self.transparent - self.additive,
             PassDraws::Opaque => self.opaque,
             PassDraws::FullScreen | PassDraws::Compute => 0,
         }
@@ -98,6 +107,8 @@ fn draws_name(draws: PassDraws) -> String {
         PassDraws::TransparentDoubleSidedTwice => "transparent-double-sided-twice",
         PassDraws::Transmissive => "transmissive",
         PassDraws::NotTransmissive => "not-transmissive",
+        PassDraws::Additive => "additive",
+        PassDraws::NotAdditive => "not-additive",
         PassDraws::Opaque => "opaque",
         PassDraws::FullScreen => "full-screen",
         PassDraws::Compute => "compute",
@@ -189,6 +200,7 @@ mod tests {
             transparent: 100,
             transparent_double_sided: 40,
             transmissive: 10,
+            additive: 30,
             opaque: 7,
             pixels: 64,
         }
@@ -245,5 +257,21 @@ mod tests {
         assert_eq!(c.triangle_passes, 100);
         assert_eq!(c.fragments, 3);
         assert!(c.undeclared_passes.is_empty());
+    }
+
+    #[test]
+    fn additive_passes_price_the_additive_triangles_only() {
+        let work = Work::new(vec![
+            PassWork::new("over", PassDraws::NotAdditive),
+            PassWork::new("add", PassDraws::Additive),
+        ]);
+        let c = price(
+            &[counted("over", Some(1)), counted("add", Some(2))],
+            &work,
+            &triangles(),
+        );
+        assert_eq!(c.triangle_passes, 70 + 30);
+        assert_eq!(c.passes[1].triangles, 30);
+        assert_eq!(c.passes[1].draws.as_deref(), Some("additive"));
     }
 }

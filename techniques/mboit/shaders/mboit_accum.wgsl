@@ -88,3 +88,29 @@ fn fs_resolve(v: VertexOut, @builtin(front_facing) front_facing: bool) -> @locat
     let t = mboit_transmittance_at(MBOIT_KIND, b0, b, warped_depth(v.clip.z), params.moment_bias, bias, params.overestimation, params.wrapping);
     return vec4<f32>(s.color * t, s.alpha * t);
 }
+
+// Additive and subtractive fragments (P, alpha = 0, t = 1), pass 3, after the composite: they add
+// nothing to the moments and are left out of pass 2, so their colour is not normalised with the
+// over layers'. Each adds P times the transmittance the moments reconstruct in front of it
+// (1 where the pixel has no absorbance), over the final colour with (one, one) blending.
+@fragment
+fn fs_additive(v: VertexOut, @builtin(front_facing) front_facing: bool) -> @location(0) vec4<f32> {
+    let s = shade(v, front_facing);
+    if !s.keep {
+        discard;
+    }
+    let xy = vec2<i32>(v.clip.xy);
+    let b0 = textureLoad(b0_tex, xy, 0).r;
+    var t = 1.0;
+    if b0 >= MBOIT_MIN_B0 {
+        let lo = textureLoad(moments_lo_tex, xy, 0);
+        let hi = textureLoad(moments_hi_tex, xy, 0);
+        let b = array<f32, 8>(lo.x, lo.y, lo.z, lo.w, hi.x, hi.y, hi.z, hi.w);
+        let bias = array<f32, 8>(
+            params.bias_lo.x, params.bias_lo.y, params.bias_lo.z, params.bias_lo.w,
+            params.bias_hi.x, params.bias_hi.y, params.bias_hi.z, params.bias_hi.w,
+        );
+        t = mboit_transmittance_at(MBOIT_KIND, b0, b, warped_depth(v.clip.z), params.moment_bias, bias, params.overestimation, params.wrapping);
+    }
+    return vec4<f32>(s.color * t, 0.0);
+}

@@ -20,6 +20,7 @@ pub(crate) fn predict(config: &Config, scene: &Scene, lists: &PixelLists) -> Pre
     let (z_min, z_max) = transparent_depth_interval(scene);
     let (ln_z_min, scale) = math::warp_terms(z_min, z_max);
     let camera = &scene.camera;
+    let additive = additive_draws(scene);
     // The model at the moments as summed, and probed a few of their storage's rounding
     // steps away (2^-14 for f32 sums, whose order and arithmetic differ on the GPU; 2^-9 for
     // binary16): where the two differ by more than a quarter of the exact model margin, the
@@ -29,7 +30,17 @@ pub(crate) fn predict(config: &Config, scene: &Scene, lists: &PixelLists) -> Pre
         Storage::F16 => 2f32.powi(-9),
     };
     let error = model_error_conditioned(lists, |px| {
-        let at = |probe: Probe| pixel(&r, config.storage, px, (ln_z_min, scale), camera, probe);
+        let at = |probe: Probe| {
+            pixel(
+                &r,
+                config.storage,
+                px,
+                (ln_z_min, scale),
+                camera,
+                &additive,
+                probe,
+            )
+        };
         let a = at(Probe::None);
         // Probes: every moment larger; the moments alternately larger and smaller (the
         // direction an ill-conditioned Hankel matrix is most sensitive to); the total
@@ -83,15 +94,64 @@ enum Probe {
     Depth(f32),
 }
 
-/// One pixel through MBOIT's two passes and composite, its moment sums changed by `probe`.
+/// Per draw of `scene`: whether it adds or subtracts its colour (pass 3, not the moments).
+fn additive_draws(scene: &Scene) -> Vec<bool> {
+    (scene.draws.iter())
+        .map(|d| {
+            matches!(
+                scene.material_of(d).operator,
+                oit_scene::BlendOperator::Add | oit_scene::BlendOperator::Subtract
+            )
+        })
+        .collect()
+}
+
+/// One pixel through MBOIT's passes and composite, its moment sums changed by `probe`:
+/// passes 1, 2 and the composite over the layers that are not `additive` (by draw), then
+/// pass 3 adding each additive layer's colour times the transmittance in front of it (1
+/// where the pixel's absorbance is below the threshold).
+#[allow(clippy::too_many_arguments)]
 fn pixel(
     r: &math::Resolve,
     storage: Storage,
     px: oit_gpu::predict::Pixel<'_>,
     (ln_z_min, scale): (f32, f32),
     camera: &oit_scene::Camera,
+    additive: &[bool],
     probe: Probe,
 ) -> [f64; 3] {
+    let is_additive = |l: &oit_gpu::predict::Layer| additive[l.draw as usize];
+    let shift = match probe {
+        Probe::Depth(e) => e,
+        _ => 0.0,
+    };
+    let warp = |l: &oit_gpu::predict::Layer| {
+        mboit_warp(camera.view_distance(l.depth), ln_z_min, scale) + shift
+    };
+    let (over, moments) = over_layers(r, storage, px, is_additive, &warp, probe);
+    let mut out = over;
+    for l in px.layers.iter().filter(|l| is_additive(l)) {
+        let t = match moments {
+            Some((b0, b)) => transmittance_at(r, b0, &b, warp(l)),
+            None => 1.0,
+        };
+        for (o, c) in out.iter_mut().zip(l.premultiplied) {
+            *o += f64::from(c * t);
+        }
+    }
+    out
+}
+
+/// Passes 1, 2 and the composite over the layers that are not additive: the colour, and the
+/// pixel's moment sums where pass 2 ran (`None` where b0 is below the threshold).
+fn over_layers(
+    r: &math::Resolve,
+    storage: Storage,
+    px: oit_gpu::predict::Pixel<'_>,
+    is_additive: impl Fn(&oit_gpu::predict::Layer) -> bool,
+    warp: &dyn Fn(&oit_gpu::predict::Layer) -> f32,
+    probe: Probe,
+) -> ([f64; 3], Option<(f32, [f32; 8])>) {
     {
         // Additive blends into the storage's targets, in draw order.
         let store = match storage {
@@ -101,22 +161,12 @@ fn pixel(
         let mut kept: Vec<&oit_gpu::predict::Layer> = px
             .layers
             .iter()
-            .filter(|l| absorbance(l.alpha).is_some())
+            .filter(|l| absorbance(l.alpha).is_some() && !is_additive(l))
             .collect();
         kept.sort_by_key(|l| draw_order_key(l));
         let warped: Vec<(f32, f32)> = kept
             .iter()
-            .filter_map(|l| {
-                let a = absorbance(l.alpha)?;
-                let shift = match probe {
-                    Probe::Depth(e) => e,
-                    _ => 0.0,
-                };
-                Some((
-                    a,
-                    mboit_warp(camera.view_distance(l.depth), ln_z_min, scale) + shift,
-                ))
-            })
+            .filter_map(|l| Some((absorbance(l.alpha)?, warp(l))))
             .collect();
         let (mut b0, mut b) = (0.0f32, [0.0f32; 8]);
         for &(a, zw) in &warped {
@@ -139,7 +189,7 @@ fn pixel(
             Probe::Total(e) => (b0 * (1.0 + e), b),
         };
         if b0 < MIN_B0 {
-            return px.behind;
+            return (px.behind, None);
         }
         let (mut acc, mut acc_a) = ([0.0f32; 3], 0.0f32);
         for (l, zw) in kept.iter().zip(warped.iter().map(|w| w.1)) {
@@ -154,8 +204,9 @@ fn pixel(
         // The composite leaves the pixel as it is when the accumulated coverage is not
         // positive (an underflow of α·T in binary16, say): the layers vanish.
         if acc_a <= 0.0 {
-            return px.behind;
+            return (px.behind, Some((b0, b)));
         }
-        [0, 1, 2].map(|c| acc[c] / acc_a * (1.0 - t) + px.behind[c] * t)
+        let out = [0, 1, 2].map(|c| acc[c] / acc_a * (1.0 - t) + px.behind[c] * t);
+        (out, Some((b0, b)))
     }
 }

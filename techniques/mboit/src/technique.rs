@@ -181,6 +181,9 @@ pub struct Mboit {
     pixels: Option<PixelTargets>,
     pipelines: Option<Pipelines>,
     composite: Option<(wgpu::TextureFormat, wgpu::RenderPipeline)>,
+    /// Pass 3 of additive and subtractive draws, per final colour format and depth direction
+    /// (built for the first scene that has them).
+    additive: Option<((wgpu::TextureFormat, bool), ScenePipelines)>,
 }
 
 impl Mboit {
@@ -191,6 +194,7 @@ impl Mboit {
             pixels: None,
             pipelines: None,
             composite: None,
+            additive: None,
         }
     }
 
@@ -385,6 +389,43 @@ impl Mboit {
         Ok(())
     }
 
+    /// Pass 3 (`fs_additive`): the resolve pass's bindings, (one, one) onto the final colour.
+    fn additive_pipelines(
+        &self,
+        ctx: &Context,
+        scene: &GpuScene,
+        targets: &Targets,
+    ) -> Result<ScenePipelines, GpuError> {
+        let shared = self.shared.as_ref().expect("built in ensure");
+        let module = ctx.shader_with("mboit_accum.wgsl", ACCUM_WGSL, &[crate::SHADERS])?;
+        let constants = [("MBOIT_KIND", f64::from(self.config.moments.index()))];
+        let layout = ctx
+            .device
+            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("mboit additive"),
+                bind_group_layouts: &[
+                    Some(ctx.scene_layout()),
+                    Some(&shared.params_layout),
+                    Some(&shared.resolve_layout),
+                ],
+                immediate_size: 0,
+            });
+        Ok(ScenePipelines::with_layout(
+            ctx,
+            &ScenePipelineDesc {
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: targets.color_format,
+                    blend: Some(blend::ADDITIVE),
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+                depth: Some(depth_test(scene.depth_nearer(), false)),
+                constants: &constants,
+                ..ScenePipelineDesc::new("mboit additive", &module, "fs_additive")
+            },
+            &layout,
+        ))
+    }
+
     fn composite_pipeline(
         &mut self,
         ctx: &Context,
@@ -498,7 +539,16 @@ impl Technique for Mboit {
         let words = params_words(&self.config, &scene.scene);
         ctx.queue
             .write_buffer(&shared.params, 0, bytemuck::cast_slice(&words));
-        let draws = scene.transparent_draws();
+        // Additive and subtractive draws add no absorbance and are left out of the
+        // normalised sum: pass 3 adds them after the composite.
+        let (additive, draws): (Vec<usize>, Vec<usize>) =
+            scene.transparent_draws().into_iter().partition(|&i| {
+                let s = &scene.scene;
+                matches!(
+                    s.material_of(&s.draws[i]).operator,
+                    BlendOperator::Add | BlendOperator::Subtract
+                )
+            });
         let depth = || {
             pass::depth(
                 &targets.depth_view,
@@ -550,8 +600,32 @@ impl Technique for Mboit {
             &ts,
         );
         timer.submit(ctx, encoder)?;
+        let mut geometry_passes = 2;
+        if !additive.is_empty() {
+            let key = (targets.color_format, scene.scene.camera.reverse_z);
+            if self.additive.as_ref().is_none_or(|(k, _)| *k != key) {
+                self.additive = Some((key, self.additive_pipelines(ctx, scene, targets)?));
+            }
+            let (_, additive_pipelines) = self.additive.as_ref().expect("built above");
+            let shared = self.shared.as_ref().expect("built in ensure");
+            let pixels = self.pixels.as_ref().expect("built in ensure");
+            let ts = timer.pass("mboit additive");
+            let mut encoder = ctx.device.create_command_encoder(&Default::default());
+            {
+                let attachments = [pass::color(&targets.color_view, wgpu::LoadOp::Load)];
+                let mut p = pass::begin(&mut encoder, "mboit additive", &attachments, depth(), &ts);
+                scene.bind(&mut p);
+                p.set_bind_group(1, &shared.params_group, &[]);
+                p.set_bind_group(2, &pixels.resolve_group, &[]);
+                for &i in &additive {
+                    scene.draw(&mut p, additive_pipelines, i);
+                }
+            }
+            timer.submit(ctx, encoder)?;
+            geometry_passes = 3;
+        }
         Ok(RenderStats {
-            geometry_passes: 2,
+            geometry_passes,
             ..Default::default()
         })
     }
@@ -575,6 +649,10 @@ impl Technique for Mboit {
             // and written by the blend.
             PassWork::new("mboit composite", PassDraws::FullScreen)
                 .bytes(b0 + accum + final_texel, final_texel),
+            // Only on scenes with additive or subtractive draws: depth test, the pixel's
+            // moments loaded, the final texel read and written by the additive blend.
+            PassWork::new("mboit additive", PassDraws::Additive)
+                .bytes(DEPTH_BYTES + moments + final_texel, final_texel),
         ])
     }
 
@@ -592,12 +670,13 @@ impl Technique for Mboit {
 
     fn operator(&self, operator: BlendOperator, caps: &Caps) -> Support {
         match operator {
-            // (P, t) with t = 1: what is behind is not dimmed.
-            BlendOperator::Over | BlendOperator::Add | BlendOperator::Subtract => {
-                Support::Approximate(
-                    "an additive fragment has absorbance 0: its colour is scaled by the transmittance the moments estimate in front of it, and normalised with the rest",
-                )
-            }
+            BlendOperator::Over => Support::Approximate(
+                "weighted by the transmittance the moments reconstruct, normalised under the exact coverage (the technique itself)",
+            ),
+            // (P, t = 1): pass 3 (`fs_additive`).
+            BlendOperator::Add | BlendOperator::Subtract => Support::Approximate(
+                "no absorbance, kept out of the normalised sum; added after the composite, scaled by the transmittance the moments reconstruct in front of it (1 where the pixel has no absorbance): the moments' estimate, scalar, so a multiply filter in front dims it by 1 − mean(t) rather than tinting it",
+            ),
             // A filter without colour: coloured transmittance with P = 0.
             BlendOperator::Multiply => self.transmission(caps),
         }

@@ -256,16 +256,19 @@ impl Technique for OpaqueCopy {
         oit_gpu::Queues::Ordered
     }
 
-    fn operator(&self, operator: BlendOperator, caps: &Caps) -> Support {
+    fn operator(&self, operator: BlendOperator, _caps: &Caps) -> Support {
         match operator {
-            // (P, t) with t = 1: what is behind is not dimmed.
-            BlendOperator::Over | BlendOperator::Add | BlendOperator::Subtract => {
-                Support::Approximate(
-                    "additive fragments behind the nearest transmissive surface are missing from the copy, as every transparent fragment there is",
-                )
-            }
-            // A filter without colour: coloured transmittance with P = 0.
-            BlendOperator::Multiply => self.transmission(caps),
+            BlendOperator::Over => Support::Approximate(
+                "premultiplied over in Babylon's object order; hidden behind the nearest transmissive surface",
+            ),
+            // (P, α = 0): the shared blend pass's (one, one-minus-src-alpha) gives dst + P.
+            BlendOperator::Add | BlendOperator::Subtract => Support::Approximate(
+                "blended in Babylon's object order with (one, one-minus-src-alpha), which with α = 0 is dst + P: exact in front of the nearest transmissive surface; behind it hidden by its depth, as every transparent fragment there is",
+            ),
+            // `Material::is_transmissive`: drawn as glass.
+            BlendOperator::Multiply => Support::Approximate(
+                "drawn as glass: P = 0 plus its per-channel t times the copy of the opaque colour, writing depth, so it is exact over opaque content and hides transparent and transmissive layers behind it",
+            ),
         }
     }
 }

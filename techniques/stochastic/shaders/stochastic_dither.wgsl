@@ -215,7 +215,8 @@ fn fs_stochastic(v: StochasticOut, @builtin(front_facing) front_facing: bool) ->
     // The coverage this pass tests: α, or for a transmissive material in a per-channel pass
     // that channel's opacity 1 − t (scalar-alpha materials keep α bit for bit).
     var opacity = s.alpha;
-    if CHANNEL < 3u && material_of(base).transmission > 0.0 {
+    let m = material_of(base);
+    if CHANNEL < 3u && (m.transmission > 0.0 || m.blend_operator == OPERATOR_MULTIPLY) {
         // `min`: with CHANNEL = 3 a constant index past the vector's end fails validation,
         // even where the branch is never taken.
         opacity = 1.0 - s.transmittance[min(CHANNEL, 2u)];
@@ -237,4 +238,32 @@ fn fs_stochastic(v: StochasticOut, @builtin(front_facing) front_facing: bool) ->
     // tiny opacity under a premultiplied colour cannot overflow a Rgba16Float target.
     let straight = s.color / opacity;
     return vec4<f32>(clamp(straight, vec3<f32>(-65504.0), vec3<f32>(65504.0)), 1.0);
+}
+
+// Additive and subtractive fragments (P, alpha = 0, t = 1) never survive the dither. After the
+// dithered draws of a sub-frame (or of one channel) they are drawn depth-tested against the
+// survivors without depth writes and added with (one, one) blending (the channel's write mask
+// in a per-channel pass): one lands exactly when no survivor lies in front of it, which happens
+// with probability prod(1 - alpha_j) (per channel prod t_j) over the layers in front. Enderton et
+// al.'s accumulation pass with the stochastic depth as the visibility test: the exact composite
+// in expectation.
+@fragment
+fn fs_additive(v: StochasticOut, @builtin(front_facing) front_facing: bool) -> @location(0) vec4<f32> {
+    var base: VertexOut;
+    base.clip = v.clip;
+    base.color = v.color;
+    base.base_alpha = v.base_alpha;
+    base.factors = v.factors;
+    base.flags = v.flags;
+    base.uv = v.uv;
+    base.emissive = v.emissive;
+    base.textures = v.textures;
+    base.surface = v.surface;
+    base.world = v.world;
+    base.normal = v.normal;
+    let s = shade(base, front_facing);
+    if !s.keep {
+        discard;
+    }
+    return vec4<f32>(s.color, 0.0);
 }

@@ -37,7 +37,10 @@ pub struct AlphaToCoverage {
 
 #[derive(Debug)]
 struct Resources {
-    key: (wgpu::TextureFormat, bool, Resolution),
+    key: (wgpu::TextureFormat, bool, Resolution, bool),
+    /// Scenes with additive or subtractive draws: their pipeline (`fs_additive`), drawn after
+    /// the alpha-to-coverage draws in the same pass.
+    additive: Option<ScenePipelines>,
     color_view: wgpu::TextureView,
     depth_view: wgpu::TextureView,
     seed: gpu::SeedPass,
@@ -120,10 +123,13 @@ impl AlphaToCoverage {
         targets: &Targets,
         samples: u32,
     ) -> Result<(), GpuError> {
+        let has_additive = (scene.scene.operators_used().iter())
+            .any(|&op| matches!(op, BlendOperator::Add | BlendOperator::Subtract));
         let key = (
             targets.color_format,
             scene.scene.camera.reverse_z,
             targets.resolution,
+            has_additive,
         );
         if self.gpu.as_ref().is_some_and(|g| g.key == key) {
             return Ok(());
@@ -173,8 +179,25 @@ impl AlphaToCoverage {
             },
             &layout,
         );
+        let additive = has_additive.then(|| {
+            ScenePipelines::with_layout(
+                ctx,
+                &ScenePipelineDesc {
+                    targets: &[Some(wgpu::ColorTargetState {
+                        format: targets.color_format,
+                        blend: Some(oit_gpu::blend::ADDITIVE),
+                        write_mask: wgpu::ColorWrites::ALL,
+                    })],
+                    depth: Some(oit_gpu::depth_test(scene.depth_nearer(), false)),
+                    multisample,
+                    ..ScenePipelineDesc::new("a2c additive", &module, "fs_additive")
+                },
+                &layout,
+            )
+        });
         self.gpu = Some(Resources {
             key,
+            additive,
             color_view: color.create_view(&Default::default()),
             depth_view: depth.create_view(&Default::default()),
             seed,
@@ -271,8 +294,23 @@ impl Technique for AlphaToCoverage {
                 &ts,
             );
             scene.bind(&mut pass);
-            for &i in self.order.of(scene) {
+            // Additive and subtractive draws cover no sample: drawn after the others,
+            // depth-tested per sample (`fs_additive`).
+            let (additive, order): (Vec<usize>, Vec<usize>) =
+                self.order.of(scene).iter().copied().partition(|&i| {
+                    let s = &scene.scene;
+                    matches!(
+                        s.material_of(&s.draws[i]).operator,
+                        BlendOperator::Add | BlendOperator::Subtract
+                    )
+                });
+            for &i in &order {
                 gpu::draw_with_id(&mut pass, scene, &r.a2c, i);
+            }
+            if let Some(pipelines) = &r.additive {
+                for &i in &additive {
+                    gpu::draw_with_id(&mut pass, scene, pipelines, i);
+                }
             }
         }
         timer.submit(ctx, encoder)?;
@@ -316,12 +354,13 @@ impl Technique for AlphaToCoverage {
 
     fn operator(&self, operator: BlendOperator, caps: &Caps) -> Support {
         match operator {
-            // (P, t) with t = 1: what is behind is not dimmed.
-            BlendOperator::Over | BlendOperator::Add | BlendOperator::Subtract => {
-                Support::Approximate(
-                    "an additive fragment has coverage 0, so no sample keeps it: its colour is missing",
-                )
-            }
+            BlendOperator::Over => Support::Approximate(
+                "coverage quantised to the driver's sample masks (the technique itself)",
+            ),
+            // (P, t = 1): `fs_additive` after the alpha-to-coverage draws.
+            BlendOperator::Add | BlendOperator::Subtract => Support::Approximate(
+                "covers no sample; drawn after the other layers, depth-tested per sample without writing depth and added, so after the resolve it is scaled by the fraction of samples no kept layer covers in front of it: the quantised, correlated masks' estimate of the transmittance (Enderton et al.'s accumulation pass)",
+            ),
             // A filter without colour: coloured transmittance with P = 0.
             BlendOperator::Multiply => self.transmission(caps),
         }

@@ -47,8 +47,11 @@ pub struct Stochastic {
 /// transmission).
 #[derive(Debug)]
 struct Resources {
-    key: (wgpu::TextureFormat, bool, Resolution, bool),
+    key: (wgpu::TextureFormat, bool, Resolution, bool, bool),
     dither: ScenePipelines,
+    /// Scenes with additive or subtractive draws: their pass after the dithered draws
+    /// (`fs_additive`), for all channels and, with coloured transmission, per channel.
+    additive: Option<(ScenePipelines, Option<[ScenePipelines; 3]>)>,
     /// Coloured transmission: one dither pipeline per colour channel (`CHANNEL` = 0, 1, 2,
     /// writing that channel only), each frame dithered three times.
     channels: Option<[ScenePipelines; 3]>,
@@ -145,11 +148,14 @@ impl Stochastic {
         config: &StochasticConfig,
     ) -> Result<(), GpuError> {
         let coloured = scene.scene.has_coloured_transmission();
+        let has_additive = (scene.scene.operators_used().iter())
+            .any(|&op| matches!(op, BlendOperator::Add | BlendOperator::Subtract));
         let key = (
             targets.color_format,
             scene.scene.camera.reverse_z,
             targets.resolution,
             coloured,
+            has_additive,
         );
         if self.gpu.as_ref().is_some_and(|g| g.key == key) {
             return Ok(());
@@ -235,7 +241,12 @@ impl Stochastic {
             bind_group_layouts: &[Some(ctx.scene_layout()), Some(&dither_layout)],
             immediate_size: 0,
         });
-        let dither_pipelines = |label, write_mask, channel: u32| {
+        let dither_pipelines = |label, write_mask, channel: u32, additive: bool| {
+            let (entry, blend, depth_write) = if additive {
+                ("fs_additive", Some(oit_gpu::blend::ADDITIVE), false)
+            } else {
+                ("fs_stochastic", None, true)
+            };
             ScenePipelines::with_layout(
                 ctx,
                 &ScenePipelineDesc {
@@ -244,23 +255,40 @@ impl Stochastic {
                     material: MaterialSource::PerVertex,
                     targets: &[Some(wgpu::ColorTargetState {
                         format: targets.color_format,
-                        blend: None,
+                        blend,
                         write_mask,
                     })],
-                    depth: Some(oit_gpu::depth_test(scene.depth_nearer(), true)),
+                    depth: Some(oit_gpu::depth_test(scene.depth_nearer(), depth_write)),
                     constants: &[("CHANNEL", f64::from(channel))],
-                    ..ScenePipelineDesc::new(label, &module, "fs_stochastic")
+                    ..ScenePipelineDesc::new(label, &module, entry)
                 },
                 &layout,
             )
         };
-        let dither = dither_pipelines("stochastic dither", wgpu::ColorWrites::ALL, 3);
-        let channels = coloured.then(|| {
+        let per_channel = |additive: bool| {
             [
-                dither_pipelines("stochastic dither red", wgpu::ColorWrites::RED, 0),
-                dither_pipelines("stochastic dither green", wgpu::ColorWrites::GREEN, 1),
-                dither_pipelines("stochastic dither blue", wgpu::ColorWrites::BLUE, 2),
+                dither_pipelines("stochastic dither red", wgpu::ColorWrites::RED, 0, additive),
+                dither_pipelines(
+                    "stochastic dither green",
+                    wgpu::ColorWrites::GREEN,
+                    1,
+                    additive,
+                ),
+                dither_pipelines(
+                    "stochastic dither blue",
+                    wgpu::ColorWrites::BLUE,
+                    2,
+                    additive,
+                ),
             ]
+        };
+        let dither = dither_pipelines("stochastic dither", wgpu::ColorWrites::ALL, 3, false);
+        let channels = coloured.then(|| per_channel(false));
+        let additive = has_additive.then(|| {
+            (
+                dither_pipelines("stochastic additive", wgpu::ColorWrites::ALL, 3, true),
+                coloured.then(|| per_channel(true)),
+            )
         });
         let frames = if config.spp.get() > 1 || coloured {
             Some(Self::frame_resources(
@@ -276,6 +304,7 @@ impl Stochastic {
         self.gpu = Some(Resources {
             key,
             dither,
+            additive,
             channels,
             dither_bind_group,
             dither_stride,
@@ -540,7 +569,16 @@ impl Technique for Stochastic {
             ctx.queue.write_buffer(&r.dither_buffer, 0, &uniforms);
         }
         let r = &*r;
-        let order = self.order.of(scene);
+        // Additive and subtractive draws never survive the dither: they are drawn after it,
+        // depth-tested against the survivors (`fs_additive`).
+        let (additive_draws, order): (Vec<usize>, Vec<usize>) =
+            self.order.of(scene).iter().copied().partition(|&i| {
+                let s = &scene.scene;
+                matches!(
+                    s.material_of(&s.draws[i]).operator,
+                    BlendOperator::Add | BlendOperator::Subtract
+                )
+            });
         let draw_pass = |encoder: &mut wgpu::CommandEncoder,
                          timer: &mut GpuTimer,
                          name: &str,
@@ -584,11 +622,18 @@ impl Technique for Stochastic {
                 seed.draw(&mut pass, group);
             }
             let offset = (r.dither_stride * u64::from(frame)) as u32;
-            let dither = |pass: &mut wgpu::RenderPass<'_>, pipelines: &ScenePipelines| {
+            let dither = |pass: &mut wgpu::RenderPass<'_>,
+                          pipelines: &ScenePipelines,
+                          additive: Option<&ScenePipelines>| {
                 scene.bind(pass);
                 pass.set_bind_group(1, &r.dither_bind_group, &[offset]);
-                for &i in order {
+                for &i in &order {
                     gpu::draw_with_id(pass, scene, pipelines, i);
+                }
+                if let Some(additive) = additive {
+                    for &i in &additive_draws {
+                        gpu::draw_with_id(pass, scene, additive, i);
+                    }
                 }
             };
             match (&r.channels, seed) {
@@ -598,10 +643,17 @@ impl Technique for Stochastic {
                         if c != 0 {
                             seed.draw_depth_reset(&mut pass, group);
                         }
-                        dither(&mut pass, pipelines);
+                        let additive = (r.additive.as_ref())
+                            .and_then(|(_, channels)| channels.as_ref())
+                            .map(|channels| &channels[c]);
+                        dither(&mut pass, pipelines, additive);
                     }
                 }
-                _ => dither(&mut pass, &r.dither),
+                _ => dither(
+                    &mut pass,
+                    &r.dither,
+                    r.additive.as_ref().map(|(all, _)| all),
+                ),
             }
         };
         let passes_per_frame = if r.channels.is_some() { 3 } else { 1 };
@@ -709,13 +761,14 @@ impl Technique for Stochastic {
 
     fn operator(&self, operator: BlendOperator, caps: &Caps) -> Support {
         match operator {
-            // (P, t) with t = 1: what is behind is not dimmed.
-            BlendOperator::Over | BlendOperator::Add | BlendOperator::Subtract => {
-                Support::Approximate(
-                    "an additive fragment has coverage 0, so no sample keeps it: its colour is missing",
-                )
-            }
-            // A filter without colour: coloured transmittance with P = 0.
+            // Exact in expectation, as its compositing of `over` is.
+            BlendOperator::Over => Support::Exact,
+            // (P, t = 1): drawn after each sub-frame's (or channel's) dithered layers,
+            // depth-tested against the survivors without writing depth and added (`fs_additive`):
+            // it lands when no survivor lies in front of it, with probability Π(1 − α) (per
+            // channel Π t) of the layers in front — Enderton et al.'s accumulation pass.
+            BlendOperator::Add | BlendOperator::Subtract => Support::Exact,
+            // A filter without colour: dithered per channel with opacity 1 − t_c.
             BlendOperator::Multiply => self.transmission(caps),
         }
     }

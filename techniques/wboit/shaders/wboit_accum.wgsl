@@ -19,7 +19,8 @@ struct WboitParams {
     z_far: f32,
     // Unit of the colour sums (oit_wboit::RangeParams::color_scale; 1 for LDR colours).
     color_scale: f32,
-    pad0: f32,
+    // 1 for the weighted average (the revealage target then holds the fragment count n).
+    average: u32,
     pad1: f32,
     pad2: f32,
 }
@@ -152,4 +153,55 @@ fn fs_average_coloured(v: VertexOut, @builtin(front_facing) front_facing: bool) 
     out.reveal = vec4<f32>(1.0, 0.0, 0.0, 0.0);
     out.modulate = modulation(s);
     return out;
+}
+
+// Additive and subtractive fragments (P, alpha = 0, t = 1): a pass after the composite, over the
+// final colour with (one, one) blending. The accumulation pass left them out, so their colour is
+// not normalised with the over layers'. Each adds P times the visibility the composite gives an
+// over layer at its depth: WBOIT's composite shows layer i as C_i * w_i * (1 - T) / sum(alpha w),
+// which is the exact transmittance in front of it when w_i is that transmittance (then
+// sum(alpha w) = 1 - T); the additive fragment gets the same factor with its own weight (alpha = 1 in
+// the weight), at most 1. The weighted average has no depth: every layer is scaled by
+// (1 - T) / sum(alpha), and so is the additive one. With no over layer in the pixel it is 1.
+@group(2) @binding(0) var additive_accum: texture_2d<f32>;
+@group(2) @binding(1) var additive_reveal: texture_2d<f32>;
+
+fn additive_visibility(v: VertexOut) -> f32 {
+    let xy = vec2<i32>(v.clip.xy);
+    let acc = textureLoad(additive_accum, xy, 0);
+    let r = textureLoad(additive_reveal, xy, 0).r;
+    if params.average != 0u {
+        // r: the fragment count n; acc.a: the sum of alpha.
+        if !(r > 0.0) || !(acc.a > 0.0) {
+            return 1.0;
+        }
+        let t = pow(clamp(1.0 - acc.a / r, 0.0, 1.0), r);
+        return clamp((1.0 - t) / acc.a, 0.0, 1.0);
+    }
+    // r: the revealage T; acc.a: sum(alpha w).
+    let t = clamp(r, 0.0, 1.0);
+    if !(t < 1.0) {
+        return 1.0;
+    }
+    if !(acc.a > 0.0) || acc.a > 3.0e38 {
+        // Weights underflowed or overflowed: only the total transmittance is known.
+        return t;
+    }
+    let window_z = v.clip.z;
+    var d = window_z;
+    if params.reverse_z != 0u {
+        d = 1.0 - window_z;
+    }
+    let z = wboit_view_distance(window_z, params.proj_a, params.proj_b, params.ortho != 0u);
+    let w = weight(params.weight, z, d, 1.0);
+    return clamp(w * (1.0 - t) / acc.a, 0.0, 1.0);
+}
+
+@fragment
+fn fs_additive(v: VertexOut, @builtin(front_facing) front_facing: bool) -> @location(0) vec4<f32> {
+    let s = shade(v, front_facing);
+    if !s.keep {
+        discard;
+    }
+    return vec4<f32>(s.color * additive_visibility(v), 0.0);
 }

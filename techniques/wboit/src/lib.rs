@@ -11,6 +11,7 @@
 //! - `weighted-average`: rgba16f (ΣC, Σα) and an r32f count n, `T = (1 − Σα/n)^n`.
 //! - [`tail`]: the WGSL, targets and composite that dual depth peeling's `tail=wboit` reuses.
 
+mod additive;
 mod guards;
 mod predict;
 pub mod range;

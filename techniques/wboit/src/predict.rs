@@ -7,7 +7,7 @@
 
 use oit_gpu::Prediction;
 use oit_gpu::predict::{PixelLists, draw_order_key, f16_round, model_error};
-use oit_scene::Scene;
+use oit_scene::{BlendOperator, Scene};
 
 use crate::range::RangeParams;
 use crate::tail::{AccumFormat, RevealFormat};
@@ -19,6 +19,23 @@ type Store = fn(f32) -> f32;
 pub(crate) fn predict(config: Config, scene: &Scene, lists: &PixelLists) -> Prediction {
     let range = RangeParams::of(scene);
     let camera = &scene.camera;
+    let additive: Vec<bool> = (scene.draws.iter())
+        .map(|d| {
+            matches!(
+                scene.material_of(d).operator,
+                BlendOperator::Add | BlendOperator::Subtract
+            )
+        })
+        .collect();
+    // The configured weight at a layer's depth for coverage `alpha`.
+    let weight_at = |depth: f32, alpha: f32| match config {
+        Config::Weighted { weight, .. } => {
+            let z = camera.view_distance(depth);
+            let d = if camera.reverse_z { 1.0 - depth } else { depth };
+            weight.eval(z, d, alpha, &range)
+        }
+        Config::Average => 1.0,
+    };
     let error = model_error(lists, |px| {
         if px.layers.is_empty() {
             return px.behind;
@@ -38,23 +55,15 @@ pub(crate) fn predict(config: Config, scene: &Scene, lists: &PixelLists) -> Pred
             ),
             Config::Average => (f16_round, std::convert::identity),
         };
-        let mut order: Vec<_> = px.layers.iter().collect();
+        let mut order: Vec<_> = (px.layers.iter())
+            .filter(|l| !additive[l.draw as usize])
+            .collect();
         order.sort_by_key(|l| draw_order_key(l));
         let (mut sum, mut weights, mut alpha_sum) = ([0.0f32; 3], 0.0f32, 0.0f32);
         let (mut reveal, mut behind_t) = (1.0f32, [1.0f64; 3]);
+        let n = order.len() as f64;
         for l in order {
-            let w = match config {
-                Config::Weighted { weight, .. } => {
-                    let z = camera.view_distance(l.depth);
-                    let d = if camera.reverse_z {
-                        1.0 - l.depth
-                    } else {
-                        l.depth
-                    };
-                    weight.eval(z, d, l.alpha, &range)
-                }
-                Config::Average => 1.0,
-            };
+            let w = weight_at(l.depth, l.alpha);
             for c in 0..3 {
                 sum[c] = accum(sum[c] + l.premultiplied[c] * w);
                 behind_t[c] *= f64::from(l.transmittance[c]);
@@ -72,13 +81,26 @@ pub(crate) fn predict(config: Config, scene: &Scene, lists: &PixelLists) -> Pred
         };
         let coverage = match config {
             Config::Weighted { .. } => 1.0 - reveal,
-            Config::Average => {
-                let n = px.layers.len() as f64;
-                1.0 - (1.0 - alpha_sum / n).powf(n)
-            }
+            Config::Average if n > 0.0 => 1.0 - (1.0 - alpha_sum / n).powf(n),
+            Config::Average => 0.0,
         };
         let avg = |c: usize| if weights > 0.0 { sum[c] / weights } else { 0.0 };
-        [0, 1, 2].map(|c| avg(c) * coverage + behind_t[c] * px.behind[c])
+        let mut out = [0, 1, 2].map(|c| avg(c) * coverage + behind_t[c] * px.behind[c]);
+        // The additive pass (crate::additive, `fs_additive`).
+        for l in px.layers.iter().filter(|l| additive[l.draw as usize]) {
+            let visibility = match config {
+                _ if coverage <= 0.0 => 1.0,
+                Config::Weighted { .. } if weights > 0.0 => {
+                    (f64::from(weight_at(l.depth, 1.0)) * coverage / weights).clamp(0.0, 1.0)
+                }
+                Config::Weighted { .. } => reveal,
+                Config::Average => (coverage / alpha_sum).clamp(0.0, 1.0),
+            };
+            for (o, c) in out.iter_mut().zip(l.premultiplied) {
+                *o += f64::from(c) * visibility;
+            }
+        }
+        out
     });
     let name = match config {
         Config::Weighted { .. } => "the weighted average",

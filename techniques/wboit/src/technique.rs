@@ -1,6 +1,7 @@
 //! The `wboit` and `weighted-average` techniques: one accumulation pass over the transparent
 //! draws, then the shared guarded composite of [`crate::tail`].
 
+use crate::additive::{AdditivePass, is_additive};
 use crate::guards::GuardCounts;
 use crate::range::RangeParams;
 use crate::tail::{self, AccumFormat, AccumTargets, CompositeMode, RevealFormat};
@@ -191,6 +192,8 @@ pub struct Wboit {
     params: Option<(wgpu::Buffer, wgpu::BindGroupLayout, wgpu::BindGroup)>,
     /// `range` inputs of the last scene (by `GpuScene::id`): computed once per scene.
     range: Option<(u64, RangeParams)>,
+    /// The pass of additive and subtractive draws (built for the first scene that has them).
+    additive: Option<AdditivePass>,
     ledger: MemoryLedger,
 }
 
@@ -202,6 +205,7 @@ impl Wboit {
             pipelines: None,
             params: None,
             range: None,
+            additive: None,
             ledger: MemoryLedger::new(),
         }
     }
@@ -243,7 +247,11 @@ impl Wboit {
         let (mode, accum, reveal) = self.config.formats();
         let res = scene.scene.resolution;
         if self.accum.as_ref().is_none_or(|a| a.resolution != res) {
-            self.accum = Some(AccumTargets::with_formats(ctx, res, mode, accum, reveal)?);
+            let targets = AccumTargets::with_formats(ctx, res, mode, accum, reveal)?;
+            if let Some(pass) = &mut self.additive {
+                pass.rebind(ctx, &targets);
+            }
+            self.accum = Some(targets);
         }
         if self.params.is_none() {
             let buffer = self.ledger.create_buffer(
@@ -356,6 +364,21 @@ impl Technique for Wboit {
                 .is_none())
         .then_some(targets.color_format);
         self.ensure(ctx, scene, modulated)?;
+        // Additive and subtractive draws are left out of the sums (crate::additive).
+        let (additive, draws): (Vec<usize>, Vec<usize>) = scene
+            .transparent_draws()
+            .into_iter()
+            .partition(|&i| is_additive(scene, i));
+        if !additive.is_empty()
+            && self
+                .additive
+                .as_ref()
+                .is_none_or(|p| !p.fits(scene, targets))
+        {
+            let (_, layout, _) = self.params.as_ref().expect("params built in ensure");
+            let accum = self.accum.as_ref().expect("targets built in ensure");
+            self.additive = Some(AdditivePass::new(ctx, scene, targets, layout, accum)?);
+        }
         let s = &scene.scene;
         let (a, b, ortho) = s.camera.view_depth_terms();
         let range = self.range(scene);
@@ -374,7 +397,7 @@ impl Technique for Wboit {
             range.z_near.to_bits(),
             range.z_far.to_bits(),
             color_scale.to_bits(),
-            0,
+            u32::from(self.config == Config::Average),
             0,
             0,
         ];
@@ -406,14 +429,22 @@ impl Technique for Wboit {
             );
             scene.bind(&mut pass);
             pass.set_bind_group(1, group, &[]);
-            for i in scene.transparent_draws() {
+            for &i in &draws {
                 scene.draw(&mut pass, &pipelines.scene, i);
             }
         }
         timer.submit(ctx, encoder)?;
         tail::composite(ctx, targets, accum, timer)?;
+        let mut geometry_passes = 1;
+        if let (false, Some(pass)) = (additive.is_empty(), &self.additive) {
+            let ts = timer.pass("wboit additive");
+            let mut encoder = ctx.device.create_command_encoder(&Default::default());
+            pass.draw(&mut encoder, scene, targets, group, &additive, &ts);
+            timer.submit(ctx, encoder)?;
+            geometry_passes = 2;
+        }
         Ok(RenderStats {
-            geometry_passes: 1,
+            geometry_passes,
             ..Default::default()
         })
     }
@@ -425,6 +456,7 @@ impl Technique for Wboit {
         oit_gpu::Work::new(vec![
             tail::accumulate_work("wboit accumulate", accum, reveal),
             tail::composite_work(accum, reveal, target),
+            crate::additive::work(accum, reveal, target),
         ])
     }
 
@@ -444,15 +476,32 @@ impl Technique for Wboit {
     }
 
     fn operator(&self, operator: BlendOperator, caps: &Caps) -> Support {
-        match operator {
-            // (P, t) with t = 1: what is behind is not dimmed.
-            BlendOperator::Over | BlendOperator::Add | BlendOperator::Subtract => {
+        let modulated = self
+            .config
+            .modulation_unsupported(caps, WIDEST_COLOR)
+            .is_none();
+        match (operator, self.config) {
+            (BlendOperator::Over, _) => Support::Approximate(
+                "the order-independent weighted average under the exact coverage (the technique itself)",
+            ),
+            // (P, t = 1): crate::additive.
+            (BlendOperator::Add | BlendOperator::Subtract, Config::Weighted { .. }) => {
                 Support::Approximate(
-                    "an additive fragment has coverage 0: its colour joins the weighted sum without weight in the normaliser, and the sum is scaled by the pixel's total coverage rather than by what lies in front of it",
+                    "kept out of the weighted sums and added after the composite, scaled by the visibility the composite gives an over layer at its depth, w(z)·(1 − Π(1 − α))/Σαw with the weight at α = 1, at most 1 (1 where the pixel has no over layer): exact alone or in front of every layer when the weight falls with depth, WBOIT's estimate behind layers, scalar behind multiply filters",
+                )
+            }
+            (BlendOperator::Add | BlendOperator::Subtract, Config::Average) => {
+                Support::Approximate(
+                    "kept out of the average and added after the composite, scaled by (1 − T)/Σα, the factor the average gives every layer (1 where the pixel has no over layer): exact alone, depth-blind behind layers",
                 )
             }
             // A filter without colour: coloured transmittance with P = 0.
-            BlendOperator::Multiply => self.transmission(caps),
+            (BlendOperator::Multiply, _) if modulated => Support::Approximate(
+                "a colourless filter: what lies behind the transparent layers is multiplied by its exact per-channel t (McGuire & Mara's modulation target); layers and additive light behind it are dimmed by its scalar coverage 1 − mean(t) through the weighted average, not tinted",
+            ),
+            (BlendOperator::Multiply, _) => Support::Approximate(
+                "a colourless filter composited as the scalar coverage 1 − mean(t) (the per-channel modulation target does not fit this adapter's colour attachments): grey, exact for grey filters only",
+            ),
         }
     }
 }
