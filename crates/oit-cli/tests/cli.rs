@@ -169,7 +169,10 @@ fn generated_tables_in_the_docs_are_what_oit_prints_now() {
             );
         }
     }
-    assert_eq!(found, 2, "the techniques and transmission tables");
+    assert_eq!(
+        found, 3,
+        "the techniques, operators and transmission tables"
+    );
 }
 
 #[test]

@@ -561,6 +561,12 @@ impl Technique for PerObject {
         }
     }
 
+    fn queues(&self) -> oit_gpu::Queues {
+        // pygfx's order: (group, queue, render order, distance), so levels composite in order,
+        // and blended objects whose material writes depth write it, hiding later levels.
+        oit_gpu::Queues::Exact
+    }
+
     fn operator(&self, operator: BlendOperator, caps: &Caps) -> Support {
         // Objects with a non-`over` operator are drawn blended under every method.
         match operator {

@@ -299,6 +299,54 @@ const CLAIMS: &[(&str, &[(&str, Claim)])] = {
             ],
         ),
         (
+            "ops-additive-depth-write",
+            &[
+                ("per-object", Exact),
+                ("front-peel", Breaks),
+                ("linked-list", Breaks),
+                ("wboit", Breaks),
+            ],
+        ),
+        (
+            "ops-background-overlay",
+            &[
+                ("sorted-object", Exact),
+                ("per-object", Exact),
+                ("front-peel", Breaks),
+                ("linked-list", Breaks),
+            ],
+        ),
+        (
+            "ops-multiply-tint",
+            &[
+                ("front-peel", Exact),
+                ("linked-list", Exact),
+                ("sorted-object", Exact),
+                ("unsorted", Breaks),
+                ("wboit", Breaks),
+                ("opaque-copy", Breaks),
+            ],
+        ),
+        (
+            "ops-pygfx-mixed",
+            &[
+                ("front-peel", Exact),
+                ("linked-list", Exact),
+                ("sorted-object", Breaks),
+                ("per-object", Breaks),
+            ],
+        ),
+        (
+            "ops-sparks-smoke-glass",
+            &[
+                ("front-peel", Exact),
+                ("sorted-object", Breaks),
+                ("wboit", Breaks),
+                ("mboit", Breaks),
+                ("stochastic", Breaks),
+            ],
+        ),
+        (
             "faint-haze",
             &[("front-peel", Exact), ("sorted-object", Breaks)],
         ),

@@ -28,8 +28,10 @@ const MAX_EXACT: f64 = 4e-3;
 /// 8-bit α), over the pixels whose layers its 15-bit nearness keys keep apart
 /// ([`reference_and_key_ties`]). Measured 2026-12-06 at auto sizes: 4.96e-3 relative on
 /// hdr-emissive (as at any k that holds its 4 layers), 5.87e-3 on random seed 158 and 4.08e-3
-/// on seed 187 of 194 tie-free seeds 0–199, ≤ 3.3e-3 elsewhere; the bound is 1.2× the worst.
-const MAX_KBUFFER_PACKING: f64 = 7e-3;
+/// on seed 187 of 194 tie-free seeds 0–199, ≤ 3.3e-3 elsewhere; 7.78e-3 on
+/// ops-sparks-smoke-glass (2026-12-07: 26 layers, sparks added through smoke whose 8-bit α
+/// each round the transmittance of everything behind); the bound is 1.2× the worst.
+const MAX_KBUFFER_PACKING: f64 = 9.4e-3;
 
 /// The reference of `scene`, and the pixels where two of its fragments share the k-buffer's
 /// nearness key, or have keys one step apart (the top 24 bits of `kbuffer::to_slot`: the
@@ -77,6 +79,13 @@ fn bundled_names() -> Vec<String> {
         .collect();
     names.sort();
     assert!(names.len() >= 10, "bundled scenes missing: {names:?}");
+    // Render-queue scenes: lists composite by depth alone and say so (`queue order not
+    // modelled`); harness::predictions holds them to that.
+    names.retain(|n| {
+        oit_scene::load(&crate::kit::scenes_dir().join(format!("{n}.json")))
+            .map(|s| !s.has_queue_effects())
+            .unwrap_or(true)
+    });
     names
 }
 
