@@ -95,3 +95,36 @@ pub fn max_abs_rgb(a: &LinearImage, b: &LinearImage) -> f32 {
         .flat_map(|(p, q)| (0..3).map(move |c| (p[c] - q[c]).abs()))
         .fold(0.0, f32::max)
 }
+
+/// Pixels a comparison leaves out, each for a reason that is not the technique's: the GPU
+/// rasterized a different fragment count than the reference (conformance), or the reference
+/// itself says rounding decides the pixel (precision ties, cutoff knife edges).
+pub fn undecidable(
+    ctx: &Context,
+    scene: &Scene,
+    reference: &oit_reference::Reference,
+) -> Vec<bool> {
+    let gpu = GpuScene::upload(ctx, scene).expect("upload");
+    let counts = oit_gpu::count_fragments(ctx, &gpu).expect("count fragments");
+    (0..counts.len())
+        .map(|i| {
+            counts[i] != reference.fragments[i]
+                || reference.precision_ties[i]
+                || reference.undecided[i] > 0
+        })
+        .collect()
+}
+
+/// [`max_relative_rgb`] over the pixels `skip` does not mark.
+pub fn max_relative_rgb_except(a: &LinearImage, b: &LinearImage, skip: &[bool]) -> f64 {
+    assert_eq!(a.pixels.len(), b.pixels.len(), "images of different sizes");
+    a.pixels
+        .iter()
+        .zip(&b.pixels)
+        .zip(skip)
+        .filter(|(_, s)| !**s)
+        .flat_map(|((p, q), _)| {
+            (0..3).map(move |c| f64::from((p[c] - q[c]).abs() / q[c].abs().max(1.0)))
+        })
+        .fold(0.0, f64::max)
+}

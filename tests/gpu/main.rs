@@ -9,6 +9,7 @@
 
 mod kit;
 
+mod abuffer;
 mod approximate_operators;
 mod gpu;
 mod harness;

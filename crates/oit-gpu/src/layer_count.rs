@@ -73,6 +73,13 @@ impl LayerCounter {
         self.ledger.total()
     }
 
+    /// The per-pixel counts the last [`LayerCounter::count`] left on the GPU (a u32 per pixel,
+    /// row by row; storage and copy source), for a technique that builds on them, such as the
+    /// prefix-sum A-buffer's scan. `None` before the first count.
+    pub fn counts(&self) -> Option<&wgpu::Buffer> {
+        self.gpu.as_ref().map(|g| &g.counts)
+    }
+
     fn resources(&mut self, ctx: &Context, targets: &Targets) -> Result<&Resources, GpuError> {
         let key = (targets.resolution, targets.color_format);
         if !self.gpu.as_ref().is_some_and(|g| g.key == key) {
@@ -124,7 +131,11 @@ fn build(
         16,
         wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
     );
-    let counts = buffer("layer counts", count_bytes, storage);
+    let counts = buffer(
+        "layer counts",
+        count_bytes,
+        storage | wgpu::BufferUsages::COPY_SRC,
+    );
     let summary = buffer(
         "layer count summary",
         16,

@@ -100,6 +100,7 @@ pub const FAMILIES: &[Family] = &[
     oit_stochastic::FAMILY,
     oit_mboit::FAMILY,
     oit_linked_list::FAMILY,
+    oit_abuffer::FAMILY,
     oit_opaque_copy::FAMILY,
     oit_per_object::FAMILY,
 ];

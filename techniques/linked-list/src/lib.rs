@@ -29,7 +29,7 @@ pub use config::{
     LinkedListConfig, MAX_NODES_PER_PIXEL, MAX_SORT, NodesPerPixel, SortMax, TailRule,
 };
 pub use kbuffer::{K, KBuffer, KBufferConfig, MAX_K};
-pub use list::{FrameCounts, LinkedList, NODE_WGSL, WGSL};
+pub use list::{FrameCounts, LinkedList, NODE_WGSL, WGSL, node_module, stores_opacity};
 pub use node::NodeFormat;
 pub use sizing::{AUTO_MEMORY_CAP, Sizing};
 

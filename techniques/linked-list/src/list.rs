@@ -58,14 +58,7 @@ pub fn shader_sources(
         SORT_MAX_LINE,
         &format!("const SORT_MAX: u32 = {}u;", sort_max.get()),
     );
-    let node = NODE_WGSL.replace(
-        PACKED_LINE,
-        &format!(
-            "const PACKED: bool = {};",
-            config.node == NodeFormat::Packed
-        ),
-    );
-    (list, node_source(&node, transmit))
+    (list, node_module(config.node, transmit))
 }
 
 /// Whether a scene takes the per-channel path: coloured transmission on an adapter with
@@ -74,18 +67,33 @@ pub(crate) fn per_channel(scene: &oit_scene::Scene, caps: &Caps) -> bool {
     scene.has_coloured_transmission() && caps.dual_source_blending
 }
 
-/// Whether the list stores nodes in the transmit layout on `scene`: the per-channel path, or
-/// packed nodes on a scene that subtracts, whose sign only the 16-byte packed node has a bit
-/// for (`NEGATED` of linked_list_node.wgsl); both resolve with dual-source blending.
+/// Whether the list stores nodes in the transmit layout on `scene`: see [`stores_opacity`].
 pub(crate) fn node_layout_transmits(
     config: &LinkedListConfig,
     scene: &oit_scene::Scene,
     caps: &Caps,
 ) -> bool {
+    stores_opacity(config.node, scene, caps)
+}
+
+/// Whether nodes of `format` take the transmit layout (rgb opacity, resolved with dual-source
+/// blending) on `scene`: the per-channel path, or packed nodes on a scene that subtracts,
+/// whose sign only the 16-byte packed node has a bit for (`NEGATED` of linked_list_node.wgsl).
+pub fn stores_opacity(format: NodeFormat, scene: &oit_scene::Scene, caps: &Caps) -> bool {
     per_channel(scene, caps)
-        || (config.node == NodeFormat::Packed
+        || (format == NodeFormat::Packed
             && caps.dual_source_blending
             && scene.operators_used().contains(&BlendOperator::Subtract))
+}
+
+/// linked_list_node.wgsl for nodes of `format`, with rgb opacity when `transmit`: the node
+/// module other stored-fragment techniques include (the prefix-sum A-buffer).
+pub fn node_module(format: NodeFormat, transmit: bool) -> String {
+    let node = NODE_WGSL.replace(
+        PACKED_LINE,
+        &format!("const PACKED: bool = {};", format == NodeFormat::Packed),
+    );
+    node_source(&node, transmit)
 }
 
 /// Per-pixel linked lists with a bounded sort window.

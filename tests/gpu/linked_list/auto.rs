@@ -89,20 +89,6 @@ fn bundled_names() -> Vec<String> {
     names
 }
 
-/// Pixels rounding decides, not the technique: a GPU fragment count other than the
-/// reference's (conformance), precision ties and cutoff knife edges.
-fn undecidable(ctx: &Context, scene: &Scene, reference: &oit_reference::Reference) -> Vec<bool> {
-    let gpu = GpuScene::upload(ctx, scene).expect("upload");
-    let counts = oit_gpu::count_fragments(ctx, &gpu).expect("count fragments");
-    (0..counts.len())
-        .map(|i| {
-            counts[i] != reference.fragments[i]
-                || reference.precision_ties[i]
-                || reference.undecided[i] > 0
-        })
-        .collect()
-}
-
 /// [`crate::kit::max_relative_rgb`] over the pixels not skipped.
 fn max_relative_except(a: &LinearImage, b: &LinearImage, skip: &[bool]) -> f64 {
     a.pixels
@@ -165,7 +151,7 @@ fn auto_sizes_hold_every_fragment_of_every_bundled_scene() {
     for name in bundled_names() {
         let scene = crate::kit::bundled(&name, RES);
         let (reference, key_ties) = reference_and_key_ties(&scene);
-        let skip = undecidable(&ctx, &scene, &reference);
+        let skip = crate::kit::undecidable(&ctx, &scene, &reference);
         let skipped = skip.iter().filter(|s| **s).count();
         let depth = reference.stats.max_depth_complexity;
         let transmit = scene.has_coloured_transmission() && ctx.caps.dual_source_blending;

@@ -3,7 +3,7 @@
 //! CI with OIT_REQUIRE_GPU=1).
 
 use oit_gpu::testing::{context_or_skip, gl_context_or_skip, is_llvmpipe};
-use oit_gpu::{ColorFormat, Context, GpuScene, RenderStats, Technique};
+use oit_gpu::{ColorFormat, Context, RenderStats, Technique};
 use oit_linked_list::node::{self, NodeFormat};
 use oit_linked_list::{LinkedList, LinkedListConfig, TailRule};
 use oit_scene::{LinearImage, Resolution, Scene};
@@ -94,21 +94,6 @@ fn max_diff_except(a: &LinearImage, b: &LinearImage, skip: &[bool]) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// Pixels the comparison leaves out, each for a reason that is not the technique's: the GPU
-/// rasterized a different fragment count than the reference (conformance), or the reference
-/// itself says rounding decides the pixel (precision ties, cutoff knife edges).
-fn undecidable(ctx: &Context, scene: &Scene, reference: &oit_reference::Reference) -> Vec<bool> {
-    let gpu = GpuScene::upload(ctx, scene).expect("upload");
-    let counts = oit_gpu::count_fragments(ctx, &gpu).expect("count fragments");
-    (0..counts.len())
-        .map(|i| {
-            counts[i] != reference.fragments[i]
-                || reference.precision_ties[i]
-                || reference.undecided[i] > 0
-        })
-        .collect()
-}
-
 fn ample(reference: &oit_reference::Reference, pixels: u64) -> LinkedListConfig {
     LinkedListConfig {
         nodes_per_pixel: oit_linked_list::Sizing::Fixed(
@@ -159,7 +144,7 @@ fn ample_pool_equals_the_reference(ctx: &Context) {
         }
         let scene = scene(&name);
         let reference = oit_reference::render(&scene, &Default::default());
-        let skip = undecidable(ctx, &scene, &reference);
+        let skip = crate::kit::undecidable(ctx, &scene, &reference);
         let skipped = skip.iter().filter(|s| **s).count();
         let pixels = RES.pixel_count() as u64;
         let config = ample(&reference, pixels);
@@ -436,7 +421,7 @@ fn k8_is_exact_up_to_its_packing_on_every_bundled_scene_with_at_most_8_layers() 
         let Some(mut k) = kbuffer_or_reason(&ctx, KBufferConfig::default()) else {
             return;
         };
-        let skip = undecidable(&ctx, &scene, &reference);
+        let skip = crate::kit::undecidable(&ctx, &scene, &reference);
         let (image, stats) = render(&ctx, &scene, &mut k, ColorFormat::Rgba16Float);
         let mut reversed_k = KBuffer::new(KBufferConfig::default());
         let (reversed, _) = render(
@@ -620,7 +605,7 @@ fn both_techniques_are_exact_on_seeded_random_scenes_when_nothing_overflows() {
         let (json, about) = oit_scene::random::random_scene_json(seed);
         let scene = oit_scene::parse(&json, "random").unwrap_or_else(|e| panic!("{seed}: {e}"));
         let reference = oit_reference::render(&scene, &Default::default());
-        let skip = undecidable(&ctx, &scene, &reference);
+        let skip = crate::kit::undecidable(&ctx, &scene, &reference);
         let pixels = scene.resolution.pixel_count() as u64;
         let layers = reference.stats.max_depth_complexity;
         let mut techniques: Vec<(String, Maker)> = Vec::new();
