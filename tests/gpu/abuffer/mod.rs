@@ -63,7 +63,7 @@ fn gpu_scan_equals_its_cpu_twin_on_every_level_count() {
                     .wrapping_add(1_442_695_040_888_963_407);
                 // Mostly small counts, now and then a deep pixel.
                 let r = (state >> 33) as u32;
-                if r % 97 == 0 { r % 300 } else { r % 5 }
+                if r.is_multiple_of(97) { r % 300 } else { r % 5 }
             })
             .collect();
         let bytes = (len * 4) as u64;
