@@ -244,14 +244,20 @@ impl Caps {
         blend: bool,
     ) -> Result<(), crate::Unsupported> {
         let c = self.format(format);
+        // Over GL the limit is wgpu's, not the driver's (docs/findings/2026-12-07-gl-rg32f.md).
+        let gl_float32 = if self.backend == wgpu::Backend::Gl && is_float32_color(format) {
+            "; wgpu's GL backend renders 32-bit float targets only when the context lists GL_EXT/ARB_color_buffer_float (desktop core profiles need not: it is core since GL 3.0) and never offers FLOAT32_BLENDABLE"
+        } else {
+            ""
+        };
         if !c.renderable {
             return Err(crate::Unsupported::new(format!(
-                "the adapter cannot render to {format:?} textures"
+                "the adapter cannot render to {format:?} textures{gl_float32}"
             )));
         }
         if blend && !c.blendable {
             return Err(crate::Unsupported::new(format!(
-                "the adapter cannot blend into {format:?} textures{}",
+                "the adapter cannot blend into {format:?} textures{}{gl_float32}",
                 if is_float32_color(format) && !self.float32_blendable {
                     " (no FLOAT32_BLENDABLE feature)"
                 } else {

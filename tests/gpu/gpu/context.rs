@@ -127,7 +127,9 @@ fn gl_adapter_caps() {
     assert_eq!(info.backend, "gl");
     assert!(ctx.caps.is_gl() && !ctx.caps.depth_copies() && !ctx.caps.depth_texture_loads());
     if info.name.to_lowercase().contains("llvmpipe") {
-        // Mesa's llvmpipe GL driver does not render RG32F; Caps must say so.
+        // wgpu 30's GL backend does not offer RG32F as a render target on llvmpipe's core
+        // profile (docs/findings/2026-12-07-gl-rg32f.md); Caps must say so, and the refusal
+        // must say whose limit it is.
         let rg32 = ctx.caps.format(wgpu::TextureFormat::Rg32Float);
         assert!(
             !rg32.renderable,
@@ -137,7 +139,13 @@ fn gl_adapter_caps() {
             .caps
             .require_target(wgpu::TextureFormat::Rg32Float, false)
             .unwrap_err();
-        assert!(e.to_string().contains("Rg32Float"), "{e}");
+        let e = e.to_string();
+        assert!(
+            e.contains("Rg32Float")
+                && e.contains("wgpu's GL backend")
+                && e.contains("FLOAT32_BLENDABLE"),
+            "{e}"
+        );
     }
 }
 
