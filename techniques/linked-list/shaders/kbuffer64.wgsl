@@ -14,16 +14,34 @@
 // per-channel opacity 1 − t as 3 × unorm10. Both of a fragment's slots share the high word,
 // whose low byte is then a hash of the two low words instead of α: the chains sort alike, so
 // slot i of both holds the same fragment (unless two fragments tie on nearness and hash).
+//
+// `hybrid` (Maule, Comba, Torchelsen & Bastos 2013: the K nearest exact, the rest weighted
+// blended) is this pass with tail = 2: a fragment pushed out enters the tail sums weighted by
+// WBOIT's `range` weight at its depth (wboit_tail.wgsl, oit_wboit::RangeParams), so nearer
+// tail fragments count more than farther ones; coverage stays the exact 1 − Π(1 − α).
 #include "common.wgsl"
 #include "linked_list_node.wgsl"
+#include "wboit_tail.wgsl"
 
 struct KParams {
     width: u32,
     k: u32,
     // 1 when window depth 1 is near.
     reverse_z: u32,
-    // 0 drop, 1 average.
+    // 0 drop, 1 average, 2 average weighted by the `range` weight (hybrid).
     tail: u32,
+    // The `range` weight's scene inputs (hybrid; 1 for colour_scale otherwise): the
+    // transparent depth interval as view distances, the fall in bits, the unit of the colour
+    // sums (a power of two, multiplied back in the resolve).
+    z_near: f32,
+    z_far: f32,
+    fall: f32,
+    color_scale: f32,
+    // The projection terms of `wboit_view_distance`; ortho 1 for an orthographic camera.
+    proj_a: f32,
+    proj_b: f32,
+    ortho: u32,
+    pad: u32,
 }
 
 @group(1) @binding(0) var<uniform> params: KParams;
@@ -84,8 +102,24 @@ fn from_slot(s: u64) -> Fragment {
     return f;
 }
 
+// The weight of a slot pushed out into the tail: 1, or for the hybrid the `range` weight at
+// the slot's depth (its nearness is window depth to 2^-15). CPU twin:
+// `oit_linked_list::kbuffer::tail_weight`.
+fn tail_weight(s: u64) -> f32 {
+    if params.tail != 2u {
+        return 1.0;
+    }
+    let nearness = bitcast<f32>(u32(s >> 32u) & 0xFFFFFF00u);
+    var z = 1.0 - nearness;
+    if params.reverse_z != 0u {
+        z = nearness;
+    }
+    let view_z = wboit_view_distance(z, params.proj_a, params.proj_b, params.ortho != 0u);
+    return wboit_weight_range(view_z, params.z_near, params.z_far, params.fall);
+}
+
 struct TailOut {
-    // Added: (C, α) of the fragment pushed out, or 0.
+    // Added: (C / colour scale, α), times the tail weight, of the fragment pushed out, or 0.
     @location(0) sum: vec4<f32>,
     // Multiplied in as (1 − src): α of the fragment pushed out, or 0.
     @location(1) transmittance: vec4<f32>,
@@ -107,7 +141,8 @@ fn fs_insert(v: VertexOut, @builtin(front_facing) front_facing: bool) -> TailOut
     out.transmittance = vec4<f32>(0.0);
     if cur != 0lu {
         let f = from_slot(cur);
-        out.sum = vec4<f32>(f.color, f.opacity.x);
+        let w = tail_weight(cur);
+        out.sum = vec4<f32>(f.color * (w / params.color_scale), f.opacity.x * w);
         out.transmittance = vec4<f32>(f.opacity.x);
     }
     return out;
@@ -121,7 +156,8 @@ fn vs_fullscreen(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> 
 }
 
 // The K slots front to back, then the tail as one layer (coverage 1 − Π(1 − α), the α-weighted
-// mean colour) or nothing; (C, 1 − T) blended premultiplied OVER onto the final colour.
+// mean colour, each fragment also weighted by its tail weight) or nothing; (C, 1 − T) blended
+// premultiplied OVER onto the final colour.
 @fragment
 fn fs_resolve(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
     let px = vec2<u32>(position.xy);
@@ -139,9 +175,9 @@ fn fs_resolve(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> 
     }
     let sum = textureLoad(tail_sum, px, 0);
     if sum.a > 0.0 {
-        if params.tail == 1u {
+        if params.tail != 0u {
             let tail_t = textureLoad(tail_transmittance, px, 0).r;
-            c += t * sum.rgb * ((1.0 - tail_t) / sum.a);
+            c += t * sum.rgb * (params.color_scale * (1.0 - tail_t) / sum.a);
             t *= tail_t;
             atomicAdd(&counters[1], 1u);
         } else {

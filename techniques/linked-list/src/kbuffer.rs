@@ -200,10 +200,56 @@ pub fn resolve(slots: &[u64], k: usize, tail: TailRule) -> ([f32; 3], f32) {
     (c, t)
 }
 
+/// How the fragments pushed out of the slots are weighted in the averaged tail.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum TailWeight {
+    /// Every fragment alike (`k-buffer:tail=average`): the α-weighted mean colour.
+    Equal,
+    /// WBOIT's `range` weight at the fragment's depth (`hybrid`): nearer fragments count more.
+    Range,
+}
+
+/// CPU twin of `tail_weight` of kbuffer64.wgsl for a `Range`-weighted tail: the `range`
+/// weight at the depth the slot's nearness key keeps.
+pub fn tail_weight(slot: u64, range: &oit_wboit::RangeParams, camera: &oit_scene::Camera) -> f32 {
+    let nearness = f32::from_bits((slot >> 32) as u32 & 0xFFFF_FF00);
+    let z = if camera.reverse_z {
+        nearness
+    } else {
+        1.0 - nearness
+    };
+    range.weight(camera.view_distance(z))
+}
+
+/// [`resolve`] with each tail fragment weighted by `weight(slot)`: the K nearest front to
+/// back, then the tail with coverage 1 − Π(1 − α) and colour Σ w·C / Σ w·α (the hybrid's).
+pub fn resolve_weighted(slots: &[u64], k: usize, weight: impl Fn(u64) -> f32) -> ([f32; 3], f32) {
+    let mut sorted = slots.to_vec();
+    sorted.sort_unstable_by(|a, b| b.cmp(a));
+    let (kept, rest) = sorted.split_at(k.min(sorted.len()));
+    let (mut c, mut t) = resolve(kept, k, TailRule::Drop);
+    let (sum, alpha_sum, tail_t) = rest.iter().fold(([0.0f32; 3], 0.0f32, 1.0f32), |acc, s| {
+        let f = from_slot(*s);
+        let w = weight(*s);
+        (
+            [0, 1, 2].map(|i| acc.0[i] + w * f.color[i]),
+            acc.1 + w * f.opacity[0],
+            acc.2 * (1.0 - f.opacity[0]),
+        )
+    });
+    if alpha_sum > 0.0 {
+        c = [0, 1, 2].map(|i| c[i] + t * sum[i] * ((1.0 - tail_t) / alpha_sum));
+        t *= tail_t;
+    }
+    (c, t)
+}
+
 /// The k-buffer on 64-bit atomics.
 #[derive(Debug)]
 pub struct KBuffer {
     config: KBufferConfig,
+    /// How an averaged tail weights its fragments (`Range`: the hybrid).
+    weight: TailWeight,
     gpu: Option<Resources>,
     ledger: MemoryLedger,
     /// The count pass (`k=auto` only).
@@ -229,8 +275,14 @@ struct Resources {
 
 impl KBuffer {
     pub fn new(config: KBufferConfig) -> Self {
+        Self::with_tail_weight(config, TailWeight::Equal)
+    }
+
+    /// A k-buffer whose averaged tail weights its fragments by `weight` (`hybrid`).
+    pub fn with_tail_weight(config: KBufferConfig, weight: TailWeight) -> Self {
         KBuffer {
             config,
+            weight,
             gpu: None,
             ledger: MemoryLedger::new(),
             counter: LayerCounter::new(),
@@ -320,7 +372,7 @@ impl KBuffer {
         };
         let params = buffer(
             "k-buffer params",
-            16,
+            48,
             wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         );
         let slots = buffer("k-buffer slots", slot_bytes, storage);
@@ -393,13 +445,21 @@ impl KBuffer {
             ctx.shader_with(
                 "kbuffer64_transmit.wgsl",
                 KBUFFER64_TRANSMIT_WGSL,
-                &[&[("linked_list_node.wgsl", &node)], crate::SHADERS],
+                &[
+                    &[("linked_list_node.wgsl", &node)],
+                    crate::SHADERS,
+                    oit_wboit::SHADERS,
+                ],
             )?
         } else {
             ctx.shader_with(
                 "kbuffer64.wgsl",
                 KBUFFER64_WGSL,
-                &[&[("linked_list_node.wgsl", &node)], crate::SHADERS],
+                &[
+                    &[("linked_list_node.wgsl", &node)],
+                    crate::SHADERS,
+                    oit_wboit::SHADERS,
+                ],
             )?
         };
         let insert_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -554,11 +614,33 @@ impl Technique for KBuffer {
             sized_bytes: r.slots.size(),
             count_bytes: self.counter.memory_bytes(),
         });
-        let words: [u32; 4] = [
+        let weighted = self.weight == TailWeight::Range && self.config.tail == TailRule::Average;
+        if weighted && transmit {
+            return Err(GpuError::Mismatch(
+                "the range-weighted tail is scalar; two-chain scenes are refused by `hybrid`'s support".into(),
+            ));
+        }
+        let tail = match (self.config.tail, weighted) {
+            (TailRule::Drop, _) => 0u32,
+            (TailRule::Average, false) => 1,
+            (TailRule::Average, true) => 2,
+        };
+        let range = weighted.then(|| oit_wboit::RangeParams::of(&scene.scene));
+        let (proj_a, proj_b, ortho) = scene.scene.camera.view_depth_terms();
+        let floats = |x: f32| x.to_bits();
+        let words: [u32; 12] = [
             targets.resolution.width,
             k.get(),
             u32::from(scene.scene.camera.reverse_z),
-            u32::from(self.config.tail == TailRule::Average),
+            tail,
+            floats(range.map_or(0.0, |r| r.z_near)),
+            floats(range.map_or(1.0, |r| r.z_far)),
+            floats(range.map_or(0.0, |r| r.fall)),
+            floats(range.map_or(1.0, |r| r.color_scale)),
+            floats(proj_a),
+            floats(proj_b),
+            u32::from(ortho),
+            0,
         ];
         ctx.queue
             .write_buffer(&r.params, 0, bytemuck::cast_slice(&words));

@@ -19,6 +19,7 @@
 
 mod config;
 mod frame;
+mod hybrid;
 pub mod kbuffer;
 mod list;
 pub mod node;
@@ -28,7 +29,8 @@ mod sizing;
 pub use config::{
     LinkedListConfig, MAX_NODES_PER_PIXEL, MAX_SORT, NodesPerPixel, SortMax, TailRule,
 };
-pub use kbuffer::{K, KBuffer, KBufferConfig, MAX_K};
+pub use hybrid::{Hybrid, HybridConfig, HybridWeight};
+pub use kbuffer::{K, KBuffer, KBufferConfig, MAX_K, TailWeight};
 pub use list::{FrameCounts, LinkedList, NODE_WGSL, WGSL, node_module, stores_opacity};
 pub use node::NodeFormat;
 pub use sizing::{AUTO_MEMORY_CAP, Sizing};
@@ -52,7 +54,7 @@ pub const FAMILY: oit_gpu::Family = oit_gpu::Family {
     folder: "linked-list",
     techniques,
     shader_dir: SHADER_DIR,
-    shaders: &[SHADERS],
+    shaders: &[SHADERS, oit_wboit::SHADERS],
 };
 
 use oit_gpu::TechniqueInfo;
@@ -73,6 +75,13 @@ pub fn techniques() -> Vec<TechniqueInfo> {
             params: KBufferConfig::params(),
             transmission: "**exact** per channel up to its storage with dual-source blending: a second chain of opacity slots `1 − t` (unorm10) sorted like the colour slots, composited per channel and blended `dst = C + T ⊙ dst`; an averaged tail is per channel and still reported. Without dual-source blending approximate: `1 − mean(t)`",
             build: |spec| Ok(Box::new(KBuffer::from_spec(spec)?)),
+        },
+        TechniqueInfo {
+            name: "hybrid",
+            description: "hybrid transparency (Maule et al. 2013): the k nearest fragments per pixel exact in k-buffer slots, the rest averaged with WBOIT's range weight at their depth (coverage exact); needs SHADER_INT64_ATOMIC_ALL_OPS (Vulkan, DX12)",
+            params: HybridConfig::params(),
+            transmission: "no: its weighted tail is scalar; scenes with coloured transmission (or `subtract`) take the k-buffer's two chains, whose tail it does not weight",
+            build: |spec| Ok(Box::new(Hybrid::from_spec(spec)?)),
         },
     ]
 }

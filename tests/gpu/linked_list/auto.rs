@@ -110,7 +110,7 @@ fn node_bytes(ctx: &Context, scene: &Scene) -> u64 {
 
 /// Memory at the auto sizes: the sized storage, the count pass, and what the technique keeps
 /// whatever the size (the list: heads and lost counts 8 B/px + 48 B; the k-buffer: tail
-/// targets 10 B/px or 24 B/px on the rgb-opacity path, + 48 B).
+/// targets 10 B/px or 24 B/px on the rgb-opacity path, + 80 B).
 fn check_memory(
     name: &str,
     spec: &str,
@@ -126,7 +126,10 @@ fn check_memory(
         _ => 8,
     };
     let count_bytes = pixels * 4 + 48;
-    let expected = sizes.sized_bytes + count_bytes + pixels * per_pixel + 48;
+    // Parameters, counters and their readback: 48 B for the list, 80 B for the k-buffer
+    // (its parameters carry the hybrid's weight inputs).
+    let fixed = if spec == KBUFFER_AUTO { 80 } else { 48 };
+    let expected = sizes.sized_bytes + count_bytes + pixels * per_pixel + fixed;
     if sizes.count_bytes != count_bytes || memory != expected {
         return Err(format!(
             "{name} {spec}: memory {memory} B, expected {expected} ({sizes:?})"

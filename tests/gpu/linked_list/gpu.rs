@@ -550,7 +550,7 @@ fn the_kbuffer_matches_its_cpu_twin_and_counts_its_memory() {
         }
         assert_eq!(
             kb.memory_bytes(),
-            64 * config.bytes_per_pixel(false).expect("fixed sizes") + 48,
+            64 * config.bytes_per_pixel(false).expect("fixed sizes") + 80,
             "k {k}"
         );
     }

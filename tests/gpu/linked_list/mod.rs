@@ -1,5 +1,6 @@
 mod auto;
 pub(crate) use auto::reference_and_key_ties;
 mod gpu;
+mod hybrid;
 mod transmission;
 mod twins;

@@ -317,7 +317,7 @@ fn kbuffer_opacity_slots_equal_the_reference_up_to_their_packing_in_both_draw_or
         }
         assert_eq!(
             kb.memory_bytes(),
-            pixels * config.bytes_per_pixel(true).expect("fixed sizes") + 48,
+            pixels * config.bytes_per_pixel(true).expect("fixed sizes") + 80,
             "{name}"
         );
     }

@@ -142,7 +142,7 @@ fn rgb9e5_on_the_gpu_equals_its_cpu_twin() {
 
 /// kbuffer64.wgsl with its includes, as the k-buffer pass composes it.
 fn kbuffer_source() -> String {
-    oit_gpu::shaders::compose_with(kbuffer::KBUFFER64_WGSL, &[oit_linked_list::SHADERS])
+    oit_gpu::shaders::compose_with(kbuffer::KBUFFER64_WGSL, oit_linked_list::FAMILY.shaders)
         .expect("includes resolve")
 }
 
@@ -194,8 +194,22 @@ fn kbuffer_slots_on_the_gpu_equal_their_cpu_twin_word_for_word() {
     let mut failures = Vec::new();
     let mut worst_alpha_ulps = 0u32;
     for reverse_z in [false, true] {
-        // `KParams`: width, k, reverse_z, tail.
-        let words = [64u32, 8, u32::from(reverse_z), 1];
+        // `KParams`: width, k, reverse_z, tail, then the hybrid's weight inputs (unused at
+        // tail 1; colour scale 1).
+        let words = [
+            64u32,
+            8,
+            u32::from(reverse_z),
+            1,
+            0,
+            1f32.to_bits(),
+            0,
+            1f32.to_bits(),
+            0,
+            0,
+            0,
+            0,
+        ];
         let uniform = uniform_buffer(&ctx, bytemuck::cast_slice(&words));
         let group1 = [oit_gpu::wgpu::BindGroupEntry {
             binding: 0,
