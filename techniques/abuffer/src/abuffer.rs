@@ -8,7 +8,7 @@ use oit_gpu::{
     ScenePipelines, SpecError, Support, Targets, Technique, TechniqueSpec, Unsupported, bind,
     fullscreen_pipeline, mib, pass, read_buffer_u32,
 };
-use oit_linked_list::NodeFormat;
+use oit_linked_list::{NodeFormat, PER_CHANNEL_OVER};
 use oit_scene::{BlendOperator, Resolution};
 
 /// shaders/abuffer.wgsl (fill and resolve) and its dual-source root.
@@ -19,17 +19,6 @@ pub const TRANSMIT_WGSL: &str = include_str!("../shaders/abuffer_transmit.wgsl")
 /// fragment techniques' `auto` sizes: `oit_linked_list::AUTO_MEMORY_CAP`); the adapter's own
 /// limit on one storage binding applies too, and the smaller decides.
 pub const MEMORY_CAP: u64 = oit_linked_list::AUTO_MEMORY_CAP;
-
-/// `dst = src0 + src1 ⊙ dst` per channel (src1 = the stack's rgb transmittance); alpha as
-/// premultiplied OVER.
-const PER_CHANNEL_OVER: wgpu::BlendState = wgpu::BlendState {
-    color: wgpu::BlendComponent {
-        src_factor: wgpu::BlendFactor::One,
-        dst_factor: wgpu::BlendFactor::Src1,
-        operation: wgpu::BlendOperation::Add,
-    },
-    alpha: PREMULTIPLIED_OVER.alpha,
-};
 
 /// A valid `abuffer` configuration.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -493,28 +482,11 @@ impl Technique for Abuffer {
     }
 
     fn transmission(&self, caps: &Caps) -> Support {
-        if !caps.dual_source_blending {
-            return Support::Approximate(
-                "composites 1 − mean(t) as scalar α, exact for grey filters only (the per-channel resolve dst = C + T ⊙ dst needs dual-source blending, which the adapter lacks)",
-            );
-        }
-        Support::Exact
+        // The list's nodes, so the list's support.
+        oit_linked_list::node_transmission(caps)
     }
 
     fn operator(&self, operator: BlendOperator, caps: &Caps) -> Support {
-        match operator {
-            BlendOperator::Over | BlendOperator::Add => Support::Exact,
-            // binary16 holds the sign; rgb9e5 does not, and only the packed node with rgb
-            // opacity has a bit for it (resolved with dual-source blending).
-            BlendOperator::Subtract
-                if self.config.node == NodeFormat::F32 || caps.dual_source_blending =>
-            {
-                Support::Exact
-            }
-            BlendOperator::Subtract => Support::Unsupported(
-                "packed fragments store rgb9e5 colour, which holds no sign; the layout that carries it resolves with dual-source blending, which the adapter lacks",
-            ),
-            BlendOperator::Multiply => self.transmission(caps),
-        }
+        oit_linked_list::node_operator(self.config.node, operator, caps)
     }
 }

@@ -31,7 +31,10 @@ pub use config::{
 };
 pub use hybrid::{Hybrid, HybridConfig, HybridWeight};
 pub use kbuffer::{K, KBuffer, KBufferConfig, MAX_K, TailWeight};
-pub use list::{FrameCounts, LinkedList, NODE_WGSL, WGSL, node_module, stores_opacity};
+pub use list::{
+    FrameCounts, LinkedList, NODE_WGSL, PER_CHANNEL_OVER, WGSL, node_module, node_operator,
+    node_transmission, stores_opacity,
+};
 pub use node::NodeFormat;
 pub use sizing::{AUTO_MEMORY_CAP, Sizing};
 

@@ -28,7 +28,7 @@ pub(crate) const TRANSMIT_LINE: &str = "override TRANSMIT: bool = false;";
 
 /// `dst = src0 + src1 ⊙ dst` per channel (src1 = the stack's rgb transmittance); alpha as
 /// premultiplied OVER. Needs dual-source blending, hence one target.
-pub(crate) const PER_CHANNEL_OVER: wgpu::BlendState = wgpu::BlendState {
+pub const PER_CHANNEL_OVER: wgpu::BlendState = wgpu::BlendState {
     color: wgpu::BlendComponent {
         src_factor: wgpu::BlendFactor::One,
         dst_factor: wgpu::BlendFactor::Src1,
@@ -551,33 +551,43 @@ impl Technique for LinkedList {
     }
 
     fn transmission(&self, caps: &Caps) -> Support {
-        if !caps.dual_source_blending {
-            return Support::Approximate(
-                "composites 1 − mean(t) as scalar α, exact for grey filters only (the per-channel resolve dst = C + T ⊙ dst needs dual-source blending, which the adapter lacks)",
-            );
-        }
-        // Nodes store rgb opacity: binary16 (f32 nodes) or unorm10 (packed), as they store α.
-        // An averaged tail stays an approximation, per channel, and is reported per pixel.
-        Support::Exact
+        node_transmission(caps)
     }
 
     fn operator(&self, operator: BlendOperator, caps: &Caps) -> Support {
-        match operator {
-            // (P, t) with t = 1: what is behind is not dimmed.
-            BlendOperator::Over | BlendOperator::Add => Support::Exact,
-            // binary16 holds the sign; rgb9e5 does not, and only the 16-byte packed node (the
-            // transmit layout, resolved with dual-source blending) has a bit for it.
-            BlendOperator::Subtract
-                if self.config.node == NodeFormat::F32 || caps.dual_source_blending =>
-            {
-                Support::Exact
-            }
-            BlendOperator::Subtract => Support::Unsupported(
-                "packed nodes store rgb9e5 colour, which holds no sign; the 16-byte node that carries it resolves with dual-source blending, which the adapter lacks",
-            ),
-            // A filter without colour: coloured transmittance with P = 0.
-            BlendOperator::Multiply => self.transmission(caps),
+        node_operator(self.config.node, operator, caps)
+    }
+}
+
+/// What stored nodes do with coloured transmission on an adapter with `caps` (the list's and
+/// the A-buffer's): per channel, exact up to their storage, with dual-source blending.
+pub fn node_transmission(caps: &Caps) -> Support {
+    if !caps.dual_source_blending {
+        return Support::Approximate(
+            "composites 1 − mean(t) as scalar α, exact for grey filters only (the per-channel resolve dst = C + T ⊙ dst needs dual-source blending, which the adapter lacks)",
+        );
+    }
+    // Nodes store rgb opacity: binary16 (f32 nodes) or unorm10 (packed), as they store α.
+    // An averaged tail stays an approximation, per channel, and is reported per pixel.
+    Support::Exact
+}
+
+/// What nodes of `format` do with `operator` on an adapter with `caps` (the list's and the
+/// A-buffer's).
+pub fn node_operator(format: NodeFormat, operator: BlendOperator, caps: &Caps) -> Support {
+    match operator {
+        // (P, t) with t = 1: what is behind is not dimmed.
+        BlendOperator::Over | BlendOperator::Add => Support::Exact,
+        // binary16 holds the sign; rgb9e5 does not, and only the 16-byte packed node (the
+        // transmit layout, resolved with dual-source blending) has a bit for it.
+        BlendOperator::Subtract if format == NodeFormat::F32 || caps.dual_source_blending => {
+            Support::Exact
         }
+        BlendOperator::Subtract => Support::Unsupported(
+            "packed nodes store rgb9e5 colour, which holds no sign; the 16-byte node that carries it resolves with dual-source blending, which the adapter lacks",
+        ),
+        // A filter without colour: coloured transmittance with P = 0.
+        BlendOperator::Multiply => node_transmission(caps),
     }
 }
 
