@@ -20,4 +20,5 @@ mod peel;
 mod per_object;
 mod sorted;
 mod stochastic;
+mod wavelet;
 mod wboit;

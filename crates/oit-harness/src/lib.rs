@@ -99,6 +99,7 @@ pub const FAMILIES: &[Family] = &[
     oit_wboit::FAMILY,
     oit_stochastic::FAMILY,
     oit_mboit::FAMILY,
+    oit_wavelet::FAMILY,
     oit_linked_list::FAMILY,
     oit_abuffer::FAMILY,
     oit_opaque_copy::FAMILY,
