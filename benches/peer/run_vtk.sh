@@ -1,0 +1,62 @@
+#!/usr/bin/env bash
+# VTK peer comparison, interleaved: flatten each scene, then ROUNDS x (vtk_peer.py on every
+# scene, then one `oit compare` of every scene), then one untimed VTK frame per mode compared
+# with the last round's oit-lab EXRs, then the table. See README.md beside this file.
+#
+#   benches/peer/run_vtk.sh [OUT_DIR]        (default /tmp/oit-vtk-peer)
+#   env: OIT (oit binary, default target/release/oit)
+#        FLATTEN (a built flatten binary; default `cargo run --release -p oit-tools --bin flatten`)
+#        PYTHON (a python with vtk, numpy, imageio, OpenEXR; default python3)
+#        SCENES ("scenes/many-layers-64.json scenes/particles.json"), RES (256x256), ROUNDS (3)
+#        VTK_MODES (peel,oit,blend), VTK_FRAMES (20), VTK_WARMUP (3), OIT_FRAMES (20), OIT_WARMUP (3)
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+OUT=${1:-/tmp/oit-vtk-peer}
+OIT=${OIT:-target/release/oit}
+PYTHON=${PYTHON:-python3}
+read -r -a SCENES <<< "${SCENES:-scenes/many-layers-64.json scenes/particles.json}"
+RES=${RES:-256x256}
+ROUNDS=${ROUNDS:-3}
+VTK_MODES=${VTK_MODES:-peel,oit,blend}
+VTK_FRAMES=${VTK_FRAMES:-20}
+VTK_WARMUP=${VTK_WARMUP:-3}
+OIT_FRAMES=${OIT_FRAMES:-20}
+OIT_WARMUP=${OIT_WARMUP:-3}
+# The oit-lab techniques VTK's modes stand next to (vtk_peer.py's MODES says which is whose).
+TECHNIQUES=(-t unsorted -t sorted-object -t 'wboit:weight=const' -t 'dual-peel:passes=auto,depth=rg32f')
+[ -x "$OIT" ] || { echo "run_vtk.sh: no oit binary at $OIT (build it with cargo build --release -p oit-cli, or set OIT)" >&2; exit 1; }
+"$PYTHON" -c 'import vtkmodules, numpy' 2>/dev/null \
+    || { echo "run_vtk.sh: $PYTHON has no vtk/numpy (see README.md: pip install vtk ...; or set PYTHON)" >&2; exit 1; }
+mkdir -p "$OUT"
+
+flatten() {
+    if [ -n "${FLATTEN:-}" ]; then "$FLATTEN" "$@"; else cargo run -q --release -p oit-tools --bin flatten -- "$@"; fi
+}
+names=()
+for s in "${SCENES[@]}"; do
+    n=$(basename "$s" .json)
+    names+=("$n")
+    flatten "$s" --resolution "$RES" > "$OUT/$n.flat.json"
+done
+
+for i in $(seq 1 "$ROUNDS"); do
+    for n in "${names[@]}"; do
+        echo "== round $i: VTK $n ($(uptime))"
+        "$PYTHON" benches/peer/vtk_peer.py --scene "$OUT/$n.flat.json" --modes "$VTK_MODES" \
+            --frames "$VTK_FRAMES" --warmup "$VTK_WARMUP" --json "$OUT/round$i-vtk-$n.json"
+    done
+    echo "== round $i: oit-lab ($(uptime))"
+    "$OIT" compare "${SCENES[@]}" "${TECHNIQUES[@]}" --resolution "$RES" \
+        --frames "$OIT_FRAMES" --warmup "$OIT_WARMUP" --out "$OUT/round$i-oit"
+done
+
+# Images (untimed): one VTK frame per mode against the last round's oit-lab EXRs and reference,
+# drawn with --flip-y so that edges on pixel centres fall as in oit-lab (see README.md).
+for n in "${names[@]}"; do
+    echo "== images: VTK $n vs round $ROUNDS oit-lab"
+    "$PYTHON" benches/peer/vtk_peer.py --scene "$OUT/$n.flat.json" --modes "$VTK_MODES" \
+        --frames 1 --warmup 0 --flip-y --png-dir "$OUT/vtk-png" --compare-results "$OUT/round$ROUNDS-oit" \
+        --json "$OUT/images-vtk-$n.json"
+done
+echo
+"$PYTHON" benches/peer/table.py "$OUT" | tee "$OUT/table.md"
