@@ -257,7 +257,8 @@ fn error_falls_from_stochastic_towards_the_kbuffer_as_k_grows() {
 
 /// Draws and triangles submitted in reverse: masks are hashed from each fragment's pixel and
 /// content, the slots and samples by atomicMax, so only the tail targets' blends (binary16
-/// sums and products) round in another order.
+/// sums and products) round in another order. Measured 2026-12-07 on lavapipe: 4.9e-4
+/// (many-layers-64, K = 4) and 9.8e-4 (particles, K = 2, S = 16), a binary16 step or two.
 #[test]
 fn reversed_submission_changes_only_the_tail_sums_rounding() {
     let Some(ctx) = context() else {
