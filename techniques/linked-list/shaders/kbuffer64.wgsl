@@ -41,7 +41,8 @@ struct KParams {
     proj_a: f32,
     proj_b: f32,
     ortho: u32,
-    pad: u32,
+    // `slab`'s coverage samples per pixel (slab.wgsl); 0 for the k-buffer and the hybrid.
+    samples: u32,
 }
 
 @group(1) @binding(0) var<uniform> params: KParams;

@@ -16,6 +16,10 @@
 //! in `k` u64 slots updated by a chain of 64-bit `atomicMax` in one geometry pass; the fragment
 //! a full pixel pushes out goes to two tail targets by hardware blending (Σ(C, α) and Π(1 − α)),
 //! which the resolve composites behind the slots with the same averaged-tail rule (or drops).
+//!
+//! `slab` (Wyman 2016's stochastic layered alpha blending, without interlock): the k-buffer's K
+//! slots, and behind them stochastic transparency over S coverage samples per pixel
+//! (src/slab.rs).
 
 mod config;
 mod frame;
@@ -25,6 +29,7 @@ mod list;
 pub mod node;
 mod predict;
 mod sizing;
+pub mod slab;
 
 pub use config::{
     LinkedListConfig, MAX_NODES_PER_PIXEL, MAX_SORT, NodesPerPixel, SortMax, TailRule,
@@ -37,6 +42,7 @@ pub use list::{
 };
 pub use node::NodeFormat;
 pub use sizing::{AUTO_MEMORY_CAP, Sizing};
+pub use slab::{Slab, SlabConfig, SlabSamples};
 
 /// Every WGSL file of this crate (`shaders/`), by file name: what its passes' `#include`s
 /// resolve in first (`oit_gpu::shaders::resolve`), and what the shader test holds against the
@@ -47,6 +53,7 @@ pub const SHADERS: oit_gpu::shaders::Library = &[
     ("linked_list.wgsl", list::WGSL),
     ("linked_list_node.wgsl", list::NODE_WGSL),
     ("linked_list_transmit.wgsl", list::TRANSMIT_WGSL),
+    ("slab.wgsl", slab::SLAB_WGSL),
 ];
 
 /// This crate's `shaders/` folder.
@@ -86,6 +93,13 @@ pub fn techniques() -> Vec<TechniqueInfo> {
             transmission: "no: its weighted tail is scalar; scenes with coloured transmission (or `subtract`) take the k-buffer's two chains, whose tail it does not weight",
             build: |spec| Ok(Box::new(Hybrid::from_spec(spec)?)),
         },
+        TechniqueInfo {
+            name: "slab",
+            description: "stochastic layered alpha blending (Wyman 2016) without interlock: the k nearest fragments per pixel exact in k-buffer slots, the rest as stochastic transparency (Enderton et al. 2010) over S coverage samples, alpha-corrected; k slides from stochastic to the k-buffer; needs SHADER_INT64_ATOMIC_ALL_OPS (Vulkan, DX12)",
+            params: SlabConfig::params(),
+            transmission: "no: its stochastic tail is scalar (one coverage mask per fragment); scenes with coloured transmission (or `subtract`) take the k-buffer's two chains, which it does not extend",
+            build: |spec| Ok(Box::new(Slab::from_spec(spec)?)),
+        },
     ]
 }
 
@@ -107,6 +121,8 @@ mod tests {
         );
         let t = TechniqueSpec::build("k-buffer:k=16,tail=drop", &registry).unwrap();
         assert_eq!(t.spec().to_string(), "k-buffer:k=16,tail=drop");
+        let t = TechniqueSpec::build("slab", &registry).unwrap();
+        assert_eq!(t.spec().to_string(), "slab:k=4,samples=8");
         for bad in [
             "linked-list:sort-max=0",
             "linked-list:sort-max=129",
@@ -115,6 +131,10 @@ mod tests {
             "k-buffer:k=0",
             "k-buffer:k=33",
             "k-buffer:tail=sort",
+            "slab:k=0",
+            "slab:k=33",
+            "slab:samples=4",
+            "slab:samples=64",
         ] {
             let e = TechniqueSpec::parse(bad, &registry).unwrap_err();
             assert!(e.to_string().contains("allowed"), "{bad}: {e}");
