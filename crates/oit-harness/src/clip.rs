@@ -221,7 +221,11 @@ mod tests {
             .expect("list")
             .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
             .collect();
-        assert_eq!(names, [file_name("stochastic:spp=1")], "no temporary left");
+        assert_eq!(
+            names,
+            [file_name("stochastic:spp=1", Default::default())],
+            "no temporary left"
+        );
 
         // A path that stops early publishes nothing.
         let mut early =
@@ -230,7 +234,7 @@ mod tests {
             .push(&image(20, 10, 0.3), &image(20, 10, 0.3))
             .expect("frame");
         assert!(early.finish().is_err(), "two frames short");
-        assert!(!dir.join(file_name("unsorted")).exists());
+        assert!(!dir.join(file_name("unsorted", Default::default())).exists());
         let _ = std::fs::remove_dir_all(&dir);
     }
 

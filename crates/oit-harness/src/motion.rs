@@ -153,6 +153,7 @@ struct Track {
 /// Measures `specs` over the selected frames of `frames` and returns, per canonical spec, its
 /// `temporal` block or why there is none. Errors end the scene (a frame that does not
 /// flatten, a reference over the memory budget); a technique's own failure only ends its track.
+#[allow(clippy::too_many_arguments)] // the comparison's state for one scene and format
 pub fn measure(
     ctx: &Context,
     frames: &Frames,
