@@ -127,6 +127,12 @@ enum Command {
         /// (default: frame 0). With more than one, each output gets `-fNNNN` before `.exr`.
         #[arg(long, value_name = "FRAMES", value_parser = parse_frames)]
         animation_frames: Option<oit_harness::motion::FrameSelection>,
+        /// Format of the final colour target: rgba16float (half float, the default),
+        /// rgba32float, or rgba8unorm (linear 8-bit UNORM, as VTK's framebuffer: every blend
+        /// clamps to [0, 1] and rounds to 1/255). A format other than the default adds
+        /// `@FORMAT` to the default output name.
+        #[arg(long, value_name = "FORMAT", default_value = "rgba16float", value_parser = parse_target_format)]
+        target_format: oit_results::TargetFormat,
         #[command(flatten)]
         load: LoadArgs,
         #[command(flatten)]
@@ -215,6 +221,15 @@ enum Command {
         /// once more to keep its per-pixel lists; docs/predictions.md).
         #[arg(long)]
         no_predict: bool,
+        /// Final colour targets every technique runs into, comma-separated, each a run of its
+        /// own compared with the same exact reference: rgba16float (half float, the default),
+        /// rgba32float, rgba8unorm (linear 8-bit UNORM, as VTK's framebuffer and most
+        /// engines' LDR paths: every blend clamps to [0, 1] and rounds to 1/255). Runs at a
+        /// format other than the default are labelled `TECHNIQUE @ FORMAT` and their files
+        /// named `TECHNIQUE@FORMAT.*`; a technique that cannot composite into a format is
+        /// skipped with the reason.
+        #[arg(long, value_name = "FORMATS", default_value = "rgba16float", value_parser = parse_target_formats)]
+        target_format: TargetFormats,
         #[command(flatten)]
         growth: growth::GrowthArgs,
         #[command(flatten)]
@@ -316,6 +331,27 @@ impl GpuArgs {
             adapter: self.adapter.clone(),
         }
     }
+}
+
+/// The formats of `--target-format`, in the order given, each once.
+#[derive(Debug, Clone, PartialEq, Eq)]
+struct TargetFormats(Vec<oit_results::TargetFormat>);
+
+/// Reads `--target-format` of `oit render`: one format.
+fn parse_target_format(text: &str) -> Result<oit_results::TargetFormat, String> {
+    oit_results::TargetFormat::parse(text)
+}
+
+/// Reads `--target-format` of `oit compare`: a comma-separated list of formats.
+fn parse_target_formats(text: &str) -> Result<TargetFormats, String> {
+    let mut formats = Vec::new();
+    for name in text.split(',') {
+        let format = oit_results::TargetFormat::parse(name)?;
+        if !formats.contains(&format) {
+            formats.push(format);
+        }
+    }
+    Ok(TargetFormats(formats))
 }
 
 /// Reads `--shard K/N`.
@@ -513,6 +549,7 @@ fn run(command: Command) -> Result<()> {
             output,
             resolution,
             animation_frames,
+            target_format,
             load,
             gpu,
         } => {
@@ -524,7 +561,7 @@ fn run(command: Command) -> Result<()> {
                 output,
                 &load.options(),
             )?;
-            render(frames, &technique, &gpu)
+            render(frames, &technique, target_format, &gpu)
         }
         Command::Compare {
             scenes,
@@ -546,6 +583,7 @@ fn run(command: Command) -> Result<()> {
             static_frames,
             shard,
             no_predict,
+            target_format,
             growth,
             load,
             gpu,
@@ -573,6 +611,7 @@ fn run(command: Command) -> Result<()> {
                 static_frames,
                 shard,
                 predict: !no_predict,
+                target_formats: target_format.0,
             };
             compare(
                 &scenes,
@@ -840,15 +879,21 @@ fn reference(frame: FrameOutput, memory_budget: u64) -> Result<()> {
     Ok(())
 }
 
-fn render(frames: Vec<FrameOutput>, spec: &str, gpu: &GpuArgs) -> Result<()> {
+fn render(
+    frames: Vec<FrameOutput>,
+    spec: &str,
+    format: oit_results::TargetFormat,
+    gpu: &GpuArgs,
+) -> Result<()> {
     let spec = oit_harness::parse_spec(spec)?;
     // Refused before the GPU is opened: a bad output costs nothing.
     let mut planned = Vec::with_capacity(frames.len());
     for frame in frames {
         let default = format!(
-            "{}-{}{}",
+            "{}-{}{}{}",
             oit_harness::file_stem(&frame.scene.name),
             oit_harness::file_stem(&spec.canonical()),
+            format.file_suffix(),
             frame.suffix
         );
         let (output, png) = output_paths(frame.output.clone(), &default, &frame.inputs)?;
@@ -867,14 +912,13 @@ fn render(frames: Vec<FrameOutput>, spec: &str, gpu: &GpuArgs) -> Result<()> {
             ProgressStyle::with_template("{spinner} {msg} {elapsed_precise}")
                 .expect("static template"),
         );
+        let label = oit_results::technique_label(&spec.canonical(), format);
         spinner.set_message(format!(
-            "rendering {} frame {} with {}",
-            scene.name,
-            scene.frame,
-            spec.canonical()
+            "rendering {} frame {} with {label}",
+            scene.name, scene.frame,
         ));
         spinner.enable_steady_tick(Duration::from_millis(200));
-        let frame = oit_harness::render_once(&ctx, &scene, &spec);
+        let frame = oit_harness::render_once_at(&ctx, &scene, &spec, format);
         spinner.finish_and_clear();
         let frame = frame?;
         oit_metrics::write_exr(
@@ -883,10 +927,9 @@ fn render(frames: Vec<FrameOutput>, spec: &str, gpu: &GpuArgs) -> Result<()> {
         )?;
         oit_metrics::write_png_preview(&png, &frame.image)?;
         println!(
-            "{} frame {} with {}: {} ({})",
+            "{} frame {} with {label}: {} ({})",
             scene.name,
             scene.frame,
-            spec.canonical(),
             output.display(),
             png.display()
         );
@@ -985,26 +1028,34 @@ fn run_comparison(
         .collect();
     oit_harness::inputs::refuse_out_dir_over_inputs(&options.out_dir, &scene_dirs, &inputs)?;
     let scene_count = scenes.len() + unloadable.len();
+    // Every scene × technique pair is a run per target format.
+    let formats = options.target_formats.len().max(1) as u64;
     let total = (scene_count as u64) * (specs.len() as u64);
     // A shard is bounded by the runs it makes.
-    let runs = options.shard.map_or(total, |s| {
-        let r = s.range(total);
-        r.end - r.start
-    });
+    let runs = formats
+        * options.shard.map_or(total, |s| {
+            let r = s.range(total);
+            r.end - r.start
+        });
+    let total = total * formats;
+    let shape = if formats > 1 {
+        format!(
+            "{scene_count} scenes × {} techniques × {formats} target formats",
+            specs.len()
+        )
+    } else {
+        format!("{scene_count} scenes × {} techniques", specs.len())
+    };
     if let Some(shard) = options.shard {
         eprintln!("shard {shard}: {runs} of the comparison's {total} runs");
     }
     if runs > max_runs {
-        bail!(
-            "{runs} runs ({scene_count} scenes × {} techniques) is more than --max-runs {max_runs}; raise it to run them all",
-            specs.len()
-        );
+        bail!("{runs} runs ({shape}) is more than --max-runs {max_runs}; raise it to run them all");
     }
     let ctx = oit_harness::open_context(&options.context)?;
     print_adapter(&ctx);
     eprintln!(
-        "{runs} runs ({scene_count} scenes × {} techniques), one untimed first frame, {} warm-up and {} timed frames each; at most {} s a run",
-        specs.len(),
+        "{runs} runs ({shape}), one untimed first frame, {} warm-up and {} timed frames each; at most {} s a run",
         options.warmup,
         options.frames,
         options.run_budget.as_secs()

@@ -1006,6 +1006,112 @@ fn a_bad_shard_is_a_usage_error_naming_what_is_allowed() {
     }
 }
 
+/// `--target-format` of `compare` takes a comma-separated list and of `render` one format; a
+/// bad name is a usage error naming the flag, the value and every allowed format.
+#[test]
+fn a_bad_target_format_is_a_usage_error_naming_the_flag_and_allowed_values() {
+    for args in [
+        &[
+            "compare",
+            "scenes/enderton.json",
+            "--target-format",
+            "rgba8unorm,rgba8",
+        ][..],
+        &["compare", "scenes/enderton.json", "--target-format", ""][..],
+        &[
+            "render",
+            "scenes/enderton.json",
+            "-t",
+            "unsorted",
+            "--target-format",
+            "bgra8unorm",
+        ][..],
+    ] {
+        let out = oit().args(args).output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
+        let line = stderr.lines().next().unwrap_or_default();
+        assert!(
+            line.contains("--target-format")
+                && line.contains("not a target format")
+                && line.contains("allowed: rgba8unorm, rgba16float, rgba32float"),
+            "{args:?}: {stderr}"
+        );
+    }
+}
+
+/// The list is read in full (case-insensitive, each format once) and multiplies the runs:
+/// `--max-runs` counts a run per scene × technique × format, before any GPU is opened.
+#[test]
+fn target_formats_multiply_the_runs_counted_against_max_runs() {
+    let out = oit()
+        .args([
+            "compare",
+            "scenes/enderton.json",
+            "-t",
+            "unsorted",
+            "--target-format",
+            "rgba8unorm,RGBA32Float,rgba16float,rgba8unorm",
+            "--max-runs",
+            "2",
+        ])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains(
+            "3 runs (1 scenes × 1 techniques × 3 target formats) is more than --max-runs 2"
+        ),
+        "{stderr}"
+    );
+}
+
+/// `oit render --target-format rgba8unorm`: every channel is a whole number of 1/255 steps and
+/// the image is within a step of the rgba16float render.
+#[test]
+fn render_into_rgba8unorm_quantises_to_255_steps() {
+    if oit_gpu::testing::context_or_skip("cli render rgba8unorm").is_none() {
+        return;
+    }
+    let dir = temp_dir("render-unorm");
+    let render = |format: &str| {
+        let exr = dir.join(format!("{format}.exr"));
+        let out = oit()
+            .args([
+                "render",
+                "scenes/enderton.json",
+                "--technique",
+                "sorted-object",
+                "--resolution",
+                "32x32",
+                "--target-format",
+                format,
+                "-o",
+            ])
+            .arg(&exr)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        oit_metrics::read_exr_rgba(&exr, Some("render")).unwrap()
+    };
+    let (byte, half) = (render("rgba8unorm"), render("rgba16float"));
+    let mut apart = 0f32;
+    for (p, q) in byte.pixels.iter().zip(&half.pixels) {
+        for c in 0..4 {
+            let steps = p[c] * 255.0;
+            assert!((steps - steps.round()).abs() < 1e-3, "{p:?} is not n/255");
+            apart = apart.max((p[c] - q[c]).abs());
+        }
+    }
+    assert!(apart > 0.0 && apart <= 2.0 / 255.0, "{apart}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// A results.json as `oit compare --shard K/N` writes it, with no runs (no GPU needed).
 fn shard_file(dir: &Path, index: u32, count: u32, plan: &str) {
     std::fs::create_dir_all(dir).unwrap();

@@ -13,14 +13,60 @@ pub enum ColorFormat {
     /// Full float, to separate a technique's error from the target's rounding. Blending into
     /// it needs `FLOAT32_BLENDABLE`.
     Rgba32Float,
+    /// Linear 8-bit UNORM, as VTK's framebuffer and most engines' LDR paths: every blend
+    /// clamps to [0, 1] and rounds to a multiple of 1/255.
+    Rgba8Unorm,
 }
 
 impl ColorFormat {
+    /// Every format, in the order `--target-format` lists them.
+    pub const ALL: [ColorFormat; 3] = [
+        ColorFormat::Rgba8Unorm,
+        ColorFormat::Rgba16Float,
+        ColorFormat::Rgba32Float,
+    ];
+
     pub fn texture_format(self) -> wgpu::TextureFormat {
         match self {
             ColorFormat::Rgba16Float => wgpu::TextureFormat::Rgba16Float,
             ColorFormat::Rgba32Float => wgpu::TextureFormat::Rgba32Float,
+            ColorFormat::Rgba8Unorm => wgpu::TextureFormat::Rgba8Unorm,
         }
+    }
+
+    /// The name on the command line and in results.json (WGSL's texel-format spelling).
+    pub fn name(self) -> &'static str {
+        match self {
+            ColorFormat::Rgba8Unorm => "rgba8unorm",
+            ColorFormat::Rgba16Float => "rgba16float",
+            ColorFormat::Rgba32Float => "rgba32float",
+        }
+    }
+
+    /// The format named `text` (case-insensitive), or a message listing the names allowed.
+    pub fn parse(text: &str) -> Result<ColorFormat, String> {
+        let wanted = text.trim().to_ascii_lowercase();
+        Self::ALL
+            .into_iter()
+            .find(|f| f.name() == wanted)
+            .ok_or_else(|| {
+                format!(
+                    "`{text}` is not a target format; allowed: {}",
+                    Self::ALL.map(ColorFormat::name).join(", ")
+                )
+            })
+    }
+
+    /// Whether the target clamps to [0, 1] (a UNORM format): anything a technique writes
+    /// above 1 or below 0, even in an intermediate blend, is lost.
+    pub fn clamps(self) -> bool {
+        self == ColorFormat::Rgba8Unorm
+    }
+}
+
+impl std::fmt::Display for ColorFormat {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
     }
 }
 
@@ -89,6 +135,7 @@ impl Targets {
 /// Reads the final colour as linear RGBA f32, top-left origin.
 pub fn read_color(ctx: &Context, targets: &Targets) -> Result<LinearImage, GpuError> {
     let bpp = match targets.color_format {
+        wgpu::TextureFormat::Rgba8Unorm => 4,
         wgpu::TextureFormat::Rgba16Float => 8,
         wgpu::TextureFormat::Rgba32Float => 16,
         other => {
@@ -98,7 +145,13 @@ pub fn read_color(ctx: &Context, targets: &Targets) -> Result<LinearImage, GpuEr
         }
     };
     let bytes = crate::readback::read_texture(ctx, &targets.color, bpp, "final colour")?;
-    let pixels = if bpp == 8 {
+    let pixels = if bpp == 4 {
+        // Linear UNORM: the stored byte n is n / 255 exactly as the blender used it.
+        bytes
+            .chunks_exact(4)
+            .map(|p| std::array::from_fn(|c| f32::from(p[c]) / 255.0))
+            .collect()
+    } else if bpp == 8 {
         bytes
             .chunks_exact(8)
             .map(|p| {
@@ -143,7 +196,21 @@ pub fn f16_to_f32(h: u16) -> f32 {
 
 #[cfg(test)]
 mod tests {
-    use super::f16_to_f32;
+    use super::{ColorFormat, f16_to_f32};
+
+    #[test]
+    fn format_names_parse_back_and_a_bad_one_lists_the_allowed() {
+        for f in ColorFormat::ALL {
+            assert_eq!(ColorFormat::parse(f.name()), Ok(f));
+            assert_eq!(ColorFormat::parse(&f.name().to_uppercase()), Ok(f));
+        }
+        assert_eq!(ColorFormat::default(), ColorFormat::Rgba16Float);
+        let err = ColorFormat::parse("rgba8").unwrap_err();
+        assert!(
+            err.contains("`rgba8`") && err.contains("rgba8unorm, rgba16float, rgba32float"),
+            "{err}"
+        );
+    }
 
     #[test]
     fn half_conversion() {

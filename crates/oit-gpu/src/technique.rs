@@ -40,6 +40,14 @@ pub trait Technique: std::fmt::Debug {
     fn spec(&self) -> TechniqueSpec;
     /// `Err` with the reason when this adapter cannot run the technique.
     fn check(&self, caps: &Caps) -> Result<(), Unsupported>;
+    /// `Err` with the reason (naming the format) when the technique cannot composite into a
+    /// final colour target of `format` (e.g. it needs values outside a UNORM target's [0, 1]
+    /// between passes); checked before a run builds anything. Every technique composites into
+    /// the float formats; the default accepts every format.
+    fn check_target(&self, format: wgpu::TextureFormat, caps: &Caps) -> Result<(), Unsupported> {
+        let _ = (format, caps);
+        Ok(())
+    }
     fn render(
         &mut self,
         ctx: &Context,

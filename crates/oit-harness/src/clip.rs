@@ -21,8 +21,12 @@ pub const MAX_CLIP_FRAMES: usize = 240;
 pub const MAX_PANEL_HEIGHT: u32 = 256;
 
 /// The clip's file name for a technique.
-pub fn file_name(canonical: &str) -> String {
-    format!("{}-motion.png", file_stem(canonical))
+pub fn file_name(canonical: &str, format: oit_results::TargetFormat) -> String {
+    format!(
+        "{}{}-motion.png",
+        file_stem(canonical),
+        format.file_suffix()
+    )
 }
 
 /// Which of a path's `frames` go into the clip: every `step`th, `step` the smallest that keeps
@@ -78,11 +82,12 @@ impl Clip {
     pub fn create(
         scene_dir: &Path,
         canonical: &str,
+        format: oit_results::TargetFormat,
         (width, height): (u32, u32),
         frames: usize,
         seconds_per_frame: f64,
     ) -> Result<Clip, HarnessError> {
-        let path = scene_dir.join(file_name(canonical));
+        let path = scene_dir.join(file_name(canonical, format));
         let shrink = height.div_ceil(MAX_PANEL_HEIGHT).max(1);
         let (w, h) = ((width / shrink).max(1), (height / shrink).max(1));
         let file = Shared(Rc::new(RefCell::new(AtomicFile::create(&path)?)));
@@ -186,8 +191,15 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("oit-clip-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).expect("dir");
-        let mut clip =
-            Clip::create(&dir, "stochastic:spp=1", (20, 10), 3, 1.0 / 24.0).expect("clip");
+        let mut clip = Clip::create(
+            &dir,
+            "stochastic:spp=1",
+            Default::default(),
+            (20, 10),
+            3,
+            1.0 / 24.0,
+        )
+        .expect("clip");
         for t in 0..3 {
             clip.push(&image(20, 10, 0.1 * t as f32), &image(20, 10, 0.2))
                 .expect("frame");
@@ -209,15 +221,20 @@ mod tests {
             .expect("list")
             .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
             .collect();
-        assert_eq!(names, [file_name("stochastic:spp=1")], "no temporary left");
+        assert_eq!(
+            names,
+            [file_name("stochastic:spp=1", Default::default())],
+            "no temporary left"
+        );
 
         // A path that stops early publishes nothing.
-        let mut early = Clip::create(&dir, "unsorted", (20, 10), 3, 0.04).expect("clip");
+        let mut early =
+            Clip::create(&dir, "unsorted", Default::default(), (20, 10), 3, 0.04).expect("clip");
         early
             .push(&image(20, 10, 0.3), &image(20, 10, 0.3))
             .expect("frame");
         assert!(early.finish().is_err(), "two frames short");
-        assert!(!dir.join(file_name("unsorted")).exists());
+        assert!(!dir.join(file_name("unsorted", Default::default())).exists());
         let _ = std::fs::remove_dir_all(&dir);
     }
 

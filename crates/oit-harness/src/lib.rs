@@ -47,7 +47,8 @@ use oit_scene::{Resolution, Scene};
 
 pub use run::{
     APPROXIMATE_TRANSMISSION, CompareOptions, DEFAULT_MEMORY_BUDGET, DEFAULT_RUN_BUDGET, Event,
-    LOCK_FILE, MAX_WARMUP, ReferenceCache, RenderedFrame, compare, compare_all, render_once,
+    LOCK_FILE, MAX_WARMUP, ReferenceCache, RenderedFrame, color_format, compare, compare_all,
+    render_once, render_once_at,
 };
 
 /// Errors of the harness. Each names the file it concerns.

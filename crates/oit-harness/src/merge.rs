@@ -73,7 +73,8 @@ pub fn merge(dirs: &[PathBuf], out: &Path, allow_missing: bool) -> Result<Result
     let mut placed = HashSet::new();
     for (path, results, shard) in &shards {
         for run in &results.runs {
-            let key = (run.scene.clone(), run.technique.clone(), run.resolution);
+            // A run is its scene, technique at its target format, and resolution.
+            let key = (run.scene.clone(), run.technique_label(), run.resolution);
             if let Some((.., other)) = seen
                 .iter()
                 .find(|(s, t, r, _)| (s, t, r) == (&key.0, &key.1, &key.2))
@@ -83,7 +84,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path, allow_missing: bool) -> Result<Result
                     message: format!(
                         "run {} × {} is also in {}: shards overlap (made with other scene or technique lists?)",
                         run.scene,
-                        run.technique,
+                        run.technique_label(),
                         other.display()
                     ),
                 });
@@ -182,10 +183,16 @@ fn read_shards(dirs: &[PathBuf]) -> Result<Vec<(PathBuf, Results, ShardJson)>, H
         }
         .range(shard.runs);
         let expected = expected.end - expected.start;
-        if results.complete && results.runs.len() as u64 != expected {
+        // A shard splits scene × technique pairs; each pair is a run per target format.
+        let mut pairs: Vec<(&str, &str, [u32; 2])> = (results.runs.iter())
+            .map(|r| (r.scene.as_str(), r.technique.as_str(), r.resolution))
+            .collect();
+        pairs.sort_unstable();
+        pairs.dedup();
+        if results.complete && pairs.len() as u64 != expected {
             return Err(invalid(format!(
                 "`runs` holds {} runs; shard {}/{} of {} runs makes {expected}",
-                results.runs.len(),
+                pairs.len(),
                 shard.index,
                 shard.count,
                 shard.runs

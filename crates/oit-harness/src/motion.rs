@@ -11,7 +11,7 @@
 
 use std::path::Path;
 
-use oit_gpu::{ColorFormat, Context, GpuScene, GpuTimer, Targets, TechniqueSpec, read_color};
+use oit_gpu::{Context, GpuScene, GpuTimer, Targets, TechniqueSpec, read_color};
 use oit_metrics::temporal::{
     HISTORY_BLEND, POP_FLOOR, POP_MULTIPLE, PathTracker, StaticTracker, error_image,
 };
@@ -153,11 +153,13 @@ struct Track {
 /// Measures `specs` over the selected frames of `frames` and returns, per canonical spec, its
 /// `temporal` block or why there is none. Errors end the scene (a frame that does not
 /// flatten, a reference over the memory budget); a technique's own failure only ends its track.
+#[allow(clippy::too_many_arguments)] // the comparison's state for one scene and format
 pub fn measure(
     ctx: &Context,
     frames: &Frames,
     specs: &[TechniqueSpec],
     options: &CompareOptions,
+    format: oit_results::TargetFormat,
     cache_dir: Option<&Path>,
     scene_dir: &Path,
     on_event: &dyn Fn(Event<'_>),
@@ -179,7 +181,7 @@ pub fn measure(
             options.memory_budget >> 20
         )));
     }
-    let targets = Targets::new(ctx, first.resolution, ColorFormat::Rgba16Float)?;
+    let targets = Targets::new(ctx, first.resolution, crate::run::color_format(format))?;
     let clip_step = crate::clip::step(selected.len());
     let clip_frames = selected.len().div_ceil(clip_step);
     let seconds = clip_step as f64 / f64::from(frames.animation().map_or(24.0, |a| a.fps));
@@ -187,7 +189,8 @@ pub fn measure(
     let mut tracks = Vec::with_capacity(specs.len());
     for spec in specs {
         let canonical = spec.canonical();
-        let clip = crate::clip::Clip::create(scene_dir, &canonical, size, clip_frames, seconds)?;
+        let clip =
+            crate::clip::Clip::create(scene_dir, &canonical, format, size, clip_frames, seconds)?;
         tracks.push(Track {
             canonical,
             technique: build(spec)?,
@@ -281,7 +284,9 @@ fn frame_of(
     track: &mut Track,
     reference: &LinearImage,
 ) -> Result<LinearImage, String> {
-    oit_gpu::check_scene(track.technique.as_ref(), &ctx.caps, scene).map_err(|u| u.reason)?;
+    oit_gpu::check_scene(track.technique.as_ref(), &ctx.caps, scene)
+        .and_then(|()| (track.technique).check_target(targets.color_format, &ctx.caps))
+        .map_err(|u| u.reason)?;
     let mut timer = GpuTimer::wall_clock();
     oit_gpu::render_frame(ctx, reversed, track.technique.as_mut(), targets, &mut timer)
         .map_err(|e| e.to_string())?;

@@ -14,7 +14,7 @@ use oit_gpu::{
 use oit_scene::{LinearImage, Resolution, Scene};
 
 use crate::results::{
-    FloorJson, Outputs, Results, Run, RunInputs, RunStatus, SCHEMA, Stats, ToolJson,
+    FloorJson, Outputs, Results, Run, RunInputs, RunStatus, SCHEMA, Stats, TargetFormat, ToolJson,
 };
 use crate::resume::ResumeCount;
 use crate::timing::{PassEstimate, time_frames, time_unbudgeted};
@@ -76,6 +76,10 @@ pub struct CompareOptions {
     /// Predict every rendered run's exactness from the reference's per-pixel lists
     /// ([`crate::predict`]; renders each still scene's reference once more).
     pub predict: bool,
+    /// The final colour targets every technique runs into, each a run of its own
+    /// (`--target-format`); `[rgba16float]` by default. Every run is compared with the same
+    /// exact reference, so the error a format costs shows beside a technique's own.
+    pub target_formats: Vec<TargetFormat>,
 }
 
 /// Default of [`CompareOptions::run_budget`].
@@ -103,6 +107,7 @@ impl Default for CompareOptions {
             static_frames: crate::motion::DEFAULT_STATIC_FRAMES,
             shard: None,
             predict: true,
+            target_formats: vec![TargetFormat::default()],
         }
     }
 }
@@ -142,15 +147,39 @@ pub(crate) fn build(spec: &TechniqueSpec) -> Result<Box<dyn Technique>, HarnessE
     Ok(TechniqueSpec::build(&spec.canonical(), &registry())?)
 }
 
-/// Renders one frame of `scene` with `spec` (after one warm-up frame) and reads it back.
+/// The GPU format of a target format as results.json names it.
+pub fn color_format(format: TargetFormat) -> ColorFormat {
+    match format {
+        TargetFormat::Rgba8Unorm => ColorFormat::Rgba8Unorm,
+        TargetFormat::Rgba16Float => ColorFormat::Rgba16Float,
+        TargetFormat::Rgba32Float => ColorFormat::Rgba32Float,
+    }
+}
+
+/// Renders one frame of `scene` with `spec` (after one warm-up frame) into the default final
+/// target (`rgba16float`) and reads it back.
 pub fn render_once(
     ctx: &Context,
     scene: &Scene,
     spec: &TechniqueSpec,
 ) -> Result<RenderedFrame, HarnessError> {
+    render_once_at(ctx, scene, spec, TargetFormat::default())
+}
+
+/// [`render_once`] into a final target of `format`. A technique that cannot composite into
+/// it is refused with [`oit_gpu::GpuError::Unsupported`] before anything is built.
+pub fn render_once_at(
+    ctx: &Context,
+    scene: &Scene,
+    spec: &TechniqueSpec,
+    format: TargetFormat,
+) -> Result<RenderedFrame, HarnessError> {
     let mut technique = build(spec)?;
     let gpu_scene = GpuScene::upload(ctx, scene)?;
-    let targets = Targets::new(ctx, scene.resolution, ColorFormat::Rgba16Float)?;
+    let targets = Targets::new(ctx, scene.resolution, color_format(format))?;
+    technique
+        .check_target(targets.color_format, &ctx.caps)
+        .map_err(oit_gpu::GpuError::from)?;
     let mut timer = GpuTimer::new(ctx);
     render_frame(ctx, &gpu_scene, technique.as_mut(), &targets, &mut timer)?;
     let frame = render_frame(ctx, &gpu_scene, technique.as_mut(), &targets, &mut timer)?;
@@ -238,6 +267,12 @@ pub fn compare_all(
             .map(|s| crate::shard::shard_json(s, scenes, unloadable, specs, options)),
         merged: Vec::new(),
     };
+    if options.target_formats.is_empty() {
+        return Err(HarnessError::Options(
+            "no target format: every run needs one (--target-format)".into(),
+        ));
+    }
+    let formats = &options.target_formats;
     let total = ((scenes.len() + unloadable.len()) * specs.len()) as u64;
     // The specs of scene `i` this comparison runs: all, or this shard's.
     let specs_of = |i: usize| -> Vec<TechniqueSpec> {
@@ -287,9 +322,11 @@ pub fn compare_all(
         results
             .scenes
             .push(crate::results::scene_json(&scene, &scene_file));
-        let earlier_floor = earlier_floors
+        let earlier_floors_here: Vec<FloorJson> = earlier_floors
             .iter()
-            .find(|f| f.scene == scene.name && f.resolution == res(&scene));
+            .filter(|f| f.scene == scene.name && f.resolution == res(&scene))
+            .cloned()
+            .collect();
         let peak = crate::peak::ScenePeak::start();
         let scene_done = crate::isolate::contained(ctx, "the scene", || {
             run_scene(
@@ -298,7 +335,7 @@ pub fn compare_all(
                 &scene_file,
                 specs,
                 &reusable_runs,
-                earlier_floor,
+                &earlier_floors_here,
                 &inputs,
                 cache_dir.as_deref(),
                 options,
@@ -317,66 +354,83 @@ pub fn compare_all(
             // error; the comparison goes on with the next scene.
             let message = format!("scene {} ({scene_file}): {e}", scene.name);
             on_event(Event::Warning(&message));
-            for spec in specs {
-                let canonical = spec.canonical();
-                if results.runs[first_run..]
-                    .iter()
-                    .any(|r| r.technique == canonical)
-                {
-                    continue;
+            for &format in formats {
+                for spec in specs {
+                    let canonical = spec.canonical();
+                    if results.runs[first_run..]
+                        .iter()
+                        .any(|r| r.is(&canonical, format))
+                    {
+                        continue;
+                    }
+                    let mut run = Run::not_rendered(
+                        &scene.name,
+                        &scene_file,
+                        &canonical,
+                        res(&scene),
+                        RunStatus::Failed,
+                        message.clone(),
+                    );
+                    run.inputs = Some(inputs.clone());
+                    run.target_format = format;
+                    results.runs.push(run);
+                    on_event(Event::RunDone {
+                        scene: &scene.name,
+                        technique: &canonical,
+                        resumed: false,
+                    });
                 }
-                let mut run = Run::not_rendered(
-                    &scene.name,
-                    &scene_file,
-                    &canonical,
-                    res(&scene),
-                    RunStatus::Failed,
-                    message.clone(),
-                );
-                run.inputs = Some(inputs.clone());
-                results.runs.push(run);
-                on_event(Event::RunDone {
-                    scene: &scene.name,
-                    technique: &canonical,
-                    resumed: false,
-                });
             }
             crate::vary::tag(&mut results.runs[first_run..], entry);
             crate::isolate::finish_scene(ctx, &mut results, peak);
             write_outputs(out, &mut results)?;
             continue;
         }
-        if let Some(frames) = &entry.frames
-            && !cancelled()
-        {
-            motion_runs(
-                ctx,
-                frames,
-                &scene,
-                specs,
-                options,
-                cache_dir.as_deref(),
-                &mut results.runs[first_run..],
-                on_event,
-            )?;
+        if let Some(frames) = &entry.frames {
+            for &format in formats.iter().filter(|_| !cancelled()) {
+                motion_runs(
+                    ctx,
+                    frames,
+                    &scene,
+                    specs,
+                    options,
+                    format,
+                    cache_dir.as_deref(),
+                    &mut results.runs[first_run..],
+                    on_event,
+                )?;
+            }
         }
-        // Techniques of the earlier comparison that were not requested now stay beside these
-        // runs: a comparison grows one technique at a time (a shard keeps only its own runs).
+        // Techniques (or target formats) of the earlier comparison that were not requested now
+        // stay beside these runs: a comparison grows one technique at a time (a shard keeps
+        // only its own runs).
         let requested: Vec<String> = specs.iter().map(TechniqueSpec::canonical).collect();
+        let was_requested =
+            |r: &Run| requested.contains(&r.technique) && formats.contains(&r.target_format);
         for mut run in reusable_runs
             .into_iter()
-            .filter(|r| !requested.contains(&r.technique) && options.shard.is_none())
+            .filter(|r| !was_requested(r) && options.shard.is_none())
         {
             run.resumed = true;
             run.scene_file.clone_from(&scene_file);
             resume.kept_unrequested += 1;
             results.runs.push(run);
         }
-        if let Some(floor) = results.floors.iter().find(|f| f.scene == scene.name) {
-            let floor_ms = floor.gpu_ms.median;
-            fill_floor_costs(&mut results.runs[first_run..], floor_ms);
+        let mut formats_here: Vec<TargetFormat> = Vec::new();
+        for run in &results.runs[first_run..] {
+            if !formats_here.contains(&run.target_format) {
+                formats_here.push(run.target_format);
+            }
         }
-        fill_costs(&mut results.runs[first_run..], || None);
+        for format in formats_here {
+            if let Some(floor) =
+                (results.floors.iter()).find(|f| f.scene == scene.name && f.target_format == format)
+            {
+                let floor_ms = floor.gpu_ms.median;
+                fill_floor_costs(&mut results.runs[first_run..], format, floor_ms);
+            }
+            fill_costs(&mut results.runs[first_run..], format, || None);
+        }
         crate::vary::tag(&mut results.runs[first_run..], entry);
         crate::isolate::finish_scene(ctx, &mut results, peak);
         write_outputs(out, &mut results)?;
@@ -386,21 +440,25 @@ pub fn compare_all(
         let name = crate::shard::unloadable_name(u);
         let file = u.path.display().to_string();
         let message = format!("could not load {file}: {}", u.error);
-        for spec in &specs_of(scenes.len() + index) {
-            let canonical = spec.canonical();
-            results.runs.push(Run::not_rendered(
-                &name,
-                &file,
-                &canonical,
-                [0, 0],
-                RunStatus::Failed,
-                message.clone(),
-            ));
-            on_event(Event::RunDone {
-                scene: &name,
-                technique: &canonical,
-                resumed: false,
-            });
+        for &format in formats {
+            for spec in &specs_of(scenes.len() + index) {
+                let canonical = spec.canonical();
+                let mut run = Run::not_rendered(
+                    &name,
+                    &file,
+                    &canonical,
+                    [0, 0],
+                    RunStatus::Failed,
+                    message.clone(),
+                );
+                run.target_format = format;
+                results.runs.push(run);
+                on_event(Event::RunDone {
+                    scene: &name,
+                    technique: &canonical,
+                    resumed: false,
+                });
+            }
         }
     }
     if done && options.resume && options.shard.is_none() {
@@ -413,8 +471,10 @@ pub fn compare_all(
                 {
                     results.scenes.push(s.clone());
                 }
-                if !results.floors.iter().any(|f| f.scene == run.scene)
-                    && let Some(f) = earlier_floors.iter().find(|f| f.scene == run.scene)
+                if !(results.floors.iter())
+                    .any(|f| f.scene == run.scene && f.target_format == run.target_format)
+                    && let Some(f) = (earlier_floors.iter())
+                        .find(|f| f.scene == run.scene && f.target_format == run.target_format)
                 {
                     results.floors.push(f.clone());
                 }
@@ -448,6 +508,7 @@ fn motion_runs(
     scene: &Scene,
     specs: &[TechniqueSpec],
     options: &CompareOptions,
+    format: TargetFormat,
     cache_dir: Option<&Path>,
     runs: &mut [Run],
     on_event: &dyn Fn(Event<'_>),
@@ -457,7 +518,7 @@ fn motion_runs(
         .filter(|spec| {
             let canonical = spec.canonical();
             runs.iter().any(|r| {
-                r.technique == canonical && r.status == RunStatus::Ok && r.temporal.is_none()
+                r.is(&canonical, format) && r.status == RunStatus::Ok && r.temporal.is_none()
             })
         })
         .cloned()
@@ -468,14 +529,14 @@ fn motion_runs(
     let scene_dir = options.out_dir.join(file_stem(&scene.name));
     let measured = crate::isolate::contained(ctx, "the motion measurements", || {
         crate::motion::measure(
-            ctx, frames, &wanted, options, cache_dir, &scene_dir, on_event,
+            ctx, frames, &wanted, options, format, cache_dir, &scene_dir, on_event,
         )
     });
     match measured {
         Ok(measured) => {
             for (canonical, temporal) in measured {
                 if let (Some(run), Ok(temporal)) =
-                    (runs.iter_mut().find(|r| r.technique == canonical), temporal)
+                    (runs.iter_mut().find(|r| r.is(&canonical, format)), temporal)
                 {
                     run.temporal = Some(temporal);
                 }
@@ -504,9 +565,9 @@ fn is_under(e: &HarnessError, out: &Path) -> bool {
     }
 }
 
-/// One scene of a comparison: its reference (cached), its floor (timed first, so every run
-/// finished has its cost ratios even if the comparison is interrupted), then each technique,
-/// with `results.json` written after every run.
+/// One scene of a comparison: its reference (cached), then per target format its floor (timed
+/// first, so every run finished has its cost ratios even if the comparison is interrupted) and
+/// each technique, with `results.json` written after every run.
 #[allow(clippy::too_many_arguments)] // the comparison's state, passed down once per scene
 fn run_scene(
     ctx: &Context,
@@ -514,7 +575,7 @@ fn run_scene(
     scene_file: &str,
     specs: &[TechniqueSpec],
     earlier: &[Run],
-    earlier_floor: Option<&FloorJson>,
+    earlier_floors: &[FloorJson],
     inputs: &RunInputs,
     cache_dir: Option<&Path>,
     options: &CompareOptions,
@@ -540,15 +601,105 @@ fn run_scene(
     )?;
     let forward = GpuScene::upload(ctx, scene)?;
     let reversed = GpuScene::upload(ctx, &scene.with_reversed_order())?;
-    let targets = Targets::new(ctx, scene.resolution, ColorFormat::Rgba16Float)?;
-    held.targets = targets.memory_bytes();
-    let first_run = results.runs.len();
+    let scene_gpu = SceneGpu {
+        forward: &forward,
+        reversed: &reversed,
+        reference: &reference,
+        lists: lists.as_ref(),
+    };
+    for &format in &options.target_formats {
+        if cancelled() {
+            break;
+        }
+        let targets = match Targets::new(ctx, scene.resolution, color_format(format)) {
+            Ok(targets) => targets,
+            // The default format fails the scene as it always did; another one the adapter
+            // cannot render or blend into skips its runs, with the reason.
+            Err(e) if !format.is_default() => {
+                for spec in specs {
+                    let canonical = spec.canonical();
+                    let mut run = Run::not_rendered(
+                        &scene.name,
+                        scene_file,
+                        &canonical,
+                        res(scene),
+                        RunStatus::Skipped,
+                        format!("final colour target {format}: {e}"),
+                    );
+                    run.inputs = Some(inputs.clone());
+                    run.target_format = format;
+                    results.runs.push(run);
+                    write_outputs(out, results)?;
+                    on_event(Event::RunDone {
+                        scene: &scene.name,
+                        technique: &canonical,
+                        resumed: false,
+                    });
+                }
+                continue;
+            }
+            Err(e) => return Err(e.into()),
+        };
+        held.targets = targets.memory_bytes();
+        let floor = earlier_floors.iter().find(|f| f.target_format == format);
+        run_format(
+            ctx,
+            scene,
+            scene_file,
+            specs,
+            earlier,
+            floor,
+            inputs,
+            options,
+            (&scene_gpu, &targets, held, format),
+            results,
+            resume,
+            cancelled,
+            on_event,
+        )?;
+    }
+    Ok(())
+}
 
+/// What every run of a scene shares: its uploads in submission order and reversed, its
+/// reference and the reference's per-pixel lists (for the predictions).
+struct SceneGpu<'a> {
+    forward: &'a GpuScene,
+    reversed: &'a GpuScene,
+    reference: &'a oit_reference::Reference,
+    lists: Option<&'a oit_gpu::predict::PixelLists>,
+}
+
+/// The runs of one scene into final targets of one format: the floor, `unsorted`'s time when
+/// it is not among them, then each technique.
+#[allow(clippy::too_many_arguments)] // the comparison's state, passed down once per format
+fn run_format(
+    ctx: &Context,
+    scene: &Scene,
+    scene_file: &str,
+    specs: &[TechniqueSpec],
+    earlier: &[Run],
+    earlier_floor: Option<&FloorJson>,
+    inputs: &RunInputs,
+    options: &CompareOptions,
+    (gpu, targets, held, format): (
+        &SceneGpu<'_>,
+        &Targets,
+        crate::budget::RunMemory,
+        TargetFormat,
+    ),
+    results: &mut Results,
+    resume: &mut ResumeCount,
+    cancelled: &dyn Fn() -> bool,
+    on_event: &dyn Fn(Event<'_>),
+) -> Result<(), HarnessError> {
+    let out = &options.out_dir;
+    let first_run = results.runs.len();
     let reused: Vec<&Run> = specs
         .iter()
         .filter_map(|spec| {
             let canonical = spec.canonical();
-            earlier.iter().find(|r| r.technique == canonical)
+            earlier.iter().find(|r| r.is(&canonical, format))
         })
         .collect();
     let all_reused = reused.len() == specs.len();
@@ -557,7 +708,8 @@ fn run_scene(
         // Every run comes from the earlier comparison: its ratios and floor stand together.
         Some(floor) => results.floors.push(floor.clone()),
         None => {
-            let floor = time_floor(ctx, scene, &forward, &targets, options)?;
+            let mut floor = time_floor(ctx, scene, gpu.forward, targets, options)?;
+            floor.target_format = format;
             results.floors.push(floor);
         }
     }
@@ -573,7 +725,7 @@ fn run_scene(
         let spec = TechniqueSpec::parse("unsorted", &registry())?;
         let mut t = build(&spec)?;
         baseline_ms = Some(
-            time_unbudgeted(ctx, &forward, t.as_mut(), &targets, options)?
+            time_unbudgeted(ctx, gpu.forward, t.as_mut(), targets, options)?
                 .0
                 .median,
         );
@@ -583,7 +735,7 @@ fn run_scene(
             break;
         }
         let canonical = spec.canonical();
-        let run = match earlier.iter().find(|r| r.technique == canonical) {
+        let run = match earlier.iter().find(|r| r.is(&canonical, format)) {
             Some(run) => {
                 resume.reused += 1;
                 let mut run = run.clone();
@@ -598,14 +750,12 @@ fn run_scene(
                         ctx,
                         scene,
                         scene_file,
-                        &forward,
-                        &reversed,
-                        &targets,
+                        gpu,
+                        targets,
                         spec,
-                        &reference,
                         options,
                         out,
-                        (floor_ms, held),
+                        (floor_ms, held, format),
                     )
                 })
                 .unwrap_or_else(|e| {
@@ -619,15 +769,20 @@ fn run_scene(
                     )
                 });
                 run.inputs = Some(inputs.clone());
-                crate::predict::fill(&mut run, scene, lists.as_ref(), &ctx.caps);
+                run.target_format = format;
+                // The models predict a technique's arithmetic into a float target; an 8-bit
+                // target's own rounding (up to ½ of 1/255 per blend) is not modelled.
+                if !color_format(format).clamps() {
+                    crate::predict::fill(&mut run, scene, gpu.lists, &ctx.caps);
+                }
                 run
             }
         };
         let was_resumed = run.resumed;
         results.runs.push(run);
         let runs = &mut results.runs[first_run..];
-        fill_floor_costs(runs, floor_ms);
-        fill_costs(runs, || baseline_ms);
+        fill_floor_costs(runs, format, floor_ms);
+        fill_costs(runs, format, || baseline_ms);
         write_outputs(out, results)?;
         on_event(Event::RunDone {
             scene: &scene.name,
@@ -847,15 +1002,17 @@ fn time_floor(
         gpu_ms,
         passes,
         shard: options.shard.map(|s| s.index),
+        target_format: TargetFormat::default(),
     })
 }
 
 /// Divides every ok run's median GPU time by the scene's floor.
-fn fill_floor_costs(runs: &mut [Run], floor_ms: f64) {
+fn fill_floor_costs(runs: &mut [Run], format: TargetFormat, floor_ms: f64) {
     if floor_ms <= 0.0 {
         return;
     }
-    for run in runs.iter_mut().filter(|r| r.status == RunStatus::Ok) {
+    for run in (runs.iter_mut()).filter(|r| r.status == RunStatus::Ok && r.target_format == format)
+    {
         run.cost_vs_floor = run.gpu_ms.as_ref().map(|g| g.median / floor_ms);
     }
 }
@@ -869,18 +1026,19 @@ fn run_one(
     ctx: &Context,
     scene: &Scene,
     scene_file: &str,
-    forward: &GpuScene,
-    reversed: &GpuScene,
+    gpu: &SceneGpu<'_>,
     targets: &Targets,
     spec: &TechniqueSpec,
-    reference: &oit_reference::Reference,
     options: &CompareOptions,
     out: &Path,
-    (floor_ms, held): (f64, crate::budget::RunMemory),
+    (floor_ms, held, format): (f64, crate::budget::RunMemory, TargetFormat),
 ) -> Result<Run, HarnessError> {
+    let (forward, reversed, reference) = (gpu.forward, gpu.reversed, gpu.reference);
     let canonical = spec.canonical();
     let mut technique = build(spec)?;
-    if let Err(unsupported) = oit_gpu::check_scene(technique.as_ref(), &ctx.caps, scene) {
+    let checked = oit_gpu::check_scene(technique.as_ref(), &ctx.caps, scene)
+        .and_then(|()| technique.check_target(targets.color_format, &ctx.caps));
+    if let Err(unsupported) = checked {
         return Ok(Run::not_rendered(
             &scene.name,
             scene_file,
@@ -933,7 +1091,8 @@ fn run_one(
 
     let error = oit_metrics::compare(&image, &reference.image)?;
     let diff = oit_metrics::diff_image(&image, &reference.image)?;
-    let stem = file_stem(&canonical);
+    // Outputs at the default format keep their names; another format's get `@FORMAT`.
+    let stem = format!("{}{}", file_stem(&canonical), format.file_suffix());
     let dir = file_stem(&scene.name);
     let outputs = Outputs {
         exr: format!("{dir}/{stem}.exr"),
@@ -988,6 +1147,7 @@ fn run_one(
         shard: None,
         varied: None,
         prediction: None,
+        target_format: format,
     })
 }
 
@@ -1027,17 +1187,23 @@ pub fn max_rgb_difference(a: &LinearImage, b: &LinearImage) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// Divides every ok run's median GPU time by `unsorted`'s in the same scene.
-fn fill_costs(runs: &mut [Run], measure_baseline: impl FnOnce() -> Option<f64>) {
+/// Divides every ok run's median GPU time at `format` by `unsorted`'s in the same scene at the
+/// same format.
+fn fill_costs(
+    runs: &mut [Run],
+    format: TargetFormat,
+    measure_baseline: impl FnOnce() -> Option<f64>,
+) {
     let baseline = runs
         .iter()
-        .find(|r| r.technique == "unsorted" && r.status == RunStatus::Ok)
+        .find(|r| r.is("unsorted", format) && r.status == RunStatus::Ok)
         .and_then(|r| r.gpu_ms.as_ref().map(|g| g.median));
     let baseline = baseline.or_else(measure_baseline);
     let Some(base) = baseline.filter(|b| *b > 0.0) else {
         return;
     };
-    for run in runs.iter_mut().filter(|r| r.status == RunStatus::Ok) {
+    for run in (runs.iter_mut()).filter(|r| r.status == RunStatus::Ok && r.target_format == format)
+    {
         run.cost_vs_unsorted = run.gpu_ms.as_ref().map(|g| g.median / base);
     }
 }
@@ -1130,16 +1296,18 @@ mod tests {
                 "x".into(),
             ),
         ];
-        fill_costs(&mut runs, || panic!("unsorted ran: not measured again"));
+        fill_costs(&mut runs, TargetFormat::default(), || {
+            panic!("unsorted ran: not measured again")
+        });
         assert_eq!(runs[0].cost_vs_unsorted, Some(1.0));
         assert_eq!(runs[1].cost_vs_unsorted, Some(5.0));
         assert_eq!(runs[2].cost_vs_unsorted, None);
-        fill_floor_costs(&mut runs, 0.5);
+        fill_floor_costs(&mut runs, TargetFormat::default(), 0.5);
         assert_eq!(runs[1].cost_vs_floor, Some(20.0));
         assert_eq!(runs[2].cost_vs_floor, None);
         // Without `unsorted` among the runs, the baseline is measured.
         let mut alone = vec![ok_run("wboit", 3.0)];
-        fill_costs(&mut alone, || Some(1.5));
+        fill_costs(&mut alone, TargetFormat::default(), || Some(1.5));
         assert_eq!(alone[0].cost_vs_unsorted, Some(2.0));
     }
 

@@ -102,6 +102,12 @@ pub(crate) fn shard_json(
     for spec in specs {
         let _ = writeln!(plan, "technique {}", spec.canonical());
     }
+    // Only when not the default alone, so plans of comparisons made before the option existed
+    // stay the same.
+    if options.target_formats != [oit_results::TargetFormat::default()] {
+        let names: Vec<&str> = (options.target_formats.iter()).map(|f| f.name()).collect();
+        let _ = writeln!(plan, "target formats {}", names.join(","));
+    }
     let _ = writeln!(
         plan,
         "resolution {:?} frames {} warmup {} retime {} run_budget {:?} memory_budget {} animation_frames {:?} static_frames {}",

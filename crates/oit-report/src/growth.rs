@@ -265,16 +265,18 @@ fn sweep(
             points: floor_points,
         });
     }
-    let mut techniques: Vec<&str> = Vec::new();
+    // One row per technique at each target format (`sorted @ rgba8unorm`).
+    let mut techniques: Vec<String> = Vec::new();
     for r in runs {
-        if !techniques.contains(&r.technique.as_str()) {
-            techniques.push(&r.technique);
+        let label = r.technique_label();
+        if !techniques.contains(&label) {
+            techniques.push(label);
         }
     }
-    for technique in techniques {
+    for technique in &techniques {
         let mut points: Vec<GrowthPoint> = runs
             .iter()
-            .filter(|r| r.technique == technique)
+            .filter(|r| r.technique_label() == *technique)
             .map(|r| point(r))
             .collect();
         points.sort_by(|a, b| a.x.total_cmp(&b.x));

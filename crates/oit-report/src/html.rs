@@ -421,11 +421,12 @@ fn summary(
     metric: Metric,
     label: &dyn Fn(&str) -> String,
 ) {
-    let mut techniques: Vec<(&str, Vec<&Run>)> = Vec::new();
+    let mut techniques: Vec<(String, Vec<&Run>)> = Vec::new();
     for run in results.runs.iter().filter(|r| r.status == RunStatus::Ok) {
-        match techniques.iter_mut().find(|(t, _)| *t == run.technique) {
+        let label = run.technique_label();
+        match techniques.iter_mut().find(|(t, _)| *t == label) {
             Some((_, runs)) => runs.push(run),
-            None => techniques.push((&run.technique, vec![run])),
+            None => techniques.push((label, vec![run])),
         }
     }
     let median = |mut v: Vec<f64>| -> String {
@@ -459,7 +460,7 @@ fn summary(
             .count();
         let fronts = runs
             .iter()
-            .filter(|r| members.contains(&(r.scene.clone(), r.technique.clone())))
+            .filter(|r| members.contains(&(r.scene.clone(), r.technique_label())))
             .count();
         let order = runs
             .iter()
@@ -487,8 +488,16 @@ fn summary(
     for (scene, runs) in scenes {
         let front: Vec<String> = runs
             .iter()
-            .filter(|r| members.contains(&(r.scene.clone(), r.technique.clone())))
-            .map(|r| format!("<code>{}</code>", esc(&label(&r.technique))))
+            .filter(|r| members.contains(&(r.scene.clone(), r.technique_label())))
+            .map(|r| {
+                format!(
+                    "<code>{}</code>",
+                    esc(&oit_results::technique_label(
+                        &label(&r.technique),
+                        r.target_format
+                    ))
+                )
+            })
             .collect();
         let _ = writeln!(
             out,
@@ -547,8 +556,8 @@ fn scene_section(
     }
     let front: Vec<String> = runs
         .iter()
-        .filter(|r| members.contains(&(r.scene.clone(), r.technique.clone())))
-        .map(|r| format!("<b><code>{}</code></b>", esc(&r.technique)))
+        .filter(|r| members.contains(&(r.scene.clone(), r.technique_label())))
+        .map(|r| format!("<b><code>{}</code></b>", esc(&r.technique_label())))
         .collect();
     let _ = writeln!(
         out,
@@ -617,12 +626,12 @@ fn scene_section(
     }
     out.push_str("</tr></thead>\n<tbody>\n");
     for run in runs {
-        let on_front = members.contains(&(run.scene.clone(), run.technique.clone()));
+        let on_front = members.contains(&(run.scene.clone(), run.technique_label()));
         let _ = write!(
             out,
             "<tr{}><td>{}</td>",
             if on_front { " class=\"front\"" } else { "" },
-            esc(&run.technique)
+            esc(&run.technique_label())
         );
         if run.status != RunStatus::Ok {
             let status = if run.status == RunStatus::Skipped {
@@ -708,18 +717,19 @@ fn scene_section(
              <option value=\"1\">1×</option><option value=\"2\">2×</option>\
              <option value=\"4\">4×</option><option value=\"8\">8×</option></select></div>\n\
              <div class=\"triple\">",
-            esc(&run.technique)
+            esc(&run.technique_label())
         );
         let (render, diff) = match &run.outputs {
             Some(o) => (o.render_png.clone(), o.diff_png.clone()),
             None => (String::new(), String::new()),
         };
         let flip_b = if dir.join(&reference).is_file() {
-            image(dir, &reference, &format!("{} reference", run.technique)).replacen(
-                "<img ",
-                "<img class=\"b\" ",
-                1,
+            image(
+                dir,
+                &reference,
+                &format!("{} reference", run.technique_label()),
             )
+            .replacen("<img ", "<img class=\"b\" ", 1)
         } else {
             String::new()
         };
@@ -727,7 +737,7 @@ fn scene_section(
             out,
             "<figure><div class=\"pane stack\">{}{flip_b}</div><figcaption>render \
              (click: reference)</figcaption></figure>",
-            image(dir, &render, &format!("{} render", run.technique)).replacen(
+            image(dir, &render, &format!("{} render", run.technique_label())).replacen(
                 "<img ",
                 "<img class=\"a\" ",
                 1,
@@ -737,13 +747,17 @@ fn scene_section(
             let _ = writeln!(
                 out,
                 "<figure>{}<figcaption>reference</figcaption></figure>",
-                image(dir, &reference, &format!("{} reference", run.technique))
+                image(
+                    dir,
+                    &reference,
+                    &format!("{} reference", run.technique_label())
+                )
             );
         }
         let _ = writeln!(
             out,
             "<figure><div class=\"pane\">{}</div><figcaption>difference</figcaption></figure>",
-            image(dir, &diff, &format!("{} difference", run.technique))
+            image(dir, &diff, &format!("{} difference", run.technique_label()))
         );
         out.push_str("</div>\n</div>\n");
     }
@@ -752,10 +766,11 @@ fn scene_section(
 
 /// Where `oit compare` writes a technique's clip of an animated scene (an animated PNG of the
 /// path, each frame render | reference | error heat map), relative to the results folder.
-fn motion_clip(scene_stem: &str, technique: &str) -> String {
+fn motion_clip(scene_stem: &str, technique: &str, format: oit_results::TargetFormat) -> String {
     format!(
-        "{scene_stem}/{}-motion.png",
-        oit_results::file_stem(technique)
+        "{scene_stem}/{}{}-motion.png",
+        oit_results::file_stem(technique),
+        format.file_suffix()
     )
 }
 
@@ -813,7 +828,7 @@ fn motion_section(out: &mut String, dir: &Path, scene: &str, runs: &[&Run]) {
             let _ = write!(out, "<td>{}</td>", esc(&cell));
         }
         // The harness's clip, linked only when it is on disk.
-        let clip = motion_clip(&stem, &run.technique);
+        let clip = motion_clip(&stem, &run.technique, run.target_format);
         if dir.join(&clip).is_file() {
             let _ = write!(
                 out,

@@ -222,13 +222,13 @@ fn frames_plot(
         let n = t.frames.len();
         if t.flip.len() != n || n == 0 {
             omitted.push((
-                run.technique.clone(),
+                run.technique_label(),
                 format!("{} FLIP values for {n} frames", t.flip.len()),
             ));
             continue;
         }
         if let Some(bad) = t.flip.iter().find(|v| !(v.is_finite() && **v >= 0.0)) {
-            omitted.push((run.technique.clone(), format!("FLIP {bad} cannot be drawn")));
+            omitted.push((run.technique_label(), format!("FLIP {bad} cannot be drawn")));
             continue;
         }
         let points: Vec<(f64, f64)> = t
@@ -246,8 +246,8 @@ fn frames_plot(
             })
             .collect();
         series.push(MotionSeries {
-            technique: run.technique.clone(),
-            legend: legend_of(&run.technique),
+            technique: run.technique_label(),
+            legend: legend_of(&crate::plot::config_of(run)),
             points,
             pops,
         });
@@ -303,7 +303,7 @@ fn convergence_plot(
             continue;
         };
         if s.history_rmse.is_empty() {
-            omitted.push((run.technique.clone(), "no history_rmse".to_owned()));
+            omitted.push((run.technique_label(), "no history_rmse".to_owned()));
             continue;
         }
         if let Some(bad) = s
@@ -311,15 +311,15 @@ fn convergence_plot(
             .iter()
             .find(|v| !(v.is_finite() && **v >= 0.0))
         {
-            omitted.push((run.technique.clone(), format!("RMSE {bad} cannot be drawn")));
+            omitted.push((run.technique_label(), format!("RMSE {bad} cannot be drawn")));
             continue;
         }
         if !blends.contains(&s.history_blend) {
             blends.push(s.history_blend);
         }
         series.push(MotionSeries {
-            technique: run.technique.clone(),
-            legend: legend_of(&run.technique),
+            technique: run.technique_label(),
+            legend: legend_of(&crate::plot::config_of(run)),
             points: (1..)
                 .zip(&s.history_rmse)
                 .map(|(n, &v)| (f64::from(n), v))

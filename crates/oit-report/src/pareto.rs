@@ -80,12 +80,12 @@ pub fn scene_front<'r>(runs: &[&'r Run], metric: Metric) -> Vec<&'r Run> {
         .collect()
 }
 
-/// `(scene, canonical technique)` of every run on its scene's Pareto front.
+/// `(scene, canonical technique with its target format, `Run::technique_label`)` of every run on its scene's Pareto front.
 pub fn pareto_members(results: &Results, metric: Metric) -> BTreeSet<(String, String)> {
     let mut members = BTreeSet::new();
     for (_, runs) in crate::plot::runs_by_scene(results) {
         for run in scene_front(&runs, metric) {
-            members.insert((run.scene.clone(), run.technique.clone()));
+            members.insert((run.scene.clone(), run.technique_label()));
         }
     }
     members
@@ -118,7 +118,11 @@ pub fn pareto_markdown(results: &Results, metric: Metric) -> String {
         for run in front {
             let cost = run.cost_vs_unsorted.unwrap_or(f64::NAN);
             let err = run.error.as_ref().map_or(f64::NAN, |e| metric.of(e));
-            let _ = writeln!(out, "| `{}` | {cost:.3} | {err:.5} |", run.technique);
+            let _ = writeln!(
+                out,
+                "| `{}` | {cost:.3} | {err:.5} |",
+                run.technique_label()
+            );
         }
         let _ = writeln!(out);
     }

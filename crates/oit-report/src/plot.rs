@@ -151,8 +151,9 @@ pub(crate) fn configuration_styles(results: &Results) -> Vec<(String, LegendEntr
     let families = family_order(results);
     let mut configs: Vec<String> = Vec::new();
     for run in &results.runs {
-        if !configs.contains(&run.technique) {
-            configs.push(run.technique.clone());
+        let config = config_of(run);
+        if !configs.contains(&config) {
+            configs.push(config);
         }
     }
     let refs: Vec<&str> = configs.iter().map(String::as_str).collect();
@@ -182,6 +183,22 @@ pub(crate) fn configuration_styles(results: &Results) -> Vec<(String, LegendEntr
             )
         })
         .collect()
+}
+
+/// A run's configuration on the plots: its canonical spec, with its target format as one more
+/// parameter when that is not the default (`sorted:target=rgba8unorm`), so runs of one
+/// technique at several formats get their own markers and a sweep line like any parameter.
+pub fn config_of(run: &Run) -> String {
+    if run.target_format.is_default() {
+        run.technique.clone()
+    } else {
+        let sep = if run.technique.contains(':') {
+            ','
+        } else {
+            ':'
+        };
+        format!("{}{sep}target={}", run.technique, run.target_format.name())
+    }
 }
 
 /// Technique family: the name before `:` (`dual-peel:passes=5` → `dual-peel`).
@@ -330,12 +347,13 @@ pub fn plot_data(results: &Results, metric: Metric) -> Vec<PlotData> {
                         if x.is_finite() && y.is_finite() && y >= 0.0 && valid_x(kind, x) =>
                     {
                         let f = family(&run.technique);
+                        let config = config_of(run);
                         let entry = configs
                             .iter()
-                            .find(|(c, _)| *c == run.technique)
+                            .find(|(c, _)| *c == config)
                             .map(|(_, e)| e.clone());
                         points.push(PlotPoint {
-                            technique: run.technique.clone(),
+                            technique: config,
                             family: f.to_owned(),
                             style: entry.as_ref().map_or(0, |e| e.style),
                             shape: entry.as_ref().map_or(0, |e| e.shape),
@@ -344,10 +362,10 @@ pub fn plot_data(results: &Results, metric: Metric) -> Vec<PlotData> {
                             y_drawn: y,
                         })
                     }
-                    (None, _) => omitted.push((run.technique.clone(), format!("no {what}"))),
-                    (_, None) => omitted.push((run.technique.clone(), "no error".to_owned())),
+                    (None, _) => omitted.push((run.technique_label(), format!("no {what}"))),
+                    (_, None) => omitted.push((run.technique_label(), "no error".to_owned())),
                     (Some(x), Some(y)) => omitted.push((
-                        run.technique.clone(),
+                        run.technique_label(),
                         format!("{what} {x} or {} {y} cannot be drawn", metric.name()),
                     )),
                 }

@@ -51,6 +51,7 @@ fn results(seed: u64) -> Results {
             gpu_ms: gpu_ms(floor),
             passes: Vec::new(),
             shard: None,
+            target_format: Default::default(),
         });
         for (technique, ms, flip) in [
             ("linear", xf * jitter(), 0.001 * xf),

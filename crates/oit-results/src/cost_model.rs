@@ -174,7 +174,7 @@ pub const WORST: usize = 10;
 fn row(run: &Run) -> Result<Option<([f64; 5], f64)>, LeftOut> {
     let left_out = |reason: &str| LeftOut {
         scene: run.scene.clone(),
-        technique: run.technique.clone(),
+        technique: run.technique_label(),
         reason: reason.to_owned(),
     };
     if run.status != RunStatus::Ok {
@@ -216,14 +216,14 @@ pub fn fit(results: &Results, weighting: Weighting) -> Result<CostModel, CostMod
                     if !v.is_finite() || *v < 0.0 {
                         return Err(CostModelError::BadValue {
                             scene: run.scene.clone(),
-                            technique: run.technique.clone(),
+                            technique: run.technique_label(),
                             what: TERMS.get(i).map_or("gpu_ms.median", |t| t.name),
                             value: *v,
                         });
                     }
                 }
                 rows.push((x, y));
-                names.push((run.scene.clone(), run.technique.clone()));
+                names.push((run.scene.clone(), run.technique_label()));
             }
             Ok(None) => {}
             Err(l) => left_out.push(l),

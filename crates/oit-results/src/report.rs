@@ -195,11 +195,14 @@ pub fn markdown(results: &Results) -> String {
                 let _ = writeln!(out, "{}.\n", md_cell(&line));
             }
         }
-        if let Some(f) = results.floors.iter().find(|f| f.scene == scene) {
+        for f in results.floors.iter().filter(|f| f.scene == scene) {
             let _ = writeln!(
                 out,
-                "Floor (opaque pass + one vertex-colour blended pass): {:.3} GPU ms (frames {:.3}–{:.3}).\n",
-                f.gpu_ms.median, f.gpu_ms.min, f.gpu_ms.max
+                "Floor (opaque pass + one vertex-colour blended pass{}): {:.3} GPU ms (frames {:.3}–{:.3}).\n",
+                format_note(f.target_format),
+                f.gpu_ms.median,
+                f.gpu_ms.min,
+                f.gpu_ms.max
             );
         }
         for caveat in scene_caveats(&runs) {
@@ -506,11 +509,12 @@ pub fn scene_caveats(runs: &[&Run]) -> Vec<String> {
 /// One row per technique over every scene it ran on: the answer to "which technique, for this
 /// suite, at what cost?" before the per-scene detail.
 pub fn summary_markdown(results: &Results) -> String {
-    let mut techniques: Vec<(&str, Vec<&Run>)> = Vec::new();
+    let mut techniques: Vec<(String, Vec<&Run>)> = Vec::new();
     for run in results.runs.iter().filter(|r| r.status == RunStatus::Ok) {
-        match techniques.iter_mut().find(|(t, _)| *t == run.technique) {
+        let label = run.technique_label();
+        match techniques.iter_mut().find(|(t, _)| *t == label) {
             Some((_, runs)) => runs.push(run),
-            None => techniques.push((&run.technique, vec![run])),
+            None => techniques.push((label, vec![run])),
         }
     }
     let mut out = String::new();
@@ -572,15 +576,16 @@ pub fn matrix_markdown(
     title: &str,
     metric: impl Fn(&Run) -> Option<f64>,
 ) -> String {
-    let mut techniques: Vec<&str> = Vec::new();
+    let mut techniques: Vec<String> = Vec::new();
     for run in &results.runs {
-        if !techniques.contains(&run.technique.as_str()) {
-            techniques.push(&run.technique);
+        let label = run.technique_label();
+        if !techniques.contains(&label) {
+            techniques.push(label);
         }
     }
     let mut out = String::new();
     let _ = writeln!(out, "## {title}\n");
-    let labels = short_labels(&techniques);
+    let labels = short_labels(&techniques.iter().map(String::as_str).collect::<Vec<_>>());
     if labels.iter().zip(&techniques).any(|(l, t)| l != t) {
         let _ = writeln!(
             out,
@@ -597,7 +602,7 @@ pub fn matrix_markdown(
             .map(|(t, sum)| {
                 let value = runs
                     .iter()
-                    .find(|r| r.technique == *t && r.status == RunStatus::Ok)
+                    .find(|r| r.technique_label() == *t && r.status == RunStatus::Ok)
                     .and_then(|r| metric(r));
                 match value {
                     Some(v) => {
@@ -627,8 +632,24 @@ pub fn matrix_markdown(
 
 /// Column labels for canonical specs: `key=value` pairs shared by every column of the same
 /// technique (when it has several columns) are dropped, so a weight sweep reads `weight=eq7`, not the whole spec. A column left
-/// with nothing keeps its technique name.
-pub fn short_labels(specs: &[&str]) -> Vec<String> {
+/// with nothing keeps its technique name. A target format (`sorted @ rgba8unorm`,
+/// [`crate::technique_label`]) is kept whole after the shortened spec.
+pub fn short_labels(labels: &[&str]) -> Vec<String> {
+    let (specs, formats): (Vec<&str>, Vec<&str>) = labels
+        .iter()
+        .map(|l| match l.find(" @ ") {
+            Some(i) => l.split_at(i),
+            None => (*l, ""),
+        })
+        .unzip();
+    short_spec_labels(&specs)
+        .into_iter()
+        .zip(formats)
+        .map(|(spec, format)| format!("{spec}{format}"))
+        .collect()
+}
+
+fn short_spec_labels(specs: &[&str]) -> Vec<String> {
     let split = |s: &str| -> (String, Vec<String>) {
         match s.split_once(':') {
             Some((n, p)) => (n.to_owned(), p.split(',').map(str::to_owned).collect()),
@@ -681,7 +702,7 @@ fn row_cells(r: &Run) -> Vec<String> {
             "failed"
         };
         let mut cells = vec![
-            r.technique.clone(),
+            r.technique_label(),
             format!("{status}: {}", r.reason.as_deref().unwrap_or("")),
         ];
         cells.resize(11, String::new());
@@ -733,12 +754,23 @@ fn row_cells(r: &Run) -> Vec<String> {
     ]
 }
 
-/// A run's technique as tables show it: with the sizes its `auto` parameters chose, when it
-/// has any (`k-buffer:k=auto → k=5, slots 640.0 KiB`).
+/// A run's technique as tables show it: with its target format when that is not the default
+/// (`sorted @ rgba8unorm`), and with the sizes its `auto` parameters chose, when it has any
+/// (`k-buffer:k=auto → k=5, slots 640.0 KiB`).
 pub fn technique_cell(technique: &str, r: &Run) -> String {
+    let technique = crate::technique_label(technique, r.target_format);
     match r.stats.as_ref().and_then(|s| s.auto_sizes) {
         Some(sizes) => format!("{technique} → {}", sizes.summary()),
-        None => technique.to_owned(),
+        None => technique,
+    }
+}
+
+/// ` into a FORMAT target` for a floor timed at a format other than the default, else nothing.
+fn format_note(format: crate::TargetFormat) -> String {
+    if format.is_default() {
+        String::new()
+    } else {
+        format!(", into a {} target", format.name())
     }
 }
 
@@ -862,6 +894,98 @@ mod tests {
         assert_eq!(list.summary(), "nodes=1234, sort-max=12, pool 3.0 MiB");
     }
 
+    /// A run's target format round-trips through results.json; the default is never written
+    /// (so files of default comparisons are as before the field existed) and a file without
+    /// it reads as the default; an unknown format is refused naming the allowed ones. Tables
+    /// show a run at another format as `TECHNIQUE @ FORMAT`, its own row, summary row and
+    /// matrix column, and its floor says its format.
+    #[test]
+    fn target_format_round_trips_and_is_shown_beside_the_technique() {
+        use crate::schema::TargetFormat;
+        let half = run("s1", "stochastic:spp=4", 1.0, 1e-3, 0.1);
+        let mut byte = run("s1", "stochastic:spp=4", 1.0, 4e-3, 0.2);
+        byte.target_format = TargetFormat::Rgba8Unorm;
+        let mut full = run("s1", "stochastic:spp=16", 1.0, 1e-3, 0.1);
+        full.target_format = TargetFormat::Rgba32Float;
+        let half_json = serde_json::to_string(&half).unwrap();
+        assert!(!half_json.contains("target_format"), "{half_json}");
+        for r in [&byte, &full] {
+            let json = serde_json::to_string(r).unwrap();
+            let name = r.target_format.name();
+            assert!(
+                json.contains(&format!("\"target_format\":\"{name}\"")),
+                "{json}"
+            );
+            let back: Run = serde_json::from_str(&json).unwrap();
+            assert_eq!(&back, r);
+        }
+        let explicit = half_json.replacen('{', "{\"target_format\":\"rgba16float\",", 1);
+        let back: Run = serde_json::from_str(&explicit).unwrap();
+        assert_eq!(back, half);
+        let bad = half_json.replacen('{', "{\"target_format\":\"rgba8\",", 1);
+        let err = serde_json::from_str::<Run>(&bad).unwrap_err().to_string();
+        assert!(
+            err.contains("rgba8unorm") && err.contains("rgba32float"),
+            "{err}"
+        );
+        assert_eq!(
+            TargetFormat::parse("RGBA8Unorm"),
+            Ok(TargetFormat::Rgba8Unorm)
+        );
+        let err = TargetFormat::parse("rgb8").unwrap_err();
+        assert!(
+            err.contains("`rgb8`") && err.contains("allowed: rgba8unorm, rgba16float, rgba32float"),
+            "{err}"
+        );
+        assert_eq!(TargetFormat::Rgba16Float.file_suffix(), "");
+        assert_eq!(TargetFormat::Rgba8Unorm.file_suffix(), "@rgba8unorm");
+
+        let floor = |format| crate::schema::FloorJson {
+            scene: "s1".into(),
+            resolution: [4, 4],
+            gpu_ms: crate::schema::GpuMs {
+                median: 1.0,
+                min: 1.0,
+                max: 1.0,
+                frames: 1,
+                source: "timestamp".into(),
+                interference: None,
+                attempts: 1,
+            },
+            passes: Vec::new(),
+            shard: None,
+            target_format: format,
+        };
+        let results = results_of(
+            vec![half, byte, full],
+            vec![
+                floor(TargetFormat::Rgba16Float),
+                floor(TargetFormat::Rgba8Unorm),
+            ],
+        );
+        let md = markdown(&results);
+        assert!(md.contains("| stochastic:spp=4 |"), "{md}");
+        assert!(md.contains("| stochastic:spp=4 @ rgba8unorm |"), "{md}");
+        assert!(md.contains("| stochastic:spp=16 @ rgba32float |"), "{md}");
+        assert!(
+            md.contains("blended pass, into a rgba8unorm target):"),
+            "{md}"
+        );
+        let summary = summary_markdown(&results);
+        assert_eq!(
+            summary.matches("| stochastic:spp=4").count(),
+            2,
+            "{summary}"
+        );
+        let matrix = matrix_markdown(&results, "m", |r| r.error.map(|e| e.max_abs));
+        assert!(
+            matrix.contains("| scene | spp=4 | spp=4 @ rgba8unorm | spp=16 @ rgba32float |"),
+            "{matrix}"
+        );
+        let table = terminal_table_labelled(&results, &|t| t.to_owned());
+        assert!(table.contains("stochastic:spp=4 @ rgba8unorm"), "{table}");
+    }
+
     #[test]
     fn summary_aggregates_per_technique_over_scenes() {
         let mut skipped = run("s3", "t", 9.0, 9.0, 9.0);
@@ -939,6 +1063,7 @@ mod tests {
                 gpu_ms: timed(1.0, 0.5),
                 passes: Vec::new(),
                 shard: None,
+                target_format: Default::default(),
             }],
         );
         let text = markdown(&results);
@@ -1107,6 +1232,7 @@ mod tests {
             },
             passes: Vec::new(),
             shard: None,
+            target_format: Default::default(),
         };
         let results = results_of(vec![cheap, dear], vec![floor]);
         let md = markdown(&results);

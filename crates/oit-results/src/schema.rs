@@ -43,7 +43,8 @@ pub struct ShardJson {
     pub index: u32,
     /// N: how many shards the comparison was split into.
     pub count: u32,
-    /// Runs of the whole comparison (every shard together).
+    /// Runs of the whole comparison (every shard together): scene × technique pairs, each made
+    /// once per target format (`oit compare --target-format`).
     pub runs: u64,
     /// A hash (FNV-1a, hex) of the whole comparison's plan: every (scene, technique) in order
     /// and the options that change a run. Shards of one comparison have the same plan.
@@ -177,6 +178,80 @@ pub struct FloorJson {
     /// whose runs fell in two shards has a floor from each.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub shard: Option<u32>,
+    /// The final colour target the floor was timed into (absent: `rgba16float`); a scene
+    /// compared at several formats has a floor per format.
+    #[serde(default, skip_serializing_if = "TargetFormat::is_default")]
+    pub target_format: TargetFormat,
+}
+
+/// The format of the final colour target a run composited into (`oit compare
+/// --target-format`): absent in results.json for the default, `rgba16float`, so files of
+/// comparisons at the default read as before the field existed (2026-12-07).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TargetFormat {
+    /// Linear 8-bit UNORM: clamps to [0, 1] and rounds to 1/255 at every blend.
+    Rgba8Unorm,
+    /// Half float, the default.
+    #[default]
+    Rgba16Float,
+    /// Full float.
+    Rgba32Float,
+}
+
+impl TargetFormat {
+    /// Every format, in the order the command line lists them.
+    pub const ALL: [TargetFormat; 3] = [
+        TargetFormat::Rgba8Unorm,
+        TargetFormat::Rgba16Float,
+        TargetFormat::Rgba32Float,
+    ];
+
+    /// As on the command line and in results.json.
+    pub fn name(self) -> &'static str {
+        match self {
+            TargetFormat::Rgba8Unorm => "rgba8unorm",
+            TargetFormat::Rgba16Float => "rgba16float",
+            TargetFormat::Rgba32Float => "rgba32float",
+        }
+    }
+
+    /// The format named `text` (case-insensitive), or a message listing the allowed names.
+    pub fn parse(text: &str) -> Result<TargetFormat, String> {
+        let wanted = text.trim().to_ascii_lowercase();
+        Self::ALL
+            .into_iter()
+            .find(|f| f.name() == wanted)
+            .ok_or_else(|| {
+                format!(
+                    "`{}` is not a target format; allowed: {}",
+                    crate::report::printable(text),
+                    Self::ALL.map(TargetFormat::name).join(", ")
+                )
+            })
+    }
+
+    pub fn is_default(&self) -> bool {
+        *self == TargetFormat::default()
+    }
+
+    /// What output file stems get for this format: nothing for the default (file names as
+    /// before the parameter existed), else `@NAME` (`sorted@rgba8unorm.exr`). `@` is never
+    /// in a [`crate::file_stem`], so two formats, or a format and a technique, never share a
+    /// file.
+    pub fn file_suffix(self) -> String {
+        if self.is_default() {
+            String::new()
+        } else {
+            format!("@{}", self.name())
+        }
+    }
+}
+
+impl std::fmt::Display for TargetFormat {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -388,6 +463,10 @@ pub struct Run {
     /// `parameter` and differ in `value`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub varied: Option<Varied>,
+    /// The final colour target the technique composited into (`oit compare --target-format`;
+    /// absent: `rgba16float`, the default, and in files written before 2026-12-07).
+    #[serde(default, skip_serializing_if = "TargetFormat::is_default")]
+    pub target_format: TargetFormat,
 }
 
 /// One value of a scene-parameter sweep (`oit compare --vary`, docs/results-schema.md).
@@ -584,7 +663,30 @@ impl Run {
             shard: None,
             prediction: None,
             varied: None,
+            target_format: TargetFormat::default(),
         }
+    }
+
+    /// The run's technique as reports name it: the canonical spec, with ` @ FORMAT` when its
+    /// target format is not the default, so runs of one technique at two formats are two
+    /// rows (and two columns) of every table, like two parameter values.
+    pub fn technique_label(&self) -> String {
+        technique_label(&self.technique, self.target_format)
+    }
+
+    /// Whether this run is `technique` at `format`: within one scene and resolution, the
+    /// pair names a run.
+    pub fn is(&self, technique: &str, format: TargetFormat) -> bool {
+        self.technique == technique && self.target_format == format
+    }
+}
+
+/// [`Run::technique_label`] of `technique` at `format`.
+pub fn technique_label(technique: &str, format: TargetFormat) -> String {
+    if format.is_default() {
+        technique.to_owned()
+    } else {
+        format!("{technique} @ {}", format.name())
     }
 }
 

@@ -14,4 +14,5 @@ mod robustness;
 mod shaders;
 mod shard;
 mod sweeps;
+mod target_format;
 mod textures;

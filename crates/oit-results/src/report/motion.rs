@@ -72,7 +72,7 @@ pub fn pops_cell(pops: &[u32], shown: usize) -> String {
 /// order dependence, static bias / noise. Pop frames are named up to `shown`.
 pub fn motion_cells(run: &Run, t: &Temporal, shown: usize) -> [String; 8] {
     [
-        run.technique.clone(),
+        run.technique_label(),
         sci(t.flicker),
         pops_cell(&t.pop_events, shown),
         format!(
@@ -160,7 +160,10 @@ pub fn scene_motion_terminal(runs: &[&Run], label: &dyn Fn(&str) -> String) -> S
     let mut notes: Vec<String> = Vec::new();
     let mut table: Vec<Vec<String>> = vec![HEAD.iter().map(|h| (*h).to_owned()).collect()];
     for (run, t) in &rows {
-        let name = printable(&label(&run.technique));
+        let name = printable(&crate::technique_label(
+            &label(&run.technique),
+            run.target_format,
+        ));
         let mut parts = Vec::new();
         let shown = if name.chars().count() > super::LABEL_MAX {
             parts.push(name.clone());
@@ -250,12 +253,13 @@ pub const MOTION_SUMMARY_HEADING: &str = "Motion over the suite";
 /// pop events in all, and the largest worst-frame ꟻLIP. Always written (a README table quotes
 /// it); without animated scenes its one row says so.
 pub fn motion_summary_markdown(results: &Results) -> String {
-    let mut techniques: Vec<(&str, Vec<&Temporal>)> = Vec::new();
+    let mut techniques: Vec<(String, Vec<&Temporal>)> = Vec::new();
     for run in results.runs.iter().filter(|r| r.status == RunStatus::Ok) {
         let Some(t) = &run.temporal else { continue };
-        match techniques.iter_mut().find(|(n, _)| *n == run.technique) {
+        let label = run.technique_label();
+        match techniques.iter_mut().find(|(n, _)| *n == label) {
             Some((_, ts)) => ts.push(t),
-            None => techniques.push((&run.technique, vec![t])),
+            None => techniques.push((label, vec![t])),
         }
     }
     let mut out = String::new();
@@ -305,7 +309,7 @@ pub fn motion_summary_markdown(results: &Results) -> String {
         let _ = writeln!(
             out,
             "| {} | {} | {} | {pops} | {} |",
-            md_cell(technique),
+            md_cell(&technique),
             ts.len(),
             sci(median),
             md_cell(&worst)

@@ -70,7 +70,7 @@ pub fn scene_predictions_markdown(runs: &[&Run]) -> String {
         let _ = writeln!(
             out,
             "- `{}`: {}, because {}{model}{mark}",
-            crate::report::md_cell(&run.technique),
+            crate::report::md_cell(&run.technique_label()),
             word(p),
             crate::report::md_cell(&p.because)
         );
@@ -94,7 +94,7 @@ pub fn predictions_summary(results: &Results) -> Option<String> {
     let wrong: Vec<String> = all
         .iter()
         .filter(|(_, p)| p.agrees == Some(false))
-        .map(|(r, _)| format!("{} on {}", r.technique, r.scene))
+        .map(|(r, _)| format!("{} on {}", r.technique_label(), r.scene))
         .collect();
     let borderline = count(&|p| p.verdict == "borderline");
     let unmodelled = count(&|p| p.verdict == "unmodelled");
