@@ -9,6 +9,8 @@
 #        PYTHON (a python with vtk, numpy, imageio, OpenEXR; default python3)
 #        SCENES ("scenes/many-layers-64.json scenes/particles.json"), RES (256x256), ROUNDS (3)
 #        VTK_MODES (peel,oit,blend), VTK_FRAMES (20), VTK_WARMUP (3), OIT_FRAMES (20), OIT_WARMUP (3)
+#        TARGET_FORMAT (rgba8unorm: oit-lab's final target, as VTK's 8-bit framebuffer; rgba16float
+#        is oit-lab's default)
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 OUT=${1:-/tmp/oit-vtk-peer}
@@ -22,6 +24,7 @@ VTK_FRAMES=${VTK_FRAMES:-20}
 VTK_WARMUP=${VTK_WARMUP:-3}
 OIT_FRAMES=${OIT_FRAMES:-20}
 OIT_WARMUP=${OIT_WARMUP:-3}
+TARGET_FORMAT=${TARGET_FORMAT:-rgba8unorm}
 # The oit-lab techniques VTK's modes stand next to (vtk_peer.py's MODES says which is whose).
 TECHNIQUES=(-t unsorted -t sorted-object -t 'wboit:weight=const' -t 'dual-peel:passes=auto,depth=rg32f')
 [ -x "$OIT" ] || { echo "run_vtk.sh: no oit binary at $OIT (build it with cargo build --release -p oit-cli, or set OIT)" >&2; exit 1; }
@@ -47,7 +50,8 @@ for i in $(seq 1 "$ROUNDS"); do
     done
     echo "== round $i: oit-lab ($(uptime))"
     "$OIT" compare "${SCENES[@]}" "${TECHNIQUES[@]}" --resolution "$RES" \
-        --frames "$OIT_FRAMES" --warmup "$OIT_WARMUP" --out "$OUT/round$i-oit"
+        --frames "$OIT_FRAMES" --warmup "$OIT_WARMUP" --target-format "$TARGET_FORMAT" \
+        --out "$OUT/round$i-oit"
 done
 
 # Images (untimed): one VTK frame per mode against the last round's oit-lab EXRs and reference,

@@ -107,6 +107,9 @@ def vtk_tables(out, files):
                 gpu = run["gpu_ms"]["median"] if run and run.get("gpu_ms") else None
                 other = ((run or {}).get("gpu_ms") or {}).get("interference", {}).get("other_processes")
                 tech = run["technique"] if run else spec
+                # The final target format, where it is not oit-lab's default Rgba16Float.
+                if run and run.get("target_format"):
+                    tech += f" @ {run['target_format']}"
                 if run and run.get("status", "ok") != "ok":
                     tech += f" ({run['status']})"
                 passes = (r.get("geometry_passes"), ((run or {}).get("stats") or {}).get("geometry_passes"))
