@@ -4,7 +4,8 @@
 #
 #   benches/peer/run.sh [OUT_DIR]        (default /tmp/oit-peer)
 #   env: OIT (oit binary, default target/release/oit), SCENE, RES, ROUNDS (2),
-#        PYGFX_FRAMES (50), OIT_FRAMES (20)
+#        PYGFX_FRAMES (50), OIT_FRAMES (20), TARGET_FORMAT (rgba8unorm: oit-lab's final target,
+#        8 bits a channel as pygfx's rgba8unorm-srgb; rgba16float is oit-lab's default)
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 OUT=${1:-/tmp/oit-peer}
@@ -14,6 +15,10 @@ RES=${RES:-256x256}
 ROUNDS=${ROUNDS:-2}
 PYGFX_FRAMES=${PYGFX_FRAMES:-50}
 OIT_FRAMES=${OIT_FRAMES:-20}
+TARGET_FORMAT=${TARGET_FORMAT:-rgba8unorm}
+# oit-lab names the files of a run at another format than its default TECHNIQUE@FORMAT.*.
+SUFFIX=""
+[ "$TARGET_FORMAT" = rgba16float ] || SUFFIX="@$TARGET_FORMAT"
 export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-/tmp}
 [ -x "$OIT" ] || { echo "run.sh: no oit binary at $OIT (build it with cargo build --release -p oit-cli, or set OIT)" >&2; exit 1; }
 mkdir -p "$OUT"
@@ -25,10 +30,10 @@ for i in $(seq 1 "$ROUNDS"); do
         # Images: this round's pygfx frames against the first round's oit-lab EXRs.
         d="$OUT/round1-oit/$(basename "$SCENE" .json)"
         compare=(--png-dir "$OUT/pygfx-png"
-            --compare-exr "blend=$d/sorted-object.exr"
-            --compare-exr "weighted_blend=$d/wboit_accum-rgba16f_reveal-r8_weight-alpha.exr"
-            --compare-exr "dither=$d/stochastic_pattern-blue_seed-object_spp-1.exr"
-            --compare-exr "bayer=$d/stochastic_pattern-bayer8_seed-object_spp-1.exr")
+            --compare-exr "blend=$d/sorted-object$SUFFIX.exr"
+            --compare-exr "weighted_blend=$d/wboit_accum-rgba16f_reveal-r8_weight-alpha$SUFFIX.exr"
+            --compare-exr "dither=$d/stochastic_pattern-blue_seed-object_spp-1$SUFFIX.exr"
+            --compare-exr "bayer=$d/stochastic_pattern-bayer8_seed-object_spp-1$SUFFIX.exr")
     fi
     echo "== round $i: pygfx ($(uptime))"
     python3 benches/peer/pygfx_peer.py --scene "$OUT/flat.json" --frames "$PYGFX_FRAMES" \
@@ -36,7 +41,8 @@ for i in $(seq 1 "$ROUNDS"); do
     echo "== round $i: oit-lab ($(uptime))"
     "$OIT" compare "$SCENE" -t sorted-object -t 'wboit:weight=alpha,reveal=r8' \
         -t 'stochastic:pattern=blue' -t 'stochastic:pattern=bayer8' \
-        --resolution "$RES" --frames "$OIT_FRAMES" --out "$OUT/round$i-oit"
+        --resolution "$RES" --frames "$OIT_FRAMES" --target-format "$TARGET_FORMAT" \
+        --out "$OUT/round$i-oit"
 done
 echo
 python3 benches/peer/table.py "$OUT" | tee "$OUT/table.md"

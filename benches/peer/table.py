@@ -67,6 +67,8 @@ def pygfx_table(out, rounds):
             gpu = r.get("gpu_scene_ms", {}).get("median")
             match = [x for x in runs if x["technique"].startswith(COUNTERPART[r["mode"]]) and x.get("gpu_ms")]
             tech, oit = (match[0]["technique"], match[0]["gpu_ms"]["median"]) if match else ("-", None)
+            if match and match[0].get("target_format"):
+                tech += f" @ {match[0]['target_format']}"
             ratio = f"{wall / oit:.2f}" if oit else "-"
             gratio = f"{gpu / oit:.2f}" if oit and gpu else "-"
             gpu_s = f"{gpu:.2f}" if gpu else "-"

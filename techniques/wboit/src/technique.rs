@@ -310,11 +310,17 @@ impl Wboit {
             };
             // The shared vertex stage of common.wgsl, depth tested strictly nearer than the
             // opaque depth, no depth writes.
+            let weight = match self.config {
+                Config::Weighted { weight, .. } => weight,
+                Config::Average => Weight::Const,
+            };
+            let constants = [("WBOIT_WEIGHT", f64::from(weight.index()))];
             let pipelines = ScenePipelines::with_layout(
                 ctx,
                 &ScenePipelineDesc {
                     targets: &targets,
                     depth: Some(depth_test(scene.depth_nearer(), false)),
+                    constants: &constants,
                     ..ScenePipelineDesc::new("wboit accumulate", &module, entry)
                 },
                 &pipeline_layout,
