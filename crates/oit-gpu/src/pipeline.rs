@@ -16,11 +16,17 @@ pub struct FullscreenDesc<'a> {
     pub depth: Option<wgpu::DepthStencilState>,
     /// Must match the attachments' sample count.
     pub multisample: wgpu::MultisampleState,
+    /// The shader's pipeline override constants (both stages get them).
+    pub constants: &'a [(&'a str, f64)],
 }
 
 /// A full-screen triangle pipeline (draw it with `pass.draw(0..3, 0..1)`). No culling, so the
 /// shader's winding does not matter.
 pub fn fullscreen_pipeline(ctx: &Context, desc: &FullscreenDesc<'_>) -> wgpu::RenderPipeline {
+    let options = wgpu::PipelineCompilationOptions {
+        constants: desc.constants,
+        ..Default::default()
+    };
     ctx.device
         .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some(desc.label),
@@ -28,7 +34,7 @@ pub fn fullscreen_pipeline(ctx: &Context, desc: &FullscreenDesc<'_>) -> wgpu::Re
             vertex: wgpu::VertexState {
                 module: desc.module,
                 entry_point: Some("vs_fullscreen"),
-                compilation_options: Default::default(),
+                compilation_options: options.clone(),
                 buffers: &[],
             },
             primitive: Default::default(),
@@ -37,7 +43,7 @@ pub fn fullscreen_pipeline(ctx: &Context, desc: &FullscreenDesc<'_>) -> wgpu::Re
             fragment: Some(wgpu::FragmentState {
                 module: desc.module,
                 entry_point: Some(desc.fragment_entry),
-                compilation_options: Default::default(),
+                compilation_options: options,
                 targets: desc.targets,
             }),
             multiview_mask: None,

@@ -72,10 +72,7 @@ impl Triangles {
                 if m.is_transmissive() {
                     t.transmissive += n;
                 }
-                if matches!(
-                    m.operator,
-                    oit_scene::BlendOperator::Add | oit_scene::BlendOperator::Subtract
-                ) {
+                if m.operator.is_additive() {
                     t.additive += n;
                 }
             } else {

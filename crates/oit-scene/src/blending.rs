@@ -53,6 +53,13 @@ impl BlendOperator {
         }
     }
 
+    /// `add` and `subtract`: `t = 1`, colour added or taken away with nothing behind hidden.
+    /// Techniques that estimate coverage keep such fragments out of their sums and add them
+    /// after their composite.
+    pub fn is_additive(self) -> bool {
+        matches!(self, BlendOperator::Add | BlendOperator::Subtract)
+    }
+
     /// The shader's code (`Material.operator` in shaders/common.wgsl).
     pub fn code(self) -> u32 {
         match self {

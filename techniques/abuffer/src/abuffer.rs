@@ -292,6 +292,7 @@ impl Abuffer {
                 targets: &over,
                 depth: None,
                 multisample: Default::default(),
+                constants: &[],
             },
         );
         self.gpu = Some(Resources {

@@ -532,6 +532,7 @@ impl KBuffer {
                 targets: &over,
                 depth: None,
                 multisample: Default::default(),
+                constants: &[],
             },
         );
         let counters = Counters::new(ctx, &mut self.ledger, "k-buffer");

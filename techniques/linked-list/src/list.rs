@@ -359,6 +359,7 @@ impl LinkedList {
                 targets: &over,
                 depth: None,
                 multisample: Default::default(),
+                constants: &[],
             },
         );
         let counters = Counters::new(ctx, &mut self.ledger, "linked-list");

@@ -427,6 +427,7 @@ impl Slab {
                 targets: &over,
                 depth: None,
                 multisample: Default::default(),
+                constants: &[],
             },
         );
         let counters = Counters::new(ctx, &mut self.ledger, "slab");

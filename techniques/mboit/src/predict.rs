@@ -97,12 +97,7 @@ enum Probe {
 /// Per draw of `scene`: whether it adds or subtracts its colour (pass 3, not the moments).
 fn additive_draws(scene: &Scene) -> Vec<bool> {
     (scene.draws.iter())
-        .map(|d| {
-            matches!(
-                scene.material_of(d).operator,
-                oit_scene::BlendOperator::Add | oit_scene::BlendOperator::Subtract
-            )
-        })
+        .map(|d| scene.material_of(d).operator.is_additive())
         .collect()
 }
 

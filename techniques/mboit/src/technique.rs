@@ -464,6 +464,7 @@ impl Mboit {
                 })],
                 depth: None,
                 multisample: Default::default(),
+                constants: &[],
             },
         );
         self.composite = Some((format, pipeline.clone()));
@@ -544,10 +545,7 @@ impl Technique for Mboit {
         let (additive, draws): (Vec<usize>, Vec<usize>) =
             scene.transparent_draws().into_iter().partition(|&i| {
                 let s = &scene.scene;
-                matches!(
-                    s.material_of(&s.draws[i]).operator,
-                    BlendOperator::Add | BlendOperator::Subtract
-                )
+                s.material_of(&s.draws[i]).operator.is_additive()
             });
         let depth = || {
             pass::depth(

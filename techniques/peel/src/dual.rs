@@ -429,6 +429,7 @@ fn scalar_stacks(
                 })],
                 depth: None,
                 multisample: Default::default(),
+                constants: &[],
             },
         )
     };

@@ -404,6 +404,7 @@ impl FrontPeel {
                     })],
                     depth: None,
                     multisample: Default::default(),
+                    constants: &[],
                 },
             )
         };

@@ -294,6 +294,7 @@ impl TransmitShader {
                 targets,
                 depth: None,
                 multisample: Default::default(),
+                constants: &[],
             },
         )
     }

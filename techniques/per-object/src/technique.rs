@@ -254,6 +254,7 @@ impl PerObject {
                 })],
                 depth: None,
                 multisample: wgpu::MultisampleState::default(),
+                constants: &[],
             },
         );
         self.pipelines = Some(Pipelines {

@@ -123,8 +123,7 @@ impl AlphaToCoverage {
         targets: &Targets,
         samples: u32,
     ) -> Result<(), GpuError> {
-        let has_additive = (scene.scene.operators_used().iter())
-            .any(|&op| matches!(op, BlendOperator::Add | BlendOperator::Subtract));
+        let has_additive = (scene.scene.operators_used().iter()).any(|&op| op.is_additive());
         let key = (
             targets.color_format,
             scene.scene.camera.reverse_z,
@@ -299,10 +298,7 @@ impl Technique for AlphaToCoverage {
             let (additive, order): (Vec<usize>, Vec<usize>) =
                 self.order.of(scene).iter().copied().partition(|&i| {
                     let s = &scene.scene;
-                    matches!(
-                        s.material_of(&s.draws[i]).operator,
-                        BlendOperator::Add | BlendOperator::Subtract
-                    )
+                    s.material_of(&s.draws[i]).operator.is_additive()
                 });
             for &i in &order {
                 gpu::draw_with_id(&mut pass, scene, &r.a2c, i);

@@ -197,6 +197,7 @@ impl SeedPass {
                     })],
                     depth: Some(oit_gpu::depth_test(wgpu::CompareFunction::Always, true)),
                     multisample,
+                    constants: &[],
                 },
             )
         };

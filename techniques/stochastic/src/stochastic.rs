@@ -148,8 +148,7 @@ impl Stochastic {
         config: &StochasticConfig,
     ) -> Result<(), GpuError> {
         let coloured = scene.scene.has_coloured_transmission();
-        let has_additive = (scene.scene.operators_used().iter())
-            .any(|&op| matches!(op, BlendOperator::Add | BlendOperator::Subtract));
+        let has_additive = (scene.scene.operators_used().iter()).any(|&op| op.is_additive());
         let key = (
             targets.color_format,
             scene.scene.camera.reverse_z,
@@ -426,6 +425,7 @@ impl Stochastic {
                     })],
                     depth: None,
                     multisample: Default::default(),
+                    constants: &[],
                 },
             )
         };
@@ -574,10 +574,7 @@ impl Technique for Stochastic {
         let (additive_draws, order): (Vec<usize>, Vec<usize>) =
             self.order.of(scene).iter().copied().partition(|&i| {
                 let s = &scene.scene;
-                matches!(
-                    s.material_of(&s.draws[i]).operator,
-                    BlendOperator::Add | BlendOperator::Subtract
-                )
+                s.material_of(&s.draws[i]).operator.is_additive()
             });
         let draw_pass = |encoder: &mut wgpu::CommandEncoder,
                          timer: &mut GpuTimer,

@@ -9,6 +9,7 @@
 // - fs_additive (after the composite, scenes with add/subtract operators only).
 #include "common.wgsl"
 #include "wavelet_math.wgsl"
+#include "wavelet_coefficients.wgsl"
 
 // Rank 2, 3 or 4: N = 2^(rank + 1) coefficients in N / 4 RGBA targets.
 override WAVELET_RANK: u32 = 3u;
@@ -26,14 +27,6 @@ struct WaveletParams {
 
 @group(1) @binding(0) var<uniform> params: WaveletParams;
 @group(2) @binding(0) var range_tex: texture_2d<f32>;
-@group(2) @binding(1) var coefficients0: texture_2d<f32>;
-@group(2) @binding(2) var coefficients1: texture_2d<f32>;
-@group(2) @binding(3) var coefficients2: texture_2d<f32>;
-@group(2) @binding(4) var coefficients3: texture_2d<f32>;
-@group(2) @binding(5) var coefficients4: texture_2d<f32>;
-@group(2) @binding(6) var coefficients5: texture_2d<f32>;
-@group(2) @binding(7) var coefficients6: texture_2d<f32>;
-@group(2) @binding(8) var coefficients7: texture_2d<f32>;
 
 fn view_distance(window_z: f32) -> f32 {
     if params.ortho != 0u {
@@ -46,33 +39,6 @@ fn view_distance(window_z: f32) -> f32 {
 fn pixel_depth(xy: vec2<i32>, window_z: f32) -> f32 {
     let range = textureLoad(range_tex, xy, 0);
     return wavelet_normalized_depth(view_distance(window_z), -range.x, range.y);
-}
-
-fn put(c: ptr<function, array<f32, 32>>, group: u32, v: vec4<f32>) {
-    (*c)[4u * group] = v.x;
-    (*c)[4u * group + 1u] = v.y;
-    (*c)[4u * group + 2u] = v.z;
-    (*c)[4u * group + 3u] = v.w;
-}
-
-// The pixel's coefficients; groups beyond the rank's are never bound to distinct textures and
-// stay zero.
-fn load_coefficients(xy: vec2<i32>) -> array<f32, 32> {
-    var c: array<f32, 32>;
-    let groups = wavelet_coefficient_count(WAVELET_RANK) / 4u;
-    put(&c, 0u, textureLoad(coefficients0, xy, 0));
-    put(&c, 1u, textureLoad(coefficients1, xy, 0));
-    if groups > 2u {
-        put(&c, 2u, textureLoad(coefficients2, xy, 0));
-        put(&c, 3u, textureLoad(coefficients3, xy, 0));
-    }
-    if groups > 4u {
-        put(&c, 4u, textureLoad(coefficients4, xy, 0));
-        put(&c, 5u, textureLoad(coefficients5, xy, 0));
-        put(&c, 6u, textureLoad(coefficients6, xy, 0));
-        put(&c, 7u, textureLoad(coefficients7, xy, 0));
-    }
-    return c;
 }
 
 @fragment
@@ -133,7 +99,7 @@ fn fs_shade(v: VertexOut, @builtin(front_facing) front_facing: bool) -> @locatio
         discard;
     }
     let xy = vec2<i32>(v.clip.xy);
-    var c = load_coefficients(xy);
+    var c = load_coefficients(WAVELET_RANK, xy);
     let t = wavelet_transmittance(wavelet_absorbance_before(&c, WAVELET_RANK, pixel_depth(xy, v.clip.z), a));
     return vec4<f32>(s.color * t, s.alpha * t);
 }
@@ -149,7 +115,7 @@ fn fs_additive(v: VertexOut, @builtin(front_facing) front_facing: bool) -> @loca
         discard;
     }
     let xy = vec2<i32>(v.clip.xy);
-    var c = load_coefficients(xy);
+    var c = load_coefficients(WAVELET_RANK, xy);
     let t = wavelet_transmittance(wavelet_absorbance_at(&c, WAVELET_RANK, pixel_depth(xy, v.clip.z)));
     return vec4<f32>(s.color * t, 0.0);
 }

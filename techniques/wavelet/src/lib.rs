@@ -23,6 +23,7 @@ pub use technique::{
 /// Every WGSL file of this crate (`shaders/`), by file name.
 pub const SHADERS: oit_gpu::shaders::Library = &[
     ("wavelet.wgsl", technique::PASSES_WGSL),
+    ("wavelet_coefficients.wgsl", technique::COEFFICIENTS_WGSL),
     ("wavelet_composite.wgsl", technique::COMPOSITE_WGSL),
     ("wavelet_math.wgsl", technique::MATH_WGSL),
 ];

@@ -5,19 +5,14 @@
 
 use oit_gpu::predict::{Layer, Pixel, PixelLists, draw_order_key, f16_round};
 use oit_gpu::{Prediction, Verdict};
-use oit_scene::{BlendOperator, Camera, Scene};
+use oit_scene::{Camera, Scene};
 
 use crate::math::{self, MAX_COEFFICIENTS};
 use crate::technique::{Config, Storage};
 
 pub(crate) fn predict(config: &Config, scene: &Scene, lists: &PixelLists) -> Prediction {
     let additive: Vec<bool> = (scene.draws.iter())
-        .map(|d| {
-            matches!(
-                scene.material_of(d).operator,
-                BlendOperator::Add | BlendOperator::Subtract
-            )
-        })
+        .map(|d| scene.material_of(d).operator.is_additive())
         .collect();
     let camera = &scene.camera;
     // Where a fragment sits on a cell boundary or the coefficients' rounding could move the

@@ -17,7 +17,10 @@ use oit_scene::{BlendOperator, Resolution, Scene};
 pub const MATH_WGSL: &str = include_str!("../shaders/wavelet_math.wgsl");
 /// The geometry passes (shaders/wavelet.wgsl; includes common.wgsl and the math).
 pub const PASSES_WGSL: &str = include_str!("../shaders/wavelet.wgsl");
-/// The composite (shaders/wavelet_composite.wgsl; includes the math).
+/// The pixel's coefficient textures and their loading, shared by the shading, additive and
+/// composite passes (shaders/wavelet_coefficients.wgsl).
+pub const COEFFICIENTS_WGSL: &str = include_str!("../shaders/wavelet_coefficients.wgsl");
+/// The composite (shaders/wavelet_composite.wgsl; includes the math and the coefficients).
 pub const COMPOSITE_WGSL: &str = include_str!("../shaders/wavelet_composite.wgsl");
 
 /// Coefficient targets the shaders declare (rank 4: 32 coefficients, 4 per RGBA target).
@@ -163,6 +166,9 @@ struct Shared {
     range_layout: wgpu::BindGroupLayout,
     resolve_layout: wgpu::BindGroupLayout,
     composite_layout: wgpu::BindGroupLayout,
+    /// Groups 0 and 1 of the composite, which reads only group 2.
+    empty_layout: wgpu::BindGroupLayout,
+    empty_group: wgpu::BindGroup,
     ledger: MemoryLedger,
 }
 
@@ -231,6 +237,12 @@ impl Wavelet {
                 .collect();
             let resolve_layout = layout("wavelet coefficients", &textures);
             let composite_layout = layout("wavelet composite", &textures);
+            let empty_layout = layout("wavelet empty", &[]);
+            let empty_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("wavelet empty"),
+                layout: &empty_layout,
+                entries: &[],
+            });
             let params_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("wavelet params"),
                 layout: &params_layout,
@@ -246,6 +258,8 @@ impl Wavelet {
                 range_layout,
                 resolve_layout,
                 composite_layout,
+                empty_layout,
+                empty_group,
                 ledger,
             });
         }
@@ -455,42 +469,32 @@ impl Wavelet {
             .device
             .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
                 label: Some("wavelet composite"),
-                bind_group_layouts: &[Some(&shared.composite_layout)],
+                // Group 2, as in the geometry passes (shaders/wavelet_coefficients.wgsl).
+                bind_group_layouts: &[
+                    Some(&shared.empty_layout),
+                    Some(&shared.empty_layout),
+                    Some(&shared.composite_layout),
+                ],
                 immediate_size: 0,
             });
-        // `oit_gpu::fullscreen_pipeline` with the rank's override constant.
         let constants = self.constants();
-        let options = wgpu::PipelineCompilationOptions {
-            constants: &constants,
-            ..Default::default()
-        };
-        let pipeline = ctx
-            .device
-            .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some("wavelet composite"),
-                layout: Some(&layout),
-                vertex: wgpu::VertexState {
-                    module: &module,
-                    entry_point: Some("vs_fullscreen"),
-                    compilation_options: options.clone(),
-                    buffers: &[],
-                },
-                primitive: Default::default(),
-                depth_stencil: None,
+        let pipeline = oit_gpu::fullscreen_pipeline(
+            ctx,
+            &oit_gpu::FullscreenDesc {
+                label: "wavelet composite",
+                layout: &layout,
+                module: &module,
+                fragment_entry: "fs_composite",
+                targets: &[Some(wgpu::ColorTargetState {
+                    format,
+                    blend: Some(blend::TRANSMITTANCE_OVER),
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+                depth: None,
                 multisample: Default::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &module,
-                    entry_point: Some("fs_composite"),
-                    compilation_options: options,
-                    targets: &[Some(wgpu::ColorTargetState {
-                        format,
-                        blend: Some(blend::TRANSMITTANCE_OVER),
-                        write_mask: wgpu::ColorWrites::ALL,
-                    })],
-                }),
-                multiview_mask: None,
-                cache: None,
-            });
+                constants: &constants,
+            },
+        );
         self.composite = Some((format, pipeline.clone()));
         Ok(pipeline)
     }
@@ -580,10 +584,7 @@ impl Technique for Wavelet {
         let (additive, draws): (Vec<usize>, Vec<usize>) =
             scene.transparent_draws().into_iter().partition(|&i| {
                 let s = &scene.scene;
-                matches!(
-                    s.material_of(&s.draws[i]).operator,
-                    BlendOperator::Add | BlendOperator::Subtract
-                )
+                s.material_of(&s.draws[i]).operator.is_additive()
             });
         let depth = || {
             pass::depth(
@@ -656,7 +657,11 @@ impl Technique for Wavelet {
             "wavelet composite",
             &targets.color_view,
             &composite,
-            &[(&pixels.composite_group, &[])],
+            &[
+                (&shared.empty_group, &[]),
+                (&shared.empty_group, &[]),
+                (&pixels.composite_group, &[]),
+            ],
             &ts,
         );
         timer.submit(ctx, encoder)?;

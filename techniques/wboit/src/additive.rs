@@ -9,15 +9,11 @@ use oit_gpu::wgpu;
 use oit_gpu::{
     Context, GpuScene, ScenePipelineDesc, ScenePipelines, Targets, bind, blend, depth_test, pass,
 };
-use oit_scene::BlendOperator;
 
 /// Whether draw `i` of `scene` adds or subtracts its colour (no coverage of its own).
 pub(crate) fn is_additive(scene: &GpuScene, i: usize) -> bool {
     let s = &scene.scene;
-    matches!(
-        s.material_of(&s.draws[i]).operator,
-        BlendOperator::Add | BlendOperator::Subtract
-    )
+    s.material_of(&s.draws[i]).operator.is_additive()
 }
 
 /// The pass's pipeline for one final colour format and depth direction, and the group that

@@ -7,7 +7,7 @@
 
 use oit_gpu::Prediction;
 use oit_gpu::predict::{PixelLists, draw_order_key, f16_round, model_error};
-use oit_scene::{BlendOperator, Scene};
+use oit_scene::Scene;
 
 use crate::range::RangeParams;
 use crate::tail::{AccumFormat, RevealFormat};
@@ -20,12 +20,7 @@ pub(crate) fn predict(config: Config, scene: &Scene, lists: &PixelLists) -> Pred
     let range = RangeParams::of(scene);
     let camera = &scene.camera;
     let additive: Vec<bool> = (scene.draws.iter())
-        .map(|d| {
-            matches!(
-                scene.material_of(d).operator,
-                BlendOperator::Add | BlendOperator::Subtract
-            )
-        })
+        .map(|d| scene.material_of(d).operator.is_additive())
         .collect();
     // The configured weight at a layer's depth for coverage `alpha`.
     let weight_at = |depth: f32, alpha: f32| match config {

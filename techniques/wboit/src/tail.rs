@@ -496,6 +496,7 @@ impl AccumTargets {
                 })],
                 depth: None,
                 multisample: Default::default(),
+                constants: &[],
             },
         );
         *cache = Some(CompositePipeline {
