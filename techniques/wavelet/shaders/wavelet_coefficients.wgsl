@@ -1,6 +1,7 @@
 // The pixel's Haar coefficients, N / 4 RGBA targets bound at group 2, bindings 1-8 (binding 0
 // is the including pass's own: the depth interval, or the composite's accumulator). Groups
 // beyond the rank's are never read; the technique binds the first target in their place.
+#include "wavelet_math.wgsl"
 
 @group(2) @binding(1) var coefficients0: texture_2d<f32>;
 @group(2) @binding(2) var coefficients1: texture_2d<f32>;
