@@ -103,6 +103,53 @@ fn ci() -> Result<()> {
             "harness::",
         ],
     )?;
+    ray_query_step()
+}
+
+/// The ray-query tests on the second adapter: the lavapipe of Mesa 25.0.7 that
+/// `.ci/lavapipe-ray-query` unpacks (its manifest at `target/mesa-25.0.7/lvp_icd.json`, or
+/// `OIT_RAY_QUERY_ICD`), the only Vulkan driver the test process sees. Every other step runs on
+/// the system's driver. Without the manifest the step fails under `OIT_REQUIRE_GPU=1` (CI) and
+/// is skipped with the command to run otherwise.
+fn ray_query_step() -> Result<()> {
+    let manifest = std::env::var_os("OIT_RAY_QUERY_ICD")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from("target/mesa-25.0.7/lvp_icd.json"));
+    if !manifest.is_file() {
+        let message = format!(
+            "no ray-query driver at {} (run .ci/lavapipe-ray-query, or set OIT_RAY_QUERY_ICD)",
+            manifest.display()
+        );
+        if std::env::var("OIT_REQUIRE_GPU").is_ok_and(|v| v == "1") {
+            bail!("step `test (ray queries)`: {message}");
+        }
+        println!("xtask ci: test (ray queries): skipped: {message}");
+        return Ok(());
+    }
+    let manifest = manifest
+        .canonicalize()
+        .with_context(|| format!("{}", manifest.display()))?;
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_owned());
+    let args = ["test", "-p", "oit-tests", "--test", "ray_query"];
+    println!(
+        "xtask ci: test (ray queries): VK_ICD_FILENAMES={} OIT_REQUIRE_RAY_QUERY=1 cargo {}",
+        manifest.display(),
+        args.join(" ")
+    );
+    let started = Instant::now();
+    let status = Command::new(&cargo)
+        .args(args)
+        .env("VK_ICD_FILENAMES", &manifest)
+        .env("OIT_REQUIRE_RAY_QUERY", "1")
+        .status()
+        .with_context(|| format!("could not start `{cargo}`"))?;
+    println!(
+        "xtask ci: test (ray queries): {:.1} s",
+        started.elapsed().as_secs_f64()
+    );
+    if !status.success() {
+        bail!("step `test (ray queries)` failed ({status})");
+    }
     Ok(())
 }
 

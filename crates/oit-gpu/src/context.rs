@@ -55,7 +55,8 @@ impl std::str::FromStr for Backend {
 #[derive(Debug, Clone, Default)]
 pub struct ContextOptions {
     pub backend: Backend,
-    /// Case-insensitive substring of the adapter name (`--adapter`).
+    /// Case-insensitive substring of the adapter name or driver info (`--adapter`): two
+    /// lavapipes share a name and differ in driver info (`Mesa 22.3.6`, `Mesa 25.0.7`).
     pub adapter: Option<String>,
 }
 
@@ -138,6 +139,9 @@ pub struct Caps {
     /// the shader may read (a k-buffer's `atomicMin` insertion needs the old value). Vulkan and
     /// DX12 only; never GL.
     pub int64_atomics: bool,
+    /// `EXPERIMENTAL_RAY_QUERY`: acceleration structures and `ray_query` in shaders (Vulkan,
+    /// native; lavapipe from Mesa 24.1, `.ci/lavapipe-ray-query`).
+    pub ray_query: bool,
     pub max_texture_dimension_2d: u32,
     pub max_color_attachments: u32,
     pub max_color_attachment_bytes_per_sample: u32,
@@ -179,6 +183,7 @@ impl Caps {
             dual_source_blending: features.contains(Features::DUAL_SOURCE_BLENDING),
             int64_atomics: features
                 .contains(Features::SHADER_INT64 | Features::SHADER_INT64_ATOMIC_ALL_OPS),
+            ray_query: features.contains(Features::EXPERIMENTAL_RAY_QUERY),
             max_texture_dimension_2d: limits.max_texture_dimension_2d,
             max_color_attachments: limits.max_color_attachments,
             max_color_attachment_bytes_per_sample: limits.max_color_attachment_bytes_per_sample,
@@ -407,10 +412,15 @@ impl Context {
                 .iter()
                 .map(|a| {
                     let i = a.get_info();
-                    format!("{:?} ({})", i.name, i.backend.to_str())
+                    format!("{:?} ({}, {})", i.name, i.backend.to_str(), i.driver_info)
                 })
                 .collect();
-            adapters.retain(|a| a.get_info().name.to_lowercase().contains(&needle));
+            adapters.retain(|a| {
+                let i = a.get_info();
+                format!("{} {}", i.name, i.driver_info)
+                    .to_lowercase()
+                    .contains(&needle)
+            });
             if adapters.is_empty() {
                 return Err(GpuError::AdapterNotMatched {
                     backend: options.backend.name().to_owned(),
@@ -426,13 +436,24 @@ impl Context {
         });
         let adapter = adapters.swap_remove(0);
         let info = adapter.get_info();
-        let features = adapter.features() & WANTED_FEATURES;
+        let mut features = adapter.features() & WANTED_FEATURES;
+        // Ray queries are experimental in wgpu 30: requested only where the adapter has them,
+        // with the token from the one crate allowed `unsafe` (crates/oit-experimental).
+        let experimental_features = if adapter
+            .features()
+            .contains(Features::EXPERIMENTAL_RAY_QUERY)
+        {
+            features |= Features::EXPERIMENTAL_RAY_QUERY;
+            oit_experimental::experimental_features()
+        } else {
+            wgpu::ExperimentalFeatures::disabled()
+        };
         let limits = adapter.limits();
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("oit-lab"),
             required_features: features,
             required_limits: limits.clone(),
-            experimental_features: wgpu::ExperimentalFeatures::disabled(),
+            experimental_features,
             memory_hints: wgpu::MemoryHints::Performance,
             trace: wgpu::Trace::Off,
         }))

@@ -6,7 +6,7 @@ use oit_gpu::{Caps, FormatCaps, PROBED_FORMATS, Support, TechniqueSpec};
 use oit_results::report::md_cell;
 use oit_scene::BlendOperator;
 
-/// An adapter with every feature the techniques ask for (float32 blending, 64-bit atomics,
+/// An adapter with every feature the techniques ask for (float32 blending, 64-bit atomics, ray queries,
 /// every probed format renderable and blendable, 8 colour attachments of 128 bytes a sample),
 /// with or without dual-source blending: the one feature on which an operator's support turns.
 fn table_caps(dual_source_blending: bool) -> Caps {
@@ -26,6 +26,7 @@ fn table_caps(dual_source_blending: bool) -> Caps {
         adapter_specific_format_features: true,
         dual_source_blending,
         int64_atomics: true,
+        ray_query: true,
         max_texture_dimension_2d: 16384,
         max_color_attachments: 8,
         max_color_attachment_bytes_per_sample: 128,
