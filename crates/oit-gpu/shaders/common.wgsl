@@ -262,14 +262,24 @@ fn apply_operator(over: Shaded, alpha: f32, blend_operator: u32) -> Shaded {
 // fixed function; the test here makes passes with culling disabled (one pipeline for a globally
 // sorted triangle stream) obey the same rule.
 fn shade(v: VertexOut, front_facing: bool) -> Shaded {
-    let m = material_of(v);
-    var t = vec4<f32>(1.0);
-    var e = vec4<f32>(1.0);
+    var grad = vec4<f32>(0.0);
     if TEXTURED {
         // Fine derivatives first, in uniform control flow (TEXTURED is a constant): the level
         // of detail of both slots (`quad_gradient` in crates/oit-reference/src/raster/shading.rs).
         let uv = texcoord(v);
-        let grad = vec4<f32>(dpdxFine(uv), dpdyFine(uv));
+        grad = vec4<f32>(dpdxFine(uv), dpdyFine(uv));
+    }
+    return shade_at(v, front_facing, grad);
+}
+
+// `shade` with the texture coordinates' fine derivatives `grad` = (du/dx, dv/dx, du/dy,
+// dv/dy) given: passes that shade outside a rasterized quad (ray queries) compute them.
+fn shade_at(v: VertexOut, front_facing: bool, grad: vec4<f32>) -> Shaded {
+    let m = material_of(v);
+    var t = vec4<f32>(1.0);
+    var e = vec4<f32>(1.0);
+    if TEXTURED {
+        let uv = texcoord(v);
         t = sample_texture(m.textures.x, m.textures.y, m.wrap & 0xfffu, uv, grad);
         e = sample_texture(m.textures.z, m.textures.w, m.wrap >> 12u, uv, grad);
     }
