@@ -103,6 +103,7 @@ pub const FAMILIES: &[Family] = &[
     oit_wavelet::FAMILY,
     oit_linked_list::FAMILY,
     oit_abuffer::FAMILY,
+    oit_ray_query::FAMILY,
     oit_opaque_copy::FAMILY,
     oit_per_object::FAMILY,
 ];
