@@ -27,6 +27,11 @@ pub struct RenderStats {
     /// The sizes `auto` parameters chose this frame from a count pass (`None` for fixed sizes).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub auto_sizes: Option<crate::AutoSizes>,
+    /// Wall-clock milliseconds of GPU work done once per scene before its frames and kept
+    /// across them (`ray-query`'s acceleration-structure build), apart from the frame's
+    /// pass timings; `None` for techniques without such work.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub setup_ms: Option<f64>,
 }
 
 /// A transparency technique. It renders the transparent draws of a [`GpuScene`] over the opaque

@@ -1118,6 +1118,7 @@ fn run_one(
         pixels_with_dropped_layers: frame.pixels_with_dropped_layers,
         pixels_with_approximated_layers: frame.pixels_with_approximated_layers,
         auto_sizes: frame.auto_sizes.map(crate::results::auto_sizes_json),
+        setup_ms: frame.setup_ms,
     };
     Ok(Run {
         scene: scene.name.clone(),

@@ -756,11 +756,16 @@ fn row_cells(r: &Run) -> Vec<String> {
 
 /// A run's technique as tables show it: with its target format when that is not the default
 /// (`sorted @ rgba8unorm`), and with the sizes its `auto` parameters chose, when it has any
-/// (`k-buffer:k=auto → k=5, slots 640.0 KiB`).
+/// (`k-buffer:k=auto → k=5, slots 640.0 KiB`), and its one-time set-up when it has one, which
+/// GPU ms leaves out (`ray-query:… (+ build 3.2 ms)`).
 pub fn technique_cell(technique: &str, r: &Run) -> String {
     let technique = crate::technique_label(technique, r.target_format);
-    match r.stats.as_ref().and_then(|s| s.auto_sizes) {
+    let technique = match r.stats.as_ref().and_then(|s| s.auto_sizes) {
         Some(sizes) => format!("{technique} → {}", sizes.summary()),
+        None => technique,
+    };
+    match r.stats.as_ref().and_then(|s| s.setup_ms) {
+        Some(ms) => format!("{technique} (+ build {ms:.1} ms)"),
         None => technique,
     }
 }
@@ -892,6 +897,27 @@ mod tests {
             ..Default::default()
         };
         assert_eq!(list.summary(), "nodes=1234, sort-max=12, pool 3.0 MiB");
+    }
+
+    /// A one-time set-up (ray-query's acceleration-structure build) is shown beside the
+    /// technique, since GPU ms leaves it out, and round-trips through results.json.
+    #[test]
+    fn setup_time_is_shown_beside_the_technique_and_round_trips() {
+        let mut traced = run("s1", "ray-query:epsilon=0,k=8", 1.0, 1e-3, 0.1);
+        traced.stats = Some(crate::schema::Stats {
+            setup_ms: Some(3.25),
+            ..Default::default()
+        });
+        let results = results_of(vec![traced.clone()], Vec::new());
+        let md = markdown(&results);
+        assert!(
+            md.contains("| ray-query:epsilon=0,k=8 (+ build 3.2 ms) |"),
+            "{md}"
+        );
+        let json = serde_json::to_string(&traced).unwrap();
+        assert!(json.contains("\"setup_ms\":3.25"), "{json}");
+        let back: Run = serde_json::from_str(&json).unwrap();
+        assert_eq!(back, traced);
     }
 
     /// A run's target format round-trips through results.json; the default is never written

@@ -316,6 +316,10 @@ pub struct Stats {
     /// they use (absent for fixed sizes, and in files written before 2026-12-06).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub auto_sizes: Option<AutoSizes>,
+    /// Wall-clock milliseconds of per-scene work done once before the frames (`ray-query`'s
+    /// acceleration-structure build), not in `gpu_ms` (absent for other techniques).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub setup_ms: Option<f64>,
 }
 
 /// What `k-buffer:k=auto` and `linked-list:nodes-per-pixel=auto,sort-max=auto` counted and

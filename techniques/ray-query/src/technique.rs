@@ -516,7 +516,10 @@ impl Technique for RayQuery {
             pass.draw(0..3, 0..1);
         }
         timer.submit(ctx, encoder)?;
-        Ok(RenderStats::default())
+        Ok(RenderStats {
+            setup_ms: self.build_ms(),
+            ..Default::default()
+        })
     }
 
     fn memory_bytes(&self) -> u64 {
