@@ -38,7 +38,10 @@ fn main() -> ExitCode {
         }
     };
     let info = ctx.adapter_info();
-    println!("adapter: {} ({}, {})", info.name, info.backend, info.driver);
+    println!(
+        "adapter: {} ({}, {}, {})",
+        info.name, info.backend, info.driver, info.driver_info
+    );
     let (mut pixels, mut differing, mut scenes_differing) = (0usize, 0usize, 0usize);
     // Pixels that differ only by fragments in a cutoff's undecided band (allowed).
     let mut tolerated = 0usize;
