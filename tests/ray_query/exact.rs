@@ -128,8 +128,8 @@ fn exact_on_every_tie_free_bundled_scene_in_both_draw_orders() {
 
 /// Seeded random scenes (`oit_scene::random`: intersecting, interleaved, HDR, coloured
 /// transmission), both draw orders, through the harness's path: every tie-free seed within
-/// [`MAX_EXACT`] off the coverage band. `OIT_RANDOM_SCENES=N` runs another number of seeds
-/// than the default 200.
+/// [`MAX_EXACT`] off the coverage band. The default 210 seeds give at least 200 tie-free ones;
+/// `OIT_RANDOM_SCENES=N` runs another number.
 #[test]
 fn exact_on_seeded_random_scenes_in_both_draw_orders() {
     let Some(ctx) = ray_query_context("ray_query_random") else {
@@ -139,7 +139,7 @@ fn exact_on_seeded_random_scenes_in_both_draw_orders() {
     let scenes: u64 = std::env::var("OIT_RANDOM_SCENES")
         .ok()
         .and_then(|v| v.parse().ok())
-        .unwrap_or(200);
+        .unwrap_or(210);
     let (mut tie_free, mut worst_seen, mut band_px, mut pixels) = (0, 0.0f64, 0, 0);
     let mut failures = Vec::new();
     for seed in 0..scenes {
