@@ -335,18 +335,23 @@ pub struct Context {
     per_draw: Mutex<HashMap<wgpu::ShaderModule, Arc<PerDrawForm>>>,
 }
 
-/// The per-draw forms of a scene pass module, untextured and textured: their composed
-/// sources, and the modules once built (only pipelines that use one build it).
+/// The per-draw forms of a scene pass module, unlit untextured, unlit textured and lit: their
+/// composed sources, and the modules once built (only pipelines that use one build it).
 #[derive(Debug)]
 pub(crate) struct PerDrawForm {
     name: String,
-    code: [String; 2],
-    modules: [OnceLock<wgpu::ShaderModule>; 2],
+    code: [String; 3],
+    modules: [OnceLock<wgpu::ShaderModule>; 3],
 }
 
 impl PerDrawForm {
-    pub(crate) fn module(&self, device: &wgpu::Device, textured: bool) -> &wgpu::ShaderModule {
-        let i = usize::from(textured);
+    pub(crate) fn module(
+        &self,
+        device: &wgpu::Device,
+        textured: bool,
+        lit: bool,
+    ) -> &wgpu::ShaderModule {
+        let i = if lit { 2 } else { usize::from(textured) };
         self.modules[i].get_or_init(|| {
             device.create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some(&self.name),
@@ -524,25 +529,32 @@ impl Context {
             message: e.to_string(),
         };
         let code = crate::shaders::compose(source, &resolve).map_err(include_error)?;
-        let per_draw = |textured| {
-            crate::shaders::compose_per_draw(source, &resolve, textured)
+        let per_draw = |textured, lit| {
+            crate::shaders::compose_per_draw(source, &resolve, textured, lit)
                 .transpose()
                 .map_err(include_error)
         };
-        let per_draw = per_draw(false)?.zip(per_draw(true)?);
+        let per_draw = match (
+            per_draw(false, false)?,
+            per_draw(true, false)?,
+            per_draw(true, true)?,
+        ) {
+            (Some(a), Some(b), Some(c)) => Some([a, b, c]),
+            _ => None,
+        };
         let module = self
             .device
             .create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some(name),
                 source: wgpu::ShaderSource::Wgsl(code.into()),
             });
-        if let Some((untextured, textured)) = per_draw {
+        if let Some(code) = per_draw {
             let mut forms = self.per_draw.lock().unwrap_or_else(|e| e.into_inner());
             forms.insert(
                 module.clone(),
                 Arc::new(PerDrawForm {
                     name: format!("{name} (per-draw material)"),
-                    code: [untextured, textured],
+                    code,
                     modules: Default::default(),
                 }),
             );

@@ -651,8 +651,9 @@ pub fn depth_test(compare: wgpu::CompareFunction, write: bool) -> wgpu::DepthSte
 /// * override `MAY_DISCARD`: false where no fragment can be discarded (no cutoff, and back
 ///   faces culled or drawn), so the rasterizer may test depth before shading;
 /// * override `LIT` of shaders/lighting.wgsl: true only for lit materials
-///   ([`Material::is_lit`]), so unlit draws never run (or pay for) the lighting loop, and the
-///   world position and normal varyings their fragment stage does not read are dropped;
+///   ([`Material::is_lit`]), so unlit draws never run (or pay for) the lighting loop (the
+///   per-vertex form still passes them the world position and normal: lavapipe does not drop
+///   unread varyings, which is why the per-draw forms of unlit draws leave them out);
 /// * the material read per vertex or per draw ([`MaterialSource`],
 ///   [`GpuScene::reads_material_per_draw`]), from the module or its per-draw form.
 ///
@@ -808,7 +809,7 @@ impl ScenePipelines {
                 CullRule::Fixed(face) => face,
             };
             let module = match (&set.per_draw_form, v.per_draw) {
-                (Some(form), true) => form.module(&set.device, v.textured),
+                (Some(form), true) => form.module(&set.device, v.textured, v.lit),
                 _ => &set.module,
             };
             let desc = ScenePipelineDesc {

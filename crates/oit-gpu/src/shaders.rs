@@ -34,6 +34,9 @@ pub const SCENE_IO_VERTEX: &str = "scene_io/vertex.wgsl";
 pub const SCENE_IO_DRAW: &str = include_str!("../shaders/scene_io/draw.wgsl");
 /// [`SCENE_IO_DRAW`] without texture coordinates, for untextured materials.
 pub const SCENE_IO_DRAW_UNTEXTURED: &str = include_str!("../shaders/scene_io/draw_untextured.wgsl");
+/// [`SCENE_IO_DRAW`] with the world position and normal, for lit materials (the two others
+/// leave them out).
+pub const SCENE_IO_DRAW_LIT: &str = include_str!("../shaders/scene_io/draw_lit.wgsl");
 /// Per-pixel lighting, included by common.wgsl.
 pub const LIGHTING: &str = include_str!("../shaders/lighting.wgsl");
 /// The module every scene pass includes.
@@ -60,6 +63,7 @@ pub const SHADERS: Library = &[
     ),
     ("scene_io/draw.wgsl", SCENE_IO_DRAW),
     ("scene_io/draw_untextured.wgsl", SCENE_IO_DRAW_UNTEXTURED),
+    ("scene_io/draw_lit.wgsl", SCENE_IO_DRAW_LIT),
     ("opaque.wgsl", OPAQUE),
     ("blend.wgsl", BLEND),
     ("count_fragments.wgsl", COUNT_FRAGMENTS),
@@ -90,11 +94,13 @@ pub fn compose_per_draw_with(
     source: &str,
     libraries: &[&[(&str, &str)]],
     textured: bool,
+    lit: bool,
 ) -> Option<Result<String, IncludeError>> {
     compose_per_draw(
         source,
         &|n| resolve(n, libraries).map(str::to_owned),
         textured,
+        lit,
     )
 }
 
@@ -171,23 +177,25 @@ fn expand(
 }
 
 /// [`compose`] with a per-draw form of the scene pass interface in place of
-/// [`SCENE_IO_VERTEX`] ([`SCENE_IO_DRAW`], or [`SCENE_IO_DRAW_UNTEXTURED`] unless `textured`):
-/// the module a scene pass uses for draws whose material is read per draw (`ScenePipelines`).
-/// `None` when `source` does not include the scene pass interface.
+/// [`SCENE_IO_VERTEX`] ([`SCENE_IO_DRAW_LIT`] where `lit`, else [`SCENE_IO_DRAW`], or
+/// [`SCENE_IO_DRAW_UNTEXTURED`] unless `textured`): the module a scene pass uses for draws whose
+/// material is read per draw (`ScenePipelines`). `None` when `source` does not include the
+/// scene pass interface.
 pub fn compose_per_draw(
     source: &str,
     resolve: &dyn Fn(&str) -> Option<String>,
     textured: bool,
+    lit: bool,
 ) -> Option<Result<String, IncludeError>> {
     let used = std::cell::Cell::new(false);
     let swapped = |name: &str| {
         if name == SCENE_IO_VERTEX {
             used.set(true);
             Some(
-                if textured {
-                    SCENE_IO_DRAW
-                } else {
-                    SCENE_IO_DRAW_UNTEXTURED
+                match (lit, textured) {
+                    (true, _) => SCENE_IO_DRAW_LIT,
+                    (false, true) => SCENE_IO_DRAW,
+                    (false, false) => SCENE_IO_DRAW_UNTEXTURED,
                 }
                 .to_owned(),
             )

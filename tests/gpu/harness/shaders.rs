@@ -91,8 +91,8 @@ fn every_wgsl_file_validates() {
             // vertex outputs that repeat the per-vertex fields, and ray_query.wgsl is a
             // full-screen pass that runs the per-vertex `scene_vertex` for each hit: their
             // pipelines never use a per-draw form.
-            for textured in [false, true] {
-                match shaders::compose_per_draw_with(source, &libraries, textured) {
+            for (textured, lit) in [(false, false), (true, false), (true, true)] {
+                match shaders::compose_per_draw_with(source, &libraries, textured, lit) {
                     Some(Ok(code))
                         if ![
                             "stochastic_dither.wgsl",

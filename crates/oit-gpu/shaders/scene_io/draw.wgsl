@@ -1,4 +1,4 @@
-// The per-draw form of the scene pass interface for textured materials, composed in place of
+// The per-draw form of the scene pass interface for unlit textured materials, composed in place of
 // shaders/scene_io/vertex.wgsl by `oit_gpu::ScenePipelines` for draws of small triangles: the
 // fragment stage reads the draw's material from `draw_material`, a uniform at the draw's
 // dynamic offset (`oit_gpu::GpuScene::use_draw`), and nothing about it travels per vertex. On
@@ -13,9 +13,6 @@ struct VertexOut {
     @invariant @builtin(position) clip: vec4<f32>,
     @location(0) color: vec4<f32>,
     @location(1) uv: vec2<f32>,
-    // World position and normal, read only by lit pipelines (`LIT`).
-    @location(2) world: vec3<f32>,
-    @location(3) normal: vec3<f32>,
 }
 
 // The vertex stage every scene pass shares (passes with their own vertex entry call it too).
@@ -23,8 +20,6 @@ fn scene_vertex(v: VertexIn) -> VertexOut {
     var out: VertexOut;
     out.clip = camera.view_proj * vec4<f32>(v.position, 1.0);
     out.color = v.color;
-    out.world = v.position;
-    out.normal = v.normal;
     out.uv = v.uv;
     return out;
 }
@@ -44,11 +39,14 @@ fn texcoord(v: VertexOut) -> vec2<f32> {
     return v.uv;
 }
 
-// The interpolated world position and normal of a lit fragment.
+// Never called: lit materials use draw_lit.wgsl. These forms carry no world position or normal:
+// lavapipe sets up varyings a fragment stage does not read, and the two cost 12 000 unlit
+// billboards a quarter of their blending time (docs/findings/2026-12-07-peers-at-equal-format.md,
+// "Unlit per-draw forms").
 fn surface_position(v: VertexOut) -> vec3<f32> {
-    return v.world;
+    return vec3<f32>(0.0);
 }
 
 fn surface_normal(v: VertexOut) -> vec3<f32> {
-    return v.normal;
+    return vec3<f32>(0.0, 0.0, 1.0);
 }

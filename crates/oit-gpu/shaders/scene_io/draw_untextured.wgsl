@@ -1,4 +1,4 @@
-// The per-draw form of the scene pass interface for untextured materials (draw.wgsl without
+// The per-draw form of the scene pass interface for unlit untextured materials (draw.wgsl without
 // texture coordinates, which `shade()` then never reads): one varying less to set up per
 // triangle, as per-draw draws are those of small triangles.
 
@@ -8,9 +8,6 @@ struct VertexOut {
     // Invariant so that a depth-only pass and an EQUAL-depth pass produce identical depths.
     @invariant @builtin(position) clip: vec4<f32>,
     @location(0) color: vec4<f32>,
-    // World position and normal, read only by lit pipelines (`LIT`).
-    @location(1) world: vec3<f32>,
-    @location(2) normal: vec3<f32>,
 }
 
 // The vertex stage every scene pass shares (passes with their own vertex entry call it too).
@@ -18,8 +15,6 @@ fn scene_vertex(v: VertexIn) -> VertexOut {
     var out: VertexOut;
     out.clip = camera.view_proj * vec4<f32>(v.position, 1.0);
     out.color = v.color;
-    out.world = v.position;
-    out.normal = v.normal;
     return out;
 }
 
@@ -38,11 +33,14 @@ fn texcoord(v: VertexOut) -> vec2<f32> {
     return vec2<f32>(0.0);
 }
 
-// The interpolated world position and normal of a lit fragment.
+// Never called: lit materials use draw_lit.wgsl. These forms carry no world position or normal:
+// lavapipe sets up varyings a fragment stage does not read, and the two cost 12 000 unlit
+// billboards a quarter of their blending time (docs/findings/2026-12-07-peers-at-equal-format.md,
+// "Unlit per-draw forms").
 fn surface_position(v: VertexOut) -> vec3<f32> {
-    return v.world;
+    return vec3<f32>(0.0);
 }
 
 fn surface_normal(v: VertexOut) -> vec3<f32> {
-    return v.normal;
+    return vec3<f32>(0.0, 0.0, 1.0);
 }
