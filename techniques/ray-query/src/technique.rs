@@ -2,7 +2,6 @@
 //! the opaque colour, and the one full-screen pass that traces.
 
 use oit_gpu::wgpu;
-use oit_gpu::wgpu::util::DeviceExt;
 use oit_gpu::{
     Caps, Context, FullscreenDesc, GpuError, GpuScene, GpuTimer, MemoryLedger, Param, ParamInfo,
     Prediction, RenderStats, SpecError, Support, Targets, Technique, TechniqueSpec, Unsupported,
@@ -310,15 +309,18 @@ impl RayQuery {
             wgpu::TextureUsages::COPY_DST | wgpu::TextureUsages::TEXTURE_BINDING,
             1,
         );
-        let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("ray-query params"),
-            contents: bytemuck::cast_slice(&params_words(
-                &scene.scene,
-                targets.resolution,
-                accel.triangle_count,
-            )),
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
+        let words = params_words(&scene.scene, targets.resolution, accel.triangle_count);
+        let params = ledger.create_buffer(
+            device,
+            &wgpu::BufferDescriptor {
+                label: Some("ray-query params"),
+                size: std::mem::size_of_val(&words) as u64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            },
+        );
+        ctx.queue
+            .write_buffer(&params, 0, bytemuck::cast_slice(&words));
         let fs = wgpu::ShaderStages::FRAGMENT;
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("ray-query"),
