@@ -128,3 +128,11 @@ pub fn max_relative_rgb_except(a: &LinearImage, b: &LinearImage, skip: &[bool]) 
         })
         .fold(0.0, f64::max)
 }
+
+/// How many seeded random scenes a random-scene test runs: `OIT_RANDOM_SCENES`, else `default`.
+pub fn random_scene_count(default: u64) -> u64 {
+    std::env::var("OIT_RANDOM_SCENES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}

@@ -136,10 +136,7 @@ fn exact_on_seeded_random_scenes_in_both_draw_orders() {
         return;
     };
     let spec = oit_harness::parse_spec("ray-query").expect("spec");
-    let scenes: u64 = std::env::var("OIT_RANDOM_SCENES")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(210);
+    let scenes = crate::kit::random_scene_count(210);
     let (mut tie_free, mut worst_seen, mut band_px, mut pixels) = (0, 0.0f64, 0, 0);
     let mut failures = Vec::new();
     for seed in 0..scenes {

@@ -217,10 +217,7 @@ fn exact_on_seeded_random_scenes_in_both_draw_orders() {
         return;
     };
     let spec = oit_harness::parse_spec("abuffer").expect("spec");
-    let scenes: u64 = std::env::var("OIT_RANDOM_SCENES")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(200);
+    let scenes = crate::kit::random_scene_count(200);
     let (mut tie_free, mut deepest, mut worst_seen) = (0, 0, 0.0f64);
     let mut failures = Vec::new();
     for seed in 0..scenes {

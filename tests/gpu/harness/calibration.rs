@@ -394,10 +394,7 @@ fn peeling_is_exact_on_tie_free_random_scenes() {
     ])
     .expect("specs");
     let (mut tie_free, mut failures) = (0, Vec::new());
-    let scenes: u64 = std::env::var("OIT_RANDOM_SCENES")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(60);
+    let scenes = crate::kit::random_scene_count(60);
     for seed in 0..scenes {
         let (text, about) = oit_scene::random::random_scene_json(seed);
         let scene = oit_scene::parse(&text, "random").expect("random scene");

@@ -68,10 +68,7 @@ fn exact_techniques_are_exact_on_mixed_operator_random_scenes() {
         return;
     };
     let started = std::time::Instant::now();
-    let seeds: u64 = std::env::var("OIT_RANDOM_SCENES")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(SEEDS);
+    let seeds = crate::kit::random_scene_count(SEEDS);
     let registry = oit_harness::registry();
     let mut techniques: Vec<(Box<dyn Technique>, f64)> = EXACT
         .iter()

@@ -158,10 +158,7 @@ fn predictions_agree_with_measurement_on_random_scenes_and_gltf_assets() {
         return;
     };
     let mut tally = Tally::default();
-    let scenes: u64 = std::env::var("OIT_RANDOM_SCENES")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(12);
+    let scenes = crate::kit::random_scene_count(12);
     for seed in 0..scenes {
         let (text, about) = oit_scene::random::random_scene_json(seed);
         let scene = oit_scene::parse(&text, "random").expect("random scene");

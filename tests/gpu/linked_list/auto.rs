@@ -292,10 +292,7 @@ fn auto_sizes_are_exact_on_tie_free_random_scenes() {
     };
     let specs =
         oit_harness::resolve_specs(&[KBUFFER_AUTO.into(), LIST_AUTO.into()]).expect("specs");
-    let scenes: u64 = std::env::var("OIT_RANDOM_SCENES")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(40);
+    let scenes = crate::kit::random_scene_count(40);
     let (mut tie_free, mut failures, mut deepest) = (0, Vec::new(), 0);
     let mut worst_seen = [0.0f64; 2];
     let mut tied_scenes = 0;
