@@ -22,6 +22,13 @@ override TEXTURED: bool = true;
 // rasterizer may test depth before shading (15 % of `unsorted` on 12 000 small billboards).
 override MAY_DISCARD: bool = true;
 
+// True in pipelines for materials that blend OVER with no coloured transmission (operator
+// `over`, transmission 0; `oit_gpu::ScenePipelines`): the code below that handles the other
+// operators and transmission would leave such a fragment's result unchanged, bit for bit, and
+// llvmpipe would still run it under masks (it made `wboit` and `dual-peel` 10–20 % slower on
+// lavapipe, 2026-12-07).
+override OVER_ONLY: bool = false;
+
 // One entry per `Scene::materials` element (96 bytes, see `oit_gpu::scene::material_words`).
 struct Material {
     // rgb = base colour (linear), a = alpha.
@@ -311,15 +318,20 @@ fn shade_at(v: VertexOut, front_facing: bool, grad: vec4<f32>) -> Shaded {
             s.color = alpha * (c + sp);
         }
         s.alpha = alpha;
-        let filtered = alpha * m.transmission;
-        s.transmittance = vec3<f32>(1.0 - alpha) + filtered * lit;
-        if m.transmission > 0.0 {
-            // Scalar-alpha techniques composite the mean transmittance (exact for grey
-            // filters): `opacity` of `Shaded::Transmissive`.
-            let tt = s.transmittance;
-            s.alpha = 1.0 - (tt.r + tt.g + tt.b) * (1.0 / 3.0);
+        if OVER_ONLY {
+            // = the general form with m.transmission = 0 and the operator `over`.
+            s.transmittance = vec3<f32>(1.0 - alpha);
+        } else {
+            let filtered = alpha * m.transmission;
+            s.transmittance = vec3<f32>(1.0 - alpha) + filtered * lit;
+            if m.transmission > 0.0 {
+                // Scalar-alpha techniques composite the mean transmittance (exact for grey
+                // filters): `opacity` of `Shaded::Transmissive`.
+                let tt = s.transmittance;
+                s.alpha = 1.0 - (tt.r + tt.g + tt.b) * (1.0 / 3.0);
+            }
+            s = apply_operator(s, alpha, m.blend_operator);
         }
-        s = apply_operator(s, alpha, m.blend_operator);
     } else {
         s.color = c + sp;
         s.alpha = 1.0;

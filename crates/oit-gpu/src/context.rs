@@ -1,6 +1,7 @@
 //! Adapter choice, device creation and capabilities.
 
 use crate::error::GpuError;
+use crate::made::Made;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock};
 use wgpu::{Features, TextureFormat, TextureFormatFeatureFlags, TextureUsages};
@@ -331,8 +332,12 @@ pub struct Context {
     pub caps: Caps,
     info: wgpu::AdapterInfo,
     scene_layout: wgpu::BindGroupLayout,
-    /// Per scene pass module from [`Context::shader_with`]: its per-draw form.
+    /// Per scene pass module from [`Context::shader_with`]: its per-draw form. Modules are
+    /// made once per source ([`crate::made`]), so the table holds one entry per scene pass
+    /// source this context has seen.
     per_draw: Mutex<HashMap<wgpu::ShaderModule, Arc<PerDrawForm>>>,
+    /// Modules, layouts and pipelines made once and handed out again ([`crate::made`]).
+    made: Arc<Made>,
 }
 
 /// The per-draw forms of a scene pass module, unlit untextured, unlit textured and lit: their
@@ -345,19 +350,9 @@ pub(crate) struct PerDrawForm {
 }
 
 impl PerDrawForm {
-    pub(crate) fn module(
-        &self,
-        device: &wgpu::Device,
-        textured: bool,
-        lit: bool,
-    ) -> &wgpu::ShaderModule {
+    pub(crate) fn module(&self, made: &Made, textured: bool, lit: bool) -> &wgpu::ShaderModule {
         let i = if lit { 2 } else { usize::from(textured) };
-        self.modules[i].get_or_init(|| {
-            device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some(&self.name),
-                source: wgpu::ShaderSource::Wgsl(self.code[i].as_str().into()),
-            })
-        })
+        self.modules[i].get_or_init(|| made.module(&self.name, &self.code[i]))
     }
 }
 
@@ -467,7 +462,8 @@ impl Context {
             message: e.to_string(),
         })?;
         let caps = Caps::probe(&adapter, device.features(), &device.limits());
-        let scene_layout = crate::scene::create_scene_layout(&device);
+        let made = Arc::new(Made::new(&device));
+        let scene_layout = crate::scene::create_scene_layout(&made);
         Ok(Context {
             instance,
             adapter,
@@ -477,7 +473,58 @@ impl Context {
             info,
             scene_layout,
             per_draw: Mutex::new(HashMap::new()),
+            made,
         })
+    }
+
+    /// A bind group layout with `desc`'s entries: the same object for equal entries (its
+    /// label is the first caller's), so that pipelines made for one technique instance are
+    /// found again by the next ([`crate::made`]).
+    pub fn bind_group_layout(
+        &self,
+        desc: &wgpu::BindGroupLayoutDescriptor<'_>,
+    ) -> wgpu::BindGroupLayout {
+        self.made.bind_group_layout(desc)
+    }
+
+    /// A pipeline layout of `desc`'s groups, the same object for the same groups.
+    pub fn pipeline_layout(
+        &self,
+        desc: &wgpu::PipelineLayoutDescriptor<'_>,
+    ) -> wgpu::PipelineLayout {
+        self.made.pipeline_layout(desc)
+    }
+
+    /// The module of WGSL `code` as it is (no `#include`s resolved: [`Context::shader`] does
+    /// that), made once per source; `label` names it in the driver's messages.
+    pub fn wgsl_module(&self, label: &str, code: &str) -> wgpu::ShaderModule {
+        self.made.module(label, code)
+    }
+
+    /// A render pipeline as `desc` describes it, made once per description (labels aside).
+    pub fn render_pipeline(
+        &self,
+        desc: &wgpu::RenderPipelineDescriptor<'_>,
+    ) -> wgpu::RenderPipeline {
+        self.made.render_pipeline(desc)
+    }
+
+    /// A compute pipeline as `desc` describes it, made once per description (labels aside).
+    pub fn compute_pipeline(
+        &self,
+        desc: &wgpu::ComputePipelineDescriptor<'_>,
+    ) -> wgpu::ComputePipeline {
+        self.made.compute_pipeline(desc)
+    }
+
+    /// How many modules, layouts and pipelines this context keeps for reuse (at most
+    /// [`crate::made::MADE_CAP`] of each kind).
+    pub fn made_objects(&self) -> usize {
+        self.made.len()
+    }
+
+    pub(crate) fn made(&self) -> &Arc<Made> {
+        &self.made
     }
 
     /// The adapter for results.json.
@@ -542,40 +589,22 @@ impl Context {
             (Some(a), Some(b), Some(c)) => Some([a, b, c]),
             _ => None,
         };
-        let module = self
-            .device
-            .create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some(name),
-                source: wgpu::ShaderSource::Wgsl(code.into()),
-            });
+        let module = self.made.module(name, &code);
         if let Some(code) = per_draw {
             let mut forms = self.per_draw.lock().unwrap_or_else(|e| e.into_inner());
-            forms.insert(
-                module.clone(),
+            forms.entry(module.clone()).or_insert_with(|| {
                 Arc::new(PerDrawForm {
                     name: format!("{name} (per-draw material)"),
                     code,
                     modules: Default::default(),
-                }),
-            );
+                })
+            });
         }
         Ok(module)
     }
 
-    /// Forgets the per-draw forms of every scene pass module made so far, and with them the
-    /// modules: the table holds each module it was given, so without this every module a
-    /// technique ever made stays alive (a comparison builds its techniques again for every
-    /// scene). Call it when no technique built on this context is alive, as a comparison does
-    /// between scenes: pipelines already built keep their own forms, but a module made before
-    /// and given to a new pipeline after would lose its per-draw form.
-    pub fn forget_shader_forms(&self) {
-        self.per_draw
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .clear();
-    }
-
-    /// How many scene pass modules the per-draw table holds ([`Context::forget_shader_forms`]).
+    /// How many scene pass modules the per-draw table holds: one per scene pass source made
+    /// on this context, however many techniques were built from it.
     pub fn shader_forms(&self) -> usize {
         self.per_draw
             .lock()

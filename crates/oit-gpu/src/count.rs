@@ -12,14 +12,14 @@ pub fn count_fragments(ctx: &Context, scene: &GpuScene) -> Result<Vec<u32>, GpuE
     let pixels = res.pixel_count() as u64;
     let device = &ctx.device;
     let module = ctx.shader("count_fragments.wgsl", crate::shaders::COUNT_FRAGMENTS)?;
-    let target_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+    let target_layout = ctx.bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("count target"),
         entries: &[
             crate::bind::uniform(0, wgpu::ShaderStages::FRAGMENT),
             crate::bind::storage(1, wgpu::ShaderStages::FRAGMENT, false),
         ],
     });
-    let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+    let layout = ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: Some("count fragments"),
         bind_group_layouts: &[Some(ctx.scene_layout()), Some(&target_layout)],
         immediate_size: 0,
@@ -100,7 +100,11 @@ pub fn count_fragments(ctx: &Context, scene: &GpuScene) -> Result<Vec<u32>, GpuE
                 continue;
             }
             scene.use_draw(&mut pass, &pipelines, i);
-            pass.draw(d.first_vertex..d.first_vertex + d.vertex_count, 0..1);
+            GpuScene::draw_range(
+                &mut pass,
+                d.first_vertex..d.first_vertex + d.vertex_count,
+                0..1,
+            );
         }
     }
     encoder.copy_buffer_to_buffer(&counts, 0, &readback, 0, pixels * 4);

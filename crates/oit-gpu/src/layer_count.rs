@@ -147,7 +147,7 @@ fn build(
         wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
     );
     let fragment = wgpu::ShaderStages::FRAGMENT;
-    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+    let layout = ctx.bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("layer count"),
         entries: &[
             crate::bind::uniform(0, fragment),
@@ -157,7 +157,7 @@ fn build(
         ],
     });
     let module = ctx.shader("count_layers.wgsl", crate::shaders::COUNT_LAYERS)?;
-    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+    let pipeline_layout = ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: Some("layer count"),
         bind_group_layouts: &[Some(ctx.scene_layout()), Some(&layout)],
         immediate_size: 0,

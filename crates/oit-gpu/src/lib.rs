@@ -29,6 +29,7 @@ mod error;
 mod floor;
 mod frame;
 mod layer_count;
+pub mod made;
 pub mod memory;
 pub mod pass;
 mod pipeline;

@@ -27,26 +27,25 @@ pub fn fullscreen_pipeline(ctx: &Context, desc: &FullscreenDesc<'_>) -> wgpu::Re
         constants: desc.constants,
         ..Default::default()
     };
-    ctx.device
-        .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some(desc.label),
-            layout: Some(desc.layout),
-            vertex: wgpu::VertexState {
-                module: desc.module,
-                entry_point: Some("vs_fullscreen"),
-                compilation_options: options.clone(),
-                buffers: &[],
-            },
-            primitive: Default::default(),
-            depth_stencil: desc.depth.clone(),
-            multisample: desc.multisample,
-            fragment: Some(wgpu::FragmentState {
-                module: desc.module,
-                entry_point: Some(desc.fragment_entry),
-                compilation_options: options,
-                targets: desc.targets,
-            }),
-            multiview_mask: None,
-            cache: None,
-        })
+    ctx.render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(desc.label),
+        layout: Some(desc.layout),
+        vertex: wgpu::VertexState {
+            module: desc.module,
+            entry_point: Some("vs_fullscreen"),
+            compilation_options: options.clone(),
+            buffers: &[],
+        },
+        primitive: Default::default(),
+        depth_stencil: desc.depth.clone(),
+        multisample: desc.multisample,
+        fragment: Some(wgpu::FragmentState {
+            module: desc.module,
+            entry_point: Some(desc.fragment_entry),
+            compilation_options: options,
+            targets: desc.targets,
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
 }

@@ -143,11 +143,8 @@ fn run_kernel(
          }}\n"
     );
     let device = &ctx.device;
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("eval kernel"),
-        source: wgpu::ShaderSource::Wgsl(code.into()),
-    });
-    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+    let module = ctx.wgsl_module("eval kernel", &code);
+    let pipeline = ctx.compute_pipeline(&wgpu::ComputePipelineDescriptor {
         label: Some("eval kernel"),
         layout: None,
         module: &module,

@@ -1,6 +1,7 @@
 //! One scene's trouble stays in that scene: its GPU errors and panics are contained
-//! ([`oit_gpu::Context::contain`]), the GPU resources and shader modules it dropped are
-//! released before the next scene starts, and its peak memory is recorded.
+//! ([`oit_gpu::Context::contain`]), the GPU resources it dropped are released before the next
+//! scene starts (the context keeps its modules and pipelines for the next techniques:
+//! `oit_gpu::Context::made_objects`), and its peak memory is recorded.
 
 use oit_gpu::{ContainedError, Context};
 use oit_results::Results;
@@ -23,8 +24,6 @@ pub(crate) fn contained<T>(
 /// polls, and the next scene computes its reference before touching the GPU), then records
 /// the scene's peak in its entry of `results.scenes` (the last one).
 pub(crate) fn finish_scene(ctx: &Context, results: &mut Results, peak: ScenePeak) {
-    // Every technique of the scene is dropped by now: the modules they made can go too.
-    ctx.forget_shader_forms();
     // A device that cannot even wait fails the next scene with its own error.
     let _ = ctx.wait();
     if let Some(entry) = results.scenes.last_mut() {

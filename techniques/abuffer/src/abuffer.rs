@@ -225,7 +225,7 @@ impl Abuffer {
         );
         let scan = PrefixSum::new(ctx, &mut self.ledger, &offsets, pixels as usize + 1)?;
         let fragment = wgpu::ShaderStages::FRAGMENT;
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        let layout = ctx.bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("abuffer"),
             entries: &[
                 bind::uniform(0, fragment),
@@ -250,7 +250,7 @@ impl Abuffer {
                 &[&[("linked_list_node.wgsl", &node)], crate::SHADERS],
             )?
         };
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        let pipeline_layout = ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("abuffer"),
             bind_group_layouts: &[Some(ctx.scene_layout()), Some(&layout)],
             immediate_size: 0,

@@ -93,7 +93,7 @@ impl PrefixSum {
     ) -> Result<Self, GpuError> {
         let device = &ctx.device;
         let cs = wgpu::ShaderStages::COMPUTE;
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        let layout = ctx.bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("prefix sum"),
             entries: &[
                 bind::uniform(0, cs),
@@ -102,13 +102,13 @@ impl PrefixSum {
             ],
         });
         let module = ctx.shader_with("prefix_sum.wgsl", WGSL, &[crate::SHADERS])?;
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        let pipeline_layout = ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("prefix sum"),
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
         let pipeline = |entry: &str| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            ctx.compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some(entry),
                 layout: Some(&pipeline_layout),
                 module: &module,

@@ -417,7 +417,7 @@ impl KBuffer {
                 .create_view(&Default::default())
         });
         let fragment = wgpu::ShaderStages::FRAGMENT;
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        let layout = ctx.bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("k-buffer"),
             entries: &[
                 bind::uniform(0, fragment),
@@ -436,7 +436,7 @@ impl KBuffer {
         if transmit {
             resolve_entries.push(bind::float_texture(6, fragment));
         }
-        let resolve_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        let resolve_layout = ctx.bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("k-buffer resolve"),
             entries: &resolve_entries,
         });
@@ -462,7 +462,7 @@ impl KBuffer {
                 ],
             )?
         };
-        let insert_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        let insert_layout = ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("k-buffer insert"),
             bind_group_layouts: &[Some(ctx.scene_layout()), Some(&layout)],
             immediate_size: 0,
@@ -503,12 +503,11 @@ impl KBuffer {
             },
             &insert_layout,
         );
-        let resolve_pipeline_layout =
-            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("k-buffer resolve"),
-                bind_group_layouts: &[Some(ctx.scene_layout()), Some(&resolve_layout)],
-                immediate_size: 0,
-            });
+        let resolve_pipeline_layout = ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("k-buffer resolve"),
+            bind_group_layouts: &[Some(ctx.scene_layout()), Some(&resolve_layout)],
+            immediate_size: 0,
+        });
         let over = [Some(wgpu::ColorTargetState {
             format: targets.color_format,
             blend: Some(if transmit {

@@ -286,7 +286,7 @@ impl LinkedList {
         let heads = buffer("linked-list heads", pixels * 4, storage);
         let lost = buffer("linked-list lost fragments", pixels * 4, storage);
         let fragment = wgpu::ShaderStages::FRAGMENT;
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        let layout = ctx.bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("linked-list"),
             entries: &[
                 bind::uniform(0, fragment),
@@ -317,7 +317,7 @@ impl LinkedList {
                 &[&[("linked_list_node.wgsl", &node_src)], crate::SHADERS],
             )?
         };
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        let pipeline_layout = ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("linked-list"),
             bind_group_layouts: &[Some(ctx.scene_layout()), Some(&layout)],
             immediate_size: 0,

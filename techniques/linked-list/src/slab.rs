@@ -341,7 +341,7 @@ impl Slab {
         let tail_sum = texture("slab tail sums", TAIL_SUM_FORMAT);
         let tail_t = texture("slab tail transmittance", TAIL_T_FORMAT);
         let fragment = wgpu::ShaderStages::FRAGMENT;
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        let layout = ctx.bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("slab"),
             entries: &[
                 bind::uniform(0, fragment),
@@ -351,7 +351,7 @@ impl Slab {
                 bind::storage(6, fragment, false),
             ],
         });
-        let resolve_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        let resolve_layout = ctx.bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("slab resolve"),
             entries: &[
                 bind::uniform(0, fragment),
@@ -371,7 +371,7 @@ impl Slab {
                 oit_wboit::SHADERS,
             ],
         )?;
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        let pipeline_layout = ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("slab geometry"),
             bind_group_layouts: &[Some(ctx.scene_layout()), Some(&layout)],
             immediate_size: 0,
@@ -406,12 +406,11 @@ impl Slab {
         let insert = pipelines("slab insert", "fs_insert", &silent);
         let cover = pipelines("slab cover", "fs_slab_cover", &silent);
         let accumulate = pipelines("slab accumulate", "fs_slab_accumulate", &blended);
-        let resolve_pipeline_layout =
-            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("slab resolve"),
-                bind_group_layouts: &[Some(ctx.scene_layout()), Some(&resolve_layout)],
-                immediate_size: 0,
-            });
+        let resolve_pipeline_layout = ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("slab resolve"),
+            bind_group_layouts: &[Some(ctx.scene_layout()), Some(&resolve_layout)],
+            immediate_size: 0,
+        });
         let over = [Some(wgpu::ColorTargetState {
             format: targets.color_format,
             blend: Some(PREMULTIPLIED_OVER),

@@ -223,11 +223,10 @@ impl Mboit {
                 },
             );
             let layout = |label, entries: &[wgpu::BindGroupLayoutEntry]| {
-                ctx.device
-                    .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                        label: Some(label),
-                        entries,
-                    })
+                ctx.bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                    label: Some(label),
+                    entries,
+                })
             };
             let params_layout = layout("mboit params", &[bind::uniform(0, fs)]);
             let resolve_layout = layout(
@@ -343,12 +342,11 @@ impl Mboit {
                 .collect();
             moment_targets.resize(3, None);
             let layout = |label, groups: &[Option<&wgpu::BindGroupLayout>]| {
-                ctx.device
-                    .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                        label: Some(label),
-                        bind_group_layouts: groups,
-                        immediate_size: 0,
-                    })
+                ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                    label: Some(label),
+                    bind_group_layouts: groups,
+                    immediate_size: 0,
+                })
             };
             let moments = ScenePipelines::with_layout(
                 ctx,
@@ -399,17 +397,15 @@ impl Mboit {
         let shared = self.shared.as_ref().expect("built in ensure");
         let module = ctx.shader_with("mboit_accum.wgsl", ACCUM_WGSL, &[crate::SHADERS])?;
         let constants = [("MBOIT_KIND", f64::from(self.config.moments.index()))];
-        let layout = ctx
-            .device
-            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("mboit additive"),
-                bind_group_layouts: &[
-                    Some(ctx.scene_layout()),
-                    Some(&shared.params_layout),
-                    Some(&shared.resolve_layout),
-                ],
-                immediate_size: 0,
-            });
+        let layout = ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("mboit additive"),
+            bind_group_layouts: &[
+                Some(ctx.scene_layout()),
+                Some(&shared.params_layout),
+                Some(&shared.resolve_layout),
+            ],
+            immediate_size: 0,
+        });
         Ok(ScenePipelines::with_layout(
             ctx,
             &ScenePipelineDesc {
@@ -437,19 +433,12 @@ impl Mboit {
             return p.clone();
         }
         let shared = self.shared.as_ref().expect("built in ensure");
-        let module = ctx
-            .device
-            .create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("mboit_composite.wgsl"),
-                source: wgpu::ShaderSource::Wgsl(COMPOSITE_WGSL.into()),
-            });
-        let layout = ctx
-            .device
-            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("mboit composite"),
-                bind_group_layouts: &[Some(&shared.composite_layout)],
-                immediate_size: 0,
-            });
+        let module = ctx.wgsl_module("mboit_composite.wgsl", COMPOSITE_WGSL);
+        let layout = ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("mboit composite"),
+            bind_group_layouts: &[Some(&shared.composite_layout)],
+            immediate_size: 0,
+        });
         let pipeline = oit_gpu::fullscreen_pipeline(
             ctx,
             &oit_gpu::FullscreenDesc {

@@ -78,7 +78,7 @@ impl OpaqueCopy {
             1,
         );
         let fs = wgpu::ShaderStages::FRAGMENT;
-        let group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        let group_layout = ctx.bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("opaque copy"),
             entries: &[bind::float_texture(0, fs)],
         });
@@ -91,7 +91,7 @@ impl OpaqueCopy {
                 resource: wgpu::BindingResource::TextureView(&view),
             }],
         });
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        let layout = ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("opaque-copy transmissive"),
             bind_group_layouts: &[Some(ctx.scene_layout()), Some(&group_layout)],
             immediate_size: 0,

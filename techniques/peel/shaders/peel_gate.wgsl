@@ -15,7 +15,8 @@ struct Grid {
     pad0: u32,
 }
 
-// wgpu::util::DrawIndirectArgs per draw: vertex_count, instance_count, first_vertex, first_instance.
+// wgpu::util::DrawIndexedIndirectArgs per draw: index_count, instance_count, first_index,
+// base_vertex, first_instance (oit_gpu::GpuScene::indirect_args).
 @group(0) @binding(1) var<storage, read_write> args: array<u32>;
 @group(0) @binding(2) var<uniform> grid: Grid;
 // Dual: the last range target. Front: the detection pass's layer texture.
@@ -27,7 +28,7 @@ struct Grid {
 @compute @workgroup_size(64)
 fn cs_gate(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x < grid.draws {
-        args[id.x * 4u + 1u] = atomicLoad(&counters[left_word(pass_info.index)]);
+        args[id.x * 5u + 1u] = atomicLoad(&counters[left_word(pass_info.index)]);
     }
 }
 

@@ -221,7 +221,7 @@ impl DualPeel {
             gpu::texture_2d(ctx, &mut ledger, "dual-peel whole range", res, range_format).1
         });
         let fs = wgpu::ShaderStages::FRAGMENT;
-        let group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        let group_layout = ctx.bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("dual-peel"),
             entries: &[bind::uniform(0, fs), bind::float_texture(1, fs)],
         });
@@ -243,7 +243,7 @@ impl DualPeel {
         };
         let groups = [group(&range[0]), group(&range[1])];
         let whole_group = whole.as_ref().map(group);
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        let layout = ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("dual-peel"),
             bind_group_layouts: &[
                 Some(ctx.scene_layout()),
@@ -396,7 +396,7 @@ fn scalar_stacks(
     let back_view = (accum_format != targets.color_format)
         .then(|| gpu::texture_2d(ctx, ledger, "dual-peel back", res, accum_format).1);
     let composite_module = gpu::shader(ctx, "peel_composite.wgsl", gpu::PEEL_COMPOSITE)?;
-    let composite_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+    let composite_layout = ctx.bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("peel composite"),
         entries: &[bind::float_texture(0, fs)],
     });
@@ -408,12 +408,11 @@ fn scalar_stacks(
             resource: wgpu::BindingResource::TextureView(&front),
         }],
     });
-    let composite_pipeline_layout =
-        device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("peel composite"),
-            bind_group_layouts: &[Some(&composite_layout), Some(&control.pass_layout)],
-            immediate_size: 0,
-        });
+    let composite_pipeline_layout = ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("peel composite"),
+        bind_group_layouts: &[Some(&composite_layout), Some(&control.pass_layout)],
+        immediate_size: 0,
+    });
     let composite = |label: &str, blend: wgpu::BlendState| {
         oit_gpu::fullscreen_pipeline(
             ctx,
@@ -957,17 +956,15 @@ impl DualPeel {
         let g = self.gpu.as_ref().expect("resources built");
         let mut accum = wboit::AccumTargets::new(ctx, targets.resolution)?;
         let module = gpu::shader(ctx, "peel_tail.wgsl", gpu::PEEL_TAIL)?;
-        let layout = ctx
-            .device
-            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("dual-peel tail"),
-                bind_group_layouts: &[
-                    Some(ctx.scene_layout()),
-                    Some(&g.group_layout),
-                    Some(&g.control.pass_layout),
-                ],
-                immediate_size: 0,
-            });
+        let layout = ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("dual-peel tail"),
+            bind_group_layouts: &[
+                Some(ctx.scene_layout()),
+                Some(&g.group_layout),
+                Some(&g.control.pass_layout),
+            ],
+            immediate_size: 0,
+        });
         let mut constants = key_constants(config, range_format, true);
         constants.retain(|(k, _)| *k != "TEST_FIRST");
         constants.extend(accum.prepare(&scene.scene));

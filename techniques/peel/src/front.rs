@@ -210,7 +210,7 @@ impl FrontPeel {
         let layer = gpu::texture_2d(ctx, &mut ledger, "front-peel layer", res, accum_format).1;
         let fs = wgpu::ShaderStages::FRAGMENT;
         let uint_texture = |binding| bind::texture(binding, fs, wgpu::TextureSampleType::Uint);
-        let group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        let group_layout = ctx.bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("front-peel"),
             entries: &[bind::uniform(0, fs), uint_texture(1), uint_texture(3)],
         });
@@ -234,7 +234,7 @@ impl FrontPeel {
                 ],
             })
         });
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        let layout = ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("front-peel"),
             bind_group_layouts: &[Some(ctx.scene_layout()), Some(&group_layout)],
             immediate_size: 0,
@@ -280,7 +280,7 @@ impl FrontPeel {
                 &layout,
             )
         });
-        let opaque_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        let opaque_layout = ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("front-peel opaque depth bits"),
             bind_group_layouts: &[Some(ctx.scene_layout())],
             immediate_size: 0,
@@ -367,7 +367,7 @@ impl FrontPeel {
         )
         .1;
         let composite_module = gpu::shader(ctx, "peel_composite.wgsl", gpu::PEEL_COMPOSITE)?;
-        let composite_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        let composite_layout = ctx.bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("peel composite"),
             entries: &[bind::float_texture(0, fs)],
         });
@@ -383,12 +383,11 @@ impl FrontPeel {
         };
         let under_group = composite_group(layer);
         let final_group = composite_group(&accum);
-        let composite_pipeline_layout =
-            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("peel composite"),
-                bind_group_layouts: &[Some(&composite_layout), Some(&control.pass_layout)],
-                immediate_size: 0,
-            });
+        let composite_pipeline_layout = ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("peel composite"),
+            bind_group_layouts: &[Some(&composite_layout), Some(&control.pass_layout)],
+            immediate_size: 0,
+        });
         let fullscreen = |entry: &str, format: wgpu::TextureFormat, blend: wgpu::BlendState| {
             oit_gpu::fullscreen_pipeline(
                 ctx,

@@ -240,23 +240,19 @@ pub(crate) struct TransmitShader {
 impl TransmitShader {
     pub fn new(ctx: &Context, control: &Control) -> Result<Self, GpuError> {
         let fs = wgpu::ShaderStages::FRAGMENT;
-        let layout = ctx
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("peel per-channel"),
-                entries: &[
-                    bind::float_texture(0, fs),
-                    bind::float_texture(1, fs),
-                    bind::float_texture(2, fs),
-                ],
-            });
-        let pipeline_layout = ctx
-            .device
-            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("peel per-channel"),
-                bind_group_layouts: &[Some(&layout), Some(&control.pass_layout)],
-                immediate_size: 0,
-            });
+        let layout = ctx.bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("peel per-channel"),
+            entries: &[
+                bind::float_texture(0, fs),
+                bind::float_texture(1, fs),
+                bind::float_texture(2, fs),
+            ],
+        });
+        let pipeline_layout = ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("peel per-channel"),
+            bind_group_layouts: &[Some(&layout), Some(&control.pass_layout)],
+            immediate_size: 0,
+        });
         Ok(TransmitShader {
             module: shader(ctx, "peel_transmit.wgsl", PEEL_TRANSMIT)?,
             layout,
@@ -557,12 +553,11 @@ fn counter_bytes(slots: u32) -> u64 {
 
 impl Control {
     pub fn new(ctx: &Context) -> Result<Self, GpuError> {
-        let device = &ctx.device;
         let max_slots = max_pass_slots(&ctx.caps);
         let capacity = INITIAL_SLOTS.min(max_slots.0);
         let pass_stride = pass_stride(&ctx.caps);
         let all = wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE;
-        let pass_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        let pass_layout = ctx.bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("peel pass group"),
             entries: &[
                 bind::dynamic_uniform(0, all, 16),
@@ -572,7 +567,7 @@ impl Control {
         let slots = Slots::new(ctx, &pass_layout, pass_stride, capacity);
         let gate_module = shader(ctx, "peel_gate.wgsl", PEEL_GATE)?;
         let cs = wgpu::ShaderStages::COMPUTE;
-        let gate_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        let gate_layout = ctx.bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("peel gate"),
             entries: &[bind::storage(1, cs, false), bind::uniform(2, cs)],
         });
@@ -673,12 +668,10 @@ impl Control {
         extra: wgpu::BindGroupLayoutEntry,
     ) -> (wgpu::BindGroupLayout, wgpu::ComputePipeline) {
         let cs = wgpu::ShaderStages::COMPUTE;
-        let layout = ctx
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some(entry),
-                entries: &[bind::uniform(2, cs), extra],
-            });
+        let layout = ctx.bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some(entry),
+            entries: &[bind::uniform(2, cs), extra],
+        });
         let pipeline =
             compute_pipeline(ctx, &self.gate_module, &[&layout, &self.pass_layout], entry);
         (layout, pipeline)
@@ -746,22 +739,19 @@ fn compute_pipeline(
     entry: &str,
 ) -> wgpu::ComputePipeline {
     let groups: Vec<Option<&wgpu::BindGroupLayout>> = groups.iter().map(|g| Some(*g)).collect();
-    let layout = ctx
-        .device
-        .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some(entry),
-            bind_group_layouts: &groups,
-            immediate_size: 0,
-        });
-    ctx.device
-        .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some(entry),
-            layout: Some(&layout),
-            module,
-            entry_point: Some(entry),
-            compilation_options: Default::default(),
-            cache: None,
-        })
+    let layout = ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some(entry),
+        bind_group_layouts: &groups,
+        immediate_size: 0,
+    });
+    ctx.compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(entry),
+        layout: Some(&layout),
+        module,
+        entry_point: Some(entry),
+        compilation_options: Default::default(),
+        cache: None,
+    })
 }
 
 /// The counters of one frame, read back.
@@ -793,6 +783,9 @@ impl Counters {
     }
 }
 
+/// Bytes of one draw's indirect arguments ([`GpuScene::indirect_args`]).
+const INDIRECT_ARGS_BYTES: u64 = 20;
+
 /// The transparent draws of one scene and their indirect arguments.
 #[derive(Debug)]
 pub(crate) struct DrawList {
@@ -820,10 +813,10 @@ impl DrawList {
         let mut initial = Vec::with_capacity(draws.len().max(1) * 4);
         for &i in &draws {
             let d = &scene.scene.draws[i];
-            initial.extend([d.vertex_count, 1, d.first_vertex, 0]);
+            initial.extend(GpuScene::indirect_args(d));
         }
         if initial.is_empty() {
-            initial.extend([0, 0, 0, 0]);
+            initial.extend([0; 5]);
         }
         let args = ledger.create_buffer(
             &ctx.device,
@@ -893,9 +886,9 @@ impl DrawList {
             let d = &scene.scene.draws[i];
             scene.use_draw(pass, pipelines, i);
             if indirect {
-                pass.draw_indirect(&self.args, slot as u64 * 16);
+                pass.draw_indexed_indirect(&self.args, slot as u64 * INDIRECT_ARGS_BYTES);
             } else {
-                pass.draw(d.first_vertex..d.first_vertex + d.vertex_count, 0..1);
+                GpuScene::draw_range(pass, d.first_vertex..d.first_vertex + d.vertex_count, 0..1);
             }
         }
     }

@@ -154,19 +154,15 @@ impl PerObject {
                 ..ScenePipelineDesc::new("per-object solid", &methods, "fs_solid")
             },
         );
-        let seed_layout = ctx
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("per-object dither seeds"),
-                entries: &[oit_gpu::bind::storage(0, wgpu::ShaderStages::VERTEX, true)],
-            });
-        let dither_layout = ctx
-            .device
-            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("per-object dither"),
-                bind_group_layouts: &[Some(ctx.scene_layout()), Some(&seed_layout)],
-                immediate_size: 0,
-            });
+        let seed_layout = ctx.bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("per-object dither seeds"),
+            entries: &[oit_gpu::bind::storage(0, wgpu::ShaderStages::VERTEX, true)],
+        });
+        let dither_layout = ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("per-object dither"),
+            bind_group_layouts: &[Some(ctx.scene_layout()), Some(&seed_layout)],
+            immediate_size: 0,
+        });
         let dither = ScenePipelines::with_layout(
             ctx,
             &ScenePipelineDesc {
@@ -224,22 +220,18 @@ impl PerObject {
             )
         };
         let resolve_module = ctx.shader("per_object_resolve.wgsl", RESOLVE_WGSL)?;
-        let resolve_layout =
-            ctx.device
-                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                    label: Some("per-object weighted resolve"),
-                    entries: &[
-                        oit_gpu::bind::float_texture(0, wgpu::ShaderStages::FRAGMENT),
-                        oit_gpu::bind::float_texture(1, wgpu::ShaderStages::FRAGMENT),
-                    ],
-                });
-        let resolve_pipeline_layout =
-            ctx.device
-                .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                    label: Some("per-object weighted resolve"),
-                    bind_group_layouts: &[Some(&resolve_layout)],
-                    immediate_size: 0,
-                });
+        let resolve_layout = ctx.bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("per-object weighted resolve"),
+            entries: &[
+                oit_gpu::bind::float_texture(0, wgpu::ShaderStages::FRAGMENT),
+                oit_gpu::bind::float_texture(1, wgpu::ShaderStages::FRAGMENT),
+            ],
+        });
+        let resolve_pipeline_layout = ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("per-object weighted resolve"),
+            bind_group_layouts: &[Some(&resolve_layout)],
+            immediate_size: 0,
+        });
         let resolve = oit_gpu::fullscreen_pipeline(
             ctx,
             &FullscreenDesc {
@@ -503,7 +495,8 @@ impl Technique for PerObject {
                             }
                             scene.use_draw(&mut rp, &p.dither, i);
                             // The instance index is the draw's index: the vertex stage reads
-                            // its seed with it.
+                            // its seed with it. Not indexed (GpuScene::draw_range): the face
+                            // index is the vertex index over 3, a non-indexed draw's.
                             rp.draw(
                                 d.first_vertex..d.first_vertex + d.vertex_count,
                                 i as u32..i as u32 + 1,

@@ -322,7 +322,7 @@ impl RayQuery {
         ctx.queue
             .write_buffer(&params, 0, bytemuck::cast_slice(&words));
         let fs = wgpu::ShaderStages::FRAGMENT;
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        let layout = ctx.bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("ray-query"),
             entries: &[
                 wgpu::BindGroupLayoutEntry {
@@ -374,7 +374,7 @@ impl RayQuery {
         // Group 0 holds the scene's own buffers, as common.wgsl declares them, visible to the
         // fragment stage (the shared scene layout gives the material table to vertices only):
         // the pass runs the vertex stage's `scene_vertex` per hit.
-        let scene_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        let scene_layout = ctx.bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("ray-query scene"),
             entries: &[
                 bind::uniform(0, fs),
@@ -419,7 +419,7 @@ impl RayQuery {
             layout: &scene_layout,
             entries: &scene_entries,
         });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        let pipeline_layout = ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("ray-query"),
             bind_group_layouts: &[Some(&scene_layout), Some(&layout)],
             immediate_size: 0,

@@ -156,7 +156,7 @@ impl AlphaToCoverage {
         };
         let seed = gpu::SeedPass::new(ctx, targets.color_format, multisample)?;
         let module = ctx.shader_with("stochastic_a2c.wgsl", A2C_WGSL, &[crate::SHADERS])?;
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        let layout = ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("a2c"),
             bind_group_layouts: &[Some(ctx.scene_layout())],
             immediate_size: 0,

@@ -121,6 +121,8 @@ pub(crate) fn draw_with_id(
         return;
     }
     scene.use_draw(pass, pipelines, index);
+    // Not indexed (GpuScene::draw_range): the vertex stage seeds each triangle with its vertex
+    // index divided by 3, which only a non-indexed draw makes the triangle's own.
     pass.draw(
         d.first_vertex..d.first_vertex + d.vertex_count,
         d.id..d.id + 1,
@@ -166,10 +168,9 @@ impl SeedPass {
         multisample: wgpu::MultisampleState,
         depth_reset: bool,
     ) -> Result<Self, GpuError> {
-        let device = &ctx.device;
         // Depth32Float is bound as an unfilterable float texture (WebGPU allows it): GLSL has
         // no texelFetch of depth (shadow) textures.
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        let layout = ctx.bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("stochastic seed"),
             entries: &[
                 bind::float_texture(0, wgpu::ShaderStages::FRAGMENT),
@@ -177,7 +178,7 @@ impl SeedPass {
             ],
         });
         let module = ctx.shader_with("stochastic_seed.wgsl", SEED_WGSL, &[crate::SHADERS])?;
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        let pipeline_layout = ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("stochastic seed"),
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,

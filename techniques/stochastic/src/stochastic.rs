@@ -168,7 +168,7 @@ impl Stochastic {
         // Dither pass: group 0 = scene, group 1 = per-frame uniform + threshold table. The table
         // is an R32Float texture read with textureLoad: on CPU rasterizers a per-fragment
         // storage-buffer read costs several times the rest of the dither shader.
-        let dither_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        let dither_layout = ctx.bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("stochastic dither"),
             entries: &[
                 bind::dynamic_uniform(0, wgpu::ShaderStages::VERTEX_FRAGMENT, DITHER_UNIFORM_BYTES),
@@ -235,7 +235,7 @@ impl Stochastic {
             ],
         });
         let module = ctx.shader_with("stochastic_dither.wgsl", DITHER_WGSL, &[crate::SHADERS])?;
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        let layout = ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("stochastic dither"),
             bind_group_layouts: &[Some(ctx.scene_layout()), Some(&dither_layout)],
             immediate_size: 0,
@@ -362,7 +362,7 @@ impl Stochastic {
                 mapped_at_creation: false,
             },
         );
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        let layout = ctx.bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("stochastic accumulate"),
             entries: &[
                 bind::float_texture(0, wgpu::ShaderStages::FRAGMENT),
@@ -405,7 +405,7 @@ impl Stochastic {
             ACCUMULATE_WGSL,
             &[crate::SHADERS],
         )?;
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        let pipeline_layout = ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("stochastic accumulate"),
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,

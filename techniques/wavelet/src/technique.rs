@@ -224,11 +224,10 @@ impl Wavelet {
                 },
             );
             let layout = |label, entries: &[wgpu::BindGroupLayoutEntry]| {
-                ctx.device
-                    .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                        label: Some(label),
-                        entries,
-                    })
+                ctx.bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                    label: Some(label),
+                    entries,
+                })
             };
             let params_layout = layout("wavelet params", &[bind::uniform(0, fs)]);
             let range_layout = layout("wavelet range", &[bind::float_texture(0, fs)]);
@@ -337,12 +336,11 @@ impl Wavelet {
                 })
             };
             let layout = |label, groups: &[Option<&wgpu::BindGroupLayout>]| {
-                ctx.device
-                    .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                        label: Some(label),
-                        bind_group_layouts: groups,
-                        immediate_size: 0,
-                    })
+                ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                    label: Some(label),
+                    bind_group_layouts: groups,
+                    immediate_size: 0,
+                })
             };
             let rank = self.constants();
             let range = ScenePipelines::with_layout(
@@ -425,17 +423,15 @@ impl Wavelet {
     ) -> Result<ScenePipelines, GpuError> {
         let shared = self.shared.as_ref().expect("built in ensure");
         let module = ctx.shader_with("wavelet.wgsl", PASSES_WGSL, &[crate::SHADERS])?;
-        let layout = ctx
-            .device
-            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("wavelet additive"),
-                bind_group_layouts: &[
-                    Some(ctx.scene_layout()),
-                    Some(&shared.params_layout),
-                    Some(&shared.resolve_layout),
-                ],
-                immediate_size: 0,
-            });
+        let layout = ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("wavelet additive"),
+            bind_group_layouts: &[
+                Some(ctx.scene_layout()),
+                Some(&shared.params_layout),
+                Some(&shared.resolve_layout),
+            ],
+            immediate_size: 0,
+        });
         Ok(ScenePipelines::with_layout(
             ctx,
             &ScenePipelineDesc {
@@ -465,18 +461,16 @@ impl Wavelet {
         let shared = self.shared.as_ref().expect("built in ensure");
         let module =
             ctx.shader_with("wavelet_composite.wgsl", COMPOSITE_WGSL, &[crate::SHADERS])?;
-        let layout = ctx
-            .device
-            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("wavelet composite"),
-                // Group 2, as in the geometry passes (shaders/wavelet_coefficients.wgsl).
-                bind_group_layouts: &[
-                    Some(&shared.empty_layout),
-                    Some(&shared.empty_layout),
-                    Some(&shared.composite_layout),
-                ],
-                immediate_size: 0,
-            });
+        let layout = ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("wavelet composite"),
+            // Group 2, as in the geometry passes (shaders/wavelet_coefficients.wgsl).
+            bind_group_layouts: &[
+                Some(&shared.empty_layout),
+                Some(&shared.empty_layout),
+                Some(&shared.composite_layout),
+            ],
+            immediate_size: 0,
+        });
         let constants = self.constants();
         let pipeline = oit_gpu::fullscreen_pipeline(
             ctx,

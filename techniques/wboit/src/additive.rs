@@ -36,24 +36,20 @@ impl AdditivePass {
         accum: &AccumTargets,
     ) -> Result<Self, oit_gpu::GpuError> {
         let fs = wgpu::ShaderStages::FRAGMENT;
-        let layout = ctx
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("wboit additive"),
-                entries: &[bind::float_texture(0, fs), bind::float_texture(1, fs)],
-            });
+        let layout = ctx.bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("wboit additive"),
+            entries: &[bind::float_texture(0, fs), bind::float_texture(1, fs)],
+        });
         let module = ctx.shader_with(
             "wboit_accum.wgsl",
             crate::technique::ACCUM_WGSL,
             &[crate::SHADERS],
         )?;
-        let pipeline_layout = ctx
-            .device
-            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("wboit additive"),
-                bind_group_layouts: &[Some(ctx.scene_layout()), Some(params_layout), Some(&layout)],
-                immediate_size: 0,
-            });
+        let pipeline_layout = ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("wboit additive"),
+            bind_group_layouts: &[Some(ctx.scene_layout()), Some(params_layout), Some(&layout)],
+            immediate_size: 0,
+        });
         let pipelines = ScenePipelines::with_layout(
             ctx,
             &ScenePipelineDesc {

@@ -291,17 +291,15 @@ impl AccumTargets {
         let accum_view = accum.create_view(&Default::default());
         let reveal_view = reveal.create_view(&Default::default());
         let fs = wgpu::ShaderStages::FRAGMENT;
-        let layout = ctx
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("wboit composite"),
-                entries: &[
-                    bind::float_texture(0, fs),
-                    bind::float_texture(1, fs),
-                    bind::uniform(2, fs),
-                    bind::storage(3, fs, false),
-                ],
-            });
+        let layout = ctx.bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("wboit composite"),
+            entries: &[
+                bind::float_texture(0, fs),
+                bind::float_texture(1, fs),
+                bind::uniform(2, fs),
+                bind::storage(3, fs, false),
+            ],
+        });
         let bind_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("wboit composite"),
             layout: &layout,
@@ -469,19 +467,12 @@ impl AccumTargets {
         if let Some(p) = cache.as_ref().filter(|p| p.format == format) {
             return p.pipeline.clone();
         }
-        let module = ctx
-            .device
-            .create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("wboit_composite.wgsl"),
-                source: wgpu::ShaderSource::Wgsl(COMPOSITE_WGSL.into()),
-            });
-        let layout = ctx
-            .device
-            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("wboit composite"),
-                bind_group_layouts: &[Some(&self.layout)],
-                immediate_size: 0,
-            });
+        let module = ctx.wgsl_module("wboit_composite.wgsl", COMPOSITE_WGSL);
+        let layout = ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("wboit composite"),
+            bind_group_layouts: &[Some(&self.layout)],
+            immediate_size: 0,
+        });
         let pipeline = oit_gpu::fullscreen_pipeline(
             ctx,
             &oit_gpu::FullscreenDesc {

@@ -263,12 +263,10 @@ impl Wboit {
                     mapped_at_creation: false,
                 },
             );
-            let layout = ctx
-                .device
-                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                    label: Some("wboit weight params"),
-                    entries: &[oit_gpu::bind::uniform(0, wgpu::ShaderStages::FRAGMENT)],
-                });
+            let layout = ctx.bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("wboit weight params"),
+                entries: &[oit_gpu::bind::uniform(0, wgpu::ShaderStages::FRAGMENT)],
+            });
             let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("wboit weight params"),
                 layout: &layout,
@@ -291,13 +289,11 @@ impl Wboit {
                 .expect("accumulation targets built above");
             let (_, layout, _) = self.params.as_ref().expect("params built above");
             let module = ctx.shader_with("wboit_accum.wgsl", ACCUM_WGSL, &[crate::SHADERS])?;
-            let pipeline_layout =
-                ctx.device
-                    .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                        label: Some("wboit accumulate"),
-                        bind_group_layouts: &[Some(ctx.scene_layout()), Some(layout)],
-                        immediate_size: 0,
-                    });
+            let pipeline_layout = ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("wboit accumulate"),
+                bind_group_layouts: &[Some(ctx.scene_layout()), Some(layout)],
+                immediate_size: 0,
+            });
             let entry = match (self.config, modulated) {
                 (Config::Weighted { .. }, None) => "fs_wboit",
                 (Config::Average, None) => "fs_average",

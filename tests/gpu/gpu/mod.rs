@@ -1,3 +1,4 @@
 mod context;
+mod made;
 mod occlusion;
 mod shaders;

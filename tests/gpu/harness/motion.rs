@@ -20,8 +20,12 @@ fn motion_scene(name: &str) -> PathBuf {
         .join(format!("{name}.json"))
 }
 
+/// A fresh folder per call: tests running side by side measure the same motion scenes, and one
+/// removing the other's folder took its reference cache and clips away mid-run.
 fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("oit-motion-{name}-{}", std::process::id()));
+    static CALLS: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+    let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let dir = std::env::temp_dir().join(format!("oit-motion-{name}-{}-{call}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("temp dir");
     dir
