@@ -576,29 +576,30 @@ impl Context {
             message: e.to_string(),
         };
         let code = crate::shaders::compose(source, &resolve).map_err(include_error)?;
+        let module = self.made.module(name, &code);
+        let mut forms = self.per_draw.lock().unwrap_or_else(|e| e.into_inner());
+        if forms.contains_key(&module) {
+            // Made before from the same source: its per-draw forms are known.
+            return Ok(module);
+        }
         let per_draw = |textured, lit| {
             crate::shaders::compose_per_draw(source, &resolve, textured, lit)
                 .transpose()
                 .map_err(include_error)
         };
-        let per_draw = match (
+        if let (Some(a), Some(b), Some(c)) = (
             per_draw(false, false)?,
             per_draw(true, false)?,
             per_draw(true, true)?,
         ) {
-            (Some(a), Some(b), Some(c)) => Some([a, b, c]),
-            _ => None,
-        };
-        let module = self.made.module(name, &code);
-        if let Some(code) = per_draw {
-            let mut forms = self.per_draw.lock().unwrap_or_else(|e| e.into_inner());
-            forms.entry(module.clone()).or_insert_with(|| {
+            forms.insert(
+                module.clone(),
                 Arc::new(PerDrawForm {
                     name: format!("{name} (per-draw material)"),
-                    code,
+                    code: [a, b, c],
                     modules: Default::default(),
-                })
-            });
+                }),
+            );
         }
         Ok(module)
     }

@@ -357,6 +357,8 @@ pub struct GpuScene {
     /// Per draw: whether it reads its material per draw (small triangles), see
     /// [`GpuScene::reads_material_per_draw`].
     per_draw_material: Vec<bool>,
+    /// Whether plain OVER materials get the `OVER_ONLY` pipelines ([`GpuScene::set_over_only`]).
+    over_only: bool,
     /// The dynamic offset group 0 was last set with in the pass being recorded ([`GpuScene::bind`]
     /// sets it), so that [`GpuScene::use_draw`] sets it again only for a per-draw material that
     /// differs: lavapipe keeps a copy of the descriptor state per bind (about 23 KB), and 1000
@@ -496,6 +498,7 @@ impl GpuScene {
                 .iter()
                 .map(|d| mean_triangle_pixels(scene, d) <= PER_DRAW_MATERIAL_MAX_AREA)
                 .collect(),
+            over_only: true,
             bound_offset: AtomicU32::new(0),
             opaque: Mutex::new(HashMap::new()),
         })
@@ -557,6 +560,18 @@ impl GpuScene {
         self.per_draw_material.fill(per_draw);
     }
 
+    /// Lets plain OVER materials draw with the pipelines that leave the operator and
+    /// transmission code out (`true`, the default) or not: both give the same bits, which
+    /// tests check with this, and A/B timings use it.
+    pub fn set_over_only(&mut self, over_only: bool) {
+        self.over_only = over_only;
+    }
+
+    /// Whether material `m` draws with the `OVER_ONLY` pipelines ([`GpuScene::set_over_only`]).
+    pub fn draws_over_only(&self, m: &Material) -> bool {
+        self.over_only && over_only(m)
+    }
+
     /// Prepares `pass` for `self.scene.draws[index]` (after [`GpuScene::bind`] on the same
     /// pass, and no other group 0 since): the pipeline its material needs and, where it reads
     /// the material per draw, group 0 at its material's offset. For passes that issue the
@@ -569,7 +584,8 @@ impl GpuScene {
     ) {
         let d = &self.scene.draws[index];
         let per_draw = self.reads_material_per_draw(index) && pipelines.has_per_draw_form();
-        pass.set_pipeline(pipelines.for_draw(self.scene.material_of(d), per_draw));
+        let m = self.scene.material_of(d);
+        pass.set_pipeline(pipelines.for_draw(m, per_draw, self.draws_over_only(m)));
         let offset = Self::material_offset(d.material);
         if per_draw && self.bound_offset.swap(offset, Ordering::Relaxed) != offset {
             pass.set_bind_group(0, &self.bind_group, &[offset]);
@@ -838,8 +854,9 @@ impl ScenePipelines {
     }
 
     /// The pipeline for a draw of material `m`, which reads it per draw where `per_draw` and
-    /// the pass has that form ([`MaterialSource::PerDraw`]), else per vertex.
-    pub fn for_draw(&self, m: &Material, per_draw: bool) -> &wgpu::RenderPipeline {
+    /// the pass has that form ([`MaterialSource::PerDraw`]), else per vertex; `over_only`
+    /// where `m` may take the `OVER_ONLY` form ([`GpuScene::draws_over_only`]).
+    pub fn for_draw(&self, m: &Material, per_draw: bool, over_only: bool) -> &wgpu::RenderPipeline {
         let set = &self.shared;
         // Every fragment is kept when the material has no cutoff and the pipeline's face
         // culling leaves nothing `shade()` would discard (a single-sided material's back faces).
@@ -853,21 +870,22 @@ impl ScenePipelines {
             may_discard: m.mode.uses_cutoff() || !(m.double_sided || culls_back),
             per_draw: per_draw && set.per_draw_form.is_some(),
             lit: m.is_lit(),
-            over_only: over_only(m),
+            over_only,
         })
     }
 
     /// The double-sided pipeline for one draw call that mixes materials (which needs
     /// [`MaterialSource::PerVertex`]): textured when any material of `scene` reads a
     /// texture, discarding where any could.
-    pub fn double_sided_for(&self, scene: &oit_scene::Scene) -> &wgpu::RenderPipeline {
+    pub fn double_sided_for(&self, gpu: &GpuScene) -> &wgpu::RenderPipeline {
+        let scene = &gpu.scene;
         self.variant(Variant {
             double_sided: true,
             textured: scene.materials.iter().any(Material::is_textured),
             may_discard: true,
             per_draw: false,
             lit: scene.materials.iter().any(Material::is_lit),
-            over_only: scene.materials.iter().all(over_only),
+            over_only: scene.materials.iter().all(|m| gpu.draws_over_only(m)),
         })
     }
 

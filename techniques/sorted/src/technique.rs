@@ -455,7 +455,7 @@ impl Technique for Blended {
                             .blend_unculled
                             .as_ref()
                             .expect("sorted-triangle pipelines");
-                        pass.set_pipeline(unculled.double_sided_for(&scene.scene));
+                        pass.set_pipeline(unculled.double_sided_for(scene));
                         pass.set_index_buffer(
                             stream.index_buffer.slice(..),
                             wgpu::IndexFormat::Uint32,

@@ -1,7 +1,8 @@
 //! Scene draws read their material per vertex (flat varyings, crates/oit-gpu/shaders/scene_io/vertex.wgsl) or
 //! per draw (a uniform, crates/oit-gpu/shaders/scene_io/draw.wgsl), whichever costs less for the size of their
 //! triangles (`GpuScene::reads_material_per_draw`). Which one is used must never show: every
-//! technique draws the same bits with either form.
+//! technique draws the same bits with either form, and with or without the `OVER_ONLY`
+//! pipelines of plain OVER materials (`GpuScene::set_over_only`).
 
 use oit_gpu::testing::context_or_skip;
 use oit_gpu::{ColorFormat, GpuScene, GpuTimer, Targets, read_color, render_frame};
@@ -47,8 +48,10 @@ fn every_technique_draws_the_same_bits_with_either_material_form() {
         let targets = Targets::new(&ctx, size, ColorFormat::Rgba32Float).expect("targets");
         for spec in &specs {
             let mut images: Vec<LinearImage> = Vec::new();
-            for per_draw in [false, true] {
+            // Per vertex, per draw, and per draw without the OVER_ONLY pipelines.
+            for (per_draw, over_only) in [(false, true), (true, true), (true, false)] {
                 gpu.set_reads_material_per_draw(per_draw);
+                gpu.set_over_only(over_only);
                 let mut technique =
                     oit_gpu::TechniqueSpec::build(&spec.canonical(), &registry()).expect("build");
                 let mut timer = GpuTimer::new(&ctx);
@@ -57,16 +60,23 @@ fn every_technique_draws_the_same_bits_with_either_material_form() {
                     Err(e) => println!("{name} {}: skipped: {e}", spec.canonical()),
                 }
             }
-            if let [vertex, draw] = &images[..] {
+            if let [vertex, draw, general] = &images[..] {
                 compared += 1;
-                let differ = vertex
-                    .pixels
-                    .iter()
-                    .zip(&draw.pixels)
-                    .filter(|(a, b)| a.map(f32::to_bits) != b.map(f32::to_bits))
-                    .count();
-                if differ > 0 {
-                    failures.push(format!("{name} {}: {differ} px differ", spec.canonical()));
+                let differ = |a: &LinearImage, b: &LinearImage| {
+                    (a.pixels.iter().zip(&b.pixels))
+                        .filter(|(a, b)| a.map(f32::to_bits) != b.map(f32::to_bits))
+                        .count()
+                };
+                for (what, n) in [
+                    ("per vertex and per draw", differ(vertex, draw)),
+                    ("with and without OVER_ONLY", differ(draw, general)),
+                ] {
+                    if n > 0 {
+                        failures.push(format!(
+                            "{name} {}: {what}: {n} px differ",
+                            spec.canonical()
+                        ));
+                    }
                 }
             }
         }
