@@ -80,6 +80,9 @@ fn ci() -> Result<()> {
     // The GPU integration tests' one binary grows over its life and frees little until it
     // exits (on 2026-12-07 it reached 23.0 GiB resident on a 23.4 GiB machine), so its
     // heaviest module, the harness's end-to-end tests, runs in a process of its own.
+    // `--workspace`, not `-p oit-tests`, in this step and the ray-query one: a single package
+    // resolves features alone (serde without `alloc`, syn without `full`, libc without
+    // `extra_traits`), which rebuilt nearly every crate a second time from a clean checkout.
     step(
         "test",
         &[
@@ -93,15 +96,7 @@ fn ci() -> Result<()> {
     )?;
     step(
         "test (GPU harness)",
-        &[
-            "test",
-            "-p",
-            "oit-tests",
-            "--test",
-            "gpu",
-            "--",
-            "harness::",
-        ],
+        &["test", "--workspace", "--test", "gpu", "--", "harness::"],
     )?;
     ray_query_step()
 }
@@ -130,7 +125,7 @@ fn ray_query_step() -> Result<()> {
         .canonicalize()
         .with_context(|| format!("{}", manifest.display()))?;
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_owned());
-    let args = ["test", "-p", "oit-tests", "--test", "ray_query"];
+    let args = ["test", "--workspace", "--test", "ray_query"];
     println!(
         "xtask ci: test (ray queries): VK_ICD_FILENAMES={} OIT_REQUIRE_RAY_QUERY=1 cargo {}",
         manifest.display(),
