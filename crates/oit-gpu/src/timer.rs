@@ -443,6 +443,22 @@ impl GpuTimer {
         Ok(())
     }
 
+    /// Submits work that is not part of the timed frame (a statistic a technique gathers about
+    /// its own frame, such as a count). It runs after the passes submitted before it; in
+    /// wall-clock mode this waits for it, so its time goes to no pass.
+    pub fn submit_untimed(
+        &mut self,
+        ctx: &Context,
+        encoder: wgpu::CommandEncoder,
+    ) -> Result<(), GpuError> {
+        self.check_budget()?;
+        ctx.queue.submit([encoder.finish()]);
+        if self.queries.is_none() {
+            ctx.wait()?;
+        }
+        Ok(())
+    }
+
     /// Resolves the frame's timings (waits for the GPU).
     pub fn end_frame(&mut self, ctx: &Context) -> Result<FrameTimings, GpuError> {
         let start = self.frame_start.take().unwrap_or_else(Instant::now);

@@ -1,15 +1,9 @@
-//! How often each composite guard fired in one frame (read back from atomic counters the
-//! composite pass writes; slot order matches shaders/wboit_composite.wgsl).
+//! How often each composite guard fired in one frame: counted by an untimed compute pass over
+//! the accumulation targets right after the timed composite, with the composite's own function
+//! (slot order matches shaders/wboit_composite.wgsl).
 
-/// Number of u32 counters the composite writes: the eight in [`GuardCounts`] order, then 16
-/// lines of 16 words whose first two words are more `pixels` and `covered`. Those two change
-/// on nearly every pixel: with one counter each the composite took 1.6x as long on lavapipe
-/// (see shaders/wboit_composite.wgsl).
-pub const GUARD_SLOTS: u32 = 8 + SPREAD * SPREAD_STRIDE;
-/// Lines `pixels` and `covered` are spread over (by 64×64 tile).
-const SPREAD: u32 = 16;
-/// Words per line (64 bytes: one cache line each).
-const SPREAD_STRIDE: u32 = 16;
+/// Number of u32 counters the counting pass writes, in [`GuardCounts`] order.
+pub const GUARD_SLOTS: u32 = 8;
 
 /// Per-frame guard counts, in pixels.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -42,14 +36,9 @@ impl GuardCounts {
     /// Builds from the counter slots (missing slots read as 0).
     pub fn from_slots(words: &[u32]) -> Self {
         let w = |i: usize| words.get(i).copied().unwrap_or(0);
-        let spread = |first: usize| {
-            (0..SPREAD as usize)
-                .map(|k| w(8 + k * SPREAD_STRIDE as usize + first))
-                .sum::<u32>()
-        };
         GuardCounts {
-            pixels: w(0) + spread(0),
-            covered: w(1) + spread(1),
+            pixels: w(0),
+            covered: w(1),
             accum_overflow: w(2),
             zero_weight: w(3),
             average_clamped: w(4),
@@ -102,34 +91,13 @@ mod tests {
         assert_eq!(GuardCounts::from_slots(&[9]).covered, 0);
     }
 
-    #[test]
-    fn pixels_and_covered_add_their_spread_lines() {
-        let mut words = vec![0u32; GUARD_SLOTS as usize];
-        words[0] = 1;
-        words[1] = 2;
-        for k in 0..SPREAD as usize {
-            let line = 8 + k * SPREAD_STRIDE as usize;
-            words[line] = 10;
-            words[line + 1] = 100;
-            // The rest of a line is padding, never read.
-            words[line + 2] = 7;
-        }
-        words[2] = 3;
-        let g = GuardCounts::from_slots(&words);
-        assert_eq!(g.pixels, 1 + 10 * SPREAD);
-        assert_eq!(g.covered, 2 + 100 * SPREAD);
-        assert_eq!((g.accum_overflow, g.zero_weight, g.opaque), (3, 0, 0));
-    }
-
-    /// The shader's counter array and spread constants are these.
+    /// The shader's counter array and count are these.
     #[test]
     fn the_composite_shader_has_these_slots() {
         let wgsl = include_str!("../shaders/wboit_composite.wgsl");
         for line in [
             format!("array<atomic<u32>, {GUARD_SLOTS}>"),
-            format!("const SPREAD: u32 = {SPREAD}u;"),
-            format!("const SPREAD_STRIDE: u32 = {SPREAD_STRIDE}u;"),
-            "const SPREAD_BASE: u32 = 8u;".to_owned(),
+            format!("const GUARD_COUNT: u32 = {GUARD_SLOTS}u;"),
         ] {
             assert!(
                 wgsl.contains(&line),

@@ -101,10 +101,11 @@ pub enum CompositeMode {
 }
 
 impl CompositeMode {
-    fn index(self) -> u32 {
+    /// The composite shader's `AVERAGE` constant.
+    fn average_constant(self) -> f64 {
         match self {
-            CompositeMode::Weighted => 0,
-            CompositeMode::Average => 1,
+            CompositeMode::Weighted => 0.0,
+            CompositeMode::Average => 1.0,
         }
     }
 }
@@ -188,15 +189,16 @@ pub const MODULATE: wgpu::BlendState = wgpu::BlendState {
     },
 };
 
-/// The composite pipeline for one final colour format.
+/// The composite pipeline for one final colour format and background rule.
 #[derive(Debug)]
 struct CompositePipeline {
     format: wgpu::TextureFormat,
+    background_modulated: bool,
     pipeline: wgpu::RenderPipeline,
 }
 
 /// The accumulation and revealage textures, the composite's uniform, bind group and guard
-/// counters, and the cached composite pipeline.
+/// counters, the cached composite pipeline and the guard-counting pipeline.
 #[derive(Debug)]
 pub struct AccumTargets {
     pub resolution: Resolution,
@@ -213,6 +215,7 @@ pub struct AccumTargets {
     layout: wgpu::BindGroupLayout,
     bind_group: wgpu::BindGroup,
     pipeline: Mutex<Option<CompositePipeline>>,
+    count_guards: wgpu::ComputePipeline,
     /// Unit of the colour sums, multiplied back by the composite (1 unless set).
     color_scale: f32,
     /// Whether the accumulation pass multiplied the final colour by the transmittances per
@@ -262,7 +265,7 @@ impl AccumTargets {
             &ctx.device,
             &wgpu::BufferDescriptor {
                 label: Some("wboit composite params"),
-                size: 32,
+                size: COMPOSITE_PARAMS_BYTES,
                 usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             },
@@ -290,14 +293,16 @@ impl AccumTargets {
         );
         let accum_view = accum.create_view(&Default::default());
         let reveal_view = reveal.create_view(&Default::default());
-        let fs = wgpu::ShaderStages::FRAGMENT;
+        // The composite (fragment) and the guard count (compute) read the same bindings; only
+        // the count writes the counters.
+        let both = wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE;
         let layout = ctx.bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("wboit composite"),
             entries: &[
-                bind::float_texture(0, fs),
-                bind::float_texture(1, fs),
-                bind::uniform(2, fs),
-                bind::storage(3, fs, false),
+                bind::float_texture(0, both),
+                bind::float_texture(1, both),
+                bind::uniform(2, both),
+                bind::storage(3, wgpu::ShaderStages::COMPUTE, false),
             ],
         });
         let bind_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -322,6 +327,17 @@ impl AccumTargets {
                 },
             ],
         });
+        let count_guards = ctx.compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("wboit guard count"),
+            layout: Some(&composite_layout(ctx, &layout)),
+            module: &ctx.wgsl_module("wboit_composite.wgsl", COMPOSITE_WGSL),
+            entry_point: Some("cs_count_guards"),
+            compilation_options: wgpu::PipelineCompilationOptions {
+                constants: &[("AVERAGE", mode.average_constant())],
+                ..Default::default()
+            },
+            cache: None,
+        });
         Ok(AccumTargets {
             resolution,
             mode,
@@ -337,6 +353,7 @@ impl AccumTargets {
             layout,
             bind_group,
             pipeline: Mutex::new(None),
+            count_guards,
             color_scale: 1.0,
             background_modulated: false,
             ledger,
@@ -464,15 +481,15 @@ impl AccumTargets {
 
     fn pipeline(&self, ctx: &Context, format: wgpu::TextureFormat) -> wgpu::RenderPipeline {
         let mut cache = self.pipeline.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some(p) = cache.as_ref().filter(|p| p.format == format) {
+        let modulated = self.background_modulated;
+        if let Some(p) = cache
+            .as_ref()
+            .filter(|p| p.format == format && p.background_modulated == modulated)
+        {
             return p.pipeline.clone();
         }
         let module = ctx.wgsl_module("wboit_composite.wgsl", COMPOSITE_WGSL);
-        let layout = ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("wboit composite"),
-            bind_group_layouts: &[Some(&self.layout)],
-            immediate_size: 0,
-        });
+        let layout = composite_layout(ctx, &self.layout);
         let pipeline = oit_gpu::fullscreen_pipeline(
             ctx,
             &oit_gpu::FullscreenDesc {
@@ -487,15 +504,31 @@ impl AccumTargets {
                 })],
                 depth: None,
                 multisample: Default::default(),
-                constants: &[],
+                constants: &[
+                    ("AVERAGE", self.mode.average_constant()),
+                    ("BACKGROUND_MODULATED", f64::from(u8::from(modulated))),
+                ],
             },
         );
         *cache = Some(CompositePipeline {
             format,
+            background_modulated: modulated,
             pipeline: pipeline.clone(),
         });
         pipeline
     }
+}
+
+/// Bytes of the composite's uniform (`CompositeParams` in shaders/wboit_composite.wgsl).
+pub const COMPOSITE_PARAMS_BYTES: u64 = 16;
+
+/// The pipeline layout of the composite and of the guard count (group 0 only).
+fn composite_layout(ctx: &Context, group: &wgpu::BindGroupLayout) -> wgpu::PipelineLayout {
+    ctx.pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("wboit composite"),
+        bind_group_layouts: &[Some(group)],
+        immediate_size: 0,
+    })
 }
 
 /// Largest average colour the composite writes into a final target of `format`: half of fp16's
@@ -507,14 +540,9 @@ fn out_max(format: wgpu::TextureFormat) -> f32 {
     }
 }
 
-/// The guarded full-screen composite of `accum` over `targets.color` (pass "wboit composite").
-/// Resets the guard counters, counts every guard that fires, and copies the counts for
-/// [`AccumTargets::guard_counts`].
 /// The composite's work per pixel (one full-screen triangle, pass "wboit composite"): the two
-/// accumulation texels loaded, the final target's texel read and written by the blend, and the
-/// guard counters' atomics: one per 2×2 block for the pixel count (¼) and one per covered
-/// pixel, stated as 1.25, an upper bound on the common path (the overflow and clamp counters
-/// add one more only on pixels that hit them).
+/// accumulation texels loaded, the final target's texel read and written by the blend. The
+/// guard count that follows it is not part of the timed frame and not declared.
 pub fn composite_work(
     accum: AccumFormat,
     reveal: RevealFormat,
@@ -524,7 +552,6 @@ pub fn composite_work(
     let loads = texel_bytes(accum.texture_format()) + texel_bytes(reveal.texture_format());
     PassWork::new("wboit composite", PassDraws::FullScreen)
         .bytes(loads + texel_bytes(target), texel_bytes(target))
-        .atomics(1.25)
 }
 
 /// The accumulation's work per fragment: the depth test (read, no write) and the two additive
@@ -535,6 +562,10 @@ pub fn accumulate_work(name: &str, accum: AccumFormat, reveal: RevealFormat) -> 
     PassWork::new(name, PassDraws::Transparent).bytes(DEPTH_BYTES + targets, targets)
 }
 
+/// The guarded full-screen composite of `accum` over `targets.color` (pass "wboit composite"),
+/// then, untimed ([`GpuTimer::submit_untimed`]), the guard count: a compute pass that runs the
+/// composite's own per-pixel function over the same targets, counts every guard that fires and
+/// copies the counts for [`AccumTargets::guard_counts`].
 pub fn composite(
     ctx: &Context,
     targets: &Targets,
@@ -548,21 +579,16 @@ pub fn composite(
         )));
     }
     let pipeline = accum.pipeline(ctx, targets.color_format);
-    let params: [u32; 8] = [
-        accum.mode.index(),
+    let params: [u32; 4] = [
         accum.accum_format.max_finite().to_bits(),
         out_max(targets.color_format).to_bits(),
         accum.color_scale.to_bits(),
-        u32::from(accum.background_modulated),
-        0,
-        0,
         0,
     ];
     ctx.queue
         .write_buffer(&accum.params, 0, bytemuck::cast_slice(&params));
     let ts = timer.pass("wboit composite");
     let mut encoder = ctx.device.create_command_encoder(&Default::default());
-    encoder.clear_buffer(&accum.guards, 0, None);
     pass::fullscreen(
         &mut encoder,
         "wboit composite",
@@ -571,6 +597,20 @@ pub fn composite(
         &[(&accum.bind_group, &[])],
         &ts,
     );
+    timer.submit(ctx, encoder)?;
+
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    encoder.clear_buffer(&accum.guards, 0, None);
+    {
+        let mut count = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("wboit guard count"),
+            timestamp_writes: None,
+        });
+        count.set_pipeline(&accum.count_guards);
+        count.set_bind_group(0, &accum.bind_group, &[]);
+        let res = accum.resolution;
+        count.dispatch_workgroups(res.width.div_ceil(8), res.height.div_ceil(8), 1);
+    }
     encoder.copy_buffer_to_buffer(
         &accum.guards,
         0,
@@ -578,7 +618,7 @@ pub fn composite(
         0,
         u64::from(GUARD_SLOTS) * 4,
     );
-    timer.submit(ctx, encoder)
+    timer.submit_untimed(ctx, encoder)
 }
 
 #[cfg(test)]

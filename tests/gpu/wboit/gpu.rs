@@ -531,10 +531,10 @@ fn memory_is_the_two_targets_plus_small_buffers() {
     let t = oit_wboit::tail::AccumTargets::new(&ctx, RES).expect("targets");
     assert_eq!(t.bytes_per_pixel(), 10);
     let px = RES.pixel_count() as u64;
-    // Textures, the 32-byte composite uniform and the guard counters plus their readback copy.
+    // Textures, the 16-byte composite uniform and the guard counters plus their readback copy.
     let guards = u64::from(oit_wboit::GUARD_SLOTS) * 4;
-    assert_eq!(guards, 1056);
-    assert_eq!(t.memory_bytes(), 10 * px + 32 + 2 * guards);
+    assert_eq!(guards, 32);
+    assert_eq!(t.memory_bytes(), 10 * px + 16 + 2 * guards);
     let scene = scene_named("sorted-quads", RES);
     for (config, bpp) in [
         (
@@ -551,7 +551,7 @@ fn memory_is_the_two_targets_plus_small_buffers() {
         // + the 48-byte weight uniform.
         assert_eq!(
             oit_gpu::Technique::memory_bytes(&w),
-            bpp * px + 32 + 2 * guards + 48,
+            bpp * px + 16 + 2 * guards + 48,
             "{}",
             config.spec()
         );

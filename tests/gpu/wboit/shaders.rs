@@ -25,7 +25,12 @@ fn accumulation_and_composite_validate() {
         "{entries:?}"
     );
     let m = validate("wboit_composite.wgsl", oit_wboit::tail::COMPOSITE_WGSL);
-    assert_eq!(m.entry_points.len(), 2);
+    let entries: Vec<&str> = m.entry_points.iter().map(|e| e.name.as_str()).collect();
+    assert_eq!(
+        entries,
+        ["vs_fullscreen", "fs_composite", "cs_count_guards"],
+        "the composite's stages and the guard count"
+    );
 }
 
 #[test]
