@@ -92,12 +92,3 @@ fn peel_key(z: f32) -> f32 {
     }
     return s;
 }
-
-// Marks "pass `pass_index` found something left" (a load first: most fragments find it set
-// already).
-fn mark_pass(pass_index: u32) {
-    let word = left_word(pass_index);
-    if atomicLoad(&counters[word]) == 0u {
-        atomicStore(&counters[word], 1u);
-    }
-}

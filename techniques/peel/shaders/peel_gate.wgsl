@@ -32,6 +32,59 @@ fn cs_gate(@builtin(global_invocation_id) id: vec3<u32>) {
     }
 }
 
+// Dual peeling, after pass `pass_info.index` (the init pass is 0): whether the range it wrote
+// holds anything for the next pass (`left_word`), and how many fragments it peeled, summed from
+// its count target (`peeled_word`; 0 where the fragments counted themselves). Each invocation
+// reads a SCAN_BLOCK² block of pixels, each workgroup adds once to the counters: the fragment
+// stages of the pass then make no atomic access.
+@group(0) @binding(4) var peeled_count: texture_2d<f32>;
+
+const SCAN_BLOCK: u32 = 4u;
+var<workgroup> group_left: atomic<u32>;
+var<workgroup> group_peeled: atomic<u32>;
+
+@compute @workgroup_size(8, 8)
+fn cs_scan_range(
+    @builtin(global_invocation_id) id: vec3<u32>,
+    @builtin(local_invocation_index) local: u32,
+) {
+    if local == 0u {
+        atomicStore(&group_left, 0u);
+        atomicStore(&group_peeled, 0u);
+    }
+    workgroupBarrier();
+    let size = textureDimensions(last_range);
+    var left = false;
+    var peeled = 0u;
+    for (var dy = 0u; dy < SCAN_BLOCK; dy++) {
+        for (var dx = 0u; dx < SCAN_BLOCK; dx++) {
+            let p = id.xy * SCAN_BLOCK + vec2<u32>(dx, dy);
+            if all(p < size) {
+                let at = vec2<i32>(p);
+                left = left || textureLoad(last_range, at, 0).x > EMPTY_BELOW;
+                // A per-pixel count of one pass: an exact integer in f32.
+                peeled += u32(textureLoad(peeled_count, at, 0).x);
+            }
+        }
+    }
+    if left {
+        atomicStore(&group_left, 1u);
+    }
+    if peeled != 0u {
+        atomicAdd(&group_peeled, peeled);
+    }
+    workgroupBarrier();
+    if local == 0u {
+        if atomicLoad(&group_left) != 0u {
+            atomicStore(&counters[left_word(pass_info.index)], 1u);
+        }
+        let n = atomicLoad(&group_peeled);
+        if n != 0u {
+            atomicAdd(&counters[peeled_word(pass_info.index)], n);
+        }
+    }
+}
+
 // Dual peeling: pixels whose range after the last pass still holds fragments.
 @compute @workgroup_size(8, 8)
 fn cs_count_range(@builtin(global_invocation_id) id: vec3<u32>) {

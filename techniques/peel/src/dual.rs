@@ -65,6 +65,14 @@ struct Resources {
     stacks: Stacks,
     count_pipeline: wgpu::ComputePipeline,
     count_layout: wgpu::BindGroupLayout,
+    /// Per-pixel peeled count of the current pass (R32Float, additive), the scalar peel
+    /// passes' fourth target where it fits ([`count_target_fits`]); elsewhere never written
+    /// (zero), the fragments counting themselves atomically.
+    peeled: wgpu::TextureView,
+    count_target: bool,
+    scan_pipeline: wgpu::ComputePipeline,
+    /// The scan's group 0 after a pass that wrote range[j].
+    scan_groups: [wgpu::BindGroup; 2],
 }
 
 /// Where the peel passes blend their near-shell and far-shell layers.
@@ -84,6 +92,29 @@ enum Stacks {
         front: Box<gpu::Channels>,
         back: Box<gpu::Channels>,
     },
+}
+
+/// Format of the per-pixel peeled count.
+const COUNT_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
+
+/// Whether the scalar peel pass can write the peeled count as a fourth target (R32Float,
+/// additive: exact integers, blendable only with `FLOAT32_BLENDABLE`) beside the range, front
+/// and back targets of these formats. Where not, each peeled fragment counts itself with an
+/// atomic (`COUNT_ATOMIC`), which costs lavapipe a large part of the pass.
+fn count_target_fits(
+    caps: &Caps,
+    range: wgpu::TextureFormat,
+    front: wgpu::TextureFormat,
+    back: wgpu::TextureFormat,
+) -> bool {
+    let count = caps.format(COUNT_FORMAT);
+    count.renderable
+        && count.blendable
+        && gpu::attachments_fit(
+            caps,
+            4,
+            wboit::bytes_per_sample(&[range, front, back, COUNT_FORMAT]),
+        )
 }
 
 /// Why dual peeling cannot composite coloured transmittance per channel on `caps`, if so.
@@ -217,6 +248,36 @@ impl DualPeel {
         // Scalar path: far-shell layers go to a back accumulator where the final colour has
         // another (lower) precision, else straight onto the final colour.
         let scalar_back = accum_format != targets.color_format;
+        let back_format = if scalar_back {
+            accum_format
+        } else {
+            targets.color_format
+        };
+        let count_target =
+            !per_channel && count_target_fits(&ctx.caps, range_format, accum_format, back_format);
+        // Where it is no target the scan still reads it: wgpu creates it zeroed, and nothing
+        // writes it (GL cannot render to R32Float at all).
+        let peeled = if count_target {
+            gpu::texture_2d(
+                ctx,
+                &mut ledger,
+                "dual-peel peeled count",
+                res,
+                COUNT_FORMAT,
+            )
+            .1
+        } else {
+            ledger
+                .create_texture_2d(
+                    device,
+                    "dual-peel peeled count (zero)",
+                    res,
+                    COUNT_FORMAT,
+                    wgpu::TextureUsages::TEXTURE_BINDING,
+                    1,
+                )
+                .create_view(&Default::default())
+        };
         let whole = (!self.options.depth_only_init).then(|| {
             gpu::texture_2d(ctx, &mut ledger, "dual-peel whole range", res, range_format).1
         });
@@ -253,7 +314,8 @@ impl DualPeel {
             immediate_size: 0,
         });
         let module = gpu::shader(ctx, "peel_dual.wgsl", gpu::PEEL_DUAL)?;
-        let constants = key_constants(config, range_format, self.options.test_before_shading);
+        let mut constants = key_constants(config, range_format, self.options.test_before_shading);
+        constants.push(("COUNT_ATOMIC", if count_target { 0.0 } else { 1.0 }));
         let range_target = Some(wgpu::ColorTargetState {
             format: range_format,
             blend: Some(blend::MAX),
@@ -272,15 +334,18 @@ impl DualPeel {
                     write_mask: wgpu::ColorWrites::ALL,
                 }),
                 Some(wgpu::ColorTargetState {
-                    format: if scalar_back {
-                        accum_format
-                    } else {
-                        targets.color_format
-                    },
+                    format: back_format,
                     blend: Some(PREMULTIPLIED_OVER),
                     write_mask: wgpu::ColorWrites::ALL,
                 }),
-            ],
+            ]
+            .into_iter()
+            .chain(count_target.then_some(Some(wgpu::ColorTargetState {
+                format: COUNT_FORMAT,
+                blend: Some(blend::ADDITIVE),
+                write_mask: wgpu::ColorWrites::ALL,
+            })))
+            .collect(),
         };
         let peel_entry = if per_channel {
             "fs_peel_transmit"
@@ -334,6 +399,23 @@ impl DualPeel {
             "cs_count_range",
             bind::float_texture(3, wgpu::ShaderStages::COMPUTE),
         );
+        let (scan_layout, scan_pipeline) = control.scan_pipeline(ctx);
+        let scan_groups = [0, 1].map(|j| {
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("dual-peel scan"),
+                layout: &scan_layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 3,
+                        resource: wgpu::BindingResource::TextureView(&range[j]),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 4,
+                        resource: wgpu::BindingResource::TextureView(&peeled),
+                    },
+                ],
+            })
+        });
         self.gpu = Some(Resources {
             key,
             ledger,
@@ -350,27 +432,52 @@ impl DualPeel {
             stacks,
             count_pipeline,
             count_layout,
+            peeled,
+            count_target,
+            scan_pipeline,
+            scan_groups,
         });
         Ok(())
     }
 }
 
 impl Resources {
+    /// After pass `k` (0: the init pass), which wrote range[k mod 2]: the scan of that range
+    /// and of the peeled count, then the gate where `gate` is given.
+    fn scan(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        resolution: Resolution,
+        gate: Option<&DrawList>,
+        k: u32,
+        ts: &oit_gpu::PassTimestamps,
+    ) {
+        let scan = (&self.scan_pipeline, &self.scan_groups[(k % 2) as usize]);
+        self.control.scan(encoder, scan, resolution, gate, k, ts);
+    }
+
     /// The attachments of a peel pass (and of the naive init) after the range: where near-shell
     /// and far-shell layers are blended (the scalar back: its accumulator, else the final
-    /// colour).
+    /// colour), then the peeled count where it is a target.
     fn layer_attachments<'a>(
         &'a self,
         targets: &'a Targets,
     ) -> Vec<Option<wgpu::RenderPassColorAttachment<'a>>> {
         match &self.stacks {
-            Stacks::Scalar { front, back, .. } => vec![
+            Stacks::Scalar { front, back, .. } => [
                 pass::color(front, wgpu::LoadOp::Load),
                 pass::color(
                     back.as_ref().map_or(&targets.color_view, |b| &b.view),
                     wgpu::LoadOp::Load,
                 ),
-            ],
+            ]
+            .into_iter()
+            // Each pass counts afresh.
+            .chain(
+                self.count_target
+                    .then(|| pass::color(&self.peeled, wgpu::LoadOp::Clear(pass::splat(0.0)))),
+            )
+            .collect(),
             Stacks::PerChannel { front, back } => front
                 .attachments()
                 .into_iter()
@@ -528,9 +635,14 @@ impl DualPeel {
             pass.set_bind_group(2, &g.control.pass_group, &[g.control.offset(k)]);
             list.draw(&mut pass, scene, &g.peel, gated);
         }
-        if gated {
-            g.control.gate(&mut encoder, list, k);
-        }
+        let ts = timer.pass(&format!("scan {k}"));
+        g.scan(
+            &mut encoder,
+            targets.resolution,
+            gated.then_some(list),
+            k,
+            &ts,
+        );
         timer.submit(ctx, encoder)
     }
 }
@@ -630,6 +742,10 @@ impl Technique for DualPeel {
                 if let Some(back) = back {
                     clear_pass(&mut encoder, &back.view, pass::splat(0.0));
                 }
+                if g.count_target {
+                    // The init pass's scan reads it (the depth-only init does not write it).
+                    clear_pass(&mut encoder, &g.peeled, pass::splat(0.0));
+                }
             }
             Stacks::PerChannel { front, back } => {
                 front.clear(&mut encoder);
@@ -679,9 +795,14 @@ impl Technique for DualPeel {
             let init = &g.init[usize::from(scene.scene.camera.reverse_z)];
             list.draw(&mut pass, scene, init, false);
         }
-        if gated {
-            g.control.gate(&mut encoder, list, 0);
-        }
+        let ts = timer.pass("scan 0");
+        g.scan(
+            &mut encoder,
+            targets.resolution,
+            gated.then_some(list),
+            0,
+            &ts,
+        );
         timer.submit(ctx, encoder)?;
         report.passes_recorded = 1;
 
@@ -869,9 +990,20 @@ impl Technique for DualPeel {
     fn work(&self, caps: &oit_gpu::Caps, target: wgpu::TextureFormat) -> oit_gpu::Work {
         use oit_gpu::work::{DEPTH_BYTES, PassDraws, PassWork, Work, texel_bytes};
         // The scalar path (coloured transmission stacks per channel: more targets).
-        let range = self.config.depth.resolve(caps).map_or(0, texel_bytes);
-        let accum = texel_bytes(gpu::accumulator_format_on(caps, target));
+        let range_format = self.config.depth.resolve(caps).ok();
+        let range = range_format.map_or(0, texel_bytes);
+        let accum_format = gpu::accumulator_format_on(caps, target);
+        let accum = texel_bytes(accum_format);
         let final_texel = texel_bytes(target);
+        let back_format = if accum_format != target {
+            accum_format
+        } else {
+            target
+        };
+        // The peeled count's texel, where it is a target (read and written by its blend).
+        let count = range_format
+            .filter(|&r| count_target_fits(caps, r, accum_format, back_format))
+            .map_or(0, |_| texel_bytes(COUNT_FORMAT));
         let mut passes = vec![
             // Depth tested against the opaque depth (no write); the range target's texel read
             // and written by its MAX blend (the naive init, `encoding=whole`, also writes the
@@ -880,9 +1012,12 @@ impl Technique for DualPeel {
             // Every fragment the shader keeps (no depth attachment): the previous range loaded,
             // the next range read and written by MAX blending, the front and back
             // accumulators each read and written by their blends (every output blends, a
-            // zero contribution included).
+            // zero contribution included), and the peeled count's where it is a target.
             PassWork::numbered("peel ", PassDraws::Transparent)
-                .bytes(2 * range + 2 * accum, range + 2 * accum),
+                .bytes(2 * range + 2 * accum + count, range + 2 * accum + count),
+            // After each pass (the init pass's is `scan 0`): the range it wrote and the peeled
+            // count read per pixel, one atomic per workgroup; then the gate.
+            PassWork::numbered("scan ", PassDraws::Compute),
             // Per pixel: the back accumulator loaded, the final texel read and written (only
             // where the final colour is not the accumulator's format; else the back layers
             // blend straight into it).

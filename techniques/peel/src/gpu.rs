@@ -546,6 +546,10 @@ impl Slots {
     }
 }
 
+/// Pixels per side of the block one invocation of `cs_scan_range` reads (`SCAN_BLOCK` in
+/// shaders/peel_gate.wgsl; workgroups are 8×8 invocations).
+const SCAN_BLOCK: u32 = 4;
+
 /// Bytes of the counters for `slots` passes.
 fn counter_bytes(slots: u32) -> u64 {
     left_word(slots) * 4
@@ -657,6 +661,57 @@ impl Control {
         pass.set_bind_group(0, &list.gate_group, &[]);
         pass.set_bind_group(1, &self.pass_group, &[self.offset(i)]);
         pass.dispatch_workgroups((list.draws.len() as u32).div_ceil(64).max(1), 1, 1);
+    }
+
+    /// Dual peeling's scan after a pass (`cs_scan_range` of peel_gate.wgsl: the range the pass
+    /// wrote at binding 3, its per-pixel peeled count at binding 4) with its group-0 layout.
+    pub fn scan_pipeline(&self, ctx: &Context) -> (wgpu::BindGroupLayout, wgpu::ComputePipeline) {
+        let cs = wgpu::ShaderStages::COMPUTE;
+        let layout = ctx.bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("dual-peel scan"),
+            entries: &[bind::float_texture(3, cs), bind::float_texture(4, cs)],
+        });
+        let pipeline = compute_pipeline(
+            ctx,
+            &self.gate_module,
+            &[&layout, &self.pass_layout],
+            "cs_scan_range",
+        );
+        (layout, pipeline)
+    }
+
+    /// After pass `i`: the scan (`scan` and its group 0 from [`Control::scan_pipeline`]) sets
+    /// "pass i left something" and adds the pass's peeled count, then, with `gate`, the gate
+    /// turns the flag into the next pass's instance counts. One compute pass, timed as `ts`.
+    #[allow(clippy::too_many_arguments)] // each is a distinct GPU resource of the pass
+    pub fn scan(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        scan: (&wgpu::ComputePipeline, &wgpu::BindGroup),
+        resolution: oit_scene::Resolution,
+        gate: Option<&DrawList>,
+        i: u32,
+        ts: &oit_gpu::PassTimestamps,
+    ) {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("dual-peel scan"),
+            timestamp_writes: ts.compute_writes(),
+        });
+        pass.set_pipeline(scan.0);
+        pass.set_bind_group(0, scan.1, &[]);
+        pass.set_bind_group(1, &self.pass_group, &[self.offset(i)]);
+        let pixels = SCAN_BLOCK * 8;
+        pass.dispatch_workgroups(
+            resolution.width.div_ceil(pixels),
+            resolution.height.div_ceil(pixels),
+            1,
+        );
+        if let Some(list) = gate {
+            pass.set_pipeline(&self.gate_pipeline);
+            pass.set_bind_group(0, &list.gate_group, &[]);
+            pass.set_bind_group(1, &self.pass_group, &[self.offset(i)]);
+            pass.dispatch_workgroups((list.draws.len() as u32).div_ceil(64).max(1), 1, 1);
+        }
     }
 
     /// A count pipeline of peel_gate.wgsl (`cs_count_range` or `cs_count_layer`) with the
