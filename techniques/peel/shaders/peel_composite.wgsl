@@ -17,20 +17,14 @@ fn vs_fullscreen(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> 
     return vec4<f32>(uv * 2.0 - 1.0, 0.0, 1.0);
 }
 
-// One peeled layer (alpha < 0 marks "no fragment here"), under-blended, counted, and flagged
-// (counters[left_word(i)]: layer i exists, so front peeling runs pass i + 1).
+// One peeled layer (alpha < 0 marks "no fragment here"), under-blended. The scan after it
+// (`cs_scan_layer`, peel_gate.wgsl) counts the layer and flags "layer i exists".
 @fragment
 fn fs_under(@builtin(position) p: vec4<f32>) -> @location(0) vec4<f32> {
     let layer = textureLoad(source, vec2<i32>(p.xy), 0);
     if layer.a < 0.0 {
         discard;
     }
-    // A layer exists here, so the next pass may find one behind it.
-    let left = left_word(pass_info.index);
-    if atomicLoad(&counters[left]) == 0u {
-        atomicStore(&counters[left], 1u);
-    }
-    atomicAdd(&counters[peeled_word(pass_info.index)], 1u);
     return layer;
 }
 

@@ -32,41 +32,24 @@ fn cs_gate(@builtin(global_invocation_id) id: vec3<u32>) {
     }
 }
 
-// Dual peeling, after pass `pass_info.index` (the init pass is 0): whether the range it wrote
-// holds anything for the next pass (`left_word`), and how many fragments it peeled, summed from
-// its count target (`peeled_word`; 0 where the fragments counted themselves). Each invocation
-// reads a SCAN_BLOCK² block of pixels, each workgroup adds once to the counters: the fragment
-// stages of the pass then make no atomic access.
-@group(0) @binding(4) var peeled_count: texture_2d<f32>;
-
+// The scans after a pass: whether it left anything for the next pass (`left_word`) and how many
+// fragments it composited (`peeled_word`), read from the textures the pass wrote, so that the
+// pass's fragment stages make no atomic access (on lavapipe those took 40 % of a dual peel
+// pass). Each invocation reads a SCAN_BLOCK² block of pixels; each workgroup adds once to the
+// counters.
 const SCAN_BLOCK: u32 = 4u;
 var<workgroup> group_left: atomic<u32>;
 var<workgroup> group_peeled: atomic<u32>;
 
-@compute @workgroup_size(8, 8)
-fn cs_scan_range(
-    @builtin(global_invocation_id) id: vec3<u32>,
-    @builtin(local_invocation_index) local: u32,
-) {
+fn scan_begin(local: u32) {
     if local == 0u {
         atomicStore(&group_left, 0u);
         atomicStore(&group_peeled, 0u);
     }
     workgroupBarrier();
-    let size = textureDimensions(last_range);
-    var left = false;
-    var peeled = 0u;
-    for (var dy = 0u; dy < SCAN_BLOCK; dy++) {
-        for (var dx = 0u; dx < SCAN_BLOCK; dx++) {
-            let p = id.xy * SCAN_BLOCK + vec2<u32>(dx, dy);
-            if all(p < size) {
-                let at = vec2<i32>(p);
-                left = left || textureLoad(last_range, at, 0).x > EMPTY_BELOW;
-                // A per-pixel count of one pass: an exact integer in f32.
-                peeled += u32(textureLoad(peeled_count, at, 0).x);
-            }
-        }
-    }
+}
+
+fn scan_end(local: u32, left: bool, peeled: u32) {
     if left {
         atomicStore(&group_left, 1u);
     }
@@ -83,6 +66,55 @@ fn cs_scan_range(
             atomicAdd(&counters[peeled_word(pass_info.index)], n);
         }
     }
+}
+
+// Dual peeling, after pass `pass_info.index` (the init pass is 0): the range it wrote (anything
+// inside is left for the next pass) and its per-pixel peeled count (0 where the fragments
+// counted themselves).
+@group(0) @binding(4) var peeled_count: texture_2d<f32>;
+
+@compute @workgroup_size(8, 8)
+fn cs_scan_range(
+    @builtin(global_invocation_id) id: vec3<u32>,
+    @builtin(local_invocation_index) local: u32,
+) {
+    scan_begin(local);
+    let size = textureDimensions(last_range);
+    var left = false;
+    var peeled = 0u;
+    for (var dy = 0u; dy < SCAN_BLOCK; dy++) {
+        for (var dx = 0u; dx < SCAN_BLOCK; dx++) {
+            let p = id.xy * SCAN_BLOCK + vec2<u32>(dx, dy);
+            if all(p < size) {
+                let at = vec2<i32>(p);
+                left = left || textureLoad(last_range, at, 0).x > EMPTY_BELOW;
+                // A per-pixel count of one pass: an exact integer in f32.
+                peeled += u32(textureLoad(peeled_count, at, 0).x);
+            }
+        }
+    }
+    scan_end(local, left, peeled);
+}
+
+// Front peeling, after layer pass `pass_info.index`: its layer texture (alpha −1 where it found
+// none). A pixel with a layer composited one fragment and may have another behind it.
+@compute @workgroup_size(8, 8)
+fn cs_scan_layer(
+    @builtin(global_invocation_id) id: vec3<u32>,
+    @builtin(local_invocation_index) local: u32,
+) {
+    scan_begin(local);
+    let size = textureDimensions(last_range);
+    var peeled = 0u;
+    for (var dy = 0u; dy < SCAN_BLOCK; dy++) {
+        for (var dx = 0u; dx < SCAN_BLOCK; dx++) {
+            let p = id.xy * SCAN_BLOCK + vec2<u32>(dx, dy);
+            if all(p < size) && textureLoad(last_range, vec2<i32>(p), 0).a >= 0.0 {
+                peeled += 1u;
+            }
+        }
+    }
+    scan_end(local, peeled != 0u, peeled);
 }
 
 // Dual peeling: pixels whose range after the last pass still holds fragments.

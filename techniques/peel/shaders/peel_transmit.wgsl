@@ -35,8 +35,8 @@ struct Channels {
     @location(2) b: vec4<f32>,
 }
 
-// One peeled layer under-blended into the three channel accumulators, counted and flagged as
-// `fs_under` (peel_composite.wgsl) does for the scalar accumulator.
+// One peeled layer under-blended into the three channel accumulators, as `fs_under`
+// (peel_composite.wgsl) does into the scalar accumulator; the scan after it counts.
 @fragment
 fn fs_under_transmit(@builtin(position) p: vec4<f32>) -> Channels {
     let px = vec2<i32>(p.xy);
@@ -45,11 +45,6 @@ fn fs_under_transmit(@builtin(position) p: vec4<f32>) -> Channels {
         discard;
     }
     let t = textureLoad(source1, px, 0).rgb;
-    let left = left_word(pass_info.index);
-    if atomicLoad(&counters[left]) == 0u {
-        atomicStore(&counters[left], 1u);
-    }
-    atomicAdd(&counters[peeled_word(pass_info.index)], 1u);
     var out: Channels;
     out.r = vec4<f32>(layer.r, 0.0, 0.0, t.r);
     out.g = vec4<f32>(layer.g, 0.0, 0.0, t.g);

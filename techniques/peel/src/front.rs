@@ -105,6 +105,9 @@ struct Resources {
     under: Under,
     count_pipeline: wgpu::ComputePipeline,
     count_layout: wgpu::BindGroupLayout,
+    /// `cs_scan_layer` over `layer` after each under pass: the pass's flag and count.
+    scan_pipeline: wgpu::ComputePipeline,
+    scan_group: wgpu::BindGroup,
 }
 
 /// How peeled layers are accumulated and put over the final colour.
@@ -327,6 +330,15 @@ impl FrontPeel {
             "cs_count_layer",
             bind::float_texture(3, wgpu::ShaderStages::COMPUTE),
         );
+        let (scan_layout, scan_pipeline) = control.scan_pipeline(ctx, "cs_scan_layer");
+        let scan_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("front-peel scan"),
+            layout: &scan_layout,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 3,
+                resource: wgpu::BindingResource::TextureView(&layer),
+            }],
+        });
         self.gpu = Some(Resources {
             key,
             ledger,
@@ -343,6 +355,8 @@ impl FrontPeel {
             under,
             count_pipeline,
             count_layout,
+            scan_pipeline,
+            scan_group,
         });
         Ok(())
     }
@@ -547,9 +561,15 @@ impl FrontPeel {
                     pass.draw(0..3, 0..1);
                 }
             }
-            if gated {
-                g.control.gate(&mut encoder, list, k);
-            }
+            let ts = timer.pass(&format!("scan {}", k + 1));
+            g.control.scan(
+                &mut encoder,
+                (&g.scan_pipeline, &g.scan_group),
+                g.key.1,
+                gated.then_some(list),
+                k,
+                &ts,
+            );
         }
         timer.submit(ctx, encoder)
     }
@@ -807,6 +827,9 @@ impl Technique for FrontPeel {
             // Per pixel with a layer: the layer loaded, the accumulator read and written by
             // the under blend.
             PassWork::numbered("under ", PassDraws::FullScreen).bytes(2 * layer, layer),
+            // After each under pass: the layer texture read per pixel, one atomic per
+            // workgroup per counter; then the gate.
+            PassWork::numbered("scan ", PassDraws::Compute),
             // Per pixel: the accumulator loaded, the final texel read and written by the blend.
             PassWork::new("front composite", PassDraws::FullScreen)
                 .bytes(layer + final_texel, final_texel),

@@ -651,38 +651,30 @@ impl Control {
         encoder.clear_buffer(&self.counters, 0, None);
     }
 
-    /// After pass `i`: instance count of every draw = "pass i left something".
-    pub fn gate(&self, encoder: &mut wgpu::CommandEncoder, list: &DrawList, i: u32) {
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("peel gate"),
-            timestamp_writes: None,
-        });
-        pass.set_pipeline(&self.gate_pipeline);
-        pass.set_bind_group(0, &list.gate_group, &[]);
-        pass.set_bind_group(1, &self.pass_group, &[self.offset(i)]);
-        pass.dispatch_workgroups((list.draws.len() as u32).div_ceil(64).max(1), 1, 1);
-    }
-
-    /// Dual peeling's scan after a pass (`cs_scan_range` of peel_gate.wgsl: the range the pass
-    /// wrote at binding 3, its per-pixel peeled count at binding 4) with its group-0 layout.
-    pub fn scan_pipeline(&self, ctx: &Context) -> (wgpu::BindGroupLayout, wgpu::ComputePipeline) {
+    /// A scan of peel_gate.wgsl with its group-0 layout: `cs_scan_range` (dual peeling: the
+    /// range the pass wrote at binding 3, its per-pixel peeled count at binding 4) or
+    /// `cs_scan_layer` (front peeling: the layer texture at binding 3).
+    pub fn scan_pipeline(
+        &self,
+        ctx: &Context,
+        entry: &str,
+    ) -> (wgpu::BindGroupLayout, wgpu::ComputePipeline) {
         let cs = wgpu::ShaderStages::COMPUTE;
+        let textures = [bind::float_texture(3, cs), bind::float_texture(4, cs)];
+        let used = if entry == "cs_scan_range" { 2 } else { 1 };
         let layout = ctx.bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("dual-peel scan"),
-            entries: &[bind::float_texture(3, cs), bind::float_texture(4, cs)],
+            label: Some(entry),
+            entries: &textures[..used],
         });
-        let pipeline = compute_pipeline(
-            ctx,
-            &self.gate_module,
-            &[&layout, &self.pass_layout],
-            "cs_scan_range",
-        );
+        let pipeline =
+            compute_pipeline(ctx, &self.gate_module, &[&layout, &self.pass_layout], entry);
         (layout, pipeline)
     }
 
     /// After pass `i`: the scan (`scan` and its group 0 from [`Control::scan_pipeline`]) sets
-    /// "pass i left something" and adds the pass's peeled count, then, with `gate`, the gate
-    /// turns the flag into the next pass's instance counts. One compute pass, timed as `ts`.
+    /// "pass i left something" and adds the pass's composited count, then, with `gate`, the
+    /// gate turns the flag into the next pass's instance counts. One compute pass, timed as
+    /// `ts`.
     #[allow(clippy::too_many_arguments)] // each is a distinct GPU resource of the pass
     pub fn scan(
         &self,
@@ -694,7 +686,7 @@ impl Control {
         ts: &oit_gpu::PassTimestamps,
     ) {
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("dual-peel scan"),
+            label: Some("peel scan"),
             timestamp_writes: ts.compute_writes(),
         });
         pass.set_pipeline(scan.0);
