@@ -761,3 +761,40 @@ fn deep_alpha_stack_overflows_fp16_with_eq9() {
         assert!(rmse(&img32, &reference.image) <= rmse(&img16, &reference.image));
     }
 }
+
+/// The guard count runs after the timed composite and is no pass of the frame: with either
+/// timer the frame's passes are exactly the opaque pass, the accumulation and the composite
+/// (a wall-clock timer would have timed it as "(untimed work)" through `GpuTimer::submit`), and
+/// the counts of that frame are still read back (every pixel of the target counted once).
+#[test]
+fn guard_count_is_not_a_timed_pass() {
+    let Some(ctx) = context_or_skip("guard_count_is_not_a_timed_pass") else {
+        return;
+    };
+    let scene = scene_named("sorted-quads", RES);
+    let gpu = GpuScene::upload(&ctx, &scene).expect("upload");
+    let targets = Targets::new(&ctx, RES, ColorFormat::Rgba16Float).expect("targets");
+    for mut timer in [GpuTimer::new(&ctx), GpuTimer::wall_clock()] {
+        let mut technique = Wboit::new(Config::DEFAULT);
+        let frame =
+            render_frame(&ctx, &gpu, &mut technique, &targets, &mut timer).expect("frame renders");
+        let names: Vec<&str> = frame
+            .timings
+            .passes
+            .iter()
+            .map(|p| p.name.as_str())
+            .collect();
+        assert_eq!(
+            names,
+            ["opaque", "wboit accumulate", "wboit composite"],
+            "{:?}",
+            frame.timings.source
+        );
+        let guards = technique
+            .last_guard_counts(&ctx)
+            .expect("guard readback")
+            .expect("a frame was rendered");
+        assert_eq!(guards.pixels as usize, RES.pixel_count(), "{guards}");
+        assert!(guards.covered > 0, "{guards}");
+    }
+}
