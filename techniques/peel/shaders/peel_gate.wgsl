@@ -49,6 +49,11 @@ fn scan_begin(local: u32) {
     workgroupBarrier();
 }
 
+// Pixel `k` (0 ≤ k < SCAN_BLOCK²) of invocation `id`'s block.
+fn block_pixel(id: vec3<u32>, k: u32) -> vec2<u32> {
+    return id.xy * SCAN_BLOCK + vec2<u32>(k % SCAN_BLOCK, k / SCAN_BLOCK);
+}
+
 fn scan_end(local: u32, left: bool, peeled: u32) {
     if left {
         atomicStore(&group_left, 1u);
@@ -82,15 +87,13 @@ fn cs_scan_range(
     let size = textureDimensions(last_range);
     var left = false;
     var peeled = 0u;
-    for (var dy = 0u; dy < SCAN_BLOCK; dy++) {
-        for (var dx = 0u; dx < SCAN_BLOCK; dx++) {
-            let p = id.xy * SCAN_BLOCK + vec2<u32>(dx, dy);
-            if all(p < size) {
-                let at = vec2<i32>(p);
-                left = left || textureLoad(last_range, at, 0).x > EMPTY_BELOW;
-                // A per-pixel count of one pass: an exact integer in f32.
-                peeled += u32(textureLoad(peeled_count, at, 0).x);
-            }
+    for (var k = 0u; k < SCAN_BLOCK * SCAN_BLOCK; k++) {
+        let p = block_pixel(id, k);
+        if all(p < size) {
+            let at = vec2<i32>(p);
+            left = left || textureLoad(last_range, at, 0).x > EMPTY_BELOW;
+            // A per-pixel count of one pass: an exact integer in f32.
+            peeled += u32(textureLoad(peeled_count, at, 0).x);
         }
     }
     scan_end(local, left, peeled);
@@ -106,12 +109,10 @@ fn cs_scan_layer(
     scan_begin(local);
     let size = textureDimensions(last_range);
     var peeled = 0u;
-    for (var dy = 0u; dy < SCAN_BLOCK; dy++) {
-        for (var dx = 0u; dx < SCAN_BLOCK; dx++) {
-            let p = id.xy * SCAN_BLOCK + vec2<u32>(dx, dy);
-            if all(p < size) && textureLoad(last_range, vec2<i32>(p), 0).a >= 0.0 {
-                peeled += 1u;
-            }
+    for (var k = 0u; k < SCAN_BLOCK * SCAN_BLOCK; k++) {
+        let p = block_pixel(id, k);
+        if all(p < size) && textureLoad(last_range, vec2<i32>(p), 0).a >= 0.0 {
+            peeled += 1u;
         }
     }
     scan_end(local, peeled != 0u, peeled);

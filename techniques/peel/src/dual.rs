@@ -399,7 +399,7 @@ impl DualPeel {
             "cs_count_range",
             bind::float_texture(3, wgpu::ShaderStages::COMPUTE),
         );
-        let (scan_layout, scan_pipeline) = control.scan_pipeline(ctx, "cs_scan_range");
+        let (scan_layout, scan_pipeline) = control.scan_pipeline(ctx, gpu::Scan::Range);
         let scan_groups = [0, 1].map(|j| {
             device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("dual-peel scan"),

@@ -330,7 +330,7 @@ impl FrontPeel {
             "cs_count_layer",
             bind::float_texture(3, wgpu::ShaderStages::COMPUTE),
         );
-        let (scan_layout, scan_pipeline) = control.scan_pipeline(ctx, "cs_scan_layer");
+        let (scan_layout, scan_pipeline) = control.scan_pipeline(ctx, gpu::Scan::Layer);
         let scan_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("front-peel scan"),
             layout: &scan_layout,

@@ -546,6 +546,15 @@ impl Slots {
     }
 }
 
+/// What the scan after a pass reads (shaders/peel_gate.wgsl).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Scan {
+    /// Dual peeling: the range the pass wrote (binding 3) and its peeled count (binding 4).
+    Range,
+    /// Front peeling: the layer texture (binding 3).
+    Layer,
+}
+
 /// Pixels per side of the block one invocation of `cs_scan_range` reads (`SCAN_BLOCK` in
 /// shaders/peel_gate.wgsl; workgroups are 8×8 invocations).
 const SCAN_BLOCK: u32 = 4;
@@ -651,24 +660,23 @@ impl Control {
         encoder.clear_buffer(&self.counters, 0, None);
     }
 
-    /// A scan of peel_gate.wgsl with its group-0 layout: `cs_scan_range` (dual peeling: the
-    /// range the pass wrote at binding 3, its per-pixel peeled count at binding 4) or
-    /// `cs_scan_layer` (front peeling: the layer texture at binding 3).
+    /// The scan of peel_gate.wgsl that `scan` names, with its group-0 layout.
     pub fn scan_pipeline(
         &self,
         ctx: &Context,
-        entry: &str,
+        scan: Scan,
     ) -> (wgpu::BindGroupLayout, wgpu::ComputePipeline) {
         let cs = wgpu::ShaderStages::COMPUTE;
-        let textures = [bind::float_texture(3, cs), bind::float_texture(4, cs)];
-        let used = if entry == "cs_scan_range" { 2 } else { 1 };
-        let layout = ctx.bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some(entry),
-            entries: &textures[..used],
-        });
-        let pipeline =
-            compute_pipeline(ctx, &self.gate_module, &[&layout, &self.pass_layout], entry);
-        (layout, pipeline)
+        match scan {
+            Scan::Range => self.gate_module_pipeline(
+                ctx,
+                "cs_scan_range",
+                &[bind::float_texture(3, cs), bind::float_texture(4, cs)],
+            ),
+            Scan::Layer => {
+                self.gate_module_pipeline(ctx, "cs_scan_layer", &[bind::float_texture(3, cs)])
+            }
+        }
     }
 
     /// After pass `i`: the scan (`scan` and its group 0 from [`Control::scan_pipeline`]) sets
@@ -715,9 +723,19 @@ impl Control {
         extra: wgpu::BindGroupLayoutEntry,
     ) -> (wgpu::BindGroupLayout, wgpu::ComputePipeline) {
         let cs = wgpu::ShaderStages::COMPUTE;
+        self.gate_module_pipeline(ctx, entry, &[bind::uniform(2, cs), extra])
+    }
+
+    /// Entry point `entry` of peel_gate.wgsl with a group 0 of `entries` and the pass group.
+    fn gate_module_pipeline(
+        &self,
+        ctx: &Context,
+        entry: &str,
+        entries: &[wgpu::BindGroupLayoutEntry],
+    ) -> (wgpu::BindGroupLayout, wgpu::ComputePipeline) {
         let layout = ctx.bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some(entry),
-            entries: &[bind::uniform(2, cs), extra],
+            entries,
         });
         let pipeline =
             compute_pipeline(ctx, &self.gate_module, &[&layout, &self.pass_layout], entry);
