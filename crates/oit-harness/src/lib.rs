@@ -451,7 +451,7 @@ mod tests {
         assert_eq!(specs.len(), 12);
         assert_eq!(
             specs[0].canonical(),
-            "dual-peel:depth=auto,encoding=window,passes=1,reverse-z=on,tail=drop"
+            "dual-peel:accum=auto,depth=auto,encoding=window,passes=1,reverse-z=on,tail=drop"
         );
         assert_eq!(
             specs[11].canonical(),

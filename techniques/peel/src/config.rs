@@ -102,6 +102,56 @@ impl DepthFormat {
 }
 
 oit_gpu::words! {
+    /// Format of dual peeling's front and back colour accumulators.
+    pub enum AccumFormat {
+        /// `Rgba32Float` where the adapter can blend it, else the final colour's format.
+        Auto = "auto",
+        Rgba32f = "rgba32f",
+        /// Half floats: each blend rounds to binary16 (11 significant bits).
+        Rgba16f = "rgba16f",
+        /// 8-bit UNORM, as VTK's dual depth peeling: each blend rounds to 1/255 and clamps
+        /// to [0, 1].
+        Rgba8 = "rgba8",
+    }
+}
+
+impl AccumFormat {
+    /// The texture format of the RGBA accumulators on an adapter when the final colour is
+    /// `final_format`, or why it cannot run there (every accumulator is blended).
+    pub fn resolve(
+        self,
+        caps: &Caps,
+        final_format: TextureFormat,
+    ) -> Result<TextureFormat, Unsupported> {
+        let with = |format: TextureFormat| {
+            caps.require_target(format, true)
+                .map(|()| format)
+                .map_err(|e| Unsupported::new(format!("accum={}: {}", self.name(), e.reason)))
+        };
+        match self {
+            AccumFormat::Auto => Ok(crate::gpu::accumulator_format_on(caps, final_format)),
+            AccumFormat::Rgba32f => with(TextureFormat::Rgba32Float),
+            AccumFormat::Rgba16f => with(TextureFormat::Rgba16Float),
+            AccumFormat::Rgba8 => with(TextureFormat::Rgba8Unorm),
+        }
+    }
+
+    /// Why accumulators of this setting are not exact, where they are not: `None` for float
+    /// accumulators at least as precise as f32 (or the final colour's own format).
+    pub fn rounding(self) -> Option<&'static str> {
+        match self {
+            AccumFormat::Auto | AccumFormat::Rgba32f => None,
+            AccumFormat::Rgba16f => {
+                Some("accum=rgba16f: every blend into the accumulators rounds to binary16")
+            }
+            AccumFormat::Rgba8 => Some(
+                "accum=rgba8: every blend into the accumulators rounds to 1/255 and clamps to [0, 1]",
+            ),
+        }
+    }
+}
+
+oit_gpu::words! {
     /// What happens to the layers still left after the last dual-peel pass.
     pub enum Tail {
         /// Dropped (Babylon.js); counted in `pixels_with_dropped_layers`.
@@ -120,11 +170,12 @@ oit_gpu::words! {
     }
 }
 
-/// `dual-peel:passes=N|auto,depth=auto|rg32f|rg16f,reverse-z=on|off,tail=drop|wboit,encoding=window|linear|log`.
+/// `dual-peel:passes=N|auto,depth=auto|rg32f|rg16f,accum=auto|rgba32f|rgba16f|rgba8,reverse-z=on|off,tail=drop|wboit,encoding=window|linear|log`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct DualPeelConfig {
     pub passes: PassCount,
     pub depth: DepthFormat,
+    pub accum: AccumFormat,
     /// The stored key grows toward the viewer.
     pub reverse_z: bool,
     pub tail: Tail,
@@ -137,6 +188,7 @@ impl Default for DualPeelConfig {
         DualPeelConfig {
             passes: Self::PASSES.default,
             depth: Self::DEPTH.default,
+            accum: Self::ACCUM.default,
             reverse_z: Self::REVERSE_Z.default == ReverseZ::On,
             tail: Self::TAIL.default,
             encoding: Self::ENCODING.default,
@@ -154,6 +206,11 @@ impl DualPeelConfig {
         "depth",
         DepthFormat::Auto,
         "range target format: rg32f needs blendable 32-bit float targets; auto picks rg32f where the adapter can blend it, else rg16f (keys rounded to f16)",
+    );
+    pub const ACCUM: Param<AccumFormat> = Param::new(
+        "accum",
+        AccumFormat::Auto,
+        "front and back colour accumulators: auto is rgba32f where the adapter can blend it, else the final colour's format; rgba16f and rgba8 (VTK's 8-bit accumulators) trade precision for blend cost, and their rounding is reported",
     );
     pub const REVERSE_Z: Param<ReverseZ> = Param::new(
         "reverse-z",
@@ -176,6 +233,7 @@ impl DualPeelConfig {
         vec![
             Self::PASSES.info(),
             Self::DEPTH.info(),
+            Self::ACCUM.info(),
             Self::REVERSE_Z.info(),
             Self::TAIL.info(),
             Self::ENCODING.info(),
@@ -187,6 +245,7 @@ impl DualPeelConfig {
         Ok(DualPeelConfig {
             passes: Self::PASSES.read(spec)?,
             depth: Self::DEPTH.read(spec)?,
+            accum: Self::ACCUM.read(spec)?,
             reverse_z: Self::REVERSE_Z.read(spec)? == ReverseZ::On,
             tail: Self::TAIL.read(spec)?,
             encoding: Self::ENCODING.read(spec)?,
@@ -203,6 +262,7 @@ impl DualPeelConfig {
         TechniqueSpec::of("dual-peel")
             .with(&Self::PASSES, self.passes)
             .with(&Self::DEPTH, self.depth)
+            .with(&Self::ACCUM, self.accum)
             .with(&Self::REVERSE_Z, reverse_z)
             .with(&Self::TAIL, self.tail)
             .with(&Self::ENCODING, self.encoding)

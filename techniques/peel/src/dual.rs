@@ -48,8 +48,14 @@ pub struct DualPeel {
 
 #[derive(Debug)]
 struct Resources {
-    /// Final colour format, range format, resolution, per-channel path.
-    key: (wgpu::TextureFormat, wgpu::TextureFormat, Resolution, bool),
+    /// Final colour format, range format, accumulator format, resolution, per-channel path.
+    key: (
+        wgpu::TextureFormat,
+        wgpu::TextureFormat,
+        wgpu::TextureFormat,
+        Resolution,
+        bool,
+    ),
     ledger: MemoryLedger,
     control: Control,
     params: wgpu::Buffer,
@@ -191,9 +197,11 @@ impl DualPeel {
         targets: &Targets,
         per_channel: bool,
     ) -> Result<(), GpuError> {
+        let accum_format = config.accum.resolve(&ctx.caps, targets.color_format)?;
         let key = (
             targets.color_format,
             range_format,
+            accum_format,
             targets.resolution,
             per_channel,
         );
@@ -226,7 +234,6 @@ impl DualPeel {
             )
             .1
         });
-        let accum_format = gpu::accumulator_format(ctx, targets.color_format);
         let transmit = if per_channel {
             Some(gpu::TransmitShader::new(ctx, &control)?)
         } else {
@@ -664,6 +671,10 @@ impl Technique for DualPeel {
     fn check(&self, caps: &Caps) -> Result<(), Unsupported> {
         let config = self.config;
         config.depth.resolve(caps)?;
+        // The final colour's format does not decide whether an explicit format can blend.
+        config
+            .accum
+            .resolve(caps, wgpu::TextureFormat::Rgba16Float)?;
         if caps.max_storage_buffers_per_shader_stage == 0 {
             return Err(Unsupported::new(
                 "the adapter has no storage buffers per shader stage (materials in the vertex stage, peel counters in the fragment stage)",
@@ -992,7 +1003,11 @@ impl Technique for DualPeel {
         // The scalar path (coloured transmission stacks per channel: more targets).
         let range_format = self.config.depth.resolve(caps).ok();
         let range = range_format.map_or(0, texel_bytes);
-        let accum_format = gpu::accumulator_format_on(caps, target);
+        let accum_format = self
+            .config
+            .accum
+            .resolve(caps, target)
+            .unwrap_or_else(|_| gpu::accumulator_format_on(caps, target));
         let accum = texel_bytes(accum_format);
         let final_texel = texel_bytes(target);
         let back_format = if accum_format != target {

@@ -326,6 +326,7 @@ impl Channels {
         let format = match (side, accum_format) {
             (Side::Front, f) => f,
             (Side::Back, wgpu::TextureFormat::Rgba32Float) => wgpu::TextureFormat::Rg32Float,
+            (Side::Back, wgpu::TextureFormat::Rgba8Unorm) => wgpu::TextureFormat::Rg8Unorm,
             (Side::Back, _) => wgpu::TextureFormat::Rg16Float,
         };
         let views = ["r", "g", "b"].map(|c| {

@@ -29,7 +29,9 @@ mod front;
 mod gpu;
 mod predict;
 
-pub use config::{DepthFormat, DualPeelConfig, FrontPeelConfig, PassCount, Passes, ReverseZ, Tail};
+pub use config::{
+    AccumFormat, DepthFormat, DualPeelConfig, FrontPeelConfig, PassCount, Passes, ReverseZ, Tail,
+};
 pub use dual::DualPeel;
 pub use encoding::{DepthEncoding, KeyParams, f16_round, half_uniform, peel_key};
 pub use front::FrontPeel;

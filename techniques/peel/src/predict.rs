@@ -68,6 +68,11 @@ pub(crate) fn predict_dual(
     lists: &PixelLists,
     caps: &Caps,
 ) -> Prediction {
+    if let Some(rounding) = config.accum.rounding() {
+        return Prediction::unmodelled(format!(
+            "{rounding}; the model composites in f64 and does not round"
+        ));
+    }
     let half = matches!(
         config.depth.resolve(caps),
         Ok(oit_gpu::wgpu::TextureFormat::Rg16Float)

@@ -69,6 +69,7 @@ fn dual_auto() -> DualPeel {
     DualPeel::new(DualPeelConfig {
         passes: PassCount::Auto,
         depth: DepthFormat::Rg32f,
+        accum: oit_peel::AccumFormat::Auto,
         reverse_z: true,
         tail: Tail::Drop,
         encoding: DepthEncoding::Window,
@@ -229,6 +230,7 @@ fn the_cpu_loop_grows_its_pass_slots_too() {
     let config = DualPeelConfig {
         passes: PassCount::Auto,
         depth: DepthFormat::Rg32f,
+        accum: oit_peel::AccumFormat::Auto,
         ..DualPeelConfig::default()
     };
     let mut looped = DualPeel::with_options(config, cpu);

@@ -60,6 +60,7 @@ fn config(depth: DepthFormat, encoding: DepthEncoding, reverse_z: bool) -> DualP
     DualPeelConfig {
         passes: PassCount::Auto,
         depth,
+        accum: oit_peel::AccumFormat::Auto,
         reverse_z,
         tail: Tail::Drop,
         encoding,

@@ -75,6 +75,7 @@ fn dual(passes: PassCount, tail: Tail) -> DualPeel {
     DualPeel::new(DualPeelConfig {
         passes,
         depth: DepthFormat::Rg32f,
+        accum: oit_peel::AccumFormat::Auto,
         reverse_z: true,
         tail,
         encoding: DepthEncoding::Window,
@@ -510,4 +511,72 @@ fn gl_backend_falls_back_to_rg16f() {
         frame.stats.layers_peeled,
         reference.stats.composited_fragments
     );
+}
+
+/// `accum` trades the front and back accumulators' precision for their blend cost: the peel
+/// is the same (passes, layers peeled), only each blend's rounding changes. Measured here
+/// (lavapipe, `many-layers-64` at 128², Rgba32Float final target): see the printout. Bounds:
+/// each of the 64 layers is blended into an accumulator once, and a rounding there moves the
+/// pixel by at most half a step of the format, so 64 half steps bound the error (8-bit: 0.125,
+/// binary16 near 1: 0.031); the float path stays within its measured bound.
+#[test]
+fn accumulator_format_rounds_each_blend_and_nothing_else() {
+    let Some(ctx) = oit_gpu::testing::context_or_skip("accumulator_format") else {
+        return;
+    };
+    let scene = scene("many-layers-64");
+    let (reference, lists) =
+        oit_reference::lists::render_lists(&scene, &Default::default()).expect("lists");
+    let gpu = GpuScene::upload(&ctx, &scene).expect("upload");
+    let layers = reference.stats.max_depth_complexity as f64;
+    let mut runs = Vec::new();
+    for (word, half_step) in [
+        ("auto", 0.0),
+        ("rgba16f", 0.5 / 1024.0),
+        ("rgba8", 0.5 / 255.0),
+    ] {
+        let mut t = build(&format!("dual-peel:passes=auto,depth=rg32f,accum={word}"));
+        t.check(&ctx.caps)
+            .unwrap_or_else(|e| panic!("accum={word}: {e}"));
+        let (image, stats) = render_uploaded(&ctx, &gpu, t.as_mut());
+        let e = errors(&image, &reference.image);
+        let prediction = t.predict(&scene, &lists, &ctx.caps);
+        println!(
+            "accum={word}: rmse {:.2e} max {:.2e}, {} B, {:?}: {}",
+            e.rmse,
+            e.max_abs,
+            t.memory_bytes(),
+            prediction.verdict,
+            prediction.because
+        );
+        assert_eq!(
+            stats.layers_peeled, reference.stats.composited_fragments,
+            "{word}"
+        );
+        assert_eq!(stats.pixels_with_dropped_layers, 0, "{word}");
+        if word == "auto" {
+            let (rmse, max) = bounds("many-layers-64");
+            assert!(e.rmse <= rmse && e.max_abs <= max, "{e:?}");
+            assert_eq!(prediction.verdict, oit_gpu::Verdict::Exact);
+        } else {
+            // It did round (the format was applied), and by no more than the blends allow.
+            assert!(e.max_abs > 1e-5, "accum={word} rounds: {e:?}");
+            assert!(e.max_abs <= layers * half_step, "accum={word}: {e:?}");
+            // The model composites in f64: the prediction says why it is not modelled.
+            assert_eq!(prediction.verdict, oit_gpu::Verdict::Unmodelled, "{word}");
+            assert!(prediction.because.contains(&format!("accum={word}")));
+        }
+        runs.push((word, e, stats.geometry_passes, t.memory_bytes()));
+    }
+    let passes: Vec<u32> = runs.iter().map(|r| r.2).collect();
+    assert!(passes.windows(2).all(|w| w[0] == w[1]), "{passes:?}");
+    // Rgba32Float final target: `auto` (Rgba32Float) blends the back layers straight into it
+    // (16 B/px of accumulators); rgba16f and rgba8 keep a back accumulator of their own beside
+    // the front one (2 × 8 and 2 × 4 B/px).
+    let px = u64::from(scene.resolution.width) * u64::from(scene.resolution.height);
+    let accumulators = [16, 2 * 8, 2 * 4].map(|bytes| bytes * px);
+    for (run, bytes) in runs.iter().zip(accumulators) {
+        assert_eq!(run.3 - bytes, runs[0].3 - accumulators[0], "{}", run.0);
+    }
+    assert!(runs[2].1.rmse > runs[1].1.rmse && runs[1].1.rmse > runs[0].1.rmse);
 }

@@ -2,7 +2,7 @@
 
 use oit_gpu::{SpecError, TechniqueSpec};
 use oit_peel::{
-    DepthFormat, DualPeel, DualPeelConfig, FrontPeel, FrontPeelConfig, PassCount, Tail,
+    AccumFormat, DepthFormat, DualPeel, DualPeelConfig, FrontPeel, FrontPeelConfig, PassCount, Tail,
 };
 
 #[test]
@@ -14,7 +14,7 @@ fn registry_entries_are_valid_and_canonical() {
     let dual = TechniqueSpec::parse("dual-peel", &registry).unwrap();
     assert_eq!(
         dual.to_string(),
-        "dual-peel:depth=auto,encoding=window,passes=5,reverse-z=on,tail=drop"
+        "dual-peel:accum=auto,depth=auto,encoding=window,passes=5,reverse-z=on,tail=drop"
     );
     assert_eq!(
         DualPeelConfig::from_spec(&dual).unwrap(),
@@ -27,13 +27,28 @@ fn registry_entries_are_valid_and_canonical() {
     .unwrap();
     assert_eq!(
         t.spec().to_string(),
-        "dual-peel:depth=rg16f,encoding=log,passes=auto,reverse-z=off,tail=wboit"
+        "dual-peel:accum=auto,depth=rg16f,encoding=log,passes=auto,reverse-z=off,tail=wboit"
     );
     let c = DualPeelConfig::from_spec(&t.spec()).unwrap();
     assert_eq!(
         (c.passes, c.depth, c.tail, c.reverse_z),
         (PassCount::Auto, DepthFormat::Rg16f, Tail::Wboit, false)
     );
+    let rgba8 = TechniqueSpec::build("dual-peel:accum=rgba8", &registry).unwrap();
+    assert_eq!(
+        DualPeelConfig::from_spec(&rgba8.spec()).unwrap().accum,
+        AccumFormat::Rgba8
+    );
+    // Only the float accumulators at least as precise as f32 are exact; the others say why.
+    assert_eq!(AccumFormat::Auto.rounding(), None);
+    assert_eq!(AccumFormat::Rgba32f.rounding(), None);
+    assert!(
+        AccumFormat::Rgba16f
+            .rounding()
+            .unwrap()
+            .contains("binary16")
+    );
+    assert!(AccumFormat::Rgba8.rounding().unwrap().contains("1/255"));
     let front = TechniqueSpec::build("front-peel:layers=12", &registry).unwrap();
     assert_eq!(front.spec().to_string(), "front-peel:layers=12");
     assert_eq!(
@@ -55,6 +70,7 @@ fn registry_entries_are_valid_and_canonical() {
         "front-peel:layers=0",
         "front-peel:layers=-1",
         "dual-peel:tail=sort",
+        "dual-peel:accum=rgba4",
     ] {
         let e = TechniqueSpec::parse(bad, &registry).unwrap_err();
         assert!(e.to_string().contains("allowed"), "{bad}: {e}");

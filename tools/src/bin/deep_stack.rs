@@ -57,6 +57,7 @@ fn main() -> anyhow::Result<()> {
             Box::new(DualPeel::new(DualPeelConfig {
                 passes: PassCount::Auto,
                 depth: DepthFormat::Rg32f,
+                accum: oit_peel::AccumFormat::Auto,
                 reverse_z: true,
                 tail: Tail::Drop,
                 encoding: DepthEncoding::Window,

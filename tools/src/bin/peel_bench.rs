@@ -108,6 +108,7 @@ fn dual(passes: PassCount, depth: DepthFormat) -> DualPeelConfig {
     DualPeelConfig {
         passes,
         depth,
+        accum: oit_peel::AccumFormat::Auto,
         reverse_z: true,
         tail: Tail::Drop,
         encoding: DepthEncoding::Window,
