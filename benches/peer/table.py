@@ -4,7 +4,8 @@
 usage: table.py DIR
 
 DIR holds what run.sh or run_vtk.sh wrote: roundN-oit/results.json with roundN-pygfx.json
-(pygfx_peer.py) and/or roundN-vtk-SCENE.json (vtk_peer.py), and for VTK images-vtk-SCENE.json.
+(pygfx_peer.py); and/or roundN-vtk-SCENE-MODE.json (vtk_peer.py) with roundN-oit-SCENE-MODE/
+results.json (the pair timed back to back), and for VTK images-vtk-SCENE.json.
 
 pygfx: ratios pygfx / oit-lab. VTK: ratios oit-lab / VTK, i.e. oit-lab's GPU ms (timestamps of
 its passes: `gpu_ms.median` in results.json) over VTK's per-frame wall ms (Render() + glFinish,
@@ -47,12 +48,13 @@ def main():
 
 
 def load_runs(out, i):
-    """oit-lab's runs of round i, or []."""
-    path = os.path.join(out, f"round{i}-oit", "results.json")
-    if not os.path.exists(path):
-        return []
-    with open(path) as f:
-        return json.load(f)["runs"]
+    """oit-lab's runs of round i (`roundI-oit/` and, from run_vtk.sh, every `roundI-oit-*/`), or []."""
+    runs = []
+    for path in sorted(glob.glob(os.path.join(out, f"round{i}-oit", "results.json"))
+                       + glob.glob(os.path.join(out, f"round{i}-oit-*", "results.json"))):
+        with open(path) as f:
+            runs.extend(json.load(f)["runs"])
+    return runs
 
 
 def pygfx_table(out, rounds):

@@ -115,7 +115,8 @@ def parse_args(argv=None):
 # VTK mode -> what it sets, and the oit-lab technique specs it stands next to (the first is the
 # one the issue compares; any key=value not given is the technique's default).
 MODES = {
-    "peel": {"vtk": "SetUseDepthPeeling(1), OcclusionRatio 0", "oit_lab": ["dual-peel:passes=auto,depth=rg32f"]},
+    "peel": {"vtk": "SetUseDepthPeeling(1), OcclusionRatio 0", "oit_lab": ["dual-peel:passes=auto,depth=rg32f,accum=auto",
+                                                                         "dual-peel:passes=auto,depth=rg32f,accum=rgba8"]},
     "oit": {"vtk": "SetUseOIT(1)", "oit_lab": ["wboit:weight=const"]},
     "blend": {"vtk": "no peeling, no OIT", "oit_lab": ["unsorted", "sorted-object"]},
 }
