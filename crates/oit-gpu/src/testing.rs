@@ -213,3 +213,73 @@ fn run_kernel(
         .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
         .collect())
 }
+
+/// A scratch folder for one test under the system's temp dir, `oit-NAME-PID-N`, emptied when
+/// made and removed when dropped, so test runs leave nothing behind; a panicking test keeps it
+/// and says where, for inspection.
+#[derive(Debug)]
+pub struct ScratchDir(std::path::PathBuf);
+
+impl ScratchDir {
+    pub fn new(name: &str) -> Self {
+        static MADE: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+        let n = MADE.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let dir = std::env::temp_dir().join(format!("oit-{name}-{}-{n}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir)
+            .unwrap_or_else(|e| panic!("scratch dir {}: {e}", dir.display()));
+        ScratchDir(dir)
+    }
+
+    pub fn path(&self) -> &std::path::Path {
+        &self.0
+    }
+}
+
+impl std::ops::Deref for ScratchDir {
+    type Target = std::path::Path;
+
+    fn deref(&self) -> &std::path::Path {
+        &self.0
+    }
+}
+
+impl AsRef<std::path::Path> for ScratchDir {
+    fn as_ref(&self) -> &std::path::Path {
+        &self.0
+    }
+}
+
+impl AsRef<std::ffi::OsStr> for ScratchDir {
+    fn as_ref(&self) -> &std::ffi::OsStr {
+        self.0.as_os_str()
+    }
+}
+
+impl Drop for ScratchDir {
+    fn drop(&mut self) {
+        if std::thread::panicking() {
+            eprintln!("kept {} for inspection", self.0.display());
+        } else {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+}
+
+#[cfg(test)]
+mod scratch_tests {
+    use super::ScratchDir;
+
+    #[test]
+    fn a_scratch_dir_is_empty_when_made_and_gone_when_dropped() {
+        let kept;
+        {
+            let dir = ScratchDir::new("scratch-test");
+            assert_eq!(std::fs::read_dir(&*dir).unwrap().count(), 0);
+            std::fs::write(dir.join("file"), b"x").unwrap();
+            kept = dir.to_path_buf();
+            assert!(kept.join("file").exists());
+        }
+        assert!(!kept.exists());
+    }
+}

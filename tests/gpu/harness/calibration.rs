@@ -13,11 +13,8 @@ use oit_scene::{Resolution, Scene};
 
 const RES: u32 = 16;
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("oit-calibration-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+fn temp_dir(name: &str) -> oit_gpu::testing::ScratchDir {
+    oit_gpu::testing::ScratchDir::new(&format!("calibration-{name}"))
 }
 
 /// A camera on +z looking down −z (view rotation exactly identity, so `w` depends on the

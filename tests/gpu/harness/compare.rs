@@ -12,11 +12,8 @@ fn scenes_dir() -> PathBuf {
     crate::kit::scenes_dir()
 }
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("oit-harness-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+fn temp_dir(name: &str) -> oit_gpu::testing::ScratchDir {
+    oit_gpu::testing::ScratchDir::new(&format!("harness-{name}"))
 }
 
 /// One frame, no warm-up, at 32×32 into `out`, references cached under `out/cache`: the
@@ -66,8 +63,8 @@ fn compare_suite_writes_complete_results() {
         }),
         frames: 2,
         warmup: 1,
-        out_dir: out.clone(),
-        cache: oit_harness::ReferenceCache::Dir(cache.clone()),
+        out_dir: out.to_path_buf(),
+        cache: oit_harness::ReferenceCache::Dir(cache.to_path_buf()),
         ..CompareOptions::default()
     };
     let runs_done = std::sync::atomic::AtomicUsize::new(0);

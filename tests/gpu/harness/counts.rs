@@ -2,17 +2,12 @@
 //! on a scalar scene and on one with coloured transmission, and the counts add up from the
 //! passes.
 
-use std::path::PathBuf;
-
 use oit_harness::results::RunStatus;
 use oit_harness::{CompareOptions, compare, resolve_specs};
 use oit_scene::Resolution;
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("oit-counts-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+fn temp_dir(name: &str) -> oit_gpu::testing::ScratchDir {
+    oit_gpu::testing::ScratchDir::new(&format!("counts-{name}"))
 }
 
 #[test]
@@ -58,7 +53,7 @@ fn every_technique_declares_every_pass_and_the_counts_add_up() {
         }),
         frames: 1,
         warmup: 0,
-        out_dir: out.clone(),
+        out_dir: out.to_path_buf(),
         cache: oit_harness::ReferenceCache::Dir(out.join("cache")),
         ..CompareOptions::default()
     };

@@ -5,16 +5,13 @@
 //! terminal table and report.html; the other runs are made; a GPU error inside one piece of
 //! work does not poison the next.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use oit_harness::results::{Results, RunStatus};
 use oit_harness::{CompareOptions, compare_all, load_scenes_lenient, resolve_specs};
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("oit-failures-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+fn temp_dir(name: &str) -> oit_gpu::testing::ScratchDir {
+    oit_gpu::testing::ScratchDir::new(&format!("failures-{name}"))
 }
 
 /// A still scene of `mesh` at 32², seen from the front.
@@ -67,7 +64,7 @@ fn failed_scenes_and_runs_are_reported_and_the_rest_run() {
     failing_folder(&scenes_dir);
     let out = temp_dir("out");
     let (scenes, unloadable, skipped) =
-        load_scenes_lenient(std::slice::from_ref(&scenes_dir), &Default::default()).unwrap();
+        load_scenes_lenient(&[scenes_dir.to_path_buf()], &Default::default()).unwrap();
     let names: Vec<&str> = scenes.iter().map(|e| e.scene.name.as_str()).collect();
     assert_eq!(names, ["a-good", "c-good", "e-dense", "f-good"]);
     assert_eq!(unloadable.len(), 1);
@@ -81,7 +78,7 @@ fn failed_scenes_and_runs_are_reported_and_the_rest_run() {
     let options = CompareOptions {
         frames: 1,
         warmup: 0,
-        out_dir: out.clone(),
+        out_dir: out.to_path_buf(),
         cache: oit_harness::ReferenceCache::Off,
         memory_budget: budget,
         predict: false,
@@ -99,8 +96,9 @@ fn failed_scenes_and_runs_are_reported_and_the_rest_run() {
     // comparison again makes nothing new (oit_gpu::made).
     let (forms, made) = (ctx.shader_forms(), ctx.made_objects());
     assert!(forms > 0 && made > 0);
+    let again_dir = temp_dir("again");
     let again = CompareOptions {
-        out_dir: temp_dir("again"),
+        out_dir: again_dir.to_path_buf(),
         ..options.clone()
     };
     compare_all(&ctx, &scenes, &unloadable, &specs, &again, &|_| {}).unwrap();

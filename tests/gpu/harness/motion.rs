@@ -22,13 +22,8 @@ fn motion_scene(name: &str) -> PathBuf {
 
 /// A fresh folder per call: tests running side by side measure the same motion scenes, and one
 /// removing the other's folder took its reference cache and clips away mid-run.
-fn temp_dir(name: &str) -> PathBuf {
-    static CALLS: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
-    let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let dir = std::env::temp_dir().join(format!("oit-motion-{name}-{}-{call}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
+fn temp_dir(name: &str) -> oit_gpu::testing::ScratchDir {
+    oit_gpu::testing::ScratchDir::new(&format!("motion-{name}"))
 }
 
 /// Runs `techniques` over every frame of the motion scene `name` (one timed frame, no
@@ -60,7 +55,7 @@ fn motion_runs_of(
     let options = CompareOptions {
         frames: 1,
         warmup: 0,
-        out_dir: out.clone(),
+        out_dir: out.to_path_buf(),
         cache: oit_harness::ReferenceCache::Dir(out.join("cache")),
         static_frames,
         ..CompareOptions::default()

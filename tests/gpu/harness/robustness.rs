@@ -14,33 +14,8 @@ use oit_harness::{
 };
 use oit_scene::Resolution;
 
-/// A fresh scratch folder under the system's temp dir, removed when the test passes and kept
-/// (its path printed) when it fails, to look at.
-struct TempDir(PathBuf);
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        if std::thread::panicking() {
-            eprintln!("kept {} for inspection", self.0.display());
-        } else {
-            let _ = std::fs::remove_dir_all(&self.0);
-        }
-    }
-}
-
-impl std::ops::Deref for TempDir {
-    type Target = Path;
-
-    fn deref(&self) -> &Path {
-        &self.0
-    }
-}
-
-fn temp_dir(name: &str) -> TempDir {
-    let dir = std::env::temp_dir().join(format!("oit-robust-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    TempDir(dir)
+fn temp_dir(name: &str) -> oit_gpu::testing::ScratchDir {
+    oit_gpu::testing::ScratchDir::new(&format!("robust-{name}"))
 }
 
 /// A two-layer scene named `name`, as if loaded from `file`.

@@ -8,11 +8,8 @@ use oit_harness::results::{Results, Run};
 use oit_harness::{CompareOptions, Shard, compare, load_scenes, merge, resolve_specs};
 use oit_scene::Resolution;
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("oit-shard-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
+fn temp_dir(name: &str) -> oit_gpu::testing::ScratchDir {
+    oit_gpu::testing::ScratchDir::new(&format!("shard-{name}"))
 }
 
 /// Four scenes (one animated) × three techniques: twelve runs, shards of four, so the second

@@ -4,8 +4,6 @@
 //! technique runs into it (or is skipped with a reason naming the format); and `compare` keeps
 //! the runs of two formats apart in results.json and on disk.
 
-use std::path::PathBuf;
-
 use oit_gpu::testing::context_or_skip;
 use oit_harness::results::{Results, RunStatus, TargetFormat};
 use oit_harness::{CompareOptions, SceneEntry, compare, render_once_at, resolve_specs};
@@ -16,11 +14,8 @@ const RES: Resolution = Resolution {
     height: 64,
 };
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("oit-target-format-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+fn temp_dir(name: &str) -> oit_gpu::testing::ScratchDir {
+    oit_gpu::testing::ScratchDir::new(&format!("target-format-{name}"))
 }
 
 /// Largest per-channel |a − b| over RGB.
@@ -160,7 +155,7 @@ fn compare_keeps_two_target_formats_apart() {
     let options = CompareOptions {
         frames: 1,
         warmup: 0,
-        out_dir: out.clone(),
+        out_dir: out.to_path_buf(),
         cache: oit_harness::ReferenceCache::Dir(out.join("cache")),
         static_frames: 0,
         target_formats: vec![TargetFormat::Rgba8Unorm, TargetFormat::Rgba16Float],
