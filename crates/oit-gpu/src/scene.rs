@@ -737,6 +737,9 @@ pub fn depth_test(compare: wgpu::CompareFunction, write: bool) -> wgpu::DepthSte
 /// * override `OVER_ONLY` of shaders/common.wgsl: true for materials that blend OVER without
 ///   coloured transmission ([`over_only`]), whose `shade()` then has no operator or
 ///   transmission code (the same bits);
+/// * override `STRAIGHT_OVER` of shaders/common.wgsl: true where, besides, the material is
+///   transparent, straight-alpha and unlit ([`straight_over`]), whose `shade()` then has one
+///   path (the same bits; [`GpuScene::set_over_only`] turns both off);
 /// * override `LIT` of shaders/lighting.wgsl: true only for lit materials
 ///   ([`Material::is_lit`]), so unlit draws never run (or pay for) the lighting loop (the
 ///   per-vertex form still passes them the world position and normal: lavapipe does not drop
@@ -782,6 +785,8 @@ struct Variant {
     lit: bool,
     /// Override `OVER_ONLY` of shaders/common.wgsl ([`over_only`]).
     over_only: bool,
+    /// Override `STRAIGHT_OVER` of shaders/common.wgsl ([`straight_over`]).
+    straight_over: bool,
 }
 
 /// Whether `m` blends OVER with no coloured transmission: the override `OVER_ONLY` of
@@ -790,8 +795,14 @@ fn over_only(m: &Material) -> bool {
     m.operator == oit_scene::BlendOperator::Over && m.transmission == 0.0
 }
 
+/// Whether `m`, drawn with the `OVER_ONLY` form (`over_only`), may also take `STRAIGHT_OVER`
+/// of shaders/common.wgsl: transparent, straight alpha, unlit, so `shade()` has one path.
+fn straight_over(m: &Material, over_only: bool) -> bool {
+    over_only && m.mode.is_transparent() && !m.premultiplied && !m.is_lit()
+}
+
 impl Variant {
-    const COUNT: usize = 64;
+    const COUNT: usize = 128;
 
     fn index(self) -> usize {
         usize::from(self.double_sided)
@@ -800,6 +811,7 @@ impl Variant {
             | usize::from(self.per_draw) << 3
             | usize::from(self.lit) << 4
             | usize::from(self.over_only) << 5
+            | usize::from(self.straight_over) << 6
     }
 }
 
@@ -871,6 +883,7 @@ impl ScenePipelines {
             per_draw: per_draw && set.per_draw_form.is_some(),
             lit: m.is_lit(),
             over_only,
+            straight_over: straight_over(m, over_only),
         })
     }
 
@@ -886,6 +899,8 @@ impl ScenePipelines {
             per_draw: false,
             lit: scene.materials.iter().any(Material::is_lit),
             over_only: scene.materials.iter().all(|m| gpu.draws_over_only(m)),
+            straight_over: (scene.materials.iter())
+                .all(|m| straight_over(m, gpu.draws_over_only(m))),
         })
     }
 
@@ -902,6 +917,7 @@ impl ScenePipelines {
             constants.push(("MAY_DISCARD", flag(v.may_discard)));
             constants.push(("LIT", flag(v.lit)));
             constants.push(("OVER_ONLY", flag(v.over_only)));
+            constants.push(("STRAIGHT_OVER", flag(v.straight_over)));
             let cull = match set.cull {
                 CullRule::ByMaterial if !v.double_sided => Some(wgpu::Face::Back),
                 CullRule::ByMaterial => None,
