@@ -230,10 +230,6 @@ impl ScratchDir {
             .unwrap_or_else(|e| panic!("scratch dir {}: {e}", dir.display()));
         ScratchDir(dir)
     }
-
-    pub fn path(&self) -> &std::path::Path {
-        &self.0
-    }
 }
 
 impl std::ops::Deref for ScratchDir {

@@ -66,6 +66,18 @@ impl PassCount {
     }
 }
 
+/// `format` where the adapter can render and blend it, else why `key=word` cannot run there.
+fn blended_target(
+    caps: &Caps,
+    key: &str,
+    word: &str,
+    format: TextureFormat,
+) -> Result<TextureFormat, Unsupported> {
+    caps.require_target(format, true)
+        .map(|()| format)
+        .map_err(|e| Unsupported::new(format!("{key}={word}: {}", e.reason)))
+}
+
 oit_gpu::words! {
     /// Format of the dual-peel (−min, max) key range target.
     pub enum DepthFormat {
@@ -82,11 +94,7 @@ impl DepthFormat {
     /// MAX blending needs a blendable format; for `Rg32Float` that is `FLOAT32_BLENDABLE` plus
     /// the format's own blendable flag (not "filterable", which Babylon keys on).
     pub fn resolve(self, caps: &Caps) -> Result<TextureFormat, Unsupported> {
-        let with = |format: TextureFormat| {
-            caps.require_target(format, true)
-                .map(|()| format)
-                .map_err(|e| Unsupported::new(format!("depth={}: {}", self.name(), e.reason)))
-        };
+        let with = |format| blended_target(caps, "depth", self.name(), format);
         match self {
             DepthFormat::Rg32f => with(TextureFormat::Rg32Float),
             DepthFormat::Rg16f => with(TextureFormat::Rg16Float),
@@ -123,11 +131,7 @@ impl AccumFormat {
         caps: &Caps,
         final_format: TextureFormat,
     ) -> Result<TextureFormat, Unsupported> {
-        let with = |format: TextureFormat| {
-            caps.require_target(format, true)
-                .map(|()| format)
-                .map_err(|e| Unsupported::new(format!("accum={}: {}", self.name(), e.reason)))
-        };
+        let with = |format| blended_target(caps, "accum", self.name(), format);
         match self {
             AccumFormat::Auto => Ok(crate::gpu::accumulator_format_on(caps, final_format)),
             AccumFormat::Rgba32f => with(TextureFormat::Rgba32Float),

@@ -461,6 +461,17 @@ fn gl_backend_falls_back_to_rg16f() {
     }
     let err = rg32.check(&ctx.caps).expect_err("rg32f cannot run here");
     assert!(err.reason.contains("Rg32Float"), "{err}");
+    // An accumulator format the adapter cannot blend is refused by name, not swapped.
+    if !ctx
+        .caps
+        .format(oit_gpu::wgpu::TextureFormat::Rgba32Float)
+        .blendable
+    {
+        let err = build("dual-peel:accum=rgba32f")
+            .check(&ctx.caps)
+            .expect_err("rgba32f accumulators cannot run here");
+        assert!(err.reason.starts_with("accum=rgba32f: "), "{err}");
+    }
     assert_eq!(
         DepthFormat::Auto.resolve(&ctx.caps),
         Ok(oit_gpu::wgpu::TextureFormat::Rg16Float)
