@@ -36,6 +36,15 @@ override OVER_ONLY: bool = false;
 // billboards, where partly covered 4x4 blocks make shading weigh more, 2026-12-07).
 override STRAIGHT_OVER: bool = false;
 
+// True in pipelines for materials whose factors are units: base colour and alpha 1, intensity
+// 1, no emission, no transmission (`oit_gpu::ScenePipelines`; glTF's defaults, and what
+// vertex-coloured content uses). `shade()` then multiplies by constant ones and adds constant
+// zeros instead of reading those factors per fragment, which leaves every value as it was (a
+// -0 colour stays -0 rather than becoming +0, and blends to the same value). llvmpipe reads each
+// uniform component behind its own bounds check in every 8-lane step: the nine reads were 44 %
+// of `unsorted`'s fragment instructions on 12 000 small billboards (callgrind, 2026-12-08).
+override UNIT_FACTORS: bool = false;
+
 // One entry per `Scene::materials` element (96 bytes, see `oit_gpu::scene::material_words`).
 struct Material {
     // rgb = base colour (linear), a = alpha.
@@ -289,7 +298,14 @@ fn shade(v: VertexOut, front_facing: bool) -> Shaded {
 // `shade` with the texture coordinates' fine derivatives `grad` = (du/dx, dv/dx, du/dy,
 // dv/dy) given: passes that shade outside a rasterized quad (ray queries) compute them.
 fn shade_at(v: VertexOut, front_facing: bool, grad: vec4<f32>) -> Shaded {
-    let m = material_of(v);
+    var m = material_of(v);
+    if UNIT_FACTORS {
+        // The material's own values (`unit_factors` in crates/oit-gpu/src/scene.rs).
+        m.base_alpha = vec4<f32>(1.0);
+        m.intensity = 1.0;
+        m.emissive = vec3<f32>(0.0);
+        m.transmission = 0.0;
+    }
     var t = vec4<f32>(1.0);
     var e = vec4<f32>(1.0);
     if TEXTURED {

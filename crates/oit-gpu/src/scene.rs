@@ -357,8 +357,9 @@ pub struct GpuScene {
     /// Per draw: whether it reads its material per draw (small triangles), see
     /// [`GpuScene::reads_material_per_draw`].
     per_draw_material: Vec<bool>,
-    /// Whether plain OVER materials get the `OVER_ONLY` pipelines ([`GpuScene::set_over_only`]).
-    over_only: bool,
+    /// Whether materials get the specialised pipelines, `OVER_ONLY` and `UNIT_FACTORS`
+    /// ([`GpuScene::set_specialised`]).
+    specialised: bool,
     /// The dynamic offset group 0 was last set with in the pass being recorded ([`GpuScene::bind`]
     /// sets it), so that [`GpuScene::use_draw`] sets it again only for a per-draw material that
     /// differs: lavapipe keeps a copy of the descriptor state per bind (about 23 KB), and 1000
@@ -498,7 +499,7 @@ impl GpuScene {
                 .iter()
                 .map(|d| mean_triangle_pixels(scene, d) <= PER_DRAW_MATERIAL_MAX_AREA)
                 .collect(),
-            over_only: true,
+            specialised: true,
             bound_offset: AtomicU32::new(0),
             opaque: Mutex::new(HashMap::new()),
         })
@@ -560,16 +561,23 @@ impl GpuScene {
         self.per_draw_material.fill(per_draw);
     }
 
-    /// Lets plain OVER materials draw with the pipelines that leave the operator and
-    /// transmission code out (`true`, the default) or not: both give the same bits, which
-    /// tests check with this, and A/B timings use it.
-    pub fn set_over_only(&mut self, over_only: bool) {
-        self.over_only = over_only;
+    /// Lets materials draw with the pipelines specialised for what they fix (`true`, the
+    /// default) or not: `OVER_ONLY` and `STRAIGHT_OVER` leave the operator, transmission and
+    /// alpha-form code out, `UNIT_FACTORS` the reads of factors that are units. Both give the
+    /// same bits, which tests check with this, and A/B timings use it.
+    pub fn set_specialised(&mut self, specialised: bool) {
+        self.specialised = specialised;
     }
 
-    /// Whether material `m` draws with the `OVER_ONLY` pipelines ([`GpuScene::set_over_only`]).
+    /// Whether material `m` draws with the `OVER_ONLY` pipelines ([`GpuScene::set_specialised`]).
     pub fn draws_over_only(&self, m: &Material) -> bool {
-        self.over_only && over_only(m)
+        self.specialised && over_only(m)
+    }
+
+    /// Whether material `m` draws with the `UNIT_FACTORS` pipelines
+    /// ([`GpuScene::set_specialised`]).
+    pub fn draws_unit_factors(&self, m: &Material) -> bool {
+        self.specialised && unit_factors(m)
     }
 
     /// Prepares `pass` for `self.scene.draws[index]` (after [`GpuScene::bind`] on the same
@@ -585,7 +593,12 @@ impl GpuScene {
         let d = &self.scene.draws[index];
         let per_draw = self.reads_material_per_draw(index) && pipelines.has_per_draw_form();
         let m = self.scene.material_of(d);
-        pass.set_pipeline(pipelines.for_draw(m, per_draw, self.draws_over_only(m)));
+        pass.set_pipeline(pipelines.for_draw(
+            m,
+            per_draw,
+            self.draws_over_only(m),
+            self.draws_unit_factors(m),
+        ));
         let offset = Self::material_offset(d.material);
         if per_draw && self.bound_offset.swap(offset, Ordering::Relaxed) != offset {
             pass.set_bind_group(0, &self.bind_group, &[offset]);
@@ -739,7 +752,11 @@ pub fn depth_test(compare: wgpu::CompareFunction, write: bool) -> wgpu::DepthSte
 ///   transmission code (the same bits);
 /// * override `STRAIGHT_OVER` of shaders/common.wgsl: true where, besides, the material is
 ///   transparent, straight-alpha and unlit ([`straight_over`]), whose `shade()` then has one
-///   path (the same bits; [`GpuScene::set_over_only`] turns both off);
+///   path (the same bits);
+/// * override `UNIT_FACTORS` of shaders/common.wgsl: true for materials whose colour, alpha,
+///   intensity, emission and transmission factors change nothing ([`unit_factors`]), whose
+///   `shade()` then does not read them (the same bits; [`GpuScene::set_specialised`] turns
+///   this and the two above off);
 /// * override `LIT` of shaders/lighting.wgsl: true only for lit materials
 ///   ([`Material::is_lit`]), so unlit draws never run (or pay for) the lighting loop (the
 ///   per-vertex form still passes them the world position and normal: lavapipe does not drop
@@ -787,6 +804,8 @@ struct Variant {
     over_only: bool,
     /// Override `STRAIGHT_OVER` of shaders/common.wgsl ([`straight_over`]).
     straight_over: bool,
+    /// Override `UNIT_FACTORS` of shaders/common.wgsl ([`unit_factors`]).
+    unit_factors: bool,
 }
 
 /// Whether `m` blends OVER with no coloured transmission: the override `OVER_ONLY` of
@@ -801,8 +820,19 @@ fn straight_over(m: &Material, over_only: bool) -> bool {
     over_only && m.mode.is_transparent() && !m.premultiplied && !m.is_lit()
 }
 
+/// Whether `m`'s factors are units, so that `shade()` may use constants for them (override
+/// `UNIT_FACTORS` of shaders/common.wgsl): base colour and alpha 1, intensity 1, no emission
+/// (whatever its texture: it is scaled by 0), no transmission.
+fn unit_factors(m: &Material) -> bool {
+    m.base_color == [1.0; 3]
+        && m.alpha == 1.0
+        && m.intensity == 1.0
+        && m.emissive == [0.0; 3]
+        && m.transmission == 0.0
+}
+
 impl Variant {
-    const COUNT: usize = 128;
+    const COUNT: usize = 256;
 
     fn index(self) -> usize {
         usize::from(self.double_sided)
@@ -812,6 +842,7 @@ impl Variant {
             | usize::from(self.lit) << 4
             | usize::from(self.over_only) << 5
             | usize::from(self.straight_over) << 6
+            | usize::from(self.unit_factors) << 7
     }
 }
 
@@ -867,8 +898,15 @@ impl ScenePipelines {
 
     /// The pipeline for a draw of material `m`, which reads it per draw where `per_draw` and
     /// the pass has that form ([`MaterialSource::PerDraw`]), else per vertex; `over_only`
-    /// where `m` may take the `OVER_ONLY` form ([`GpuScene::draws_over_only`]).
-    pub fn for_draw(&self, m: &Material, per_draw: bool, over_only: bool) -> &wgpu::RenderPipeline {
+    /// where `m` may take the `OVER_ONLY` form ([`GpuScene::draws_over_only`]), `unit_factors`
+    /// where it may take the `UNIT_FACTORS` form ([`GpuScene::draws_unit_factors`]).
+    pub fn for_draw(
+        &self,
+        m: &Material,
+        per_draw: bool,
+        over_only: bool,
+        unit_factors: bool,
+    ) -> &wgpu::RenderPipeline {
         let set = &self.shared;
         // Every fragment is kept when the material has no cutoff and the pipeline's face
         // culling leaves nothing `shade()` would discard (a single-sided material's back faces).
@@ -884,6 +922,7 @@ impl ScenePipelines {
             lit: m.is_lit(),
             over_only,
             straight_over: straight_over(m, over_only),
+            unit_factors,
         })
     }
 
@@ -901,6 +940,7 @@ impl ScenePipelines {
             over_only: scene.materials.iter().all(|m| gpu.draws_over_only(m)),
             straight_over: (scene.materials.iter())
                 .all(|m| straight_over(m, gpu.draws_over_only(m))),
+            unit_factors: scene.materials.iter().all(|m| gpu.draws_unit_factors(m)),
         })
     }
 
@@ -918,6 +958,7 @@ impl ScenePipelines {
             constants.push(("LIT", flag(v.lit)));
             constants.push(("OVER_ONLY", flag(v.over_only)));
             constants.push(("STRAIGHT_OVER", flag(v.straight_over)));
+            constants.push(("UNIT_FACTORS", flag(v.unit_factors)));
             let cull = match set.cull {
                 CullRule::ByMaterial if !v.double_sided => Some(wgpu::Face::Back),
                 CullRule::ByMaterial => None,

@@ -180,6 +180,8 @@ struct Pipelines {
     /// The final colour format when the pass also modulates it per channel (coloured
     /// transmission), else `None`.
     modulated: Option<wgpu::TextureFormat>,
+    /// Built with the override `WBOIT_UNIT_SCALE` (the colour scale is 1).
+    unit_scale: bool,
     scene: ScenePipelines,
 }
 
@@ -237,12 +239,14 @@ impl Wboit {
         }
     }
 
-    /// `modulated`: the final colour format when the pass modulates it per channel.
+    /// `modulated`: the final colour format when the pass modulates it per channel;
+    /// `unit_scale`: whether the colour scale is 1.
     fn ensure(
         &mut self,
         ctx: &Context,
         scene: &GpuScene,
         modulated: Option<wgpu::TextureFormat>,
+        unit_scale: bool,
     ) -> Result<(), GpuError> {
         let (mode, accum, reveal) = self.config.formats();
         let res = scene.scene.resolution;
@@ -278,11 +282,9 @@ impl Wboit {
             self.params = Some((buffer, layout, group));
         }
         let reverse_z = scene.scene.camera.reverse_z;
-        if self
-            .pipelines
-            .as_ref()
-            .is_none_or(|p| p.reverse_z != reverse_z || p.modulated != modulated)
-        {
+        if self.pipelines.as_ref().is_none_or(|p| {
+            p.reverse_z != reverse_z || p.modulated != modulated || p.unit_scale != unit_scale
+        }) {
             let accum = self
                 .accum
                 .as_ref()
@@ -310,7 +312,10 @@ impl Wboit {
                 Config::Weighted { weight, .. } => weight,
                 Config::Average => Weight::Const,
             };
-            let constants = [("WBOIT_WEIGHT", f64::from(weight.index()))];
+            let constants = [
+                ("WBOIT_WEIGHT", f64::from(weight.index())),
+                ("WBOIT_UNIT_SCALE", if unit_scale { 1.0 } else { 0.0 }),
+            ];
             let pipelines = ScenePipelines::with_layout(
                 ctx,
                 &ScenePipelineDesc {
@@ -324,6 +329,7 @@ impl Wboit {
             self.pipelines = Some(Pipelines {
                 reverse_z,
                 modulated,
+                unit_scale,
                 scene: pipelines,
             });
         }
@@ -365,7 +371,13 @@ impl Technique for Wboit {
                 .modulation_unsupported(&ctx.caps, WIDEST_COLOR)
                 .is_none())
         .then_some(targets.color_format);
-        self.ensure(ctx, scene, modulated)?;
+        let range = self.range(scene);
+        // The weighted average accumulates unweighted colour, unscaled.
+        let (weight, color_scale) = match self.config {
+            Config::Weighted { weight, .. } => (weight.index(), range.color_scale),
+            Config::Average => (Weight::Const.index(), 1.0),
+        };
+        self.ensure(ctx, scene, modulated, color_scale == 1.0)?;
         // Additive and subtractive draws are left out of the sums (crate::additive).
         let (additive, draws): (Vec<usize>, Vec<usize>) = scene
             .transparent_draws()
@@ -383,12 +395,6 @@ impl Technique for Wboit {
         }
         let s = &scene.scene;
         let (a, b, ortho) = s.camera.view_depth_terms();
-        let range = self.range(scene);
-        // The weighted average accumulates unweighted colour, unscaled.
-        let (weight, color_scale) = match self.config {
-            Config::Weighted { weight, .. } => (weight.index(), range.color_scale),
-            Config::Average => (Weight::Const.index(), 1.0),
-        };
         let words: [u32; 12] = [
             weight,
             u32::from(s.camera.reverse_z),

@@ -1,8 +1,9 @@
 //! Scene draws read their material per vertex (flat varyings, crates/oit-gpu/shaders/scene_io/vertex.wgsl) or
 //! per draw (a uniform, crates/oit-gpu/shaders/scene_io/draw.wgsl), whichever costs less for the size of their
 //! triangles (`GpuScene::reads_material_per_draw`). Which one is used must never show: every
-//! technique draws the same bits with either form, and with or without the `OVER_ONLY`
-//! pipelines of plain OVER materials (`GpuScene::set_over_only`).
+//! technique draws the same bits with either form, and with or without the pipelines
+//! specialised for what a material fixes (`OVER_ONLY`, `STRAIGHT_OVER`, `UNIT_FACTORS`:
+//! `GpuScene::set_specialised`).
 
 use oit_gpu::testing::context_or_skip;
 use oit_gpu::{ColorFormat, GpuScene, GpuTimer, Targets, read_color, render_frame};
@@ -16,7 +17,8 @@ fn repo() -> std::path::PathBuf {
 /// Every technique at its defaults, on scenes that reach every material property `shade()`
 /// reads (cutoffs and mask-blend, double-sided, textures, intensity, transmission, opaque
 /// occluders, small and large triangles), in Rgba32Float so no rounding of the target hides a
-/// difference: the per-vertex and per-draw forms give bit-identical images.
+/// difference: the per-vertex and per-draw forms, and the general and specialised pipelines,
+/// give bit-identical images.
 #[test]
 fn every_technique_draws_the_same_bits_with_either_material_form() {
     let Some(ctx) =
@@ -32,6 +34,7 @@ fn every_technique_draws_the_same_bits_with_either_material_form() {
     };
     let mut compared = 0;
     let mut failures = Vec::new();
+    let mut unit_factors = [0; 2];
     for name in [
         "foliage-cards",
         "gltf-alpha-blend-modes",
@@ -45,13 +48,17 @@ fn every_technique_draws_the_same_bits_with_either_material_form() {
             .unwrap_or_else(|e| panic!("{e}"))
             .with_resolution(size);
         let mut gpu = GpuScene::upload(&ctx, &scene).expect("upload");
+        // Both kinds of material are here: with unit factors and with factors read per fragment.
+        for m in &scene.materials {
+            unit_factors[usize::from(gpu.draws_unit_factors(m))] += 1;
+        }
         let targets = Targets::new(&ctx, size, ColorFormat::Rgba32Float).expect("targets");
         for spec in &specs {
             let mut images: Vec<LinearImage> = Vec::new();
-            // Per vertex, per draw, and per draw without the OVER_ONLY pipelines.
-            for (per_draw, over_only) in [(false, true), (true, true), (true, false)] {
+            // Per vertex, per draw, and per draw without the specialised pipelines.
+            for (per_draw, specialised) in [(false, true), (true, true), (true, false)] {
                 gpu.set_reads_material_per_draw(per_draw);
-                gpu.set_over_only(over_only);
+                gpu.set_specialised(specialised);
                 let mut technique =
                     oit_gpu::TechniqueSpec::build(&spec.canonical(), &registry()).expect("build");
                 let mut timer = GpuTimer::new(&ctx);
@@ -69,7 +76,10 @@ fn every_technique_draws_the_same_bits_with_either_material_form() {
                 };
                 for (what, n) in [
                     ("per vertex and per draw", differ(vertex, draw)),
-                    ("with and without OVER_ONLY", differ(draw, general)),
+                    (
+                        "with and without the specialised pipelines",
+                        differ(draw, general),
+                    ),
                 ] {
                     if n > 0 {
                         failures.push(format!(
@@ -81,6 +91,10 @@ fn every_technique_draws_the_same_bits_with_either_material_form() {
             }
         }
     }
+    assert!(
+        unit_factors.iter().all(|&n| n > 0),
+        "materials with and without unit factors: {unit_factors:?}"
+    );
     // Every technique runs on at least the scalar scenes here.
     assert!(compared >= 5 * specs.len(), "only {compared} runs compared");
     assert!(failures.is_empty(), "{}", failures.join("\n"));
