@@ -40,9 +40,9 @@ override STRAIGHT_OVER: bool = false;
 // 1, no emission, no transmission (`oit_gpu::ScenePipelines`; glTF's defaults, and what
 // vertex-coloured content uses). `shade()` then multiplies by constant ones and adds constant
 // zeros instead of reading those factors per fragment, which leaves every value as it was (a
-// -0 colour stays -0 rather than becoming +0, and blends to the same value). llvmpipe reads each
-// uniform component behind its own bounds check in every 8-lane step: the nine reads were 44 %
-// of `unsorted`'s fragment instructions on 12 000 small billboards (callgrind, 2026-12-08).
+// -0 colour stays -0 rather than becoming +0, and blends to the same value). llvmpipe reads
+// uniforms again in every step of 8 fragments: the nine reads were 44 % of `unsorted`'s fragment
+// instructions on 12 000 small billboards (callgrind, 2026-12-08).
 override UNIT_FACTORS: bool = false;
 
 // One entry per `Scene::materials` element (96 bytes, see `oit_gpu::scene::material_words`).
