@@ -17,7 +17,7 @@
 override FIRST_LAYER: bool = false;
 
 fn nearer(a: f32, b: f32) -> bool {
-    if peel.scene_reverse_z != 0u {
+    if SCENE_REVERSE_Z {
         return a > b;
     }
     return a < b;

@@ -48,12 +48,14 @@ pub struct DualPeel {
 
 #[derive(Debug)]
 struct Resources {
-    /// Final colour format, range format, accumulator format, resolution, per-channel path.
+    /// Final colour format, range format, accumulator format, resolution, per-channel path,
+    /// the scene's depth direction (reverse-Z).
     key: (
         wgpu::TextureFormat,
         wgpu::TextureFormat,
         wgpu::TextureFormat,
         Resolution,
+        bool,
         bool,
     ),
     ledger: MemoryLedger,
@@ -196,6 +198,7 @@ impl DualPeel {
         range_format: wgpu::TextureFormat,
         targets: &Targets,
         per_channel: bool,
+        scene_reverse_z: bool,
     ) -> Result<(), GpuError> {
         let accum_format = config.accum.resolve(&ctx.caps, targets.color_format)?;
         let key = (
@@ -204,6 +207,7 @@ impl DualPeel {
             accum_format,
             targets.resolution,
             per_channel,
+            scene_reverse_z,
         );
         if self.gpu.as_ref().is_some_and(|g| g.key == key) {
             return Ok(());
@@ -321,7 +325,12 @@ impl DualPeel {
             immediate_size: 0,
         });
         let module = gpu::shader(ctx, "peel_dual.wgsl", gpu::PEEL_DUAL)?;
-        let mut constants = key_constants(config, range_format, self.options.test_before_shading);
+        let mut constants = key_constants(
+            config,
+            range_format,
+            self.options.test_before_shading,
+            scene_reverse_z,
+        );
         constants.push(("COUNT_ATOMIC", if count_target { 0.0 } else { 1.0 }));
         let range_target = Some(wgpu::ColorTargetState {
             format: range_format,
@@ -567,16 +576,19 @@ fn scalar_stacks(
     })
 }
 
-/// Override constants of shaders/peel_common.wgsl for a configuration.
+/// Override constants of shaders/peel_common.wgsl for a configuration and a scene's depth
+/// direction.
 fn key_constants(
     config: &DualPeelConfig,
     range_format: wgpu::TextureFormat,
     test_first: bool,
+    scene_reverse_z: bool,
 ) -> Vec<(&'static str, f64)> {
     let flag = |b: bool| if b { 1.0 } else { 0.0 };
     vec![
         ("ENCODING", f64::from(config.encoding.index())),
         ("KEY_REVERSE", flag(config.reverse_z)),
+        ("SCENE_REVERSE_Z", flag(scene_reverse_z)),
         (
             "KEY_HALF",
             flag(range_format == wgpu::TextureFormat::Rg16Float),
@@ -706,7 +718,14 @@ impl Technique for DualPeel {
         // renders with exactly the scalar pipelines.
         let per_channel =
             scene.scene.has_coloured_transmission() && per_channel_unsupported(&ctx.caps).is_none();
-        self.resources(ctx, &config, range_format, targets, per_channel)?;
+        self.resources(
+            ctx,
+            &config,
+            range_format,
+            targets,
+            per_channel,
+            scene.scene.camera.reverse_z,
+        )?;
         if self.list.as_ref().is_none_or(|l| l.scene_id != scene.id) {
             self.list_ledger.clear();
             let control = &self.gpu.as_ref().expect("resources built").control;
@@ -1115,7 +1134,7 @@ impl DualPeel {
             ],
             immediate_size: 0,
         });
-        let mut constants = key_constants(config, range_format, true);
+        let mut constants = key_constants(config, range_format, true, scene.scene.camera.reverse_z);
         constants.retain(|(k, _)| *k != "TEST_FIRST");
         constants.extend(accum.prepare(&scene.scene));
         let pipelines = ScenePipelines::with_layout(

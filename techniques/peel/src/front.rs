@@ -277,6 +277,7 @@ impl FrontPeel {
                     constants: &[
                         ("FIRST_LAYER", flag(first)),
                         ("TEST_FIRST", flag(test_first)),
+                        ("SCENE_REVERSE_Z", flag(reverse_z)),
                     ],
                     ..ScenePipelineDesc::new("front-peel layer", &module, layer_entry)
                 },
@@ -293,6 +294,7 @@ impl FrontPeel {
             &ScenePipelineDesc {
                 targets: &[layer_targets[1].clone()],
                 depth: Some(depth_test(wgpu::CompareFunction::Equal, false)),
+                constants: &[("SCENE_REVERSE_Z", flag(reverse_z))],
                 ..ScenePipelineDesc::new("front-peel opaque depth bits", &module, "fs_opaque_bits")
             },
             &opaque_layout,

@@ -79,6 +79,7 @@ fn peel_keys_on_the_gpu_equal_their_cpu_twin() {
                         ("ENCODING", f64::from(encoding.index())),
                         ("KEY_REVERSE", f64::from(u8::from(key_reverse))),
                         ("KEY_HALF", f64::from(u8::from(half))),
+                        ("SCENE_REVERSE_Z", f64::from(u8::from(reverse_z))),
                     ];
                     let gpu = eval_f32(
                         &ctx,
