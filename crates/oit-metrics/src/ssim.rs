@@ -26,6 +26,7 @@ fn window() -> [f64; 2 * RADIUS + 1] {
 /// region of the paper's reference code), so borders need no rule. An image narrower or shorter
 /// than 11 pixels has no such pixel: then every pixel counts and the window reads outside the
 /// image as the nearest edge pixel. Identical images score exactly 1. Empty images score 1.
+/// The result is the same, bit for bit, however many threads compute it.
 ///
 /// Panics if a slice does not hold `width·height` values.
 pub fn ssim(x: &[f32], y: &[f32], width: usize, height: usize) -> f64 {
@@ -45,7 +46,9 @@ pub fn ssim(x: &[f32], y: &[f32], width: usize, height: usize) -> f64 {
     let count = (rows.len() * cols.len()) as f64;
 
     let (c0, c1) = (cols.start, cols.end);
-    let total: f64 = rows
+    // Rows in parallel, their sums added in row order: a parallel `sum()` adds in an order that
+    // depends on how the work was split, which moved the last digit between runs of one image.
+    let row_sums: Vec<f64> = rows
         .into_par_iter()
         .map_init(
             || vec![0.0f64; 5 * (width + 2 * RADIUS) + 5 * width],
@@ -104,6 +107,6 @@ pub fn ssim(x: &[f32], y: &[f32], width: usize, height: usize) -> f64 {
                 sum
             },
         )
-        .sum();
-    total / count
+        .collect();
+    row_sums.iter().sum::<f64>() / count
 }

@@ -410,3 +410,30 @@ fn max_relative_is_relative_above_one_and_absolute_below() {
     let e = compare(&render, &reference).unwrap();
     assert!((e.max_relative - 0.5).abs() < 1e-9, "{}", e.max_relative);
 }
+
+/// SSIM adds its per-row sums in row order, so one pair of images scores the same bits on one
+/// thread and on several (a parallel reduction's order depends on how rayon splits the rows).
+#[test]
+fn ssim_is_the_same_bits_on_any_number_of_threads() {
+    let (width, height) = (193, 157);
+    let x: Vec<f32> = (0..width * height)
+        .map(|i| ((i * 7919) % 1009) as f32 / 1009.0)
+        .collect();
+    let y: Vec<f32> = (0..width * height)
+        .map(|i| ((i * 104_729) % 997) as f32 / 997.0)
+        .collect();
+    let on = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("thread pool")
+            .install(|| oit_metrics::ssim(&x, &y, width, height))
+    };
+    let one = on(1);
+    assert!(one > -1.0 && one < 0.5, "unrelated images score low: {one}");
+    for threads in [2, 3, 8] {
+        for _ in 0..4 {
+            assert_eq!(on(threads).to_bits(), one.to_bits(), "{threads} threads");
+        }
+    }
+}
