@@ -12,7 +12,8 @@ struct PeelParams {
     depth_a: f32,
     depth_b: f32,
     perspective: u32,
-    // The scene's own depth direction (1: reverse-Z, near → 1).
+    // The scene's own depth direction (1: reverse-Z, near → 1). The passes read it as the
+    // constant SCENE_REVERSE_Z; the field stays for the CPU twin (oit_peel::encoding).
     scene_reverse_z: u32,
     // The scene's transparent view-distance interval and ln(d_max / d_min).
     d_min: f32,

@@ -49,7 +49,8 @@ pub struct DualPeel {
 #[derive(Debug)]
 struct Resources {
     /// Final colour format, range format, accumulator format, resolution, per-channel path,
-    /// the scene's depth direction (reverse-Z).
+    /// the scene's depth direction (reverse-Z: the pipelines take it as a constant, so a scene
+    /// of the other direction rebuilds them, and the targets with them).
     key: (
         wgpu::TextureFormat,
         wgpu::TextureFormat,
